@@ -1,0 +1,5 @@
+import sys
+
+from navlog.cli import main
+
+sys.exit(main())

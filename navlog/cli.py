@@ -1,0 +1,56 @@
+"""The ``navlog`` command line: a thin layer over the functions a Python user calls.
+
+Each command lives in ``navlog/commands/<name>.py`` with ``register(subparsers)`` that adds its
+parser and sets ``func``. Errors meant for users (``NavlogError``) print one line and exit 2;
+Ctrl-C exits 130 after the command has closed its files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+
+from replay import __version__
+from replay.errors import NavlogError
+
+# One module per command, in the order `navlog --help` lists them.
+COMMANDS = [
+    "info",
+]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="navlog",
+        description="Record, replay, test and inspect mobile-robot navigation logs without ROS.",
+        epilog="Run `navlog COMMAND --help` for the options of one command.",
+    )
+    parser.add_argument("--version", action="version", version=f"navlog {__version__}")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars or warnings")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMANDS:
+        importlib.import_module(f"navlog.commands.{name.replace('-', '_')}").register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.ERROR if args.quiet else logging.WARNING, format="navlog: warning: %(message)s")
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except NavlogError as exc:
+        print(f"navlog: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("navlog: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

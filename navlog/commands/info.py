@@ -1,0 +1,28 @@
+"""navlog info LOG: duration, topics, types, counts and rates of any log."""
+
+from __future__ import annotations
+
+import json
+
+from analysis.loginfo import format_info, summarize
+from replay.logreader import open_log
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "info",
+        help="summarise a log (navlog MCAP, rosbag2 folder, .mcap or .db3)",
+        description="Print a summary like `ros2 bag info`: duration, start and end, size, compression, "
+        "topics with type, count and rate, and navlog metadata. Topics of unknown types are listed as such.",
+    )
+    p.add_argument("log", help="a .mcap file, a .db3 file or a rosbag2 folder")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--recover", action="store_true", help="summarise the readable part of a truncated file")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    with open_log(args.log, recover=args.recover) as reader:
+        info = summarize(reader)
+    print(json.dumps(info, indent=2) if args.json else format_info(info))
+    return 0

@@ -1,0 +1,208 @@
+"""ROS 2 message types in memory: the rosbags type store, navlog's own types, and small builders.
+
+Messages are the type store's dataclasses; they become CDR bytes only at the log boundary.
+Time is integer nanoseconds everywhere; ``stamp(ns)`` and ``to_ns(stamp)`` convert.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from scipy.spatial.transform import Rotation
+
+# navlog's own message types. Their definitions travel in the MCAP schema of every log that uses them.
+EVENT_TYPE = "navlog_msgs/msg/Event"
+EVENT_MSG = """\
+# A navigation event: goal accepted, reached, failed, recovery, collision-monitor action, ...
+std_msgs/Header header
+string kind
+string source
+string detail
+float64 value
+"""
+
+NAVLOG_TYPES = {EVENT_TYPE: EVENT_MSG}
+
+# Topic names and types that Nav2 / ROS 2 users expect.
+CLOCK = "rosgraph_msgs/msg/Clock"
+LASER_SCAN = "sensor_msgs/msg/LaserScan"
+POINT_CLOUD2 = "sensor_msgs/msg/PointCloud2"
+POINT_FIELD = "sensor_msgs/msg/PointField"
+IMU = "sensor_msgs/msg/Imu"
+ODOMETRY = "nav_msgs/msg/Odometry"
+PATH = "nav_msgs/msg/Path"
+OCCUPANCY_GRID = "nav_msgs/msg/OccupancyGrid"
+TF_MESSAGE = "tf2_msgs/msg/TFMessage"
+TWIST = "geometry_msgs/msg/Twist"
+TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
+POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
+TRANSFORM_STAMPED = "geometry_msgs/msg/TransformStamped"
+
+# QoS profiles as rosbag2 stores them in `offered_qos_profiles` (version 8 YAML form).
+_QOS = """- history: 3
+  depth: 0
+  reliability: 1
+  durability: {durability}
+  deadline:
+    sec: 9223372036
+    nsec: 854775807
+  lifespan:
+    sec: 9223372036
+    nsec: 854775807
+  liveliness: 1
+  liveliness_lease_duration:
+    sec: 9223372036
+    nsec: 854775807
+  avoid_ros_namespace_conventions: false
+"""
+QOS_VOLATILE = _QOS.format(durability=2)
+QOS_TRANSIENT_LOCAL = _QOS.format(durability=1)
+LATCHED_TOPICS = ("/tf_static", "/map")
+
+
+def qos_for(topic: str) -> str:
+    """Offered QoS YAML for a topic: transient-local for latched topics, volatile otherwise."""
+    return QOS_TRANSIENT_LOCAL if topic in LATCHED_TOPICS else QOS_VOLATILE
+
+
+@lru_cache(maxsize=1)
+def typestore():
+    """The ROS 2 (Humble = Jazzy for the common types) type store with navlog's types registered."""
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    for name, text in NAVLOG_TYPES.items():
+        store.register(get_types_from_msg(text, name))
+    return store
+
+
+def msgdef(typename: str) -> str:
+    """The `ros2msg` schema text of a type: root definition plus one section per dependency."""
+    return typestore().generate_msgdef(typename, ros_version=2)[0]
+
+
+def serialize(msg: Any, typename: str) -> bytes:
+    return bytes(typestore().serialize_cdr(msg, typename))
+
+
+def deserialize(data: bytes, typename: str) -> Any:
+    return typestore().deserialize_cdr(data, typename)
+
+
+def msg_class(typename: str):
+    return typestore().types[typename]
+
+
+# ---------------------------------------------------------------- builders
+
+
+def stamp(ns: int):
+    """builtin_interfaces/Time from integer nanoseconds."""
+    Time = msg_class("builtin_interfaces/msg/Time")
+    return Time(sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000))
+
+
+def to_ns(t: Any) -> int:
+    """Integer nanoseconds from a builtin_interfaces/Time."""
+    return int(t.sec) * 1_000_000_000 + int(t.nanosec)
+
+
+def header(ns: int, frame_id: str):
+    Header = msg_class("std_msgs/msg/Header")
+    return Header(stamp=stamp(ns), frame_id=frame_id)
+
+
+def vector3(x: float, y: float, z: float):
+    return msg_class("geometry_msgs/msg/Vector3")(x=float(x), y=float(y), z=float(z))
+
+
+def quaternion(q_xyzw) -> Any:
+    x, y, z, w = (float(v) for v in q_xyzw)
+    return msg_class("geometry_msgs/msg/Quaternion")(x=x, y=y, z=z, w=w)
+
+
+def pose(xyz, q_xyzw):
+    Point = msg_class("geometry_msgs/msg/Point")
+    return msg_class("geometry_msgs/msg/Pose")(
+        position=Point(x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2])), orientation=quaternion(q_xyzw)
+    )
+
+
+def transform_stamped(ns: int, parent: str, child: str, xyz, q_xyzw):
+    Transform = msg_class("geometry_msgs/msg/Transform")
+    return msg_class(TRANSFORM_STAMPED)(
+        header=header(ns, parent),
+        child_frame_id=child,
+        transform=Transform(translation=vector3(*xyz), rotation=quaternion(q_xyzw)),
+    )
+
+
+def tf_message(transforms: list) -> Any:
+    return msg_class(TF_MESSAGE)(transforms=list(transforms))
+
+
+def twist(vx: float, vy: float, wz: float):
+    return msg_class(TWIST)(linear=vector3(vx, vy, 0.0), angular=vector3(0.0, 0.0, wz))
+
+
+def twist_values(msg: Any) -> tuple[float, float, float]:
+    """(vx, vy, wz) from a Twist or a TwistStamped."""
+    tw = msg.twist if hasattr(msg, "twist") else msg
+    return float(tw.linear.x), float(tw.linear.y), float(tw.angular.z)
+
+
+def clock(ns: int):
+    return msg_class(CLOCK)(clock=stamp(ns))
+
+
+def odometry(ns: int, frame: str, child: str, xyz, q_xyzw, lin, ang, pose_cov=None, twist_cov=None):
+    PoseWithCov = msg_class("geometry_msgs/msg/PoseWithCovariance")
+    TwistWithCov = msg_class("geometry_msgs/msg/TwistWithCovariance")
+    Twist = msg_class(TWIST)
+    pc = np.zeros(36) if pose_cov is None else np.asarray(pose_cov, dtype=np.float64)
+    tc = np.zeros(36) if twist_cov is None else np.asarray(twist_cov, dtype=np.float64)
+    return msg_class(ODOMETRY)(
+        header=header(ns, frame),
+        child_frame_id=child,
+        pose=PoseWithCov(pose=pose(xyz, q_xyzw), covariance=pc),
+        twist=TwistWithCov(twist=Twist(linear=vector3(*lin), angular=vector3(*ang)), covariance=tc),
+    )
+
+
+def event(ns: int, kind: str, source: str, detail: str = "", value: float = 0.0):
+    return msg_class(EVENT_TYPE)(header=header(ns, ""), kind=kind, source=source, detail=detail, value=float(value))
+
+
+# ---------------------------------------------------------------- rotations (x, y, z, w order)
+
+
+def quat_from_yaw(yaw: float) -> tuple[float, float, float, float]:
+    return (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
+
+
+def quat_from_rpy(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
+    return tuple(Rotation.from_euler("xyz", [roll, pitch, yaw]).as_quat())  # type: ignore[return-value]
+
+
+def yaw_from_quat(q_xyzw) -> float:
+    x, y, z, w = q_xyzw
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def quat_to_matrix(q_xyzw) -> np.ndarray:
+    return Rotation.from_quat(np.asarray(q_xyzw, dtype=np.float64)).as_matrix()
+
+
+def matrix_to_quat(r: np.ndarray) -> tuple[float, float, float, float]:
+    """Quaternion (x, y, z, w, with w >= 0) of a rotation matrix."""
+    return tuple(Rotation.from_matrix(np.asarray(r, dtype=np.float64)).as_quat(canonical=True))  # type: ignore[return-value]
+
+
+def make_transform(xyz, q_xyzw) -> np.ndarray:
+    """4x4 homogeneous matrix from a translation and a quaternion."""
+    t = np.eye(4)
+    t[:3, :3] = quat_to_matrix(q_xyzw)
+    t[:3, 3] = np.asarray(xyz, dtype=np.float64)
+    return t

@@ -1,0 +1,1 @@
+"""Nodes that run on the executor, live or in replay: mappers, costmaps, planners, filters."""
