@@ -1,0 +1,232 @@
+"""Robots from YAML: body, drive, frames and sensor set, and their MuJoCo model.
+
+Two drives:
+- ``legged``: a legged-base stand-in (legs are not simulated). The trunk rides on planar joints
+  (x, y, yaw) driven by velocity actuators, plus height, roll and pitch joints on position actuators
+  that follow the body sway of a trotting gait (stride frequency 1 / (2 * stance_duration)), scaled
+  with speed. Commands pass through a first-order response (``response_time``) within the limits.
+- ``diff_drive``: a real differential drive: a free chassis on two velocity-driven wheel joints and a
+  frictionless caster, in contact with the floor; wheel odometry is integrated from the wheel joint
+  speeds with the nominal wheel radius and separation, so wheel slip makes it drift.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+from replay.config import load_config, named_config
+from replay.messages import quat_from_rpy
+
+Vec3 = tuple[float, float, float]
+Mount = tuple[float, float, float, float, float, float]  # x, y, z, roll, pitch, yaw (rad)
+ZERO_MOUNT: Mount = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class LaserConfig:
+    """A horizontal 2D laser (sensor_msgs/LaserScan)."""
+
+    topic: str = "/scan"
+    frame: str = "front_laser"
+    mount: Mount = ZERO_MOUNT
+    rate: float = 10.0
+    samples: int = 720
+    angle_min: float = -math.pi
+    angle_max: float = math.pi  # exclusive: increment = (max - min) / samples
+    range_min: float = 0.12
+    range_max: float = 6.0
+    noise_std: float = 0.01
+
+    def __post_init__(self) -> None:
+        if self.rate <= 0 or self.samples <= 0 or not (0 <= self.range_min < self.range_max):
+            raise ValueError("laser needs rate > 0, samples > 0 and 0 <= range_min < range_max")
+
+
+@dataclass(frozen=True)
+class LidarConfig:
+    """A 3D LiDAR (sensor_msgs/PointCloud2 with x, y, z, intensity, ring, time)."""
+
+    topic: str = "/livox/lidar"
+    frame: str = "livox_frame"
+    mount: Mount = (0.2, 0.0, 0.08, 0.0, 0.0, 0.0)
+    rate: float = 10.0
+    pattern: Literal["velodyne", "livox_mid360"] = "velodyne"
+    lines: int = 16  # velodyne: rings
+    columns: int = 720  # velodyne: azimuth steps per revolution
+    points: int = 20000  # livox_mid360: points per frame
+    vertical_fov: tuple[float, float] = (-15.0, 15.0)  # degrees
+    range_min: float = 0.1
+    range_max: float = 30.0
+    noise_std: float = 0.005
+
+    def __post_init__(self) -> None:
+        if self.rate <= 0 or self.lines <= 0 or self.columns <= 0 or self.points <= 0:
+            raise ValueError("lidar needs positive rate, lines, columns and points")
+        if self.vertical_fov[0] >= self.vertical_fov[1]:
+            raise ValueError("lidar vertical_fov must be [low, high] degrees with low < high")
+
+
+@dataclass(frozen=True)
+class ImuConfig:
+    topic: str = "/imu/data"
+    frame: str = "imu_link"
+    mount: Mount = ZERO_MOUNT
+    rate: float = 200.0
+    gyro_noise: float = 0.002  # rad/s, white
+    accel_noise: float = 0.02  # m/s^2, white
+    gyro_bias: float = 0.001  # rad/s, constant per run, drawn from the seed
+    accel_bias: float = 0.01  # m/s^2
+    orientation_noise: float = 0.001  # rad
+
+
+@dataclass(frozen=True)
+class OdomConfig:
+    """The robot's own odometry and the ground-truth relay."""
+
+    topic: str = "/odom"
+    ground_truth_topic: str = "/odom/ground_truth"
+    rate: float = 50.0
+    use_ground_truth_odom: bool = False
+    linear_scale_error: float = 0.03  # legged: fraction of the true body speed
+    yaw_rate_bias: float = 0.004  # legged: rad/s added to the true yaw rate
+    linear_noise: float = 0.01  # m/s, white on each velocity sample
+    angular_noise: float = 0.01  # rad/s
+
+
+@dataclass(frozen=True)
+class FramesConfig:
+    map: str = "map"
+    world: str = "world"
+    odom: str = "odom"
+    base_footprint: str = "base_footprint"  # "" for robots without one
+    base: str = "base_link"
+
+
+@dataclass(frozen=True)
+class GaitConfig:
+    stance_duration: float = 0.25
+    roll_amplitude: float = 0.6  # degrees at full speed
+    pitch_amplitude: float = 0.4  # degrees
+    bob_amplitude: float = 0.004  # metres
+
+
+@dataclass(frozen=True)
+class DriveConfig:
+    type: Literal["legged", "diff_drive"]
+    max_vx: float
+    max_wz: float
+    max_vy: float = 0.0
+    min_vx: float | None = None  # default: -max_vx
+    cmd_vel_timeout: float = 0.5
+    response_time: float = 0.25  # first-order time constant of the velocity response (s)
+    max_accel: tuple[float, float, float] = (1.0, 1.0, 2.0)
+    gait: GaitConfig = field(default_factory=GaitConfig)
+    wheel_radius: float = 0.1
+    wheel_separation: float = 0.4
+    wheel_radius_error: float = 0.0  # actual radius = nominal * (1 + error): odometry scale drift
+
+    def __post_init__(self) -> None:
+        if self.max_vx <= 0 or self.max_wz <= 0 or self.max_vy < 0:
+            raise ValueError("drive limits must be positive")
+        if self.type == "diff_drive" and self.max_vy != 0:
+            raise ValueError("a diff_drive cannot move sideways: set max_vy to 0")
+
+
+@dataclass(frozen=True)
+class BodyConfig:
+    size: Vec3  # trunk box, full edge lengths
+    mass: float
+    height: float  # base_link above the floor (legged); chassis centre height follows from wheels
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    name: str
+    radius: float  # for clearance checks (Nav2 robot_radius)
+    body: BodyConfig
+    drive: DriveConfig
+    description: str = ""
+    frame_prefix: str = ""
+    frames: FramesConfig = field(default_factory=FramesConfig)
+    scan: LaserConfig | None = None
+    lidar: LidarConfig | None = None
+    imu: ImuConfig | None = None
+    odom: OdomConfig = field(default_factory=OdomConfig)
+    timestep: float = 0.005  # physics step (s); the sim ticks every 5 ms
+
+    def frame(self, name: str) -> str:
+        """A robot frame with the robot's prefix (map and world are never prefixed)."""
+        return f"{self.frame_prefix}{name}" if name else ""
+
+
+def load_robot(name: str) -> RobotSpec:
+    return load_config(RobotSpec, named_config("robots", name))
+
+
+# ---------------------------------------------------------------- MuJoCo model
+
+ROBOT_GROUP = 3  # every robot geom lives in this group
+
+
+def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> None:
+    """Add the robot to a world MjSpec at ``start`` = (x, y, yaw)."""
+    import mujoco
+
+    x, y, yaw = start
+    bx, by, bz = robot.body.size
+    G = mujoco.mjtGeom
+    spec.option.timestep = robot.timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    if robot.drive.type == "legged":
+        # planar carriage carrying the trunk: x, y, yaw driven in velocity; z, pitch, roll held by
+        # position actuators that follow the gait sway; gravity compensated on the trunk.
+        # the carriage starts at the origin; the simulator sets the start pose on the x, y, yaw joints
+        base = spec.worldbody.add_body(name="base_link", pos=[0.0, 0.0, robot.body.height], gravcomp=1.0)
+        for name, jtype, axis in (
+            ("x", mujoco.mjtJoint.mjJNT_SLIDE, [1, 0, 0]),
+            ("y", mujoco.mjtJoint.mjJNT_SLIDE, [0, 1, 0]),
+            ("z", mujoco.mjtJoint.mjJNT_SLIDE, [0, 0, 1]),
+            ("yaw", mujoco.mjtJoint.mjJNT_HINGE, [0, 0, 1]),
+            ("pitch", mujoco.mjtJoint.mjJNT_HINGE, [0, 1, 0]),
+            ("roll", mujoco.mjtJoint.mjJNT_HINGE, [1, 0, 0]),
+        ):
+            base.add_joint(name=f"base_{name}", type=jtype, axis=axis, damping=[1.0, 0, 0] if name in "xyz" else [0.2, 0, 0])
+        base.add_geom(name="trunk", type=G.mjGEOM_BOX, size=[bx / 2, by / 2, bz / 2], mass=robot.body.mass,
+                      group=ROBOT_GROUP, contype=0, conaffinity=0)
+        m = robot.body.mass
+        spec.add_actuator(name="act_x", target="base_x", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
+        spec.add_actuator(name="act_y", target="base_y", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
+        spec.add_actuator(name="act_yaw", target="base_yaw", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=20.0)
+        spec.add_actuator(name="act_z", target="base_z", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(kp=6000.0, kv=400.0)
+        spec.add_actuator(name="act_pitch", target="base_pitch", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(kp=400.0, kv=20.0)
+        spec.add_actuator(name="act_roll", target="base_roll", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(kp=400.0, kv=20.0)
+        base.add_site(name="imu", pos=list(robot.imu.mount[:3]) if robot.imu else [0, 0, 0])
+    else:
+        d = robot.drive
+        r_true = d.wheel_radius * (1.0 + d.wheel_radius_error)
+        base = spec.worldbody.add_body(name="base_link", pos=[x, y, r_true], quat=list(_wxyz(0.0, 0.0, yaw)))
+        base.add_freejoint(name="base_free")
+        base.add_geom(name="chassis", type=G.mjGEOM_BOX, size=[bx / 2, by / 2, bz / 2], pos=[0, 0, bz / 2],
+                      mass=robot.body.mass, group=ROBOT_GROUP)
+        for side, sy in (("left", 1.0), ("right", -1.0)):
+            wheel = base.add_body(name=f"wheel_{side}", pos=[0, sy * d.wheel_separation / 2, 0])
+            wheel.add_joint(name=f"wheel_{side}_joint", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0], armature=0.01)
+            wheel.add_geom(name=f"wheel_{side}_geom", type=G.mjGEOM_CYLINDER, size=[r_true, 0.02, 0],
+                           quat=list(_wxyz(math.pi / 2, 0.0, 0.0)), mass=0.5, friction=[1.0, 0.005, 0.0001],
+                           group=ROBOT_GROUP)
+            spec.add_actuator(name=f"act_wheel_{side}", target=f"wheel_{side}_joint",
+                              trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=8.0)
+        caster_r = r_true / 2
+        base.add_geom(name="caster", type=G.mjGEOM_SPHERE, size=[caster_r, 0, 0], pos=[-bx / 2 + caster_r, 0, caster_r - r_true],
+                      friction=[0.0, 0.0, 0.0], condim=1, mass=0.1, group=ROBOT_GROUP)
+        base.add_site(name="imu", pos=list(robot.imu.mount[:3]) if robot.imu else [0, 0, 0])
+    spec.add_sensor(name="imu_gyro", type=mujoco.mjtSensor.mjSENS_GYRO, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
+    spec.add_sensor(name="imu_accel", type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
+
+
+def _wxyz(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
+    """MuJoCo's (w, x, y, z) quaternion order."""
+    x, y, z, w = quat_from_rpy(roll, pitch, yaw)
+    return (w, x, y, z)

@@ -1,0 +1,158 @@
+"""Sensor models: ray patterns, ray casting against the world mesh, and noise.
+
+Everything here is pure given poses and a random generator: the simulator node decides when a
+sensor fires and at which poses. Ray casting uses Open3D's RaycastingScene on the world's static
+mesh (the robot is not in it, so sensors never see their own body).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+
+from recorder.robot import LaserConfig, LidarConfig, Mount
+from replay import messages
+
+
+def mount_matrix(mount: Mount) -> np.ndarray:
+    x, y, z, roll, pitch, yaw = mount
+    return messages.make_transform((x, y, z), messages.quat_from_rpy(roll, pitch, yaw))
+
+
+class RayCaster:
+    """Casts rays against a static triangle mesh; returns distances (inf for no hit) and normals."""
+
+    def __init__(self, mesh) -> None:
+        import open3d as o3d
+
+        self._o3d = o3d
+        self.scene = o3d.t.geometry.RaycastingScene()
+        self.scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
+
+    def cast(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        rays = np.concatenate([origins, directions], axis=1).astype(np.float32)
+        out = self.scene.cast_rays(self._o3d.core.Tensor(rays), nthreads=1)
+        return out["t_hit"].numpy().astype(np.float64), out["primitive_normals"].numpy().astype(np.float64)
+
+
+# ---------------------------------------------------------------- 2D laser
+
+
+def laser_directions(cfg: LaserConfig) -> tuple[np.ndarray, float]:
+    """Unit directions (N, 3) in the sensor frame and the angle increment."""
+    inc = (cfg.angle_max - cfg.angle_min) / cfg.samples
+    ang = cfg.angle_min + inc * np.arange(cfg.samples)
+    return np.stack([np.cos(ang), np.sin(ang), np.zeros_like(ang)], axis=1), inc
+
+
+def laser_ranges(caster: RayCaster, cfg: LaserConfig, pose: np.ndarray, rng: np.random.Generator | None) -> np.ndarray:
+    """Ranges (float32) of one scan taken at sensor pose ``pose`` (4x4, world frame).
+
+    No return within range_max is +inf; a return closer than range_min is -inf (REP 117).
+    """
+    dirs, _ = laser_directions(cfg)
+    world_dirs = dirs @ pose[:3, :3].T
+    origins = np.broadcast_to(pose[:3, 3], world_dirs.shape)
+    dist, _ = caster.cast(origins, world_dirs)
+    if rng is not None and cfg.noise_std > 0:
+        dist = dist + rng.normal(0.0, cfg.noise_std, size=dist.shape)
+    out = dist.copy()
+    out[~np.isfinite(dist) | (dist > cfg.range_max)] = np.inf
+    out[np.isfinite(dist) & (dist < cfg.range_min)] = -np.inf
+    return out.astype(np.float32)
+
+
+def scan_message(ns: int, frame: str, cfg: LaserConfig, ranges: np.ndarray):
+    _, inc = laser_directions(cfg)
+    return messages.msg_class(messages.LASER_SCAN)(
+        header=messages.header(ns, frame),
+        angle_min=float(cfg.angle_min),
+        angle_max=float(cfg.angle_min + inc * (cfg.samples - 1)),
+        angle_increment=float(inc),
+        time_increment=0.0,
+        scan_time=float(1.0 / cfg.rate),
+        range_min=float(cfg.range_min),
+        range_max=float(cfg.range_max),
+        ranges=np.asarray(ranges, dtype=np.float32),
+        intensities=np.zeros(0, dtype=np.float32),
+    )
+
+
+# ---------------------------------------------------------------- 3D LiDAR
+
+
+def lidar_pattern(cfg: LidarConfig, frame_index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """See ``_lidar_pattern``; the velodyne pattern is the same every frame and is computed once."""
+    return _lidar_pattern(cfg, 0 if cfg.pattern == "velodyne" else frame_index)
+
+
+@lru_cache(maxsize=4)
+def _lidar_pattern(cfg: LidarConfig, frame_index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Directions (N, 3) in the sensor frame, ring index (N,) and fraction of the sweep (N,) in [0, 1).
+
+    ``velodyne``: ``lines`` rings evenly over the vertical field of view, ``columns`` azimuth steps,
+    swept column by column. ``livox_mid360``: a non-repetitive pattern: azimuth advances by the
+    golden angle and elevation follows an incommensurate oscillation, shifted every frame, so that
+    successive frames cover different directions; points are spread evenly over the sweep.
+    """
+    lo, hi = np.radians(cfg.vertical_fov[0]), np.radians(cfg.vertical_fov[1])
+    if cfg.pattern == "velodyne":
+        elev = np.linspace(lo, hi, cfg.lines) if cfg.lines > 1 else np.array([(lo + hi) / 2])
+        col = np.arange(cfg.columns)
+        azim = -math.pi + 2 * math.pi * col / cfg.columns
+        az, el = np.meshgrid(azim, elev, indexing="ij")  # column-major: all rings of a column together
+        ring = np.broadcast_to(np.arange(cfg.lines), az.shape).ravel()
+        frac = np.broadcast_to((col / cfg.columns)[:, None], az.shape).ravel()
+        az, el = az.ravel(), el.ravel()
+    else:
+        k = np.arange(cfg.points, dtype=np.float64) + frame_index * cfg.points
+        golden = math.pi * (3.0 - math.sqrt(5.0))
+        az = np.mod(k * golden, 2 * math.pi) - math.pi
+        phase = np.mod(k * (math.sqrt(2.0) - 1.0) * 0.013 + frame_index * 0.371, 1.0)
+        el = lo + (hi - lo) * (0.5 - 0.5 * np.cos(2 * math.pi * phase))
+        ring = (np.arange(cfg.points) % 4).astype(np.int64)
+        frac = np.arange(cfg.points) / cfg.points
+    dirs = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=1)
+    return dirs, ring.astype(np.uint16), frac
+
+
+def lidar_sweep(
+    caster: RayCaster,
+    cfg: LidarConfig,
+    frame_index: int,
+    poses: list[tuple[float, np.ndarray]],
+    rng: np.random.Generator | None,
+) -> dict[str, np.ndarray]:
+    """One sweep: each ray is cast from the sensor pose at its own time (motion distortion included).
+
+    ``poses`` are (time offset from the stamp in s, 4x4 sensor pose) spanning the sweep, oldest first;
+    the stamp is the end of the sweep, so point times are in [-1/rate, 0]. Points are expressed in
+    the sensor frame at their capture time, as a real spinning sensor reports them.
+    """
+    dirs, ring, frac = lidar_pattern(cfg, frame_index)
+    period = 1.0 / cfg.rate
+    t_rel = -period + (frac + 1.0 / max(len(frac), 1)) * period  # last point at 0
+    times = np.array([p[0] for p in poses])
+    idx = np.clip(np.searchsorted(times, t_rel, side="left"), 0, len(poses) - 1)
+    rots = np.stack([p[1][:3, :3] for p in poses])
+    origins_all = np.stack([p[1][:3, 3] for p in poses])
+    world_dirs = np.einsum("nij,nj->ni", rots[idx], dirs)
+    origins = origins_all[idx]
+    dist, normals = caster.cast(origins, world_dirs)
+    if rng is not None and cfg.noise_std > 0:
+        dist = dist + rng.normal(0.0, cfg.noise_std, size=dist.shape)
+    ok = np.isfinite(dist) & (dist >= cfg.range_min) & (dist <= cfg.range_max)
+    d = dist[ok]
+    pts = dirs[ok] * d[:, None]
+    cosang = np.abs(np.einsum("ij,ij->i", normals[ok], world_dirs[ok]))
+    intensity = 255.0 * cosang * np.exp(-d / 20.0)
+    return {
+        "x": pts[:, 0].astype(np.float32),
+        "y": pts[:, 1].astype(np.float32),
+        "z": pts[:, 2].astype(np.float32),
+        "intensity": intensity.astype(np.float32),
+        "ring": ring[ok],
+        "time": t_rel[ok].astype(np.float32),
+    }

@@ -1,0 +1,234 @@
+"""Worlds from YAML: a walled room and objects, as solid boxes and cylinders in the world frame.
+
+A world file (``config/worlds/NAME.yaml``) places objects by ``pose: [x, y, yaw]`` (yaw in radians,
+the object's base on the floor). An object is either a primitive (``shape: box | cylinder``) or an
+instance of a model (``model: NAME``, ``config/models/NAME.yaml``), whose parts are boxes given as
+in the Gazebo model's collision geometry: centre ``pos`` in the model frame and full ``size``.
+
+The resolved ``Solid`` list is the one truth about the world's geometry: the simulator builds its
+MuJoCo model from it (``build_spec``), the sensors cast rays against its mesh (``world_mesh``), and
+the ground-truth grid (``occupancy``) and clearance checks (``clearance``) are computed from it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from replay.config import load_config, named_config
+from replay.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class Part:
+    name: str
+    shape: Literal["box", "cylinder"] = "box"
+    pos: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    size: tuple[float, float, float] = (0.0, 0.0, 0.0)  # box: full edge lengths
+    radius: float = 0.0  # cylinder
+    height: float = 0.0  # cylinder
+    yaw: float = 0.0
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    parts: list[Part]
+    description: str = ""
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class ObjectSpec:
+    name: str
+    pose: tuple[float, float, float]  # x, y, yaw (rad)
+    model: str = ""
+    shape: Literal["", "box", "cylinder"] = ""
+    size: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    radius: float = 0.0
+    height: float = 0.0
+
+
+@dataclass(frozen=True)
+class WallsSpec:
+    size: tuple[float, float]  # inner extent x, y (m), centred on the origin
+    thickness: float = 0.2
+    height: float = 2.5
+
+
+@dataclass(frozen=True)
+class WorldSpec:
+    name: str
+    description: str = ""
+    walls: WallsSpec | None = None
+    objects: list[ObjectSpec] = field(default_factory=list)
+    floor: bool = True
+
+
+@dataclass(frozen=True)
+class Solid:
+    """One piece of static geometry in the world frame."""
+
+    name: str
+    shape: str  # box | cylinder
+    center: tuple[float, float, float]
+    yaw: float
+    size: tuple[float, float, float]  # box: full sizes; cylinder: (2r, 2r, height)
+
+    @property
+    def z_range(self) -> tuple[float, float]:
+        return self.center[2] - self.size[2] / 2, self.center[2] + self.size[2] / 2
+
+
+@dataclass
+class World:
+    spec: WorldSpec
+    solids: list[Solid]
+    path: Path
+
+    @property
+    def name(self) -> str:
+        return self.spec.name
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """xmin, ymin, xmax, ymax over all solids."""
+        xs, ys = [], []
+        for s in self.solids:
+            c, sn = math.cos(s.yaw), math.sin(s.yaw)
+            for dx in (-s.size[0] / 2, s.size[0] / 2):
+                for dy in (-s.size[1] / 2, s.size[1] / 2):
+                    xs.append(s.center[0] + c * dx - sn * dy)
+                    ys.append(s.center[1] + sn * dx + c * dy)
+        return min(xs), min(ys), max(xs), max(ys)
+
+
+def load_model(name: str) -> ModelSpec:
+    return load_config(ModelSpec, named_config("models", name))
+
+
+def load_world(name: str) -> World:
+    """Load ``config/worlds/NAME.yaml`` (or a path) and resolve it into solids."""
+    path = named_config("worlds", name)
+    spec = load_config(WorldSpec, path)
+    solids: list[Solid] = []
+    if spec.walls is not None:
+        w = spec.walls
+        hx, hy, t, h = w.size[0] / 2, w.size[1] / 2, w.thickness, w.height
+        solids += [
+            Solid("wall_east", "box", (hx + t / 2, 0.0, h / 2), 0.0, (t, 2 * hy + 2 * t, h)),
+            Solid("wall_west", "box", (-hx - t / 2, 0.0, h / 2), 0.0, (t, 2 * hy + 2 * t, h)),
+            Solid("wall_north", "box", (0.0, hy + t / 2, h / 2), 0.0, (2 * hx, t, h)),
+            Solid("wall_south", "box", (0.0, -hy - t / 2, h / 2), 0.0, (2 * hx, t, h)),
+        ]
+    names = set()
+    for i, obj in enumerate(spec.objects):
+        where = f"{path}: objects[{i}] ({obj.name})"
+        if obj.name in names:
+            raise ConfigError(f"{where}: duplicate object name")
+        names.add(obj.name)
+        x, y, yaw = obj.pose
+        c, s = math.cos(yaw), math.sin(yaw)
+        if obj.model and obj.shape:
+            raise ConfigError(f"{where}: give either 'model' or 'shape', not both")
+        if obj.model:
+            try:
+                parts = load_model(obj.model).parts
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: {exc}") from None
+        elif obj.shape == "box":
+            parts = [Part("body", "box", (0.0, 0.0, obj.size[2] / 2), obj.size)]
+        elif obj.shape == "cylinder":
+            parts = [Part("body", "cylinder", (0.0, 0.0, obj.height / 2), radius=obj.radius, height=obj.height)]
+        else:
+            raise ConfigError(f"{where}: needs 'model: NAME' or 'shape: box|cylinder'")
+        for part in parts:
+            px, py, pz = part.pos
+            center = (x + c * px - s * py, y + s * px + c * py, pz)
+            if part.shape == "box":
+                if min(part.size) <= 0:
+                    raise ConfigError(f"{where}: part {part.name} needs a positive size")
+                size = part.size
+            else:
+                if part.radius <= 0 or part.height <= 0:
+                    raise ConfigError(f"{where}: part {part.name} needs a positive radius and height")
+                size = (2 * part.radius, 2 * part.radius, part.height)
+            solids.append(Solid(f"{obj.name}/{part.name}", part.shape, center, yaw + part.yaw, size))
+    return World(spec, solids, path)
+
+
+# ---------------------------------------------------------------- geometry queries
+
+
+def clearance(world: World, xy: np.ndarray, z_min: float = 0.0, z_max: float = 2.0) -> np.ndarray:
+    """Horizontal distance (m) from each point to the nearest solid overlapping heights [z_min, z_max].
+
+    Negative inside a solid's footprint.
+    """
+    pts = np.atleast_2d(np.asarray(xy, dtype=np.float64))
+    best = np.full(len(pts), np.inf)
+    for s in world.solids:
+        lo, hi = s.z_range
+        if hi < z_min or lo > z_max:
+            continue
+        d = pts - np.asarray(s.center[:2])
+        if s.shape == "cylinder":
+            dist = np.hypot(d[:, 0], d[:, 1]) - s.size[0] / 2
+        else:
+            c, sn = math.cos(s.yaw), math.sin(s.yaw)
+            local = np.stack([c * d[:, 0] + sn * d[:, 1], -sn * d[:, 0] + c * d[:, 1]], axis=1)
+            q = np.abs(local) - np.asarray(s.size[:2]) / 2
+            outside = np.hypot(np.maximum(q[:, 0], 0), np.maximum(q[:, 1], 0))
+            inside = np.minimum(np.maximum(q[:, 0], q[:, 1]), 0)
+            dist = outside + inside
+        best = np.minimum(best, dist)
+    return best
+
+
+def world_mesh(world: World, with_floor: bool | None = None):
+    """One Open3D triangle mesh of every solid (and the floor), for ray casting and distances."""
+    import open3d as o3d
+
+    mesh = o3d.geometry.TriangleMesh()
+    for s in world.solids:
+        if s.shape == "box":
+            m = o3d.geometry.TriangleMesh.create_box(*s.size)
+            m.translate(-np.asarray(s.size) / 2)
+        else:
+            m = o3d.geometry.TriangleMesh.create_cylinder(radius=s.size[0] / 2, height=s.size[2], resolution=48, split=1)
+        rot = o3d.geometry.get_rotation_matrix_from_xyz((0.0, 0.0, s.yaw))
+        m.rotate(rot, center=(0, 0, 0))
+        m.translate(s.center)
+        mesh += m
+    floor = world.spec.floor if with_floor is None else with_floor
+    if floor:
+        x0, y0, x1, y1 = world.bounds()
+        m = o3d.geometry.TriangleMesh.create_box(x1 - x0 + 2, y1 - y0 + 2, 0.01)
+        m.translate((x0 - 1, y0 - 1, -0.01))
+        mesh += m
+    return mesh
+
+
+def build_spec(world: World):
+    """The world as a MuJoCo MjSpec: a floor plane and every solid as a static geom."""
+    import mujoco
+
+    spec = mujoco.MjSpec()
+    spec.modelname = world.name
+    body = spec.worldbody
+    if world.spec.floor:
+        body.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], pos=[0, 0, 0])
+    for s in world.solids:
+        if s.shape == "box":
+            body.add_geom(
+                name=s.name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[v / 2 for v in s.size], pos=list(s.center),
+                euler=[0, 0, math.degrees(s.yaw)],
+            )
+        else:
+            body.add_geom(
+                name=s.name, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[s.size[0] / 2, s.size[2] / 2, 0],
+                pos=list(s.center),
+            )
+    return spec
