@@ -1,0 +1,61 @@
+"""navlog metrics LOG --replay OUT/: trajectory, 2D map and 3D map metrics of a replay."""
+
+from __future__ import annotations
+
+from analysis.metrics_report import PCD_FRAMES, MetricsOptions, compute_metrics, format_table, to_json, write_json
+from analysis.trajectory import ALIGN_MODES, DELTA_UNITS
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "metrics",
+        help="measure a replay: ATE/RPE, 2D map precision/recall/F1/IoU, 3D map accuracy",
+        description="Compare the outputs of `navlog replay LOG -o OUT/` with ground truth: OUT/trajectory.tum "
+        "against the log's /odom/ground_truth (ATE after Umeyama alignment, RPE), OUT/map.yaml against a "
+        "reference grid (occupied precision, recall and F1 at a tolerance, IoU, mean distances, free-space "
+        "coverage), OUT/map.pcd against a reference mesh (accuracy@tau). Prints a table; -o writes JSON. "
+        "Metrics whose inputs are missing are skipped with a note.",
+    )
+    p.add_argument("log", help="the log that was replayed (.mcap, .db3 or rosbag2 folder)")
+    p.add_argument("--replay", required=True, metavar="OUT", help="the replay output folder")
+    p.add_argument("--reference-map", metavar="MAP.yaml", help="reference grid (e.g. from `navlog world-map`)")
+    p.add_argument("--reference-mesh", metavar="MESH.ply", help="triangle mesh of the true surfaces")
+    p.add_argument("--tau", type=float, default=0.05, help="2D tolerance in metres (default 0.05)")
+    p.add_argument(
+        "--tau-3d", type=float, nargs="+", default=[0.02, 0.05], metavar="TAU",
+        help="3D accuracy tolerances in metres (default 0.02 0.05)",
+    )
+    p.add_argument("--max-diff", type=float, default=0.01, help="timestamp association window in seconds (default 0.01)")
+    p.add_argument("--align", choices=ALIGN_MODES, default="se3", help="ATE alignment (default se3)")
+    p.add_argument("--rpe-delta", type=float, default=1.0, help="RPE delta (default 1)")
+    p.add_argument("--rpe-unit", choices=DELTA_UNITS, default="m", help="RPE delta unit (default m)")
+    p.add_argument("--gt-topic", default="/odom/ground_truth", help="ground-truth nav_msgs/Odometry topic")
+    p.add_argument(
+        "--pcd-frame", choices=PCD_FRAMES, default="first-pose",
+        help="how map.pcd is put in the world frame (default first-pose: anchored at the first matched pose)",
+    )
+    p.add_argument("-o", "--output", metavar="metrics.json", help="write the metrics as JSON")
+    p.add_argument("--json", action="store_true", help="print JSON instead of the table")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    options = MetricsOptions(
+        tau=args.tau,
+        taus_3d=tuple(args.tau_3d),
+        max_diff_ns=int(round(args.max_diff * 1e9)),
+        align=args.align,
+        rpe_delta=args.rpe_delta,
+        rpe_unit=args.rpe_unit,
+        gt_topic=args.gt_topic,
+        pcd_frame=args.pcd_frame,
+    )
+    metrics = compute_metrics(
+        args.log, args.replay, reference_map=args.reference_map, reference_mesh=args.reference_mesh, options=options
+    )
+    print(to_json(metrics), end="") if args.json else print(format_table(metrics))
+    if args.output:
+        path = write_json(metrics, args.output)
+        if not args.json:
+            print(f"Wrote {path}")
+    return 0
