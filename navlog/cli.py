@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import sys
 
 from replay import __version__
@@ -17,7 +18,9 @@ from replay.errors import NavlogError
 
 # One module per command, in the order `navlog --help` lists them.
 COMMANDS = [
+    "record",
     "info",
+    "recover",
     "metrics",
 ]
 
@@ -51,6 +54,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("navlog: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into `head` and the like
+        sys.stdout = open(os.devnull, "w")
+        return 0
 
 
 if __name__ == "__main__":

@@ -136,10 +136,21 @@ def lidar_sweep(
     t_rel = -period + (frac + 1.0 / max(len(frac), 1)) * period  # last point at 0
     times = np.array([p[0] for p in poses])
     idx = np.clip(np.searchsorted(times, t_rel, side="left"), 0, len(poses) - 1)
-    rots = np.stack([p[1][:3, :3] for p in poses])
-    origins_all = np.stack([p[1][:3, 3] for p in poses])
-    world_dirs = np.einsum("nij,nj->ni", rots[idx], dirs)
-    origins = origins_all[idx]
+    # rays are grouped by the pose they are cast from: one matrix product per pose
+    world_dirs = np.empty_like(dirs)
+    origins = np.empty_like(dirs)
+    bounds = np.flatnonzero(np.diff(idx)) + 1 if np.all(np.diff(idx) >= 0) else None
+    if bounds is not None:
+        starts = np.concatenate([[0], bounds])
+        ends = np.concatenate([bounds, [len(idx)]])
+        for a, b in zip(starts, ends):
+            pose = poses[idx[a]][1]
+            world_dirs[a:b] = dirs[a:b] @ pose[:3, :3].T
+            origins[a:b] = pose[:3, 3]
+    else:
+        rots = np.stack([p[1][:3, :3] for p in poses])
+        world_dirs = np.einsum("nij,nj->ni", rots[idx], dirs)
+        origins = np.stack([p[1][:3, 3] for p in poses])[idx]
     dist, normals = caster.cast(origins, world_dirs)
     if rng is not None and cfg.noise_std > 0:
         dist = dist + rng.normal(0.0, cfg.noise_std, size=dist.shape)

@@ -50,6 +50,12 @@ def mat_to_quat(mat: np.ndarray) -> tuple[float, float, float, float]:
     return (q[1], q[2], q[3], q[0])
 
 
+def planar(x: float, y: float, yaw: float) -> np.ndarray:
+    """4x4 transform of a planar pose."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0, x], [s, c, 0.0, y], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+
+
 def _period_ns(rate: float) -> int:
     return int(round(1e9 / rate / TICK_NS)) * TICK_NS or TICK_NS
 
@@ -96,8 +102,11 @@ class SimNode(Node):
             "scan": _period_ns(robot.scan.rate) if robot.scan else 0,
             "lidar": _period_ns(robot.lidar.rate) if robot.lidar else 0,
         }
-        self.wheel_radius = d.wheel_radius
-        self.collisions = 0
+        self._Imu = messages.msg_class(messages.IMU)
+        if robot.imu is not None:
+            self._imu_cov = tuple(
+                np.diag([v**2] * 3).ravel() for v in (robot.imu.orientation_noise, robot.imu.gyro_noise, robot.imu.accel_noise)
+            )
 
     # ------------------------------------------------------------ state
     def _init_state(self) -> None:
@@ -250,8 +259,8 @@ class SimNode(Node):
         )
         self.publish(o.topic, messages.ODOMETRY, odom_msg)
         # TF: map -> odom (correction), odom -> footprint (odometry), footprint -> base (height, tilt)
-        t_map_fp = messages.make_transform((true_xy[0], true_xy[1], 0.0), messages.quat_from_yaw(yaw))
-        t_odom_fp = messages.make_transform((ox, oy, 0.0), messages.quat_from_yaw(oth))
+        t_map_fp = planar(true_xy[0], true_xy[1], yaw)
+        t_odom_fp = planar(ox, oy, oth)
         t_map_odom = t_map_fp @ np.linalg.inv(t_odom_fp)
         tfs = [messages.transform_stamped(t_ns, f.map, r.frame(f.odom), t_map_odom[:3, 3], mat_to_quat(t_map_odom[:3, :3]))]
         if f.base_footprint:
@@ -277,11 +286,8 @@ class SimNode(Node):
             q = mat_to_quat(base[:3, :3] @ noise.reshape(3, 3))
         else:
             q = mat_to_quat(base[:3, :3])
-        Imu = messages.msg_class(messages.IMU)
-        cov_o = np.diag([cfg.orientation_noise**2] * 3).ravel()
-        cov_g = np.diag([cfg.gyro_noise**2] * 3).ravel()
-        cov_a = np.diag([cfg.accel_noise**2] * 3).ravel()
-        msg = Imu(
+        cov_o, cov_g, cov_a = self._imu_cov
+        msg = self._Imu(
             header=messages.header(t_ns, self.robot.frame(cfg.frame)),
             orientation=messages.quaternion(q),
             orientation_covariance=cov_o,

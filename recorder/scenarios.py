@@ -1,0 +1,174 @@
+"""Scenarios from YAML: what drives the robot during a recording.
+
+- ``tour``: visit waypoints in order with a simple heading-then-drive controller on the true pose
+  (like a person driving the robot around the room), then stand still for ``hold`` seconds.
+- ``teleop``: play a list of timed velocity commands, then stand still for ``hold`` seconds.
+
+Both are checked before anything is simulated: the start pose and the whole intended path must stay
+at least the robot's radius away from every obstacle (``check_scenario``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from recorder.robot import RobotSpec
+from recorder.world import World, clearance
+from replay import messages
+from replay.config import load_config, named_config
+from replay.errors import ConfigError
+from replay.executor import Node
+
+
+@dataclass(frozen=True)
+class TimedCommand:
+    duration: float
+    cmd: tuple[float, float, float]  # vx, vy, wz
+
+
+@dataclass(frozen=True)
+class ScenarioSpec:
+    name: str
+    kind: Literal["tour", "teleop"]
+    description: str = ""
+    world: str = ""  # the world a tour was laid out for ("" = any world)
+    start: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    waypoints: list[tuple[float, float]] = field(default_factory=list)
+    speed: float = 0.3
+    turn_rate: float = 0.5
+    tolerance: float = 0.15
+    commands: list[TimedCommand] = field(default_factory=list)
+    hold: float = 1.0
+    max_duration: float = 600.0
+    rate: float = 20.0
+
+    def __post_init__(self) -> None:
+        if self.kind == "tour" and not self.waypoints:
+            raise ValueError("a tour needs waypoints")
+        if self.kind == "teleop" and not self.commands:
+            raise ValueError("a teleop scenario needs commands")
+        if self.speed <= 0 or self.turn_rate <= 0 or self.rate <= 0 or self.max_duration <= 0:
+            raise ValueError("speed, turn_rate, rate and max_duration must be positive")
+
+
+def load_scenario(name: str) -> ScenarioSpec:
+    return load_config(ScenarioSpec, named_config("scenarios", name))
+
+
+def intended_path(scenario: ScenarioSpec, robot: RobotSpec, step: float = 0.05) -> np.ndarray:
+    """Points (N, 2) along the path the scenario means to drive, for the clearance check."""
+    if scenario.kind == "tour":
+        pts = [np.array(scenario.start[:2])] + [np.array(w) for w in scenario.waypoints]
+        out = [pts[0]]
+        for a, b in zip(pts[:-1], pts[1:]):
+            n = max(1, int(math.ceil(np.linalg.norm(b - a) / step)))
+            out += [a + (b - a) * (i / n) for i in range(1, n + 1)]
+        return np.array(out)
+    x, y, th = scenario.start
+    d = robot.drive
+    out = [(x, y)]
+    dt = 0.05
+    for c in scenario.commands:
+        vx, vy, wz = np.clip(c.cmd, [-d.max_vx, -d.max_vy, -d.max_wz], [d.max_vx, d.max_vy, d.max_wz])
+        for _ in range(int(round(c.duration / dt))):
+            x += (vx * math.cos(th) - vy * math.sin(th)) * dt
+            y += (vx * math.sin(th) + vy * math.cos(th)) * dt
+            th += wz * dt
+            out.append((x, y))
+    return np.array(out)
+
+
+def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World) -> None:
+    """Refuse, before simulating, a start pose or path that comes closer than the robot's radius."""
+    if scenario.world and scenario.world != world.name:
+        raise ConfigError(
+            f"scenario '{scenario.name}' is laid out for world '{scenario.world}', not '{world.name}'; "
+            f"use --world {scenario.world} or a scenario made for {world.name}"
+        )
+    start = np.array([scenario.start[:2]])
+    c0 = float(clearance(world, start)[0])
+    if c0 < robot.radius:
+        raise ConfigError(
+            f"spawn pose ({scenario.start[0]:.2f}, {scenario.start[1]:.2f}) of scenario '{scenario.name}' is "
+            f"{'inside an obstacle' if c0 < 0 else f'only {c0:.2f} m from an obstacle'} in world '{world.name}' "
+            f"(robot radius {robot.radius} m); move 'start'"
+        )
+    path = intended_path(scenario, robot)
+    c = clearance(world, path)
+    i = int(np.argmin(c))
+    if c[i] < robot.radius:
+        raise ConfigError(
+            f"scenario '{scenario.name}' would collide: its path passes ({path[i, 0]:.2f}, {path[i, 1]:.2f}), "
+            f"{c[i]:.2f} m from an obstacle of world '{world.name}' (robot radius {robot.radius} m)"
+        )
+
+
+class ScenarioNode(Node):
+    """Publishes /cmd_vel at ``rate`` from the true pose, until the scenario is done."""
+
+    name = "scenario"
+
+    def __init__(self, scenario: ScenarioSpec, robot: RobotSpec) -> None:
+        super().__init__()
+        self.scenario = scenario
+        self.robot = robot
+        self.pose: tuple[float, float, float] | None = None
+        self.index = 0
+        self.done_ns: int | None = None
+        self.reached: list[int] = []
+
+    def setup(self) -> None:
+        self.subscribe(self.robot.odom.ground_truth_topic, self._on_pose)
+        self.create_timer(int(round(1e9 / self.scenario.rate)), self._on_timer, start_ns=0)
+
+    @property
+    def finished_ns(self) -> int | None:
+        """Sim time at which the recording can end (done plus the hold time)."""
+        return None if self.done_ns is None else self.done_ns + int(self.scenario.hold * 1e9)
+
+    def _on_pose(self, msg, t_ns: int) -> None:
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        self.pose = (p.x, p.y, messages.yaw_from_quat((q.x, q.y, q.z, q.w)))
+
+    def _on_timer(self, t_ns: int) -> None:
+        cmd = (0.0, 0.0, 0.0)
+        if self.done_ns is None:
+            cmd = self._tour(t_ns) if self.scenario.kind == "tour" else self._teleop(t_ns)
+        self.publish("/cmd_vel", messages.TWIST, messages.twist(*cmd))
+
+    def _teleop(self, t_ns: int) -> tuple[float, float, float]:
+        t = t_ns / 1e9
+        for c in self.scenario.commands:
+            if t < c.duration - 1e-9:
+                return c.cmd
+            t -= c.duration
+        self.done_ns = t_ns
+        return (0.0, 0.0, 0.0)
+
+    def _tour(self, t_ns: int) -> tuple[float, float, float]:
+        if self.pose is None:
+            return (0.0, 0.0, 0.0)
+        s, d = self.scenario, self.robot.drive
+        x, y, th = self.pose
+        while self.index < len(s.waypoints):
+            gx, gy = s.waypoints[self.index]
+            dist = math.hypot(gx - x, gy - y)
+            if dist > s.tolerance:
+                break
+            self.reached.append(t_ns)
+            self.index += 1
+        if self.index >= len(s.waypoints):
+            self.done_ns = t_ns
+            return (0.0, 0.0, 0.0)
+        err = math.atan2(gy - y, gx - x) - th
+        err = math.atan2(math.sin(err), math.cos(err))
+        wmax = min(s.turn_rate, d.max_wz)
+        w = max(-wmax, min(wmax, 1.5 * err))
+        if abs(err) > 0.35:
+            return (0.0, 0.0, w)
+        v = min(s.speed, d.max_vx, 0.8 * dist + 0.05) * math.cos(err)
+        return (v, 0.0, w)
