@@ -312,6 +312,54 @@ def nearest_distances(query, points) -> np.ndarray:
     return np.asarray(d, dtype=np.float64)
 
 
+def band_directions(elevation_deg: tuple[float, float] = (-15.0, 15.0), n_elevation: int = 16, n_azimuth: int = 720) -> np.ndarray:
+    """Unit ray directions of a spinning LiDAR: ``n_elevation`` rings evenly over the elevation band
+    (degrees), ``n_azimuth`` columns over 360 degrees. Shape (n_elevation * n_azimuth, 3)."""
+    lo, hi = (float(v) for v in elevation_deg)
+    if not (-90.0 <= lo <= hi <= 90.0) or n_elevation < 1 or n_azimuth < 1:
+        raise MapMetricError(f"view band: elevation {elevation_deg} deg must lie in -90..90 with low <= high")
+    el = np.radians(np.linspace(lo, hi, n_elevation) if n_elevation > 1 else np.array([(lo + hi) / 2]))
+    az = np.arange(n_azimuth) * (2 * np.pi / n_azimuth)
+    e, a = np.meshgrid(el, az, indexing="ij")
+    return np.stack([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)], -1).reshape(-1, 3)
+
+
+def visible_surface_samples(
+    mesh,
+    viewpoints,
+    *,
+    directions: np.ndarray | None = None,
+    max_range: float = 30.0,
+    voxel: float = 0.02,
+    batch_rays: int = 1 << 20,
+) -> np.ndarray:
+    """Points of the mesh surface that rays from the viewpoints hit first (within ``max_range``),
+    thinned to one per ``voxel`` cube (the first in sorted voxel order): the truly visible surface
+    that completeness@tau is measured against. ``directions`` default: ``band_directions()``."""
+    import open3d as o3d
+
+    views = _points(viewpoints, "viewpoints")
+    dirs = band_directions() if directions is None else np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    if len(views) == 0 or len(dirs) == 0:
+        return np.zeros((0, 3))
+    scene = _raycasting_scene(mesh)
+    per_batch = max(1, batch_rays // len(dirs))
+    hits = []
+    for start in range(0, len(views), per_batch):
+        origins = views[start : start + per_batch]
+        rays = np.concatenate(
+            [np.repeat(origins, len(dirs), axis=0), np.tile(dirs, (len(origins), 1))], axis=1
+        ).astype(np.float32)
+        t = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().astype(np.float64)
+        ok = np.isfinite(t) & (t <= max_range)
+        hits.append(rays[ok, :3].astype(np.float64) + t[ok, None] * rays[ok, 3:].astype(np.float64))
+    pts = np.concatenate(hits) if hits else np.zeros((0, 3))
+    if len(pts) == 0 or voxel <= 0:
+        return pts
+    _, first = np.unique(np.floor(pts / voxel).astype(np.int64), axis=0, return_index=True)
+    return pts[first]
+
+
 def completeness(surface_samples, map_points, taus: Iterable[float] = DEFAULT_TAUS_3D) -> dict[str, Any]:
     """Completeness@tau: share of (visible) surface samples within tau of a map point."""
     d = nearest_distances(surface_samples, map_points)

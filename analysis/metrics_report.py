@@ -51,6 +51,9 @@ class MetricsOptions:
     rpe_unit: str = "m"
     gt_topic: str = GT_TOPIC
     pcd_frame: str = "first-pose"
+    view_spacing_m: float = 0.5
+    view_fov_deg: tuple[float, float] = (-15.0, 15.0)
+    view_range_m: float = 30.0
 
     def __post_init__(self) -> None:
         def bad(name: str, value: Any, want: str) -> NavlogError:
@@ -70,6 +73,11 @@ class MetricsOptions:
             raise bad("rpe_delta", self.rpe_delta, "must be > 0")
         if self.rpe_unit == "frames" and int(self.rpe_delta) != self.rpe_delta:
             raise bad("rpe_delta", self.rpe_delta, "must be a whole number of frames")
+        lo, hi = self.view_fov_deg
+        if not (-90.0 <= lo <= hi <= 90.0):
+            raise bad("view_fov", self.view_fov_deg, "must be LOW HIGH elevations in degrees within -90..90")
+        if not (self.view_spacing_m > 0 and self.view_range_m > 0):
+            raise bad("view_spacing/view_range", (self.view_spacing_m, self.view_range_m), "must be > 0")
         if self.pcd_frame not in PCD_FRAMES:
             raise bad("pcd_frame", self.pcd_frame, f"use one of {', '.join(PCD_FRAMES)}")
 
@@ -102,14 +110,14 @@ def ground_truth_trajectory(reader, topic: str = GT_TOPIC) -> tuple[tr.Trajector
     order = np.argsort(t, kind="stable")
     out_of_order = int(np.count_nonzero(np.diff(t) < 0))
     t, vals = t[order], vals[order]
-    keep = np.concatenate([[True], np.diff(t) > 0])
-    finite = np.all(np.isfinite(vals), axis=1) & (np.linalg.norm(vals[:, 3:], axis=1) > 1e-9)
-    keep &= finite
+    first_of_stamp = np.concatenate([[True], np.diff(t) > 0])
+    valid = np.all(np.isfinite(vals), axis=1) & (np.linalg.norm(vals[:, 3:], axis=1) > 1e-9)
+    keep = first_of_stamp & valid
     counts = {
         "messages": len(times),
         "out_of_order": out_of_order,
-        "repeated_stamps": int(np.count_nonzero(~np.concatenate([[True], np.diff(t) > 0]))),
-        "invalid_poses": int(np.count_nonzero(~finite)),
+        "repeated_stamps": int(np.count_nonzero(~first_of_stamp)),
+        "invalid_poses": int(np.count_nonzero(~valid)),
     }
     return tr.Trajectory(t[keep], vals[keep, :3], vals[keep, 3:]), counts
 
@@ -247,11 +255,29 @@ def compute_metrics(
                 "frame": frame,
                 "transform": [[float(v) for v in row] for row in transform[:3]],
             }
+            if gt is not None and len(gt):
+                views = gt.positions[viewpoint_indices(gt, options.view_spacing_m)]
+                samples = map_metrics.visible_surface_samples(
+                    mesh, views, directions=map_metrics.band_directions(options.view_fov_deg),
+                    max_range=options.view_range_m,
+                )
+                result["map_3d"]["visible"] = {
+                    **map_metrics.completeness(samples, pts, options.taus_3d),
+                    "viewpoints": int(len(views)),
+                }
+            else:
+                skipped.append(f"3D completeness@tau needs the ground-truth path ({options.gt_topic}) for its viewpoints")
 
     result["skipped"] = skipped
     if not any(k in result for k in ("trajectory", "map_2d", "map_3d")):
         raise NavlogError("no metric could be computed: " + "; ".join(skipped))
     return result
+
+
+def viewpoint_indices(traj: tr.Trajectory, spacing_m: float) -> np.ndarray:
+    """Indices of the first pose and then one pose each ``spacing_m`` metres of path."""
+    cells = np.floor(traj.path_lengths() / spacing_m).astype(np.int64)
+    return np.flatnonzero(np.concatenate([[True], np.diff(cells) > 0]))
 
 
 def _pcd_transform(mode, gt, est, ate, max_diff_ns, skipped) -> tuple[str, np.ndarray]:
@@ -339,6 +365,13 @@ def format_table(metrics: dict[str, Any]) -> str:
         lines.append(
             f"  {'distance to surface':<22} mean {_f(s['mean'], 'm')}  median {_f(s['median'], 'm')}  max {_f(s['max'], 'm')}"
         )
+        v = d.get("visible")
+        if v:
+            for tau, share in v["completeness"].items():
+                lines.append(
+                    f"  {'completeness@' + tau + ' m':<22} {_f(share, '%')}  "
+                    f"(of {v['samples']} visible surface samples from {v['viewpoints']} viewpoints)"
+                )
     if metrics.get("skipped"):
         lines.append("Skipped:")
         lines.extend(f"  - {note}" for note in metrics["skipped"])

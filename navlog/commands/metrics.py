@@ -13,7 +13,8 @@ def register(sub) -> None:
         description="Compare the outputs of `navlog replay LOG -o OUT/` with ground truth: OUT/trajectory.tum "
         "against the log's /odom/ground_truth (ATE after Umeyama alignment, RPE), OUT/map.yaml against a "
         "reference grid (occupied precision, recall and F1 at a tolerance, IoU, mean distances, free-space "
-        "coverage), OUT/map.pcd against a reference mesh (accuracy@tau). Prints a table; -o writes JSON. "
+        "coverage), OUT/map.pcd against a reference mesh (accuracy@tau, and completeness@tau of the surfaces "
+        "visible from the ground-truth path). Prints a table; -o writes JSON. "
         "Metrics whose inputs are missing are skipped with a note.",
     )
     p.add_argument("log", help="the log that was replayed (.mcap, .db3 or rosbag2 folder)")
@@ -34,6 +35,12 @@ def register(sub) -> None:
         "--pcd-frame", choices=PCD_FRAMES, default="first-pose",
         help="how map.pcd is put in the world frame (default first-pose: anchored at the first matched pose)",
     )
+    p.add_argument(
+        "--view-fov", type=float, nargs=2, default=[-15.0, 15.0], metavar=("LOW", "HIGH"),
+        help="elevation band (deg) of the rays that find the visible surfaces for 3D completeness (default -15 15)",
+    )
+    p.add_argument("--view-range", type=float, default=30.0, help="range (m) of those rays (default 30)")
+    p.add_argument("--view-spacing", type=float, default=0.5, help="one viewpoint per this many metres of path (default 0.5)")
     p.add_argument("-o", "--output", metavar="metrics.json", help="write the metrics as JSON")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
     p.set_defaults(func=run)
@@ -49,6 +56,9 @@ def run(args) -> int:
         rpe_unit=args.rpe_unit,
         gt_topic=args.gt_topic,
         pcd_frame=args.pcd_frame,
+        view_fov_deg=(args.view_fov[0], args.view_fov[1]),
+        view_range_m=args.view_range,
+        view_spacing_m=args.view_spacing,
     )
     metrics = compute_metrics(
         args.log, args.replay, reference_map=args.reference_map, reference_mesh=args.reference_mesh, options=options

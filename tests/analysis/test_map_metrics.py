@@ -195,3 +195,32 @@ def test_chamfer_and_hausdorff():
     assert r["mean_b_to_a_m"] == pytest.approx(4.1 / 3)
     assert r["chamfer_m"] == pytest.approx((0.05 + 4.1 / 3) / 2)
     assert r["hausdorff_m"] == pytest.approx(4.0)
+
+
+def test_visible_samples_are_the_faces_seen():
+    box = _box()
+    above = np.array([[1.0, 0.5, 3.0]])
+    dirs = mm.band_directions((-89.0, -20.0), n_elevation=40, n_azimuth=180)
+    samples = mm.visible_surface_samples(box, above, directions=dirs, voxel=0.02)
+    assert len(samples) > 200
+    assert np.allclose(samples[:, 2], 1.0, atol=1e-5)  # only the top face is visible from above
+    # a map holding the top face (1 cm grid) is complete against what was visible ...
+    xs, ys = np.meshgrid(np.arange(0.0, 2.001, 0.01), np.arange(0.0, 1.001, 0.01))
+    top = np.stack([xs.ravel(), ys.ravel(), np.ones(xs.size)], 1)
+    assert mm.completeness(samples, top, taus=(0.02,))["completeness"]["0.02"] == 1.0
+    # ... but covers only the top face's share (2 of 10 m^2) of the whole surface
+    every_face = np.asarray(box.sample_points_uniformly(4000).points)
+    share = mm.completeness(every_face, top, taus=(0.02,))["completeness"]["0.02"]
+    assert share == pytest.approx(0.2, abs=0.04)
+    # out of range: nothing visible
+    assert len(mm.visible_surface_samples(box, above, directions=dirs, max_range=1.0)) == 0
+
+
+def test_band_directions_are_unit_rays_in_the_band():
+    d = mm.band_directions((-15.0, 15.0), n_elevation=16, n_azimuth=720)
+    assert d.shape == (16 * 720, 3)
+    assert np.allclose(np.linalg.norm(d, axis=1), 1.0)
+    el = np.degrees(np.arcsin(d[:, 2]))
+    assert el.min() == pytest.approx(-15.0) and el.max() == pytest.approx(15.0)
+    with pytest.raises(mm.MapMetricError, match="elevation"):
+        mm.band_directions((10.0, -10.0))

@@ -26,7 +26,7 @@ N_GT = 1000  # 20 s
 START_NS = 5_000_000_000
 # the mapper's frame: where the world sits in it (est = A * gt)
 A_ROT = Rotation.from_euler("z", 0.7)
-A_T = np.array([1.0, -2.0, 0.0])
+A_T = np.array([-6.0, 3.0, 0.0])
 NOISE_SIGMA = 0.02
 
 
@@ -76,11 +76,11 @@ def world(tmp_path_factory):
     ref_map = root / "gt.yaml"
     save_map(_outline_map(), ref_map)
 
-    mesh = o3d.geometry.TriangleMesh.create_box(2.0, 1.0, 1.0)  # corner at the origin
+    mesh = o3d.geometry.TriangleMesh.create_box(2.0, 1.0, 1.0).translate((3.0, -0.5, 0.0))  # x 3..5, y -0.5..0.5
     mesh_path = root / "box.ply"
     o3d.io.write_triangle_mesh(str(mesh_path), mesh)
     offsets = np.array([0.0, 0.01, 0.015, 0.03, 0.04, 0.1, 0.3, 0.001])  # above the top face
-    pts_world = np.stack([np.linspace(0.2, 1.8, 8), np.full(8, 0.5), 1.0 + offsets], 1)
+    pts_world = np.stack([np.linspace(3.2, 4.8, 8), np.zeros(8), 1.0 + offsets], 1)
     pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(A_ROT.apply(pts_world) + A_T))
     o3d.io.write_point_cloud(str(out / "map.pcd"), pcd, write_ascii=False)
     return {
@@ -122,6 +122,13 @@ def test_all_metrics_with_known_answers(world):
     assert d["points"] == 8
     assert d["accuracy"] == {"0.02": pytest.approx(4 / 8), "0.05": pytest.approx(6 / 8)}
     assert d["distance_m"]["max"] == pytest.approx(0.3, abs=1e-5)
+    # completeness: rays within +-15 deg from z = 0.3 see the box's sides up to z = 0.84, never its
+    # top, where all the map's points are: none of the visible surface is mapped
+    v = d["visible"]
+    path_len = np.sum(np.linalg.norm(np.diff(_gt_poses()[1], axis=0), axis=1))
+    assert v["viewpoints"] == int(path_len // 0.5) + 1
+    assert v["samples"] > 100
+    assert v["completeness"] == {"0.02": 0.0, "0.05": 0.0}
 
 
 def test_exact_tolerance_and_as_is_frame(world):
