@@ -22,6 +22,8 @@ COMMANDS = [
     "info",
     "recover",
     "metrics",
+    "view",
+    "export",
 ]
 
 
