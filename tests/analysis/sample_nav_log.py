@@ -43,6 +43,7 @@ def write_sample_log(
     odom_hz: float = 50.0,
     imu_hz: float = 50.0,
     with_events: bool = True,
+    chunk_size: int = 4 << 20,
 ) -> Path:
     """Write the sample log; returns its path. Deterministic (seeded)."""
     rng = np.random.default_rng(7)
@@ -53,7 +54,7 @@ def write_sample_log(
     def every(hz: float):
         return int(round(1e9 / hz))
 
-    writer = McapLogWriter(path, metadata={"navlog": {"world": "corridor", "robot": "test"}})
+    writer = McapLogWriter(path, metadata={"navlog": {"world": "corridor", "robot": "test"}}, chunk_size=chunk_size)
 
     def emit(item) -> None:
         t, topic, typename, msg = item
