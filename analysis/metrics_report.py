@@ -46,6 +46,8 @@ class MetricsOptions:
     tau: float = 0.05
     taus_3d: tuple[float, ...] = map_metrics.DEFAULT_TAUS_3D
     max_diff_ns: int = tr.DEFAULT_MAX_DIFF_NS
+    interpolate: bool = False  # ground truth interpolated at the estimate's stamps instead of nearest
+    max_gap_ns: int = 100_000_000  # interpolation only between ground-truth poses this close
     align: str = "se3"
     rpe_delta: float = 1.0
     rpe_unit: str = "m"
@@ -65,6 +67,8 @@ class MetricsOptions:
             raise bad("taus_3d", self.taus_3d, "must be one or more distances > 0 in metres")
         if not self.max_diff_ns >= 0:
             raise bad("max_diff", self.max_diff_ns, "must be >= 0")
+        if not self.max_gap_ns > 0:
+            raise bad("max_gap", self.max_gap_ns, "must be > 0")
         if self.align not in tr.ALIGN_MODES:
             raise bad("align", self.align, f"use one of {', '.join(tr.ALIGN_MODES)}")
         if self.rpe_unit not in tr.DELTA_UNITS:
@@ -197,7 +201,7 @@ def compute_metrics(
     ate = None
     if gt is not None and est is not None:
         try:
-            ref_a, est_a = tr.associate(gt, est, max_diff_ns=options.max_diff_ns)
+            ref_a, est_a = _associate(gt, est, options)
             ate = tr.absolute_trajectory_error(ref_a, est_a, align_mode=options.align, max_diff_ns=None)  # type: ignore[arg-type]
         except tr.TrajectoryError as exc:
             skipped.append(f"ATE and RPE of {paths['trajectory']} against {options.gt_topic}: {exc}")
@@ -248,7 +252,7 @@ def compute_metrics(
         if len(points) == 0:
             skipped.append(f"3D map accuracy@tau: {paths['pcd']} holds no points (or is not a PCD file)")
         else:
-            frame, transform = _pcd_transform(options.pcd_frame, gt, est, ate, options.max_diff_ns, skipped)
+            frame, transform = _pcd_transform(options.pcd_frame, gt, est, ate, options, skipped)
             pts = points @ transform[:3, :3].T + transform[:3, 3]
             result["map_3d"] = {
                 **map_metrics.map_accuracy(pts, mesh, options.taus_3d),
@@ -280,7 +284,13 @@ def viewpoint_indices(traj: tr.Trajectory, spacing_m: float) -> np.ndarray:
     return np.flatnonzero(np.concatenate([[True], np.diff(cells) > 0]))
 
 
-def _pcd_transform(mode, gt, est, ate, max_diff_ns, skipped) -> tuple[str, np.ndarray]:
+def _associate(gt: tr.Trajectory, est: tr.Trajectory, options: MetricsOptions) -> tuple[tr.Trajectory, tr.Trajectory]:
+    if options.interpolate:
+        return tr.associate_interpolated(gt, est, max_gap_ns=options.max_gap_ns)
+    return tr.associate(gt, est, max_diff_ns=options.max_diff_ns)
+
+
+def _pcd_transform(mode, gt, est, ate, options, skipped) -> tuple[str, np.ndarray]:
     if mode == "as-is":
         return "as-is", np.eye(4)
     if gt is None or est is None or ate is None:
@@ -288,7 +298,7 @@ def _pcd_transform(mode, gt, est, ate, max_diff_ns, skipped) -> tuple[str, np.nd
         return "as-is", np.eye(4)
     if mode == "aligned":
         return "aligned", ate.alignment.matrix()
-    ref_a, est_a = tr.associate(gt, est, max_diff_ns=max_diff_ns)
+    ref_a, est_a = _associate(gt, est, options)
     t_world = ref_a.matrices()[0] @ np.linalg.inv(est_a.matrices()[0])
     return "first-pose", t_world
 
@@ -333,7 +343,8 @@ def format_table(metrics: dict[str, Any]) -> str:
         a = t["ate"]
         lines.append(
             f"Trajectory: {t['estimate_poses']} estimated vs {t['ground_truth_poses']} ground-truth poses, "
-            f"{a['pairs']} matched, {a['align']} alignment"
+            f"{a['pairs']} matched ({'interpolated' if metrics['parameters']['interpolate'] else 'nearest stamp'}), "
+            f"{a['align']} alignment"
         )
         lines.append(_stats_row("ATE translation", a["translation_m"], "m"))
         lines.append(_stats_row("ATE rotation", a["rotation_deg"], "deg"))

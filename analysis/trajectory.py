@@ -159,6 +159,49 @@ def associate(
     return ref.subset(i_ref), est.subset(i_est)
 
 
+def interpolate(traj: Trajectory, times_ns, *, max_gap_ns: int | None = None) -> tuple[Trajectory, np.ndarray]:
+    """Poses of ``traj`` at ``times_ns`` (sorted): positions linearly, orientations by slerp.
+
+    Times outside the trajectory's span, or between two poses more than ``max_gap_ns`` apart, are
+    dropped. Returns the interpolated trajectory and the indices of ``times_ns`` it holds."""
+    t = np.asarray(times_ns, dtype=np.int64)
+    src = traj.times_ns
+    if len(src) == 0 or len(t) == 0:
+        return traj.subset(np.zeros(0, np.int64)), np.zeros(0, np.int64)
+    hi = np.searchsorted(src, t, side="left")
+    exact = (hi < len(src)) & (src[np.minimum(hi, len(src) - 1)] == t)
+    inside = exact | ((hi > 0) & (hi < len(src)))
+    hi = np.clip(hi, 1, max(len(src) - 1, 1))
+    lo = hi - 1
+    if max_gap_ns is not None and len(src) > 1:
+        inside &= exact | (src[hi] - src[lo] <= int(max_gap_ns))
+    keep = np.flatnonzero(inside).astype(np.int64)
+    if len(src) == 1:
+        return traj.subset(np.zeros(len(keep), np.int64)), keep
+    t, lo, hi = t[keep], lo[keep], hi[keep]
+    # fractions from integer differences (exact for stamps far from the epoch)
+    frac = (t - src[lo]).astype(np.float64) / (src[hi] - src[lo]).astype(np.float64)
+    pos = traj.positions[lo] + frac[:, None] * (traj.positions[hi] - traj.positions[lo])
+    r_lo = Rotation.from_quat(traj.quaternions[lo])
+    delta = (r_lo.inv() * Rotation.from_quat(traj.quaternions[hi])).as_rotvec()
+    quats = (r_lo * Rotation.from_rotvec(delta * frac[:, None])).as_quat() if len(keep) else np.zeros((0, 4))
+    return Trajectory(t, pos, quats), keep
+
+
+def associate_interpolated(
+    ref: Trajectory, est: Trajectory, *, max_gap_ns: int | None = None, offset_ns: int = 0
+) -> tuple[Trajectory, Trajectory]:
+    """The reference interpolated at each estimate stamp (shifted by ``offset_ns``) that lies within
+    the reference's span (and not across a gap longer than ``max_gap_ns``), paired with the estimate."""
+    at, keep = interpolate(ref, est.times_ns + np.int64(offset_ns), max_gap_ns=max_gap_ns)
+    if len(keep) == 0:
+        raise TrajectoryError(
+            f"no estimate stamp lies within the reference's time span (reference {_span(ref)}, "
+            f"estimate {_span(est)}); check that both use the same clock"
+        )
+    return at, est.subset(keep)
+
+
 def _span(traj: Trajectory) -> str:
     if len(traj) == 0:
         return "empty"

@@ -27,6 +27,11 @@ def register(sub) -> None:
         help="3D accuracy tolerances in metres (default 0.02 0.05)",
     )
     p.add_argument("--max-diff", type=float, default=0.01, help="timestamp association window in seconds (default 0.01)")
+    p.add_argument(
+        "--interpolate", action="store_true",
+        help="interpolate the ground truth at the estimate's stamps (instead of the nearest stamp within --max-diff)",
+    )
+    p.add_argument("--max-gap", type=float, default=0.1, help="--interpolate: largest ground-truth gap bridged, s (default 0.1)")
     p.add_argument("--align", choices=ALIGN_MODES, default="se3", help="ATE alignment (default se3)")
     p.add_argument("--rpe-delta", type=float, default=1.0, help="RPE delta (default 1)")
     p.add_argument("--rpe-unit", choices=DELTA_UNITS, default="m", help="RPE delta unit (default m)")
@@ -51,6 +56,8 @@ def run(args) -> int:
         tau=args.tau,
         taus_3d=tuple(args.tau_3d),
         max_diff_ns=int(round(args.max_diff * 1e9)),
+        interpolate=args.interpolate,
+        max_gap_ns=int(round(args.max_gap * 1e9)),
         align=args.align,
         rpe_delta=args.rpe_delta,
         rpe_unit=args.rpe_unit,

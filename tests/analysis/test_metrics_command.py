@@ -131,6 +131,20 @@ def test_all_metrics_with_known_answers(world):
     assert v["completeness"] == {"0.02": 0.0, "0.05": 0.0}
 
 
+def test_interpolated_association(world):
+    near = compute_metrics(world["log"], world["out"])
+    interp = compute_metrics(world["log"], world["out"], options=MetricsOptions(interpolate=True))
+    assert interp["parameters"]["interpolate"] is True
+    assert interp["trajectory"]["ate"]["pairs"] == N_GT // 5  # the last estimate (at 19.902 s) is inside the span
+    # the estimate is 2 ms late: the ground truth is taken a tenth of the way to the next 20 ms pose
+    _, pos, _ = _gt_poses()
+    idx = np.arange(0, N_GT, 5)
+    ref_pos = pos[idx] + 0.1 * (pos[idx + 1] - pos[idx])
+    expected = _kabsch_rmse(ref_pos, world["est_pos"])
+    assert interp["trajectory"]["ate"]["translation_m"]["rmse"] == pytest.approx(expected, rel=1e-6)
+    assert near["trajectory"]["ate"]["translation_m"]["rmse"] != pytest.approx(expected, rel=1e-6)
+
+
 def test_exact_tolerance_and_as_is_frame(world):
     opts = MetricsOptions(tau=0.0, pcd_frame="as-is", taus_3d=(0.05,))
     r = compute_metrics(world["log"], world["out"], reference_map=world["ref_map"], reference_mesh=world["mesh"], options=opts)
