@@ -1,0 +1,252 @@
+"""The 3D LiDAR mapper node (the FAST-LIO role) around ``replay.lidar_odometry.LidarOdometry``.
+
+Subscribes the LiDAR cloud, the IMU (gyro for deskew and the initial guess), the wheel/leg odometry
+(optional translation prior) and /tf_static (the LiDAR and IMU mounts). A cloud is registered once
+the IMU (and odometry, when used) has reached the end of its sweep, or when the next cloud arrives,
+whichever is first, so the same message order always gives the same result. Publishes `/Odometry`
+(map -> base_link, stamped at the cloud's header stamp), `/cloud_registered` (the deskewed frame in
+`map`, every ``cloud_every_n_frames`` frames) and the path of all poses (every
+``path_every_n_frames`` frames and at the end). Inputs that cannot be used are counted by reason.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import open3d as o3d
+
+from replay import messages
+from replay.executor import Node
+from replay.errors import NavlogError
+from replay.lidar_odometry import GyroTrack, LidarOdometry, LidarOdometryParams, MotionPrior, PoseTrack
+from replay.pointcloud import read_points, xyz_cloud
+from replay.tf import TFBuffer, TransformError
+
+
+@dataclass(frozen=True)
+class LidarMapperParams:
+    lidar_topic: str = "/livox/lidar"
+    imu_topic: str = "/imu/data"
+    odom_topic: str = "/odom"
+    tf_static_topic: str = "/tf_static"
+    odometry_topic: str = "/Odometry"
+    cloud_topic: str = "/cloud_registered"
+    path_topic: str = "/lidar_mapper/path"
+    map_frame: str = "map"
+    base_frame: str = "base_link"
+    time_field: str = "time"  # per-point time in seconds after the header stamp
+    use_imu: bool = True
+    use_odom: bool = True
+    cloud_every_n_frames: int = 1  # 0: never publish /cloud_registered
+    path_every_n_frames: int = 50  # 0: only at the end
+    initial_pose: tuple[float, float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # x y z roll pitch yaw
+    odometry: LidarOdometryParams = field(default_factory=LidarOdometryParams)
+
+    def __post_init__(self) -> None:
+        if self.cloud_every_n_frames < 0 or self.path_every_n_frames < 0:
+            raise ValueError("cloud_every_n_frames and path_every_n_frames must not be negative")
+
+
+@dataclass
+class _Pending:
+    stamp_ns: int
+    end_ns: int
+    points: np.ndarray
+    times: np.ndarray | None
+    extrinsic: np.ndarray
+
+
+class LidarMapperNode(Node):
+    name = "lidar_mapper"
+
+    def __init__(self, params: LidarMapperParams = LidarMapperParams()) -> None:
+        super().__init__()
+        self.params = params
+        x, y, z, roll, pitch, yaw = params.initial_pose
+        initial = messages.make_transform((x, y, z), messages.quat_from_rpy(roll, pitch, yaw))
+        self.odometry = LidarOdometry(params.odometry, np.eye(4), initial)
+        self.tf = TFBuffer()
+        self.gyro = GyroTrack()
+        self.odom = PoseTrack()
+        self.skipped: dict[str, int] = {}
+        self.frames_in = 0
+        self._pending: list[_Pending] = []
+        self._odom_fix: dict[str, np.ndarray] = {}  # odom child frame -> base_link
+
+    # ------------------------------------------------------------ wiring
+    def setup(self) -> None:
+        p = self.params
+        self.subscribe(p.tf_static_topic, self._on_tf_static)
+        self.subscribe(p.lidar_topic, self._on_cloud)
+        if p.use_imu:
+            self.subscribe(p.imu_topic, self._on_imu)
+        if p.use_odom:
+            self.subscribe(p.odom_topic, self._on_odom)
+
+    def _skip(self, reason: str) -> None:
+        self.skipped[reason] = self.skipped.get(reason, 0) + 1
+
+    def skipped_counts(self) -> dict[str, int]:
+        """Skipped inputs of the node and of the odometry, by reason, sorted by name."""
+        out = dict(self.skipped)
+        for k, v in self.odometry.skipped.items():
+            out[k] = out.get(k, 0) + v
+        if self.gyro.out_of_order:
+            out["imu_out_of_order"] = self.gyro.out_of_order
+        if self.odom.out_of_order:
+            out["odom_out_of_order"] = self.odom.out_of_order
+        return dict(sorted(out.items()))
+
+    # ------------------------------------------------------------ callbacks
+    def _on_tf_static(self, msg: Any, t_ns: int) -> None:
+        self.tf.add_message(msg, static=True)
+
+    def _mount(self, frame: str) -> np.ndarray | None:
+        """base_link <- ``frame`` from the static transforms, identity for base_link itself."""
+        if not frame or frame.lstrip("/") == self.params.base_frame:
+            return np.eye(4)
+        try:
+            return self.tf.lookup(self.params.base_frame, frame, None)
+        except TransformError:
+            return None
+
+    def _on_imu(self, msg: Any, t_ns: int) -> None:
+        mount = self._mount(msg.header.frame_id)
+        if mount is None:
+            self._skip("imu_missing_extrinsic")
+            return
+        w = np.array([msg.angular_velocity.x, msg.angular_velocity.y, msg.angular_velocity.z], dtype=np.float64)
+        if not np.isfinite(w).all():
+            self._skip("imu_not_finite")
+            return
+        self.gyro.add(messages.to_ns(msg.header.stamp), mount[:3, :3] @ w)
+        self._drain(force=False)
+
+    def _on_odom(self, msg: Any, t_ns: int) -> None:
+        child = msg.child_frame_id.lstrip("/")
+        fix = self._odom_fix.get(child)
+        if fix is None:
+            try:  # odom child (base_footprint) <- base_link
+                fix = self.tf.lookup(child, self.params.base_frame, None) if child and child != self.params.base_frame else np.eye(4)
+            except TransformError:
+                self._skip("odom_missing_base_transform")
+                return
+            self._odom_fix[child] = fix
+        pp, q = msg.pose.pose.position, msg.pose.pose.orientation
+        pose = messages.make_transform((pp.x, pp.y, pp.z), (q.x, q.y, q.z, q.w)) @ fix
+        if not np.isfinite(pose).all():
+            self._skip("odom_not_finite")
+            return
+        self.odom.add(messages.to_ns(msg.header.stamp), pose)
+        self._drain(force=False)
+
+    def _on_cloud(self, msg: Any, t_ns: int) -> None:
+        self.frames_in += 1
+        stamp_ns = messages.to_ns(msg.header.stamp)
+        try:
+            arr = read_points(msg)
+        except (ValueError, KeyError, TypeError):
+            self._skip("cloud_unreadable")
+            return
+        names = arr.dtype.names or ()
+        if not all(n in names for n in ("x", "y", "z")):
+            self._skip("cloud_without_xyz")
+            return
+        if len(arr) == 0:
+            self._skip("cloud_empty")
+            return
+        mount = self._mount(msg.header.frame_id)
+        if mount is None:
+            self._skip("cloud_missing_extrinsic")
+            return
+        pts = np.stack([arr["x"], arr["y"], arr["z"]], axis=1).astype(np.float64)
+        times = np.asarray(arr[self.params.time_field], dtype=np.float64) if self.params.time_field in names else None
+        finite = np.isfinite(pts).all(axis=1)
+        if times is not None:
+            finite &= np.isfinite(times)
+        if not finite.all():
+            self.skipped["points_not_finite"] = self.skipped.get("points_not_finite", 0) + int((~finite).sum())
+            pts = pts[finite]
+            times = times[finite] if times is not None else None
+        if len(pts) == 0:
+            self._skip("cloud_no_finite_points")
+            return
+        end_ns = stamp_ns + (int(round(float(times.max()) * 1e9)) if times is not None else 0)
+        self._pending.append(_Pending(stamp_ns, end_ns, pts, times, mount))
+        self._drain(force=False)
+
+    # ------------------------------------------------------------ processing
+    def _ready(self, item: _Pending) -> bool:
+        for track in (self.gyro, self.odom):
+            if track.last_ns is not None and track.last_ns < item.end_ns:
+                return False
+        return True
+
+    def _drain(self, force: bool) -> None:
+        while self._pending and (force or len(self._pending) > 1 or self._ready(self._pending[0])):
+            self._process(self._pending.pop(0))
+
+    def _process(self, item: _Pending) -> None:
+        p = self.params
+        self.odometry.extrinsic = item.extrinsic
+        prior = MotionPrior(self.gyro if p.use_imu else None, self.odom if p.use_odom else None)
+        result = self.odometry.process(item.stamp_ns, item.points, item.times, prior)
+        if result is None:
+            return
+        n = len(self.odometry.stamps)
+        xyz = result.pose[:3, 3]
+        q = messages.matrix_to_quat(result.pose[:3, :3])
+        v = result.velocity
+        odom = messages.odometry(item.stamp_ns, p.map_frame, p.base_frame, xyz, q, v[:3], v[3:])
+        self.publish(p.odometry_topic, messages.ODOMETRY, odom)
+        if p.cloud_every_n_frames and (n - 1) % p.cloud_every_n_frames == 0:
+            self.publish(p.cloud_topic, messages.POINT_CLOUD2, xyz_cloud(item.stamp_ns, p.map_frame, result.points_map))
+        if p.path_every_n_frames and n % p.path_every_n_frames == 0:
+            self._publish_path()
+
+    def _publish_path(self) -> None:
+        stamps, poses = self.odometry.poses()
+        if len(stamps) == 0:
+            return
+        frame = self.params.map_frame
+        pose_stamped = messages.msg_class(messages.POSE_STAMPED)
+        items = [
+            pose_stamped(header=messages.header(int(t), frame), pose=messages.pose(m[:3, 3], messages.matrix_to_quat(m[:3, :3])))
+            for t, m in zip(stamps, poses)
+        ]
+        path = messages.msg_class(messages.PATH)(header=messages.header(int(stamps[-1]), frame), poses=items)
+        self.publish(self.params.path_topic, messages.PATH, path)
+
+    def finish(self) -> None:
+        self._drain(force=True)
+        self._publish_path()
+
+    # ------------------------------------------------------------ results
+    def poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """(stamps_ns (N,), poses (N, 4, 4)) of base_link in the map frame."""
+        return self.odometry.poses()
+
+    def map_points(self) -> np.ndarray:
+        return self.odometry.global_map()
+
+    def save_pcd(self, path: Path) -> dict[str, Path]:
+        """Write the global map (binary float32 PCD, deterministic order) to ``path``, and the
+        chunks of ``save_every_n_frames`` frames beside it as ``<stem>_<k>.pcd``; returns what was written."""
+        path = Path(path)
+        written = {"map_pcd": path}
+        _write_pcd(path, self.odometry.global_map())
+        for k, chunk in enumerate(self.odometry.finish_chunks(), start=1):
+            chunk_path = path.with_name(f"{path.stem}_{k:04d}{path.suffix}")
+            _write_pcd(chunk_path, chunk)
+            written[f"map_pcd_{k:04d}"] = chunk_path
+        return written
+
+
+def _write_pcd(path: Path, points: np.ndarray) -> None:
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.ascontiguousarray(points, dtype=np.float64)))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if not o3d.io.write_point_cloud(str(path), pcd, write_ascii=False):
+        raise NavlogError(f"{path}: cannot write the point cloud")
