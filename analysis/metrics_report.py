@@ -164,6 +164,10 @@ def compute_metrics(
     out_dir = Path(replay_dir)
     if not out_dir.is_dir():
         raise NavlogError(f"{out_dir}: no such replay output folder (give the folder of `navlog replay ... -o OUT/`)")
+    if reference_map is not None and not Path(reference_map).is_file():
+        raise NavlogError(f"{reference_map}: no such map file (--reference-map takes a map_server YAML)")
+    if reference_mesh is not None and not Path(reference_mesh).is_file():
+        raise NavlogError(f"{reference_mesh}: no such mesh file (--reference-mesh takes a .ply/.obj/.stl triangle mesh)")
     paths = {
         "trajectory": out_dir / TRAJECTORY_FILE,
         "map": out_dir / MAP_FILE,
@@ -208,7 +212,7 @@ def compute_metrics(
     if ate is not None:
         section: dict[str, Any] = {
             "ground_truth_poses": len(gt),
-            "ground_truth_dropped": gt_counts,
+            "ground_truth_read": gt_counts,
             "estimate_poses": len(est),
             "ate": ate.to_dict(),
         }

@@ -199,6 +199,10 @@ def test_bad_inputs_name_the_file(world, tmp_path, capsys):
     assert "no such replay output folder" in capsys.readouterr().err
     assert main(["metrics", str(world["log"]), "--replay", str(world["out"]), "--reference-mesh", str(tmp_path / "x.ply")]) == 2
     assert "x.ply: no such mesh file" in capsys.readouterr().err
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert main(["metrics", str(world["log"]), "--replay", str(empty), "--reference-map", str(tmp_path / "m.yaml")]) == 2
+    assert "m.yaml: no such map file" in capsys.readouterr().err
     bad = tmp_path / "out"
     bad.mkdir()
     (bad / "trajectory.tum").write_text("1.0 0 0 0 0 0 0 1\n0.5 0 0 0 0 0 0 1\n")
