@@ -51,6 +51,7 @@ class MetricsOptions:
     align: str = "se3"
     rpe_delta: float = 1.0
     rpe_unit: str = "m"
+    rpe_pairs_from: str = "reference"
     gt_topic: str = GT_TOPIC
     pcd_frame: str = "first-pose"
     view_spacing_m: float = 0.5
@@ -82,6 +83,8 @@ class MetricsOptions:
             raise bad("view_fov", self.view_fov_deg, "must be LOW HIGH elevations in degrees within -90..90")
         if not (self.view_spacing_m > 0 and self.view_range_m > 0):
             raise bad("view_spacing/view_range", (self.view_spacing_m, self.view_range_m), "must be > 0")
+        if self.rpe_pairs_from not in ("reference", "estimate"):
+            raise bad("rpe_pairs_from", self.rpe_pairs_from, "use reference or estimate")
         if self.pcd_frame not in PCD_FRAMES:
             raise bad("pcd_frame", self.pcd_frame, f"use one of {', '.join(PCD_FRAMES)}")
 
@@ -220,6 +223,7 @@ def compute_metrics(
             rpe = tr.relative_pose_error(
                 ref_a, est_a, delta=options.rpe_delta, unit=options.rpe_unit, max_diff_ns=None,  # type: ignore[arg-type]
                 align_mode="sim3" if options.align == "sim3" else "none",
+                pairs_from=options.rpe_pairs_from,  # type: ignore[arg-type]
             )
             section["rpe"] = rpe.to_dict()
         except tr.TrajectoryError as exc:

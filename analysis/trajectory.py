@@ -446,15 +446,20 @@ def relative_pose_error(
     all_pairs: bool = False,
     align_mode: AlignMode = "none",
     max_diff_ns: int | None = DEFAULT_MAX_DIFF_NS,
+    pairs_from: Literal["reference", "estimate"] = "reference",
 ) -> RpeResult:
     """RPE over a fixed delta. Associates first unless ``max_diff_ns`` is None. RPE does not depend
-    on a rigid alignment; ``align_mode='sim3'`` corrects the estimate's scale first."""
+    on a rigid alignment; ``align_mode='sim3'`` corrects the estimate's scale first. Pairs are chosen
+    along the reference's path (evo's ``--pairs_from_reference``) or, with ``pairs_from='estimate'``,
+    along the estimate's (evo's default)."""
+    if pairs_from not in ("reference", "estimate"):
+        raise TrajectoryError(f"RPE pairs_from '{pairs_from}' is unknown; use reference or estimate")
     if max_diff_ns is not None:
         ref, est = associate(ref, est, max_diff_ns=max_diff_ns)
     _same_length(ref, est)
     if align_mode != "none":
         est, _ = align(est, ref, align_mode)
-    i, j = pair_indices(ref, delta, unit, all_pairs=all_pairs)
+    i, j = pair_indices(ref if pairs_from == "reference" else est, delta, unit, all_pairs=all_pairs)
     if len(i) == 0:
         raise TrajectoryError(
             f"RPE: no pose pair is {delta:g} {unit} apart along the reference ({_span(ref)}"

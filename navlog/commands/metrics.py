@@ -35,6 +35,10 @@ def register(sub) -> None:
     p.add_argument("--align", choices=ALIGN_MODES, default="se3", help="ATE alignment (default se3)")
     p.add_argument("--rpe-delta", type=float, default=1.0, help="RPE delta (default 1)")
     p.add_argument("--rpe-unit", choices=DELTA_UNITS, default="m", help="RPE delta unit (default m)")
+    p.add_argument(
+        "--rpe-pairs-from", choices=("reference", "estimate"), default="reference",
+        help="path along which RPE pairs are chosen (default reference; evo's default is estimate)",
+    )
     p.add_argument("--gt-topic", default="/odom/ground_truth", help="ground-truth nav_msgs/Odometry topic")
     p.add_argument(
         "--pcd-frame", choices=PCD_FRAMES, default="first-pose",
@@ -61,6 +65,7 @@ def run(args) -> int:
         align=args.align,
         rpe_delta=args.rpe_delta,
         rpe_unit=args.rpe_unit,
+        rpe_pairs_from=args.rpe_pairs_from,
         gt_topic=args.gt_topic,
         pcd_frame=args.pcd_frame,
         view_fov_deg=(args.view_fov[0], args.view_fov[1]),

@@ -202,6 +202,16 @@ def test_rpe_in_metres_and_seconds_picks_pairs_along_reference():
     assert res.translation.mean == pytest.approx(0.1, abs=1e-9)  # 10 steps x 1 cm
 
 
+def test_rpe_pairs_along_the_estimate_path():
+    ref = _straight(31, 0.1)
+    est = _drifting(31, 0.2, 0.0)  # twice as fast: 0.5 m of its own path every 3 steps
+    from_ref = tr.relative_pose_error(ref, est, delta=0.5, unit="m")
+    from_est = tr.relative_pose_error(ref, est, delta=0.5, unit="m", pairs_from="estimate")
+    assert from_ref.pairs == 6 and from_est.pairs == 10
+    assert from_ref.translation.mean == pytest.approx(0.5)  # 1.0 m against 0.5 m
+    assert from_est.translation.mean == pytest.approx(0.3)  # 0.6 m against 0.3 m
+
+
 def test_rpe_ignores_a_rigid_offset():
     ref = _loop()
     est = _rigid(ref, Rotation.from_euler("zyx", [30, 10, -5], degrees=True), [5.0, 5.0, 1.0])
