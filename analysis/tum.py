@@ -14,9 +14,7 @@ import numpy as np
 
 from analysis.trajectory import Trajectory
 from replay.errors import NavlogError
-
-HEADER = "# t x y z qx qy qz qw\n"
-
+from replay.tum import HEADER, format_rows, format_seconds  # noqa: F401  (one writer for both packages)
 
 def parse_seconds_ns(text: str) -> int:
     """Integer nanoseconds from a decimal number of seconds (``"12.000000001"`` -> 12000000001)."""
@@ -24,14 +22,6 @@ def parse_seconds_ns(text: str) -> int:
     if not value.is_finite():
         raise ValueError(f"time {text!r} is not finite")
     return int((value * 1_000_000_000).to_integral_value(rounding=ROUND_HALF_EVEN))
-
-
-def format_seconds(ns: int) -> str:
-    """Seconds with exactly 9 decimals from integer nanoseconds."""
-    ns = int(ns)
-    sign = "-" if ns < 0 else ""
-    sec, nsec = divmod(abs(ns), 1_000_000_000)
-    return f"{sign}{sec}.{nsec:09d}"
 
 
 def parse_tum(text: str, source: str = "<text>") -> Trajectory:
@@ -89,11 +79,7 @@ def read_tum(path: str | Path) -> Trajectory:
 
 def format_tum(traj: Trajectory, *, header: bool = True) -> str:
     """TUM text: time with 9 decimals, position and quaternion with 9 decimals."""
-    out = [HEADER] if header else []
-    for t, p, q in zip(traj.times_ns, traj.positions, traj.quaternions):
-        nums = " ".join(_fmt(v) for v in (*p, *q))
-        out.append(f"{format_seconds(int(t))} {nums}\n")
-    return "".join(out)
+    return format_rows(traj.times_ns, traj.positions, traj.quaternions, header=header)
 
 
 def write_tum(path: str | Path, traj: Trajectory, *, header: bool = True) -> Path:
@@ -105,11 +91,6 @@ def write_tum(path: str | Path, traj: Trajectory, *, header: bool = True) -> Pat
     except OSError as exc:
         raise NavlogError(f"{p}: cannot write trajectory: {exc.strerror}") from None
     return p
-
-
-def _fmt(v: float) -> str:
-    text = f"{float(v):.9f}"
-    return text[1:] if text.startswith("-") and float(text) == 0.0 else text
 
 
 def _is_float(v: str) -> bool:

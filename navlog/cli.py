@@ -21,9 +21,13 @@ COMMANDS = [
     "record",
     "info",
     "recover",
+    "replay",
+    "world-map",
     "metrics",
     "view",
     "export",
+    "check-config",
+    "plan",
 ]
 
 

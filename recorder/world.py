@@ -232,3 +232,36 @@ def build_spec(world: World):
                 pos=list(s.center),
             )
     return spec
+
+
+def occupancy(
+    world: World,
+    resolution: float = 0.05,
+    margin: float = 0.0,
+    z_min: float = 0.0,
+    z_max: float = 2.0,
+    padding: float = 0.5,
+):
+    """The world's obstacles as a map_server grid: a cell is occupied (100) when a solid that reaches
+    into heights [z_min, z_max] comes within ``margin`` of the cell; every other cell is free (0).
+
+    A cell counts as touched when the solid comes within half a cell of its centre, so thin panels
+    (2 cm shelf sides) always occupy at least one cell.
+    """
+    from replay.mapio import OccupancyMap
+
+    if resolution <= 0:
+        raise ConfigError(f"resolution must be positive, got {resolution}")
+    if z_min > z_max:
+        raise ConfigError(f"z_min ({z_min}) must not exceed z_max ({z_max})")
+    x0, y0, x1, y1 = world.bounds()
+    ox = math.floor((x0 - padding) / resolution) * resolution
+    oy = math.floor((y0 - padding) / resolution) * resolution
+    nx = int(math.ceil((x1 + padding - ox) / resolution))
+    ny = int(math.ceil((y1 + padding - oy) / resolution))
+    xs = ox + (np.arange(nx) + 0.5) * resolution
+    ys = oy + (np.arange(ny) + 0.5) * resolution
+    gx, gy = np.meshgrid(xs, ys)
+    d = clearance(world, np.stack([gx.ravel(), gy.ravel()], axis=1), z_min, z_max).reshape(ny, nx)
+    data = np.where(d <= margin + resolution / 2, 100, 0).astype(np.int8)
+    return OccupancyMap(data=data, resolution=resolution, origin=(ox, oy, 0.0))

@@ -92,7 +92,9 @@ def _convert(value: Any, tp: Any, where: str) -> Any:
                 errors.append(str(exc))
         raise ConfigError(errors[0] if len(errors) == 1 else f"{where}: {value!r} fits none of {tp}")
     if origin is typing.Literal:
-        if value in args:
+        if isinstance(value, bool) and {"on", "off"} <= set(args):
+            return "on" if value else "off"  # YAML 1.1 reads a bare on/off as a boolean
+        if value in args and not isinstance(value, bool):
             return value
         raise ConfigError(
             f"{where}: {value!r} is not one of {', '.join(map(repr, args))}"

@@ -95,6 +95,7 @@ class Stats:
     delivered: dict[str, int] = field(default_factory=dict)
     published: dict[str, int] = field(default_factory=dict)
     timer_fires: int = 0
+    out_of_order: int = 0  # source messages older than the current time, delivered at it
 
 
 class Executor:
@@ -150,6 +151,8 @@ class Executor:
         env = next(self._sources[index], None)
         if env is not None:
             self._pending_sources += 1
+            if env.time_ns < self.now:
+                self.stats.out_of_order += 1
             self._push(max(env.time_ns, self.now), 0, "source", (index, env))
 
     def publish(self, env: Envelope, rank: int) -> None:

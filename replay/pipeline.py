@@ -27,3 +27,5 @@ class Pipeline:
     write_artifacts: Callable[[Path], dict[str, Path]] = lambda out: {}
     # counts of skipped or invalid inputs, by reason, filled in by the nodes
     skipped: Callable[[], dict[str, int]] = lambda: {}
+    # facts the pipeline decided from the log (e.g. the pose source it chose), for the manifest
+    info: dict[str, str] = field(default_factory=dict)

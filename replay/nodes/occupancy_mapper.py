@@ -1,0 +1,143 @@
+"""The 2D occupancy mapper node: /scan + a pose source -> /map (nav_msgs/OccupancyGrid).
+
+Pose sources (where the laser's pose at each scan's stamp comes from):
+- ``ground_truth``: an Odometry topic giving the true base pose (``/odom/ground_truth``);
+- ``odom``: the robot's own Odometry topic (``/odom``), which drifts;
+- ``lidar_mapper``: the 3D mapper's ``/Odometry``;
+- ``tf``: the TF tree from a fixed frame (``map``, else ``odom``) to the laser frame, as a real
+  robot's bag provides it.
+The chain from the pose's child frame to the laser frame always comes from /tf and /tf_static.
+A scan without a pose or transform at its stamp is skipped and counted; so are scans inserted
+before the robot has moved ``minimum_travel_distance`` or turned ``minimum_travel_heading`` since
+the last inserted one (slam_toolbox's throttle; 0 inserts every scan).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from replay import messages
+from replay.executor import Node
+from replay.occupancy import OccupancyGrid2D, OccupancyParams
+from replay.tf import TFBuffer, TransformError
+
+PoseSource = Literal["ground_truth", "odom", "lidar_mapper", "tf"]
+
+
+@dataclass(frozen=True)
+class OccupancyMapperParams:
+    pose_source: PoseSource = "ground_truth"
+    scan_topic: str = "/scan"
+    pose_topic: str = ""  # default by source: /odom/ground_truth, /odom, /Odometry
+    map_topic: str = "/map"
+    map_frame: str = "map"
+    tf_fixed_frame: str = ""  # for pose_source tf: "" = map if the tree has it, else odom
+    frame_prefix: str = ""  # stripped from every frame name (e.g. "simple_robot/")
+    publish_period: float = 2.0  # s between /map messages (and one at the end)
+    minimum_travel_distance: float = 0.1
+    minimum_travel_heading: float = 0.1
+    grid: OccupancyParams = field(default_factory=OccupancyParams)
+
+
+DEFAULT_POSE_TOPICS = {"ground_truth": "/odom/ground_truth", "odom": "/odom", "lidar_mapper": "/Odometry", "tf": ""}
+
+
+class OccupancyMapperNode(Node):
+    name = "occupancy_mapper"
+
+    def __init__(self, params: OccupancyMapperParams) -> None:
+        super().__init__()
+        self.p = params
+        self.grid = OccupancyGrid2D(params.grid)
+        self.tf = TFBuffer(frame_prefix=params.frame_prefix)
+        self.poses = TFBuffer(frame_prefix=params.frame_prefix)
+        self.skipped: Counter = Counter()
+        self.sensor_trajectory: list[tuple[int, np.ndarray]] = []  # (stamp, laser pose in map) of inserted scans
+        self._pose_child: str | None = None
+        self._last_pose: np.ndarray | None = None
+        self._angles_cache: dict[tuple, np.ndarray] = {}
+
+    @property
+    def pose_topic(self) -> str:
+        return self.p.pose_topic or DEFAULT_POSE_TOPICS[self.p.pose_source]
+
+    def input_topics(self) -> list[str]:
+        topics = [self.p.scan_topic, "/tf", "/tf_static"]
+        if self.p.pose_source != "tf":
+            topics.append(self.pose_topic)
+        return topics
+
+    def setup(self) -> None:
+        self.subscribe("/tf", lambda m, t: self.tf.add_message(m))
+        self.subscribe("/tf_static", lambda m, t: self.tf.add_message(m, static=True))
+        if self.p.pose_source != "tf":
+            self.subscribe(self.pose_topic, self._on_pose)
+        self.subscribe(self.p.scan_topic, self._on_scan)
+        self.create_timer(int(self.p.publish_period * 1e9), self._publish)
+
+    def _on_pose(self, msg, t_ns: int) -> None:
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        child = msg.child_frame_id
+        self._pose_child = self.poses._name(child)
+        self.poses.add("__pose_origin__", child, messages.to_ns(msg.header.stamp), (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+
+    def _sensor_pose(self, frame: str, stamp: int) -> np.ndarray:
+        if self.p.pose_source == "tf":
+            fixed = self.p.tf_fixed_frame or ("map" if "map" in self.tf.frames() else "odom")
+            return self.tf.lookup(fixed, frame, stamp)
+        if self._pose_child is None:
+            raise TransformError(f"no pose on {self.pose_topic} yet")
+        base = self.poses.lookup("__pose_origin__", self._pose_child, stamp)
+        return base @ self.tf.lookup(self._pose_child, frame, None if self._is_static(frame) else stamp)
+
+    def _is_static(self, frame: str) -> bool:
+        """True if the chain from the pose's child frame to ``frame`` is all static."""
+        f = self.tf._name(frame)
+        edges = self.tf._edges
+        while f in edges and f != self._pose_child:
+            if not edges[f].static:
+                return False
+            f = edges[f].parent
+        return True
+
+    def _on_scan(self, msg, t_ns: int) -> None:
+        stamp = messages.to_ns(msg.header.stamp)
+        try:
+            pose = self._sensor_pose(msg.header.frame_id, stamp)
+        except TransformError:
+            self.skipped[f"{self.p.scan_topic}: no pose or transform at the scan's stamp"] += 1
+            return
+        if self._last_pose is not None and self.p.minimum_travel_distance > 0:
+            moved = np.linalg.norm(pose[:2, 3] - self._last_pose[:2, 3])
+            turned = abs(math.atan2(pose[1, 0], pose[0, 0]) - math.atan2(self._last_pose[1, 0], self._last_pose[0, 0]))
+            turned = min(turned, 2 * math.pi - turned)
+            if moved < self.p.minimum_travel_distance and turned < self.p.minimum_travel_heading:
+                self.skipped["scans within minimum travel (not inserted)"] += 1
+                return
+        self._last_pose = pose
+        key = (float(msg.angle_min), float(msg.angle_increment), len(msg.ranges))
+        angles = self._angles_cache.get(key)
+        if angles is None:
+            angles = msg.angle_min + msg.angle_increment * np.arange(len(msg.ranges))
+            self._angles_cache[key] = angles
+        self.grid.insert_scan(pose, angles, np.asarray(msg.ranges), float(msg.range_min), float(msg.range_max))
+        self.sensor_trajectory.append((stamp, pose))
+
+    def _publish(self, t_ns: int) -> None:
+        if self.grid.logodds.size:
+            self.publish(self.p.map_topic, messages.OCCUPANCY_GRID, self.grid.to_map(self.p.map_frame).to_msg(t_ns))
+
+    def finish(self) -> None:
+        self._publish(self.now())
+
+    def counts(self) -> dict[str, int]:
+        st = self.grid.stats
+        out = dict(self.skipped)
+        if st.nan:
+            out[f"{self.p.scan_topic}: NaN ranges (skipped)"] = st.nan
+        return out
