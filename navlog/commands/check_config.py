@@ -1,0 +1,36 @@
+"""navlog check-config FILE: every problem of a Nav2 parameter file at once, with its YAML path."""
+
+from __future__ import annotations
+
+from replay.nav2_params import ERROR, NOTE, WARNING, load_nav2_params
+
+
+def register(sub) -> None:
+    p = sub.add_parser(
+        "check-config",
+        help="check a Nav2 parameter file (typos, unknown plugins, types, ranges, renamed parameters)",
+        description="Read a nav2_params.yaml as Nav2 would and report every problem at once with file, line and "
+        "YAML path: misspelled keys and plugins (with did-you-mean), wrong types, out-of-range values, renamed "
+        "parameters, sections Nav2 ignores. Lists what navlog reads but does not implement. Exits 1 on errors.",
+    )
+    p.add_argument("file", help="a Nav2 parameter file (node: ros__parameters: ...)")
+    p.add_argument("--notes", action="store_true", help="also list every parameter read but not implemented")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    params = load_nav2_params(args.file)
+    order = {ERROR: 0, WARNING: 1, NOTE: 2}
+    problems = sorted(params.problems, key=lambda q: (order[q.severity], q.line or 0, q.path))
+    for q in problems:
+        if q.severity != NOTE or args.notes:
+            print(q.format(args.file))
+    notes = [q for q in problems if q.severity == NOTE]
+    implemented = [n for n in ("global_costmap", "local_costmap", "planner_server", "controller_server",
+                               "velocity_smoother", "collision_monitor") if getattr(params, n) is not None]
+    print(f"checked: {', '.join(implemented) or 'no implemented node'}")
+    if params.not_implemented:
+        print(f"read, not implemented: {', '.join(params.not_implemented)}")
+    print(f"{len(params.errors)} error(s), {len(params.warnings)} warning(s), {len(notes)} note(s)"
+          + ("" if args.notes or not notes else " (--notes lists them)"))
+    return 1 if params.errors else 0

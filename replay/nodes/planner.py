@@ -1,0 +1,228 @@
+"""Costmap and planner nodes: Nav2's global costmap and planner server on the executor.
+
+``CostmapNode`` subscribes to /map (static layer), the obstacle layers' source topics (LaserScan or
+PointCloud2), /tf and /tf_static; it updates at ``update_frequency`` and publishes
+/global_costmap/costmap (OccupancyGrid, Nav2's value mapping) and /global_costmap/published_footprint.
+``PlannerNode`` holds the goals (from /goal_pose or a goal list), plans from the robot pose (TF
+global_frame <- robot_base_frame) every ``replan_period_s`` and publishes /plan (nav_msgs/Path).
+Without any robot TF (a log with only a map), it plans the goal list as a chain of legs from ``start``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from replay import messages as m
+from replay.costmap import Costmap2D, Observation, scan_points, scan_points_inf_valid
+from replay.executor import Node
+from replay.mapio import OccupancyMap
+from replay.navfn import PlanningError, PlanResult
+from replay.pointcloud import xyz
+from replay.tf import TFBuffer, TransformError
+
+
+def _count(d: dict[str, int], key: str) -> None:
+    d[key] = d.get(key, 0) + 1
+
+
+class CostmapNode(Node):
+    def __init__(self, params, name: str = "global_costmap", static_map: OccupancyMap | None = None,
+                 map_topic: str = "/map") -> None:
+        super().__init__()
+        self.name = name
+        self.params = params
+        self.costmap = Costmap2D(params, name)
+        self.tf = TFBuffer()
+        self.skipped: dict[str, int] = {}
+        self.static_map = static_map
+        self.map_topic = map_topic
+        self.pending: dict[str, tuple[int, Any, Any]] = {}  # source -> (stamp, msg, source params)
+        self.updates = 0
+        self.robot: tuple[float, float, float] | None = None
+        self.source_topics: dict[str, list[tuple[str, Any]]] = {}
+        for layer in self.costmap.obstacle_layers:
+            for sname, sp in layer.p.sources.items():
+                topic = sp.topic if sp.topic.startswith("/") else "/" + sp.topic
+                self.source_topics.setdefault(topic, []).append((sname, sp))
+
+    @property
+    def topics(self) -> list[str]:
+        return sorted(self.source_topics)
+
+    def setup(self) -> None:
+        self.subscribe("/tf", lambda msg, t: self.tf.add_message(msg, static=False))
+        self.subscribe("/tf_static", lambda msg, t: self.tf.add_message(msg, static=True))
+        if self.costmap.static_layers:
+            if self.static_map is not None:
+                self.costmap.set_static_map(self.static_map)
+            else:
+                self.subscribe(self.map_topic, self._on_map)
+        for topic in self.source_topics:
+            self.subscribe(topic, lambda msg, t, topic=topic: self._on_source(topic, msg))
+        period = int(round(1e9 / self.params.update_frequency))
+        self.create_timer(period, self._update)
+
+    def _on_map(self, msg: Any, t: int) -> None:
+        self.costmap.set_static_map(OccupancyMap.from_msg(msg))
+
+    def _on_source(self, topic: str, msg: Any) -> None:
+        for sname, sp in self.source_topics[topic]:
+            self.pending[sname] = (m.to_ns(msg.header.stamp), msg, sp)
+
+    def robot_pose(self, t: int) -> tuple[float, float, float] | None:
+        p = self.params
+        try:
+            T = self.tf.lookup(p.global_frame, p.robot_base_frame, t)
+        except TransformError:
+            try:  # latest available
+                T = self.tf.lookup(p.global_frame, p.robot_base_frame, None)  # type: ignore[arg-type]
+            except (TransformError, TypeError):
+                return None
+        return float(T[0, 3]), float(T[1, 3]), math.atan2(T[1, 0], T[0, 0])
+
+    def _observation(self, sname: str, stamp: int, msg: Any, sp) -> Observation | None:
+        frame = sp.sensor_frame or msg.header.frame_id
+        try:
+            T = self.tf.lookup(self.params.global_frame, frame, stamp)
+        except TransformError:
+            _count(self.skipped, f"{sname}: no transform {self.params.global_frame} <- {frame}")
+            return None
+        if hasattr(msg, "ranges"):
+            pts = scan_points_inf_valid(msg) if sp.inf_is_valid else scan_points(msg)
+        else:
+            pts = xyz(msg)
+        world = pts @ T[:3, :3].T + T[:3, 3]
+        return Observation(origin=T[:3, 3].copy(), points=world, source=sname)
+
+    def _update(self, t: int) -> None:
+        if self.costmap.static_layers and self.static_map is None and all(
+            layer.map_costs is None for layer in self.costmap.static_layers
+        ):
+            if not self.costmap.obstacle_layers:
+                return
+        robot = self.robot_pose(t)
+        if robot is None:
+            if self.costmap.params.rolling_window or self.costmap.obstacle_layers:
+                _count(self.skipped, f"costmap update: no transform {self.params.global_frame} <- "
+                       f"{self.params.robot_base_frame}")
+                if not self.costmap.static_layers:
+                    return
+            robot = (0.0, 0.0, 0.0) if self.robot is None else self.robot
+            if self.costmap.params.rolling_window:
+                return
+        self.robot = robot
+        for sname in sorted(self.pending):
+            stamp, msg, sp = self.pending[sname]
+            obs = self._observation(sname, stamp, msg, sp)
+            if obs is not None:
+                self.costmap.add_observation(obs)
+        self.pending = {}
+        self.costmap.update(*robot)
+        self.updates += 1
+        self.publish(f"/{self.name}/costmap", m.OCCUPANCY_GRID, self.costmap.to_msg(t))
+        self.publish(f"/{self.name}/published_footprint", "geometry_msgs/msg/PolygonStamped",
+                     self.costmap.footprint_msg(t, *robot))
+
+
+def path_msg(plan: PlanResult, t: int, frame: str) -> Any:
+    PoseStamped = m.msg_class(m.POSE_STAMPED)
+    poses = [PoseStamped(header=m.header(t, frame), pose=m.pose((x, y, 0.0), m.quat_from_yaw(yaw)))
+             for x, y, yaw in plan.poses]
+    return m.msg_class(m.PATH)(header=m.header(t, frame), poses=poses)
+
+
+class PlannerNode(Node):
+    name = "planner_server"
+
+    def __init__(self, costmap_node: CostmapNode, planner, goals: list[tuple[float, float, float]] | None = None,
+                 goal_frame: str = "map", replan_period_s: float = 1.0, goal_tolerance: float = 0.25,
+                 start: tuple[float, float, float] = (0.0, 0.0, 0.0), goal_topic: str = "/goal_pose") -> None:
+        super().__init__()
+        self.cm_node = costmap_node
+        self.planner = planner
+        self.goals = list(goals or [])
+        self.goal_frame = goal_frame
+        self.period = int(round(replan_period_s * 1e9))
+        self.goal_tolerance = goal_tolerance
+        self.start = start
+        self.goal_topic = goal_topic
+        self.index = 0
+        self.skipped: dict[str, int] = {}
+        self.plans: list[tuple[int, PlanResult]] = []
+        self.failures: list[tuple[int, str]] = []
+        self.chained = False
+
+    def setup(self) -> None:
+        self.subscribe(self.goal_topic, self._on_goal)
+        self.create_timer(self.period, self._tick)
+
+    def _on_goal(self, msg: Any, t: int) -> None:
+        q = msg.pose.orientation
+        yaw = m.yaw_from_quat((q.x, q.y, q.z, q.w))
+        self.goals = [(float(msg.pose.position.x), float(msg.pose.position.y), yaw)]
+        self.goal_frame = msg.header.frame_id or self.cm_node.params.global_frame
+        self.index = 0
+        self._tick(t)
+
+    def _goal_in_global(self, goal, t: int):
+        frame = self.goal_frame.lstrip("/")
+        gframe = self.cm_node.params.global_frame
+        if frame == gframe:
+            return goal
+        try:
+            T = self.cm_node.tf.lookup(gframe, frame, t)
+        except TransformError:
+            _count(self.skipped, f"goal in frame '{frame}': no transform to '{gframe}'")
+            self.failures.append((t, f"goal in frame '{frame}' has no transform to '{gframe}'"))
+            return None
+        x, y = T[0, 0] * goal[0] + T[0, 1] * goal[1] + T[0, 3], T[1, 0] * goal[0] + T[1, 1] * goal[1] + T[1, 3]
+        return x, y, goal[2] + math.atan2(T[1, 0], T[0, 0])
+
+    def _plan(self, start, goal, t: int) -> None:
+        try:
+            plan = self.planner.plan(self.cm_node.costmap, start, goal)
+        except PlanningError as exc:
+            _count(self.skipped, "planning failed")
+            self.failures.append((t, str(exc)))
+            self.publish("/navlog/events", m.EVENT_TYPE, m.event(t, "plan_failed", self.name, str(exc)))
+            return
+        self.plans.append((t, plan))
+        self.publish("/plan", m.PATH, path_msg(plan, t, self.cm_node.params.global_frame))
+
+    def _tick(self, t: int) -> None:
+        if self.index >= len(self.goals) or self.cm_node.updates == 0:
+            return
+        robot = self.cm_node.robot_pose(t)
+        if robot is None:
+            if self.chained:
+                return
+            # no robot pose in the log: plan the goal list as a chain of legs from `start`
+            self.chained = True
+            prev = self.start
+            for goal in self.goals:
+                g = self._goal_in_global(goal, t)
+                if g is None:
+                    return
+                self._plan(prev, g, t)
+                prev = g
+            self.index = len(self.goals)
+            return
+        goal = self._goal_in_global(self.goals[self.index], t)
+        if goal is None:
+            return
+        if math.hypot(robot[0] - goal[0], robot[1] - goal[1]) <= self.goal_tolerance:
+            self.publish("/navlog/events", m.EVENT_TYPE, m.event(t, "goal_reached", self.name, "", self.index))
+            self.index += 1
+            if self.index >= len(self.goals):
+                return
+            goal = self._goal_in_global(self.goals[self.index], t)
+            if goal is None:
+                return
+        self._plan(robot, goal, t)
+
+
+def plan_lengths(plans: list[tuple[int, PlanResult]]) -> np.ndarray:
+    return np.array([p.length for _, p in plans])
