@@ -311,6 +311,7 @@ class ViewBuilder:
         self._paths: dict[str, list] = defaultdict(list)
         self._twists: dict[str, list] = defaultdict(list)
         self._grids: dict[str, list] = defaultdict(list)
+        self._grid_pending: dict[str, tuple] = {}
         self._goals: dict[str, list] = defaultdict(list)
         self._waypoints: dict[str, list] = defaultdict(list)
         self._events: list[tuple[int, str, str]] = []
@@ -487,11 +488,14 @@ class ViewBuilder:
             (o.orientation.x, o.orientation.y, o.orientation.z, o.orientation.w),
         )
         grids = self._grids[topic]
-        if grids and self.opt.grid_period_s > 0 and t - grids[-1][0] < self.opt.grid_period_s * 1e9:
-            if len(grids) > 1 and grids[-1][0] - grids[-2][0] < self.opt.grid_period_s * 1e9:
-                grids[-1] = entry  # keep the latest of a fast run
-                self.summary.skipped[f"grid thinned to {self.opt.grid_period_s} s on {topic}"] += 1
-                return
+        period = self.opt.grid_period_s * 1e9
+        if grids and t - grids[-1][0] < period:
+            if topic in self._grid_pending:
+                self.summary.skipped[f"grid thinned to one per {self.opt.grid_period_s:g} s on {topic}"] += 1
+            self._grid_pending[topic] = entry  # the latest of a fast run is kept for the end
+            return
+        if self._grid_pending.pop(topic, None) is not None:
+            self.summary.skipped[f"grid thinned to one per {self.opt.grid_period_s:g} s on {topic}"] += 1
         grids.append(entry)
 
     def _on_goal(self, topic: str, t: int, msg: Any, prefix: str) -> None:
@@ -793,6 +797,9 @@ class ViewBuilder:
         )
 
     def _send_grids(self) -> None:
+        for topic, entry in sorted(self._grid_pending.items()):
+            self._grids[topic].append(entry)
+        self._grid_pending.clear()
         for topic, grids in sorted(self._grids.items()):
             ent = self._entity(f"grids/{entity_name(topic)}")
             self._set_frame(ent, grids[0][1])

@@ -44,6 +44,10 @@ def write_sample_log(
     imu_hz: float = 50.0,
     with_events: bool = True,
     chunk_size: int = 4 << 20,
+    frame_prefix: str = "",
+    twist_stamped: bool = False,
+    robot: str = "test",
+    costmap_hz: float = 0.0,
 ) -> Path:
     """Write the sample log; returns its path. Deterministic (seeded)."""
     rng = np.random.default_rng(7)
@@ -54,10 +58,15 @@ def write_sample_log(
     def every(hz: float):
         return int(round(1e9 / hz))
 
-    writer = McapLogWriter(path, metadata={"navlog": {"world": "corridor", "robot": "test"}}, chunk_size=chunk_size)
+    writer = McapLogWriter(path, metadata={"navlog": {"world": "corridor", "robot": robot}}, chunk_size=chunk_size)
 
     def emit(item) -> None:
         t, topic, typename, msg = item
+        if frame_prefix:
+            _prefix_frames(msg, frame_prefix)
+        if twist_stamped and typename == m.TWIST:
+            msg = m.msg_class(m.TWIST_STAMPED)(header=m.header(t, "base_link"), twist=msg)
+            typename = m.TWIST_STAMPED
         writer.write_raw(topic, typename, t, m.serialize(msg, typename))
 
     # static TF and map at t=0
@@ -89,6 +98,8 @@ def write_sample_log(
             cols = {"x": pts[:, 0], "y": pts[:, 1], "z": pts[:, 2], "intensity": np.full(cloud_points, 10.0, np.float32),
                     "ring": (np.arange(cloud_points) % 16).astype(np.uint16), "time": np.zeros(cloud_points, np.float32)}
             emit((t, "/livox/lidar", m.POINT_CLOUD2, make_cloud(t, "livox_frame", cols)))
+        if costmap_hz and t % every(costmap_hz) == 0:
+            emit((t, "/global_costmap/costmap", m.OCCUPANCY_GRID, occupancy_grid(t)))
         if t % period["imu"] == 0:
             emit((t, "/imu/data", m.IMU, imu(t)))
         if t % period["cmd"] == 0:
@@ -99,6 +110,18 @@ def write_sample_log(
         emit((end_ns, "/events", m.EVENT_TYPE, m.event(end_ns, "goal_reached", "navigator", "corridor_end", 0.12)))
     writer.close()
     return path
+
+
+def _prefix_frames(msg, prefix: str) -> None:
+    """Prefix every frame id of a message in place (the `simple_robot/` convention)."""
+    if hasattr(msg, "header") and msg.header.frame_id:
+        msg.header.frame_id = prefix + msg.header.frame_id
+    if hasattr(msg, "child_frame_id") and msg.child_frame_id:
+        msg.child_frame_id = prefix + msg.child_frame_id
+    for sub in getattr(msg, "transforms", []):
+        _prefix_frames(sub, prefix)
+    for sub in getattr(msg, "poses", []):
+        _prefix_frames(sub, prefix)
 
 
 def laser_scan(t_ns: int, robot_x: float, beams: int):

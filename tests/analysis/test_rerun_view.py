@@ -280,3 +280,38 @@ def test_not_a_log(tmp_path, capsys):
     assert main(["view", str(bad), "--save", str(tmp_path / "a.rrd")]) == 2
     assert "not an MCAP file" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.mcap"]
+
+
+def test_frame_prefix_twist_stamped_and_robot_radius(tmp_path):
+    from replay.config import load_yaml, named_config
+
+    log = sample.write_sample_log(tmp_path / "p.mcap", frame_prefix="simple_robot/", twist_stamped=True, robot="go2", with_events=False)
+    out = tmp_path / "p.rrd"
+    assert main(["-q", "view", str(log), "--frame-prefix", "simple_robot/", "--save", str(out)]) == 0
+    data = read_rrd(out)
+    # frame names as configured: the prefix is stripped everywhere, scans land on the wall as before
+    assert column(data, "/sensors/scan", "CoordinateFrame:frame", static=True)[0][1] == ["front_laser"]
+    assert column(data, "/tf/base_footprint", "Transform3D:parent_frame")[0][1] == ["odom"]
+    u_wall = (sample.WALL_X - sample.GRID_ORIGIN[0]) / sample.GRID_RES
+    rows = column(data, "/top/scans/scan", "Points2D:positions")
+    assert len(rows) == 20 and all(np.allclose(np.asarray(p)[:, 0], u_wall, atol=1e-3) for _, p in rows)
+    # TwistStamped reads like Twist
+    assert {v[0] for _, v in column(data, "/plots/cmd_vel/vx/cmd_vel_nav", "Scalars:scalars")} == {0.6}
+    # the footprint is the recorded robot's circle (config/robots/go2.yaml radius)
+    radius = float(load_yaml(named_config("robots", "go2"))["radius"])
+    strip = np.asarray(column(data, "/top/footprint", "LineStrips2D:strips")[0][1][0])
+    dist = np.linalg.norm(strip[:-1] - strip[:-1].mean(axis=0), axis=1)
+    assert np.allclose(dist, radius / sample.GRID_RES, atol=1e-3)
+
+
+def test_fast_grids_are_thinned_to_one_per_period(tmp_path):
+    from analysis.rerun_view import ViewOptions, save_view
+
+    log = sample.write_sample_log(tmp_path / "c.mcap", costmap_hz=5.0, with_events=False)
+    summary = save_view(log, tmp_path / "c.rrd", options=ViewOptions(grid_period_s=1.0))
+    data = read_rrd(tmp_path / "c.rrd")
+    times = [t for t, _ in column(data, "/grids/global_costmap/costmap", "GridMap:data")]
+    assert times == [0, NS, 2 * NS]  # 11 costmaps at 5 Hz over 0..2 s
+    assert summary.skipped == {"grid thinned to one per 1 s on /global_costmap/costmap": 8}
+    # /map stays the top-down grid; the costmap is drawn in 3D only
+    assert summary.grid_source == "/map"
