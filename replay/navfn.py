@@ -426,7 +426,7 @@ class NavfnPlanner:
                     before = poses[-3]
                 poses[-1, 2] = math.atan2(poses[-1, 1] - before[1], poses[-1, 0] - before[0])
         notes = []
-        if best_d > 0:
+        if best_d > 1e-12:
             notes.append(f"goal unreachable; tolerance moved it by {math.sqrt(best_d):.3f} m to "
                          f"({best[0]:.3f}, {best[1]:.3f})")
         length = path_length(poses)

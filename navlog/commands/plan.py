@@ -32,7 +32,7 @@ def register(sub) -> None:
         "goal, print length, cost and planning time; optionally write the plan as nav_msgs/Path MCAP or a PNG.",
     )
     p.add_argument("--map", required=True, type=Path, help="map_server YAML")
-    p.add_argument("--start", required=True, help="x,y,yaw")
+    p.add_argument("--start", required=True, help="x,y,yaw (write --start=-1,0,0 when x is negative)")
     p.add_argument("--goal", required=True, help="x,y,yaw")
     p.add_argument("--params", type=Path, help="Nav2 parameter file (default: Nav2's defaults)")
     p.add_argument("--planner", choices=("navfn", "smac2d"), default="navfn")
