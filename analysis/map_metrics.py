@@ -9,6 +9,8 @@ nearest occupied cell centre of X (a distance transform):
 
 - precision@tau: share of estimated occupied cells with ``d_ref <= tau``;
 - recall@tau: share of reference occupied cells with ``d_est <= tau``; F1 their harmonic mean;
+- recall (observable): the same over the reference cells that touch the reachable free space, the
+  only ones a sensor inside it can see (a thick wall's inside never shows in a laser map);
 - IoU: ``|E & R| / |E | R|`` of the occupied sets; IoU@tau the same of both sets dilated by tau;
 - mean distance reference -> estimate (Santos et al.'s normalised error) and estimate -> reference
   (spurious cells), their mean (Chamfer) and the larger maximum (Hausdorff), in metres;
@@ -130,6 +132,8 @@ class GridMetrics:
     chamfer_m: float
     hausdorff_m: float
     coverage: float
+    recall_observable: float = float("nan")
+    f1_observable: float = float("nan")
     counts: dict[str, int] = field(default_factory=dict)
     offset_cells: tuple[int, int] = (0, 0)
     origin_residual_m: float = 0.0
@@ -138,7 +142,7 @@ class GridMetrics:
         out: dict[str, Any] = {}
         for k in (
             "tau_m", "precision", "recall", "f1", "iou", "iou_tau", "mean_dist_ref_to_est_m",
-            "mean_dist_est_to_ref_m", "chamfer_m", "hausdorff_m", "coverage",
+            "mean_dist_est_to_ref_m", "chamfer_m", "hausdorff_m", "coverage", "recall_observable", "f1_observable",
         ):
             v = float(getattr(self, k))
             out[k] = v if np.isfinite(v) else None
@@ -216,6 +220,12 @@ def grid_metrics(
     reach = reachable_free(RF, seed_rc)
     n_reach = int(reach.sum())
     coverage = _ratio(int(np.count_nonzero(reach & EF)), n_reach)
+    # the reference surfaces a sensor in the reachable free space can see: occupied cells touching it
+    # (a wall's inside and the far side of the room's walls are never observable)
+    surface = R & ndimage.binary_dilation(reach, structure=np.ones((3, 3), dtype=bool))
+    n_s = int(surface.sum())
+    tp_s = int(np.count_nonzero(d_est[surface] <= tau_cells))
+    recall_obs = _ratio(tp_s, n_s)
 
     counts = {
         "ref_occupied": n_r,
@@ -225,11 +235,14 @@ def grid_metrics(
         "ref_free_reachable": n_reach,
         "est_free": int(EF.sum()),
         "est_free_on_ref_occupied": int(np.count_nonzero(EF & R)),
+        "ref_occupied_observable": n_s,
+        "matched_ref_occupied_observable": tp_s,
     }
     return GridMetrics(
         tau_m=float(tau), precision=precision, recall=recall, f1=float(f1), iou=iou, iou_tau=iou_tau,
         mean_dist_ref_to_est_m=mean_re, mean_dist_est_to_ref_m=mean_er,
         chamfer_m=(mean_re + mean_er) / 2.0, hausdorff_m=hausdorff, coverage=coverage,
+        recall_observable=recall_obs, f1_observable=float(_f1(precision, recall_obs)),
         counts=counts, offset_cells=frame.offset_cells, origin_residual_m=frame.residual_m,
     )
 

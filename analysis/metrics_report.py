@@ -368,6 +368,11 @@ def format_table(metrics: dict[str, Any]) -> str:
         lines.append(f"  {'precision':<22} {_f(g['precision'])}  ({c['matched_est_occupied']}/{c['est_occupied']} cells)")
         lines.append(f"  {'recall':<22} {_f(g['recall'])}  ({c['matched_ref_occupied']}/{c['ref_occupied']} cells)")
         lines.append(f"  {'F1':<22} {_f(g['f1'])}")
+        lines.append(
+            f"  {'recall (observable)':<22} {_f(g['recall_observable'])}  "
+            f"({c['matched_ref_occupied_observable']}/{c['ref_occupied_observable']} surface cells facing reachable free space)"
+        )
+        lines.append(f"  {'F1 (observable)':<22} {_f(g['f1_observable'])}")
         lines.append(f"  {'IoU / IoU@tau':<22} {_f(g['iou'])} / {_f(g['iou_tau'])}")
         lines.append(f"  {'mean dist ref->map':<22} {_f(g['mean_dist_ref_to_est_m'], 'm')}")
         lines.append(f"  {'mean dist map->ref':<22} {_f(g['mean_dist_est_to_ref_m'], 'm')}")

@@ -37,6 +37,7 @@ class OccupancyMapperParams:
     map_topic: str = "/map"
     map_frame: str = "map"
     tf_fixed_frame: str = ""  # for pose_source tf: "" = map if the tree has it, else odom
+    base_frame: str = "base_link"  # for pose_source tf: the robot frame whose path is the trajectory
     frame_prefix: str = ""  # stripped from every frame name (e.g. "simple_robot/")
     publish_period: float = 2.0  # s between /map messages (and one at the end)
     minimum_travel_distance: float = 0.1
@@ -57,7 +58,7 @@ class OccupancyMapperNode(Node):
         self.tf = TFBuffer(frame_prefix=params.frame_prefix)
         self.poses = TFBuffer(frame_prefix=params.frame_prefix)
         self.skipped: Counter = Counter()
-        self.sensor_trajectory: list[tuple[int, np.ndarray]] = []  # (stamp, laser pose in map) of inserted scans
+        self.trajectory: list[tuple[int, np.ndarray]] = []  # (stamp, robot pose in map) of inserted scans
         self._pose_child: str | None = None
         self._last_pose: np.ndarray | None = None
         self._angles_cache: dict[tuple, np.ndarray] = {}
@@ -86,14 +87,17 @@ class OccupancyMapperNode(Node):
         self._pose_child = self.poses._name(child)
         self.poses.add("__pose_origin__", child, messages.to_ns(msg.header.stamp), (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
 
-    def _sensor_pose(self, frame: str, stamp: int) -> np.ndarray:
+    def _poses(self, frame: str, stamp: int) -> tuple[np.ndarray, np.ndarray]:
+        """(robot pose, sensor pose) in the map frame at ``stamp``."""
         if self.p.pose_source == "tf":
             fixed = self.p.tf_fixed_frame or ("map" if "map" in self.tf.frames() else "odom")
-            return self.tf.lookup(fixed, frame, stamp)
+            sensor = self.tf.lookup(fixed, frame, stamp)
+            base = self.tf.lookup(fixed, self.p.base_frame, stamp) if self.p.base_frame in self.tf.frames() else sensor
+            return base, sensor
         if self._pose_child is None:
             raise TransformError(f"no pose on {self.pose_topic} yet")
         base = self.poses.lookup("__pose_origin__", self._pose_child, stamp)
-        return base @ self.tf.lookup(self._pose_child, frame, None if self._is_static(frame) else stamp)
+        return base, base @ self.tf.lookup(self._pose_child, frame, None if self._is_static(frame) else stamp)
 
     def _is_static(self, frame: str) -> bool:
         """True if the chain from the pose's child frame to ``frame`` is all static."""
@@ -108,7 +112,7 @@ class OccupancyMapperNode(Node):
     def _on_scan(self, msg, t_ns: int) -> None:
         stamp = messages.to_ns(msg.header.stamp)
         try:
-            pose = self._sensor_pose(msg.header.frame_id, stamp)
+            base, pose = self._poses(msg.header.frame_id, stamp)
         except TransformError:
             self.skipped[f"{self.p.scan_topic}: no pose or transform at the scan's stamp"] += 1
             return
@@ -126,7 +130,7 @@ class OccupancyMapperNode(Node):
             angles = msg.angle_min + msg.angle_increment * np.arange(len(msg.ranges))
             self._angles_cache[key] = angles
         self.grid.insert_scan(pose, angles, np.asarray(msg.ranges), float(msg.range_min), float(msg.range_max))
-        self.sensor_trajectory.append((stamp, pose))
+        self.trajectory.append((stamp, base))
 
     def _publish(self, t_ns: int) -> None:
         if self.grid.logodds.size:

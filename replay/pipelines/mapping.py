@@ -59,8 +59,8 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
             written.update(lidar.save_pcd(out / "map.pcd"))
             stamps, poses = lidar.poses()
         else:
-            stamps = [t for t, _ in occ.sensor_trajectory]
-            poses = [p for _, p in occ.sensor_trajectory]
+            stamps = [t for t, _ in occ.trajectory]
+            poses = [p for _, p in occ.trajectory]
         written["trajectory_tum"] = write_poses(out / "trajectory.tum", stamps, poses)
         return written
 
@@ -71,5 +71,5 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         return out
 
     info = {"pose_source": source, "lidar_mapper": "on" if lidar_on else "off",
-            "trajectory": "3D mapper base_link poses" if lidar_on else f"laser poses from {source}"}
+            "trajectory": "3D mapper base_link poses" if lidar_on else f"robot poses from {source} (scans inserted)"}
     return Pipeline("mapping", nodes, inputs, optional, outputs, write_artifacts, skipped, info)

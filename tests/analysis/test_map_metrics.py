@@ -224,3 +224,22 @@ def test_band_directions_are_unit_rays_in_the_band():
     assert el.min() == pytest.approx(-15.0) and el.max() == pytest.approx(15.0)
     with pytest.raises(mm.MapMetricError, match="elevation"):
         mm.band_directions((10.0, -10.0))
+
+
+def test_observable_recall_counts_only_surfaces_facing_reachable_space():
+    from replay.mapio import OccupancyMap
+
+    from analysis.map_metrics import grid_metrics
+
+    ref = np.zeros((20, 20), dtype=np.int8)
+    ref[:3, :] = ref[-3:, :] = ref[:, :3] = ref[:, -3:] = 100  # walls three cells thick
+    est = np.full((20, 20), -1, dtype=np.int8)
+    est[3:17, 3:17] = 0
+    est[2, 2:18] = est[17, 2:18] = est[2:18, 2] = est[2:18, 17] = 100  # only the inner faces
+    m = grid_metrics(OccupancyMap(est, 0.05), OccupancyMap(ref, 0.05), tau=0.0, seed_xy=(0.5, 0.5))
+    inner = 4 * 16 - 4
+    assert m.counts["ref_occupied_observable"] == inner  # the inner ring, corners touching diagonally
+    assert m.precision == 1.0
+    assert m.recall == pytest.approx(m.counts["matched_ref_occupied"] / int((ref == 100).sum()))
+    assert m.recall < 0.5
+    assert m.recall_observable == 1.0 and m.f1_observable == 1.0
