@@ -1142,6 +1142,7 @@ def stream_view(
     replay_dir: Path | str | None = None,
     options: ViewOptions | None = None,
     recover: bool = False,
+    flush_timeout_s: float = 30.0,
 ) -> ViewSummary:
     """Send a log to a viewer: a newly spawned one, or one listening at ``connect``."""
     with open_log(log_path, recover=recover) as reader:
@@ -1151,5 +1152,11 @@ def stream_view(
         else:
             rec.connect_grpc(connect)
         summary = build_view(reader, rec, replay_dir=Path(replay_dir) if replay_dir else None, options=options)
-    rec.flush()
+    try:
+        rec.flush(timeout_sec=flush_timeout_s)
+    except Exception as exc:
+        rec.disconnect()
+        where = "the spawned viewer" if spawn else (connect or "rerun+http://127.0.0.1:9876/proxy")
+        raise NavlogError(f"no Rerun viewer took the recording at {where} within {flush_timeout_s:g} s ({exc})") from None
+    rec.disconnect()
     return summary

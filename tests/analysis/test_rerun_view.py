@@ -315,3 +315,48 @@ def test_fast_grids_are_thinned_to_one_per_period(tmp_path):
     assert summary.skipped == {"grid thinned to one per 1 s on /global_costmap/costmap": 8}
     # /map stays the top-down grid; the costmap is drawn in 3D only
     assert summary.grid_source == "/map"
+
+
+def test_connect_streams_to_a_listening_viewer_server(sample_log, tmp_path):
+    """--connect sends the recording over gRPC; a headless `rerun --save` server receives it."""
+    import signal
+    import socket
+    import time
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    received = tmp_path / "received.rrd"
+    server = subprocess.Popen(
+        [str(RERUN), "--bind", "127.0.0.1", "--port", str(port), "--save", str(received)],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )
+    try:
+        deadline = time.monotonic() + 20
+        while time.monotonic() < deadline:
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+                break
+            except OSError:
+                time.sleep(0.1)
+        assert main(["-q", "view", str(sample_log), "--connect", f"rerun+http://127.0.0.1:{port}/proxy"]) == 0
+        time.sleep(0.5)
+    finally:
+        server.send_signal(signal.SIGINT)
+        server.wait(timeout=20)
+    entities = set(read_rrd(received))
+    assert {"/sensors/scan", "/top/scans/scan", "/plots/cmd_vel/vx/cmd_vel", "/events"} <= entities
+
+
+def test_connect_without_a_viewer_fails_clearly(sample_log, monkeypatch, capsys):
+    import socket
+
+    import analysis.rerun_view as rv
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    original = rv.stream_view
+    monkeypatch.setattr(rv, "stream_view", lambda *a, **k: original(*a, **{**k, "flush_timeout_s": 1.0}))
+    assert main(["view", str(sample_log), "--connect", f"rerun+http://127.0.0.1:{port}/proxy"]) == 2
+    assert "no Rerun viewer took the recording" in capsys.readouterr().err
