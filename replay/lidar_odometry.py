@@ -47,7 +47,7 @@ class LidarOdometryParams:
     scan_voxel: float = 0.25  # scan downsampling for registration
     map_voxel: float = 0.1  # local map resolution
     method: Method = "point_to_plane"
-    max_correspondence: float = 0.5
+    max_correspondence: float = 0.3
     max_iterations: int = 30
     convergence: float = 1e-6  # relative fitness and RMSE change that stops ICP
     min_fitness: float = 0.3  # below it a registration is rejected and the prediction kept
@@ -272,10 +272,12 @@ class _Threads:
 
     def __enter__(self) -> None:
         self.prev = o3d.utility.get_max_threads()
-        o3d.utility.set_max_threads(self.n)
+        if self.prev != self.n:
+            o3d.utility.set_max_threads(self.n)
 
     def __exit__(self, *exc) -> None:
-        o3d.utility.set_max_threads(self.prev)
+        if self.prev != self.n:
+            o3d.utility.set_max_threads(self.prev)
 
 
 # ------------------------------------------------------------------ the odometry

@@ -40,7 +40,7 @@ class LidarMapperParams:
     time_field: str = "time"  # per-point time in seconds after the header stamp
     use_imu: bool = True
     use_odom: bool = True
-    cloud_every_n_frames: int = 1  # 0: never publish /cloud_registered
+    cloud_every_n_frames: int = 5  # 0: never publish /cloud_registered
     path_every_n_frames: int = 50  # 0: only at the end
     initial_pose: tuple[float, float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # x y z roll pitch yaw
     odometry: LidarOdometryParams = field(default_factory=LidarOdometryParams)

@@ -16,8 +16,13 @@ import numpy as np
 import open3d as o3d
 from scipy.spatial.transform import Rotation
 
+from replay import messages
+from replay.executor import Envelope
+from replay.pointcloud import make_cloud
+
 EXTRINSIC_XYZ = (0.2, 0.0, 0.08)  # livox_frame in base_link
 SWEEP_S = 0.1
+SWEEP_NS_INT = 100_000_000
 ROOM = (10.0, 10.0, 2.5)
 # (center x, y, size x, y, z, yaw rad)
 BOXES = (
@@ -167,3 +172,40 @@ def make_sequence(
     acc_w = (pp[:, :3, 3] - 2 * p0[:, :3, 3] + pm[:, :3, 3]) / h**2 + np.array([0.0, 0.0, 9.81])
     accel = np.einsum("nji,nj->ni", p0[:, :3, :3], acc_w)
     return Sequence(frames, np.round(imu_t * 1e9).astype(np.int64), gyro, accel, trajectory, ext)
+
+
+# ---------------------------------------------------------------- as ROS 2 messages
+
+
+def imu_msg(t_ns: int, gyro, accel):
+    Imu = messages.msg_class(messages.IMU)
+    return Imu(
+        header=messages.header(t_ns, "base_link"),
+        orientation=messages.quaternion((0.0, 0.0, 0.0, 1.0)),
+        orientation_covariance=np.full(9, -1.0),
+        angular_velocity=messages.vector3(*gyro),
+        angular_velocity_covariance=np.zeros(9),
+        linear_acceleration=messages.vector3(*accel),
+        linear_acceleration_covariance=np.zeros(9),
+    )
+
+
+def cloud_msg(frame: Frame, frame_id: str = "livox_frame"):
+    p = frame.points
+    cols = {"x": p[:, 0], "y": p[:, 1], "z": p[:, 2], "intensity": np.ones(len(p), np.float32), "ring": frame.rings, "time": frame.times}
+    return make_cloud(frame.stamp_ns, frame_id, cols)
+
+
+def tf_static_msg():
+    return messages.tf_message([messages.transform_stamped(0, "base_link", "livox_frame", EXTRINSIC_XYZ, (0.0, 0.0, 0.0, 1.0))])
+
+
+def envelopes(seq: Sequence, extra: list[Envelope] = ()) -> list[Envelope]:
+    """The log a recorder would write: /tf_static first, IMU at 200 Hz, each cloud at the end of its sweep."""
+    out = [Envelope("/tf_static", messages.TF_MESSAGE, 0, tf_static_msg())]
+    for t, g, a in zip(seq.imu_ns, seq.gyro, seq.accel):
+        out.append(Envelope("/imu/data", messages.IMU, int(t), imu_msg(int(t), g, a)))
+    for f in seq.frames:
+        out.append(Envelope("/livox/lidar", messages.POINT_CLOUD2, f.stamp_ns + SWEEP_NS_INT, cloud_msg(f)))
+    out.extend(extra)
+    return sorted(out, key=lambda e: e.time_ns)  # stable: ties keep the order above
