@@ -398,7 +398,7 @@ class ViewBuilder:
                 self.summary.not_drawn[(prefix + t.name) if prefix else t.name] = t.typename
         from replay.progress import Progress
 
-        prog = Progress(reader.duration_ns / 1e9, f"view {reader.path.name}", enabled=log.isEnabledFor(logging.INFO))
+        prog = Progress(reader.duration_ns / 1e9, f"view {reader.path.name}", enabled=log.isEnabledFor(logging.WARNING))
         n = 0
         for env in reader.messages(wanted):
             key = f"{prefix}{env.topic}" if prefix else env.topic
@@ -409,6 +409,7 @@ class ViewBuilder:
             n += 1
             if n % 2000 == 0:
                 prog.update((env.time_ns - reader.start_ns) / 1e9)
+        prog.update(reader.duration_ns / 1e9)
         prog.close()
         self.summary.messages += n
         for reason, count in reader.report.skipped.items():
