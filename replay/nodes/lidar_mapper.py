@@ -129,11 +129,13 @@ class LidarMapperNode(Node):
         child = msg.child_frame_id.lstrip("/")
         fix = self._odom_fix.get(child)
         if fix is None:
-            try:  # odom child (base_footprint) <- base_link
+            try:  # odom child (base_footprint) <- base_link, from the static mounts
                 fix = self.tf.lookup(child, self.params.base_frame, None) if child and child != self.params.base_frame else np.eye(4)
             except TransformError:
-                self._skip("odom_missing_base_transform")
-                return
+                # not static (a walking body moves over its footprint): only the relative motion is
+                # used, and for planar motion a vertical offset commutes with it, so identity is close
+                self._skip("odom_base_transform_assumed_identity")
+                fix = np.eye(4)
             self._odom_fix[child] = fix
         pp, q = msg.pose.pose.position, msg.pose.pose.orientation
         pose = messages.make_transform((pp.x, pp.y, pp.z), (q.x, q.y, q.z, q.w)) @ fix

@@ -258,3 +258,22 @@ def test_gyro_track_integrates_a_known_rate():
     angles = Rotation.from_matrix(rel).as_rotvec()
     np.testing.assert_allclose(angles, [[0, 0, 0.05], [0, 0, -0.025]], atol=1e-12)
     assert gyro.relative_rotations(0, np.array([300_000_000])) is None  # beyond the data: no guess
+
+
+def test_node_uses_drifting_odom_without_imu(room):
+    seq = scene.make_sequence(scene.loop_trajectory(), 30, scene=room)
+    drift = Rotation.from_euler("z", 0.1).as_matrix()
+    odom = []
+    for k in range(0, 3100_000_000 + 1, 20_000_000):
+        g = seq.ground_truth([k])[0]
+        p, r = drift @ g[:3, 3] + [0.5, -0.2, -0.32], drift @ g[:3, :3]  # odom -> base_footprint, rotated and offset
+        msg = messages.odometry(k, "odom", "base_footprint", p, messages.matrix_to_quat(r), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        odom.append(Envelope("/odom", messages.ODOMETRY, k, msg))
+    params = initial_pose_params(seq)
+    params = LidarMapperParams(initial_pose=params.initial_pose, use_imu=False)
+    node, rec = run_node(scene.Sequence(seq.frames, seq.imu_ns[:0], seq.gyro[:0], seq.accel[:0], seq.trajectory, seq.extrinsic), params, odom)
+    assert node.skipped_counts() == {"odom_base_transform_assumed_identity": 1}
+    assert node.odom.last_ns == 3_100_000_000
+    stamps, poses = node.poses()
+    assert len(stamps) == 30
+    assert ate_rmse(stamps, poses, seq) <= 0.03
