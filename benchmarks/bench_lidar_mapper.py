@@ -26,6 +26,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import open3d as o3d
 from scipy.spatial.transform import Rotation
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
@@ -111,7 +112,7 @@ def main() -> None:
     wall, cpu, stamps, poses, node = run_navlog(seq, params)
     gt = seq.ground_truth(stamps)
     ate_nav = ate(poses[:, :3, 3], gt[:, :3, 3])
-    d = room.compute_distance(__import__("open3d").core.Tensor(node.map_points().astype(np.float32))).numpy()
+    d = room.compute_distance(o3d.core.Tensor(node.map_points().astype(np.float32))).numpy()
     fps_nav = len(stamps) / wall
     print(f"navlog lidar_mapper ({args.method}): {fps_nav:.1f} frames/s, real-time factor {sim_s / wall:.1f}x "
           f"(target >= 5x; CPU time of this process: {sim_s / cpu:.1f}x, load average {os.getloadavg()[0]:.1f} "
