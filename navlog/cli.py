@@ -23,6 +23,7 @@ COMMANDS = [
     "recover",
     "replay",
     "world-map",
+    "pcd-to-map",
     "metrics",
     "view",
     "export",

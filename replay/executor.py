@@ -101,8 +101,10 @@ class Stats:
 class Executor:
     """Runs nodes over sources in the (time, rank, sequence) order; see the module docstring."""
 
-    def __init__(self) -> None:
-        self.now = 0
+    def __init__(self, start_ns: int = 0) -> None:
+        """``start_ns``: the time before the first event (a replay starts at the log's first message),
+        where timers created without a start time begin."""
+        self.now = int(start_ns)
         self._seq = 0
         self._queue: list[tuple[int, int, int, str, Any]] = []
         self._subs: dict[str, list[Callback]] = {}

@@ -165,3 +165,39 @@ class OccupancyGrid2D:
         data[self.seen & (self.logodds > logit(self.p.occupied_threshold))] = 100
         data[self.seen & (self.logodds < logit(self.p.free_threshold))] = 0
         return OccupancyMap(data=data, resolution=self.res, origin=(float(self.origin[0]), float(self.origin[1]), 0.0), frame_id=frame_id)
+
+
+def project_points(
+    points: np.ndarray,
+    z_min: float,
+    z_max: float,
+    resolution: float = 0.05,
+    min_points: int = 1,
+    floor_below: float | None = None,
+) -> OccupancyMap:
+    """A 3D point map projected to a 2D grid between two heights (as users hand FAST-LIO maps to Nav2).
+
+    Cells with at least ``min_points`` points in [z_min, z_max] are occupied (100). Cells with points
+    below ``z_min`` only (the floor seen there) are free (0) — or every non-occupied cell inside the
+    cloud's extent when ``floor_below`` is None; cells with no points are unknown (-1).
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    p = p[np.isfinite(p).all(axis=1)]
+    if len(p) == 0:
+        raise ValueError("the point cloud is empty")
+    if z_min > z_max:
+        raise ValueError(f"z_min ({z_min}) must not exceed z_max ({z_max})")
+    lo = np.floor(p[:, :2].min(axis=0) / resolution) * resolution - resolution
+    ij = np.floor((p[:, :2] - lo) / resolution).astype(np.int64)
+    nx, ny = ij.max(axis=0) + 2
+    band = (p[:, 2] >= z_min) & (p[:, 2] <= z_max)
+    counts = np.zeros((ny, nx), dtype=np.int64)
+    np.add.at(counts, (ij[band, 1], ij[band, 0]), 1)
+    data = np.full((ny, nx), -1, dtype=np.int8)
+    if floor_below is None:
+        data[:] = 0
+    else:
+        below = p[:, 2] < floor_below
+        data[ij[below, 1], ij[below, 0]] = 0
+    data[counts >= max(1, min_points)] = 100
+    return OccupancyMap(data=data, resolution=resolution, origin=(float(lo[0]), float(lo[1]), 0.0))

@@ -41,8 +41,17 @@ def load_pipeline_module(name: str):
 
 
 def pipeline_params(name: str, params_file: Path | None = None, overrides: Sequence[str] = ()) -> Any:
-    """The pipeline's parameters: its YAML (config/pipelines/NAME.yaml or ``params_file``) plus overrides."""
+    """The pipeline's parameters: its YAML (config/pipelines/NAME.yaml or ``params_file``) plus overrides.
+
+    A pipeline that takes a foreign parameter file (the planner takes a Nav2 ``nav2_params.yaml``)
+    names the key that holds its path in ``PARAMS_FILE_KEY``; ``params_file`` then fills that key and
+    the pipeline's own YAML still supplies the rest.
+    """
     module = load_pipeline_module(name)
+    key = getattr(module, "PARAMS_FILE_KEY", None)
+    if params_file is not None and key:
+        overrides = [f"{key}={Path(params_file).resolve()}", *overrides]
+        params_file = None
     path = params_file or config_root() / "pipelines" / f"{name}.yaml"
     if path.is_file():
         return load_config(module.Params, path, overrides)
@@ -147,7 +156,7 @@ def run_replay(
 
 
 def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp: Path, progress: bool) -> dict:
-    ex = Executor()
+    ex = Executor(start_ns=reader.start_ns)
 
     def stream() -> Iterator[Envelope]:
         for env in reader.messages(wanted):

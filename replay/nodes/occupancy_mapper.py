@@ -40,6 +40,7 @@ class OccupancyMapperParams:
     base_frame: str = "base_link"  # for pose_source tf: the robot frame whose path is the trajectory
     frame_prefix: str = ""  # stripped from every frame name (e.g. "simple_robot/")
     publish_period: float = 2.0  # s between /map messages (and one at the end)
+    transform_timeout: float = 1.0  # s a scan waits for its pose (poses may arrive after the scan)
     minimum_travel_distance: float = 0.1
     minimum_travel_heading: float = 0.1
     grid: OccupancyParams = field(default_factory=OccupancyParams)
@@ -62,6 +63,7 @@ class OccupancyMapperNode(Node):
         self._pose_child: str | None = None
         self._last_pose: np.ndarray | None = None
         self._angles_cache: dict[tuple, np.ndarray] = {}
+        self._pending: list = []  # scans waiting for their pose, in arrival order
 
     @property
     def pose_topic(self) -> str:
@@ -86,6 +88,7 @@ class OccupancyMapperNode(Node):
         child = msg.child_frame_id
         self._pose_child = self.poses._name(child)
         self.poses.add("__pose_origin__", child, messages.to_ns(msg.header.stamp), (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+        self._drain(t_ns)
 
     def _poses(self, frame: str, stamp: int) -> tuple[np.ndarray, np.ndarray]:
         """(robot pose, sensor pose) in the map frame at ``stamp``."""
@@ -110,12 +113,41 @@ class OccupancyMapperNode(Node):
         return True
 
     def _on_scan(self, msg, t_ns: int) -> None:
-        stamp = messages.to_ns(msg.header.stamp)
-        try:
-            base, pose = self._poses(msg.header.frame_id, stamp)
-        except TransformError:
-            self.skipped[f"{self.p.scan_topic}: no pose or transform at the scan's stamp"] += 1
-            return
+        self._pending.append(msg)
+        self._drain(t_ns)
+
+    def _drain(self, t_ns: int, final: bool = False) -> None:
+        """Insert waiting scans whose pose is known; give up on those older than the timeout.
+
+        Time here is the scans' own stamps (the newest one waiting), never the log's receive time:
+        real bags can stamp headers in sim time and receive in wall time.
+        """
+        timeout = int(self.p.transform_timeout * 1e9)
+        newest = messages.to_ns(self._pending[-1].header.stamp) if self._pending else 0
+        while self._pending:
+            msg = self._pending[0]
+            stamp = messages.to_ns(msg.header.stamp)
+            try:
+                base, pose = self._poses(msg.header.frame_id, stamp)
+            except TransformError:
+                if final or newest - stamp > timeout or self._pose_passed(stamp) is False:
+                    self._pending.pop(0)
+                    self.skipped[f"{self.p.scan_topic}: no pose or transform at the scan's stamp"] += 1
+                    continue
+                return
+            self._pending.pop(0)
+            self._insert(msg, stamp, base, pose)
+
+    def _pose_passed(self, stamp: int) -> bool | None:
+        """False when poses newer than ``stamp`` exist but none cover it (it will never be known)."""
+        if self.p.pose_source == "tf" or self._pose_child is None:
+            return None
+        edge = self.poses._edges.get(self._pose_child)
+        if edge is None or not edge.times:
+            return None
+        return None if edge.times[-1] < stamp else (edge.times[0] <= stamp)
+
+    def _insert(self, msg, stamp: int, base: np.ndarray, pose: np.ndarray) -> None:
         if self._last_pose is not None and self.p.minimum_travel_distance > 0:
             moved = np.linalg.norm(pose[:2, 3] - self._last_pose[:2, 3])
             turned = abs(math.atan2(pose[1, 0], pose[0, 0]) - math.atan2(self._last_pose[1, 0], self._last_pose[0, 0]))
@@ -137,6 +169,7 @@ class OccupancyMapperNode(Node):
             self.publish(self.p.map_topic, messages.OCCUPANCY_GRID, self.grid.to_map(self.p.map_frame).to_msg(t_ns))
 
     def finish(self) -> None:
+        self._drain(self.now(), final=True)
         self._publish(self.now())
 
     def counts(self) -> dict[str, int]:

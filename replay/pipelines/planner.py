@@ -37,6 +37,10 @@ from replay.pipeline import Pipeline
 from replay.smac2d import Smac2DPlanner
 
 
+# `navlog replay --pipeline planner --params nav2_params.yaml` fills this key
+PARAMS_FILE_KEY = "nav2_params"
+
+
 @dataclass(frozen=True)
 class Params:
     nav2_params: str = ""  # a Nav2 parameter file; empty: Nav2's defaults
