@@ -68,13 +68,13 @@ def scan_message(ns: int, frame: str, cfg: LaserConfig, ranges: np.ndarray):
     _, inc = laser_directions(cfg)
     return messages.msg_class(messages.LASER_SCAN)(
         header=messages.header(ns, frame),
-        angle_min=float(cfg.angle_min),
-        angle_max=float(cfg.angle_min + inc * (cfg.samples - 1)),
-        angle_increment=float(inc),
+        angle_min=messages.f32(cfg.angle_min),
+        angle_max=messages.f32(cfg.angle_min + inc * (cfg.samples - 1)),
+        angle_increment=messages.f32(inc),
         time_increment=0.0,
-        scan_time=float(1.0 / cfg.rate),
-        range_min=float(cfg.range_min),
-        range_max=float(cfg.range_max),
+        scan_time=messages.f32(1.0 / cfg.rate),
+        range_min=messages.f32(cfg.range_min),
+        range_max=messages.f32(cfg.range_max),
         ranges=np.asarray(ranges, dtype=np.float32),
         intensities=np.zeros(0, dtype=np.float32),
     )

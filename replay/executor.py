@@ -183,8 +183,8 @@ class Executor:
             t, rank, _seq, kind, payload = self._queue[0]
             if until_ns is not None and t > until_ns:
                 break
-            if self._sources and kind == "timer" and self._pending_sources == 0:
-                break
+            if self._sources and kind == "timer" and self._pending_sources == 0 and t > self.now:
+                break  # the recording is over: timers at its last instant still fire, later ones do not
             heapq.heappop(self._queue)
             self.now = t
             if kind == "msg":

@@ -131,7 +131,7 @@ class OccupancyMap:
         MapMetaData = m.msg_class("nav_msgs/msg/MapMetaData")
         info = MapMetaData(
             map_load_time=m.stamp(ns),
-            resolution=self.resolution,
+            resolution=m.f32(self.resolution),
             width=self.width,
             height=self.height,
             origin=m.pose((self.origin[0], self.origin[1], 0.0), m.quat_from_yaw(self.origin[2])),

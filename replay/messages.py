@@ -98,6 +98,11 @@ def msg_class(typename: str):
 # ---------------------------------------------------------------- builders
 
 
+def f32(x: float) -> float:
+    """A value as a float32 field holds it: live messages must equal what a log gives back."""
+    return float(np.float32(x))
+
+
 def stamp(ns: int):
     """builtin_interfaces/Time from integer nanoseconds."""
     Time = msg_class("builtin_interfaces/msg/Time")

@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import importlib
 import json
+import logging
 import pkgutil
 import shutil
 import time
@@ -27,6 +28,8 @@ from replay.executor import Envelope, Executor
 from replay.logreader import LogReader, open_log
 from replay.logwriter import McapLogWriter
 from replay.progress import Progress
+
+logger = logging.getLogger("navlog")
 
 
 def pipeline_names() -> list[str]:
@@ -126,8 +129,8 @@ def run_replay(
     if out_dir.exists() and any(out_dir.iterdir()) and not force:
         raise NavlogError(f"{out_dir}: output folder exists and is not empty; choose another or pass --force")
     with open_log(log, recover=recover) as reader:
-        to_log = {t: remap.get(t, t) for t in set(remap) | set(reader.topics)}
-        log_to = {v: k for k, v in to_log.items()}
+        to_log = dict(remap)  # pipeline topic -> log topic, for remapped topics only
+        log_to = {v: k for k, v in remap.items()}
         logical_topics = {log_to.get(t, t) for t in reader.topics}
         pipe = module.build(params, logical_topics)
         missing = [t for t in pipe.inputs if to_log.get(t, t) not in reader.topics]
@@ -139,6 +142,11 @@ def run_replay(
                 f"(e.g. --remap {missing[0]}=/other_topic), or change the pipeline parameters with --set."
             )
         wanted = [to_log.get(t, t) for t in pipe.inputs + pipe.optional_inputs if to_log.get(t, t) in reader.topics]
+        if reader.unknown_types:
+            logger.warning(
+                "%s: skipping topics of types without a definition: %s", reader.path,
+                ", ".join(f"{t} ({ty})" for t, ty in sorted(reader.unknown_types.items())),
+            )
         tmp = out_dir.parent / f".{out_dir.name}.partial"
         shutil.rmtree(tmp, ignore_errors=True)
         tmp.mkdir(parents=True)
@@ -158,9 +166,18 @@ def run_replay(
 def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp: Path, progress: bool) -> dict:
     ex = Executor(start_ns=reader.start_ns)
 
+    last_stamp: dict[str, int] = {}
+    backwards: dict[str, int] = {}
+
     def stream() -> Iterator[Envelope]:
         for env in reader.messages(wanted):
             topic = log_to.get(env.topic, env.topic)
+            header = getattr(env.msg, "header", None)
+            if header is not None:
+                stamp = header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
+                if stamp < last_stamp.get(topic, stamp):
+                    backwards[topic] = backwards.get(topic, 0) + 1
+                last_stamp[topic] = max(stamp, last_stamp.get(topic, stamp))
             yield env if topic == env.topic else Envelope(topic, env.typename, env.time_ns, env.msg)
 
     ex.add_source(stream())
@@ -183,7 +200,7 @@ def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp
         ex.finish()
     bar.close()
     artifacts = pipe.write_artifacts(tmp)
-    return {"wall_s": time.perf_counter() - start, "stats": ex.stats, "artifacts": artifacts}
+    return {"wall_s": time.perf_counter() - start, "stats": ex.stats, "artifacts": artifacts, "backwards": backwards}
 
 
 def _manifest(log: Path, reader: LogReader, name: str, params: Any, pipe, result: dict, tmp: Path, remap: dict) -> dict:
@@ -193,6 +210,8 @@ def _manifest(log: Path, reader: LogReader, name: str, params: Any, pipe, result
     skipped.update({k: v for k, v in sorted(pipe.skipped().items())})
     if stats.out_of_order:
         skipped["log: messages with out-of-order timestamps (delivered in arrival order)"] = stats.out_of_order
+    for topic, n in sorted(result["backwards"].items()):
+        skipped[f"log: {topic} header stamps going backwards (replayed in log order)"] = n
     return {
         "navlog_version": __version__,
         "pipeline": name,
@@ -206,6 +225,7 @@ def _manifest(log: Path, reader: LogReader, name: str, params: Any, pipe, result
             "topics_read": sorted({e for e in pipe.inputs + pipe.optional_inputs}),
             "messages_read": reader.report.read,
             "truncated": reader.report.truncated,
+            "unknown_types": dict(sorted(reader.unknown_types.items())),
         },
         "outputs": {k: {"file": p.name, "sha256": sha256_file(p)} for k, p in sorted(files.items())},
         "published": dict(sorted((t, n) for t, n in stats.published.items())),
