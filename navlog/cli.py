@@ -18,6 +18,7 @@ from replay.errors import NavlogError
 
 # One module per command, in the order `navlog --help` lists them.
 COMMANDS = [
+    "demo",
     "record",
     "info",
     "recover",

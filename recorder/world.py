@@ -265,3 +265,15 @@ def occupancy(
     d = clearance(world, np.stack([gx.ravel(), gy.ravel()], axis=1), z_min, z_max).reshape(ny, nx)
     data = np.where(d <= margin + resolution / 2, 100, 0).astype(np.int8)
     return OccupancyMap(data=data, resolution=resolution, origin=(ox, oy, 0.0))
+
+
+def write_mesh(world: World, path: Path | str) -> Path:
+    """Write the world's surfaces (floor included) as a triangle mesh file (.ply, .obj, .stl)."""
+    import open3d as o3d
+
+    path = Path(path)
+    mesh = world_mesh(world)
+    mesh.compute_triangle_normals()
+    if not o3d.io.write_triangle_mesh(str(path), mesh):
+        raise ConfigError(f"{path}: cannot write the mesh (use .ply, .obj or .stl)")
+    return path

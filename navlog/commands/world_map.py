@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from recorder.world import load_world, occupancy
+from recorder.world import load_world, occupancy, write_mesh
 from replay.logwriter import check_output
 from replay.mapio import save_map
 
@@ -26,6 +26,8 @@ def register(sub) -> None:
     p.add_argument("--z-max", type=float, default=2.0, help="highest height that counts (default 2.0)")
     p.add_argument("--height", type=float, help="keep only what crosses this height (sets z-min = z-max)")
     p.add_argument("-o", "--output", type=Path, required=True, help="map YAML to write (the PGM goes beside it)")
+    p.add_argument("--mesh", type=Path, help="also write the world's surfaces as a triangle mesh (.ply), "
+                   "the reference of `navlog metrics --reference-mesh`")
     p.add_argument("--force", action="store_true", help="overwrite existing files")
     p.set_defaults(func=run)
 
@@ -35,9 +37,14 @@ def run(args) -> int:
     z_min, z_max = (args.height, args.height) if args.height is not None else (args.z_min, args.z_max)
     check_output(args.output, args.force)
     check_output(args.output.with_suffix(".pgm"), args.force)
+    if args.mesh is not None:
+        check_output(args.mesh, args.force)
     grid = occupancy(world, args.resolution, args.margin, z_min, z_max)
     yaml_path, pgm_path = save_map(grid, args.output)
     occ = int((grid.data == 100).sum())
     print(f"wrote {yaml_path} and {pgm_path}: {grid.width} x {grid.height} cells at {grid.resolution} m, "
           f"{occ} occupied ({args.margin} m margin, heights {z_min}..{z_max} m)")
+    if args.mesh is not None:
+        write_mesh(world, args.mesh)
+        print(f"wrote {args.mesh}: the surfaces of {world.name}")
     return 0
