@@ -132,7 +132,7 @@ class SimNode(Node):
     def base_velocity(self) -> tuple[np.ndarray, np.ndarray]:
         """(linear, angular) velocity of base_link in its own frame."""
         v = np.zeros(6)
-        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_BODY, self._bid, v, 1)
+        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_XBODY, self._bid, v, 1)  # body frame, not inertial
         return v[3:], v[:3]
 
     # ------------------------------------------------------------ node

@@ -59,7 +59,7 @@ def run_sim(world="indoor_room", robot="go2", start=(0.0, 0.0, 0.0), until_ns=0,
     ex = Executor()
     sim = SimNode(load_world(world), load_robot(robot), SimOptions(seed=1, noise=noise, start=start))
     ex.add_node(sim, source=True)
-    col = _Collect(["/scan", "/livox/lidar", "/odom/ground_truth", "/tf", "/tf_static", "/odom", "/imu/data"])
+    col = _Collect(["/scan", "/lidar", "/livox/lidar", "/odom/ground_truth", "/tf", "/tf_static", "/odom", "/imu/data"])
     ex.add_node(col)
     if cmd is not None:
 
