@@ -31,20 +31,36 @@ class RayCaster:
         self.scene = o3d.t.geometry.RaycastingScene()
         self.scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
 
+    def _cast(self, origins: np.ndarray, directions: np.ndarray) -> dict:
+        rays = np.empty((len(directions), 6), dtype=np.float32)
+        rays[:, :3] = origins
+        rays[:, 3:] = directions
+        return self.scene.cast_rays(self._o3d.core.Tensor.from_numpy(rays), nthreads=1)
+
     def cast(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        rays = np.concatenate([origins, directions], axis=1).astype(np.float32)
-        out = self.scene.cast_rays(self._o3d.core.Tensor(rays), nthreads=1)
+        out = self._cast(origins, directions)
         return out["t_hit"].numpy().astype(np.float64), out["primitive_normals"].numpy().astype(np.float64)
+
+    def cast_distances(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """Distances only (float64, inf for no hit): ``cast`` without the normals."""
+        return self._cast(origins, directions)["t_hit"].numpy().astype(np.float64)
 
 
 # ---------------------------------------------------------------- 2D laser
 
 
 def laser_directions(cfg: LaserConfig) -> tuple[np.ndarray, float]:
-    """Unit directions (N, 3) in the sensor frame and the angle increment."""
+    """Unit directions (N, 3) in the sensor frame and the angle increment (computed once per config)."""
+    return _laser_directions(cfg)
+
+
+@lru_cache(maxsize=8)
+def _laser_directions(cfg: LaserConfig) -> tuple[np.ndarray, float]:
     inc = (cfg.angle_max - cfg.angle_min) / cfg.samples
     ang = cfg.angle_min + inc * np.arange(cfg.samples)
-    return np.stack([np.cos(ang), np.sin(ang), np.zeros_like(ang)], axis=1), inc
+    dirs = np.stack([np.cos(ang), np.sin(ang), np.zeros_like(ang)], axis=1)
+    dirs.flags.writeable = False
+    return dirs, inc
 
 
 def laser_ranges(caster: RayCaster, cfg: LaserConfig, pose: np.ndarray, rng: np.random.Generator | None) -> np.ndarray:
@@ -55,7 +71,7 @@ def laser_ranges(caster: RayCaster, cfg: LaserConfig, pose: np.ndarray, rng: np.
     dirs, _ = laser_directions(cfg)
     world_dirs = dirs @ pose[:3, :3].T
     origins = np.broadcast_to(pose[:3, 3], world_dirs.shape)
-    dist, _ = caster.cast(origins, world_dirs)
+    dist = caster.cast_distances(origins, world_dirs)
     if rng is not None and cfg.noise_std > 0:
         dist = dist + rng.normal(0.0, cfg.noise_std, size=dist.shape)
     out = dist.copy()
@@ -64,17 +80,24 @@ def laser_ranges(caster: RayCaster, cfg: LaserConfig, pose: np.ndarray, rng: np.
     return out.astype(np.float32)
 
 
-def scan_message(ns: int, frame: str, cfg: LaserConfig, ranges: np.ndarray):
+@lru_cache(maxsize=8)
+def _scan_constants(cfg: LaserConfig) -> tuple[float, float, float, float, float, float]:
     _, inc = laser_directions(cfg)
+    return (float(cfg.angle_min), float(cfg.angle_min + inc * (cfg.samples - 1)), float(inc), float(1.0 / cfg.rate),
+            float(cfg.range_min), float(cfg.range_max))
+
+
+def scan_message(ns: int, frame: str, cfg: LaserConfig, ranges: np.ndarray):
+    angle_min, angle_max, inc, scan_time, range_min, range_max = _scan_constants(cfg)
     return messages.msg_class(messages.LASER_SCAN)(
         header=messages.header(ns, frame),
-        angle_min=messages.f32(cfg.angle_min),
-        angle_max=messages.f32(cfg.angle_min + inc * (cfg.samples - 1)),
-        angle_increment=messages.f32(inc),
+        angle_min=angle_min,
+        angle_max=angle_max,
+        angle_increment=inc,
         time_increment=0.0,
-        scan_time=messages.f32(1.0 / cfg.rate),
-        range_min=messages.f32(cfg.range_min),
-        range_max=messages.f32(cfg.range_max),
+        scan_time=scan_time,
+        range_min=range_min,
+        range_max=range_max,
         ranges=np.asarray(ranges, dtype=np.float32),
         intensities=np.zeros(0, dtype=np.float32),
     )
@@ -118,6 +141,31 @@ def _lidar_pattern(cfg: LidarConfig, frame_index: int) -> tuple[np.ndarray, np.n
     return dirs, ring.astype(np.uint16), frac
 
 
+@lru_cache(maxsize=8)
+def _sweep_timing(cfg: LidarConfig, frame_index: int, pose_times: tuple[float, ...]):
+    """Per-point times (float64 and float32), and the runs of points cast from each pose of the window.
+
+    Returns (t_rel, t_rel as float32, runs) where runs is a list of (pose index, start, end), or None
+    when the pose index does not grow along the sweep (then every point picks its pose itself), and
+    the per-point pose index.
+    """
+    _, _, frac = lidar_pattern(cfg, frame_index)
+    period = 1.0 / cfg.rate
+    t_rel = -period + (frac + 1.0 / max(len(frac), 1)) * period  # last point at 0
+    idx = np.clip(np.searchsorted(np.array(pose_times), t_rel, side="left"), 0, len(pose_times) - 1)
+    runs = None
+    if np.all(np.diff(idx) >= 0):
+        bounds = np.flatnonzero(np.diff(idx)) + 1
+        starts = np.concatenate([[0], bounds])
+        ends = np.concatenate([bounds, [len(idx)]])
+        runs = [(int(idx[a]), int(a), int(b)) for a, b in zip(starts, ends)]
+    for arr in (t_rel, idx):
+        arr.flags.writeable = False
+    t32 = t_rel.astype(np.float32)
+    t32.flags.writeable = False
+    return t_rel, t32, runs, idx
+
+
 def lidar_sweep(
     caster: RayCaster,
     cfg: LidarConfig,
@@ -131,20 +179,15 @@ def lidar_sweep(
     the stamp is the end of the sweep, so point times are in [-1/rate, 0]. Points are expressed in
     the sensor frame at their capture time, as a real spinning sensor reports them.
     """
-    dirs, ring, frac = lidar_pattern(cfg, frame_index)
-    period = 1.0 / cfg.rate
-    t_rel = -period + (frac + 1.0 / max(len(frac), 1)) * period  # last point at 0
-    times = np.array([p[0] for p in poses])
-    idx = np.clip(np.searchsorted(times, t_rel, side="left"), 0, len(poses) - 1)
+    dirs, ring, _ = lidar_pattern(cfg, frame_index)
+    pattern_index = 0 if cfg.pattern == "velodyne" else frame_index
+    t_rel, t32, runs, idx = _sweep_timing(cfg, pattern_index, tuple(p[0] for p in poses))
     # rays are grouped by the pose they are cast from: one matrix product per pose
-    world_dirs = np.empty_like(dirs)
-    origins = np.empty_like(dirs)
-    bounds = np.flatnonzero(np.diff(idx)) + 1 if np.all(np.diff(idx) >= 0) else None
-    if bounds is not None:
-        starts = np.concatenate([[0], bounds])
-        ends = np.concatenate([bounds, [len(idx)]])
-        for a, b in zip(starts, ends):
-            pose = poses[idx[a]][1]
+    if runs is not None:
+        world_dirs = np.empty_like(dirs)
+        origins = np.empty_like(dirs)
+        for i, a, b in runs:
+            pose = poses[i][1]
             world_dirs[a:b] = dirs[a:b] @ pose[:3, :3].T
             origins[a:b] = pose[:3, 3]
     else:
@@ -154,16 +197,22 @@ def lidar_sweep(
     dist, normals = caster.cast(origins, world_dirs)
     if rng is not None and cfg.noise_std > 0:
         dist = dist + rng.normal(0.0, cfg.noise_std, size=dist.shape)
-    ok = np.isfinite(dist) & (dist >= cfg.range_min) & (dist <= cfg.range_max)
-    d = dist[ok]
-    pts = dirs[ok] * d[:, None]
-    cosang = np.abs(np.einsum("ij,ij->i", normals[ok], world_dirs[ok]))
+    # the two comparisons alone keep exactly the finite returns within range: +inf (a miss) fails the
+    # upper bound, -inf the lower one, NaN both
+    ok = (dist >= cfg.range_min) & (dist <= cfg.range_max)
+    cos_all = np.einsum("ij,ij->i", normals, world_dirs)
+    if ok.all():  # the usual case indoors: every ray returns; no selection copies
+        d, dirs_ok, cosang, ring_ok, t_ok = dist, dirs, np.abs(cos_all), ring.copy(), t32.copy()
+    else:
+        sel = np.flatnonzero(ok)
+        d, dirs_ok, cosang, ring_ok, t_ok = dist[sel], dirs[sel], np.abs(cos_all[sel]), ring[sel], t32[sel]
+    pts = dirs_ok * d[:, None]
     intensity = 255.0 * cosang * np.exp(-d / 20.0)
     return {
         "x": pts[:, 0].astype(np.float32),
         "y": pts[:, 1].astype(np.float32),
         "z": pts[:, 2].astype(np.float32),
         "intensity": intensity.astype(np.float32),
-        "ring": ring[ok],
-        "time": t_rel[ok].astype(np.float32),
+        "ring": ring_ok,
+        "time": t_ok,
     }

@@ -19,6 +19,7 @@ Odometry model (documented in the README):
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import mujoco
@@ -29,6 +30,7 @@ from recorder.robot import RobotSpec, add_to_spec
 from recorder.world import World, build_spec, world_mesh
 from replay import messages
 from replay.executor import Node
+from replay.pointcloud import make_cloud
 
 TICK_NS = 5_000_000  # 200 Hz
 CLOCK_PERIOD_NS = 10_000_000  # /clock at 100 Hz
@@ -42,12 +44,47 @@ class SimOptions:
 
 
 def mat_to_quat(mat: np.ndarray) -> tuple[float, float, float, float]:
-    """(x, y, z, w) quaternion of a rotation matrix, via MuJoCo (fast enough for every tick)."""
-    q = np.zeros(4)
-    mujoco.mju_mat2Quat(q, np.ascontiguousarray(mat, dtype=np.float64).ravel())
-    if q[0] < 0:
-        q = -q
-    return (q[1], q[2], q[3], q[0])
+    """(x, y, z, w) quaternion (w >= 0) of a rotation matrix, via MuJoCo (fast enough for every tick)."""
+    return _mat9_to_quat(np.ascontiguousarray(mat, dtype=np.float64).ravel())
+
+
+def _mat9_to_quat(mat9: np.ndarray) -> tuple[float, float, float, float]:
+    """``mat_to_quat`` of a contiguous float64 row-major 3x3 matrix given as 9 numbers."""
+    q = np.empty(4)
+    mujoco.mju_mat2Quat(q, mat9)
+    w, x, y, z = q.tolist()
+    if w < 0:
+        return (-x, -y, -z, -w)
+    return (x, y, z, w)
+
+
+def _clip(x: float, lo: float, hi: float) -> float:
+    """``np.clip`` of one float, with the same comparisons (so the same result, signed zeros included)."""
+    x = x if x > lo else lo
+    return x if x < hi else hi
+
+
+class _Normals:
+    """Standard normals from a generator, drawn in blocks and handed out one row at a time.
+
+    Row i scaled by ``scale`` equals the i-th call of ``rng.normal(0, scale, width)``: numpy draws the
+    same normals in the same order whether they are asked for one row or many rows at a time.
+    """
+
+    def __init__(self, rng: np.random.Generator, scale, block: int = 256) -> None:
+        self.rng = rng
+        self.scale = np.asarray(scale, dtype=np.float64)
+        self.block = block
+        self._rows = np.empty((0, len(self.scale)))
+        self._i = 0
+
+    def next(self) -> np.ndarray:
+        if self._i == len(self._rows):
+            self._rows = 0.0 + self.scale * self.rng.standard_normal(size=(self.block, len(self.scale)))
+            self._i = 0
+        row = self._rows[self._i]
+        self._i += 1
+        return row
 
 
 def planar(x: float, y: float, yaw: float) -> np.ndarray:
@@ -80,18 +117,17 @@ class SimNode(Node):
         self._bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "base_link")
         self._init_state()
         # command state
-        self._cmd = np.zeros(3)
+        self._cmd = (0.0, 0.0, 0.0)
         self._cmd_ns: int | None = None
-        self._vel = np.zeros(3)  # filtered body-frame command (vx, vy, wz)
+        self._vel = (0.0, 0.0, 0.0)  # filtered body-frame command (vx, vy, wz)
         self._phase = 0.0
         # odometry state (x, y, yaw in the odom frame)
-        self._odom = np.array(options.start, dtype=np.float64)
-        self._odom_twist = np.zeros(3)
+        self._odom = tuple(float(v) for v in options.start)
+        self._odom_twist = (0.0, 0.0, 0.0)
         d = robot.drive
         self._gyro_bias = self.rng_imu.normal(0, robot.imu.gyro_bias, 3) if (robot.imu and options.noise) else np.zeros(3)
         self._accel_bias = self.rng_imu.normal(0, robot.imu.accel_bias, 3) if (robot.imu and options.noise) else np.zeros(3)
         self._lidar_frames = 0
-        self._pose_history: list[tuple[int, np.ndarray]] = []
         self._mounts = {}
         for cfg in (robot.scan, robot.lidar, robot.imu):
             if cfg is not None:
@@ -107,6 +143,30 @@ class SimNode(Node):
             self._imu_cov = tuple(
                 np.diag([v**2] * 3).ravel() for v in (robot.imu.orientation_noise, robot.imu.gyro_noise, robot.imu.accel_noise)
             )
+        # per-tick constants and noise streams (the same draws, in the same order, as one call per sample)
+        keep = self._periods["lidar"] // TICK_NS + 2 if self._periods["lidar"] else 1
+        self._pose_history: deque[tuple[int, np.ndarray]] = deque(maxlen=keep)
+        min_vx = -d.max_vx if d.min_vx is None else d.min_vx
+        self._cmd_lo = (float(min_vx), float(-d.max_vy), float(-d.max_wz))
+        self._cmd_hi = (float(d.max_vx), float(d.max_vy), float(d.max_wz))
+        dt = TICK_NS / 1e9
+        self._gain = min(1.0, dt / max(d.response_time, dt))
+        self._acc_lo = tuple(float(-a * dt) for a in d.max_accel)
+        self._acc_hi = tuple(float(a * dt) for a in d.max_accel)
+        self._sensor_adr = {
+            name: int(self.model.sensor_adr[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, name)])
+            for name in ("imu_gyro", "imu_accel")
+        }
+        o = robot.odom
+        self._odom_noise = _Normals(self.rng_odom, [o.linear_noise, o.linear_noise, o.angular_noise])
+        if robot.imu is not None:
+            i = robot.imu
+            self._imu_noise = _Normals(self.rng_imu, [i.gyro_noise] * 3 + [i.accel_noise] * 3 + [i.orientation_noise] * 3)
+        f = robot.frames
+        self._frame_names = {
+            "world": f.world, "map": f.map, "odom": robot.frame(f.odom), "base": robot.frame(f.base),
+            "footprint": robot.frame(f.base_footprint),
+        }
 
     # ------------------------------------------------------------ state
     def _init_state(self) -> None:
@@ -131,31 +191,38 @@ class SimNode(Node):
 
     def base_velocity(self) -> tuple[np.ndarray, np.ndarray]:
         """(linear, angular) velocity of base_link in its own frame."""
+        v = self._velocity6()
+        return v[3:], v[:3]
+
+    def _velocity6(self) -> np.ndarray:
+        """(angular, linear) velocity of base_link in its own frame, MuJoCo's order."""
         v = np.zeros(6)
         mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_XBODY, self._bid, v, 1)  # body frame, not inertial
-        return v[3:], v[:3]
+        return v
 
     # ------------------------------------------------------------ node
     def setup(self) -> None:
-        r = self.robot
         self.subscribe("/cmd_vel", self._on_cmd)
         self.create_timer(TICK_NS, self._tick, start_ns=0)
 
     def _on_cmd(self, msg, t_ns: int) -> None:
-        self._cmd = np.array(messages.twist_values(msg))
+        self._cmd = messages.twist_values(msg)
         self._cmd_ns = t_ns
 
     def _drive(self, t_ns: int) -> None:
-        r, d = self.robot, self.robot.drive
+        # plain floats with numpy's clip comparisons: the same numbers as array arithmetic, faster per tick
+        d = self.robot.drive
         dt = TICK_NS / 1e9
         fresh = self._cmd_ns is not None and (t_ns - self._cmd_ns) <= d.cmd_vel_timeout * 1e9
-        target = self._cmd.copy() if fresh else np.zeros(3)
-        min_vx = -d.max_vx if d.min_vx is None else d.min_vx
-        target = np.clip(target, [min_vx, -d.max_vy, -d.max_wz], [d.max_vx, d.max_vy, d.max_wz])
-        step = (target - self._vel) * min(1.0, dt / max(d.response_time, dt))
-        step = np.clip(step, -np.asarray(d.max_accel) * dt, np.asarray(d.max_accel) * dt)
-        self._vel = self._vel + step
+        tx, ty, tw = self._cmd if fresh else (0.0, 0.0, 0.0)
+        (lx, ly, lw), (hx, hy, hw) = self._cmd_lo, self._cmd_hi
+        (ax, ay, aw), (bx, by, bw) = self._acc_lo, self._acc_hi
         vx, vy, wz = self._vel
+        k = self._gain
+        vx = vx + _clip((_clip(tx, lx, hx) - vx) * k, ax, bx)
+        vy = vy + _clip((_clip(ty, ly, hy) - vy) * k, ay, by)
+        wz = wz + _clip((_clip(tw, lw, hw) - wz) * k, aw, bw)
+        self._vel = (vx, vy, wz)
         ctrl = self.data.ctrl
         if self.legged:
             yaw = self._yaw()
@@ -190,8 +257,6 @@ class SimNode(Node):
             self._publish_static(t_ns)
         base = self.base_pose()
         self._pose_history.append((t_ns, base))
-        keep = self._periods["lidar"] // TICK_NS + 2 if self._periods["lidar"] else 1
-        del self._pose_history[:-keep]
         p = self._periods
         if t_ns % CLOCK_PERIOD_NS == 0:
             self.publish("/clock", messages.CLOCK, messages.clock(t_ns))
@@ -218,83 +283,87 @@ class SimNode(Node):
 
     def _publish_odometry(self, t_ns: int, base: np.ndarray) -> None:
         r, o = self.robot, self.robot.odom
-        f = r.frames
-        lin, ang = self.base_velocity()
-        q_base = mat_to_quat(base[:3, :3])
-        gt = messages.odometry(t_ns, f.world, r.frame(f.base), base[:3, 3], q_base, lin, ang)
+        names = self._frame_names
+        wx, wy, wz, vx, vy, vz = self._velocity6().tolist()
+        q_base = _mat9_to_quat(self.data.xmat[self._bid])
+        bx, by, bz = self.data.xpos[self._bid].tolist()
+        gt = messages.odometry(t_ns, names["world"], names["base"], (bx, by, bz), q_base, (vx, vy, vz), (wx, wy, wz))
         self.publish(o.ground_truth_topic, messages.ODOMETRY, gt)
         # planar true pose of the footprint
         yaw = math.atan2(base[1, 0], base[0, 0])
-        true_xy = base[:2, 3]
         dt = self._periods["odom"] / 1e9
         if o.use_ground_truth_odom:
-            self._odom = np.array([true_xy[0], true_xy[1], yaw])
-            self._odom_twist = np.array([lin[0], lin[1], ang[2]])
+            self._odom = (bx, by, yaw)
+            self._odom_twist = (vx, vy, wz)
         else:
             if self.legged:
-                meas = np.array([lin[0], lin[1], ang[2]])
-                meas[:2] *= 1.0 + o.linear_scale_error
-                meas[2] += o.yaw_rate_bias
+                scale = 1.0 + o.linear_scale_error
+                mx, my, mw = vx * scale, vy * scale, wz + o.yaw_rate_bias
             else:
-                wl, wr = (self.data.qvel[i] for i in self._wheel_dof)
+                wl, wr = (float(self.data.qvel[i]) for i in self._wheel_dof)
                 rr = self.robot.drive.wheel_radius
-                meas = np.array([rr * (wl + wr) / 2, 0.0, rr * (wr - wl) / self.robot.drive.wheel_separation])
+                mx, my, mw = rr * (wl + wr) / 2, 0.0, rr * (wr - wl) / self.robot.drive.wheel_separation
             if self.options.noise:
-                meas += self.rng_odom.normal(0, [o.linear_noise, o.linear_noise, o.angular_noise])
+                nx, ny, nw = self._odom_noise.next().tolist()
+                mx, my, mw = mx + nx, my + ny, mw + nw
             if not self.legged:
-                meas[1] = 0.0
+                my = 0.0
             if t_ns > 0:
                 x, y, th = self._odom
-                mid = th + meas[2] * dt / 2
-                x += (meas[0] * math.cos(mid) - meas[1] * math.sin(mid)) * dt
-                y += (meas[0] * math.sin(mid) + meas[1] * math.cos(mid)) * dt
-                th = math.atan2(math.sin(th + meas[2] * dt), math.cos(th + meas[2] * dt))
-                self._odom = np.array([x, y, th])
-            self._odom_twist = meas
+                mid = th + mw * dt / 2
+                x += (mx * math.cos(mid) - my * math.sin(mid)) * dt
+                y += (mx * math.sin(mid) + my * math.cos(mid)) * dt
+                th = math.atan2(math.sin(th + mw * dt), math.cos(th + mw * dt))
+                self._odom = (x, y, th)
+            self._odom_twist = (mx, my, mw)
         ox, oy, oth = self._odom
-        child = r.frame(f.base_footprint) or r.frame(f.base)
-        odom_msg = messages.odometry(
-            t_ns, r.frame(f.odom), child, (ox, oy, 0.0), messages.quat_from_yaw(oth),
-            (self._odom_twist[0], self._odom_twist[1], 0.0), (0.0, 0.0, self._odom_twist[2]),
-        )
+        tvx, tvy, tw = self._odom_twist
+        child = names["footprint"] or names["base"]
+        q_odom = messages.quat_from_yaw(oth)
+        odom_msg = messages.odometry(t_ns, names["odom"], child, (ox, oy, 0.0), q_odom, (tvx, tvy, 0.0), (0.0, 0.0, tw))
         self.publish(o.topic, messages.ODOMETRY, odom_msg)
         # TF: map -> odom (correction), odom -> footprint (odometry), footprint -> base (height, tilt)
-        t_map_fp = planar(true_xy[0], true_xy[1], yaw)
+        t_map_fp = planar(bx, by, yaw)
         t_odom_fp = planar(ox, oy, oth)
         t_map_odom = t_map_fp @ np.linalg.inv(t_odom_fp)
-        tfs = [messages.transform_stamped(t_ns, f.map, r.frame(f.odom), t_map_odom[:3, 3], mat_to_quat(t_map_odom[:3, :3]))]
-        if f.base_footprint:
-            tfs.append(messages.transform_stamped(t_ns, r.frame(f.odom), r.frame(f.base_footprint), (ox, oy, 0.0), messages.quat_from_yaw(oth)))
+        tfs = [messages.transform_stamped(t_ns, names["map"], names["odom"], t_map_odom[:3, 3].tolist(), mat_to_quat(t_map_odom[:3, :3]))]
+        if names["footprint"]:
+            tfs.append(messages.transform_stamped(t_ns, names["odom"], names["footprint"], (ox, oy, 0.0), q_odom))
             t_fp_base = np.linalg.inv(t_map_fp) @ base
-            tfs.append(messages.transform_stamped(t_ns, r.frame(f.base_footprint), r.frame(f.base), t_fp_base[:3, 3], mat_to_quat(t_fp_base[:3, :3])))
+            tfs.append(messages.transform_stamped(t_ns, names["footprint"], names["base"], t_fp_base[:3, 3].tolist(), mat_to_quat(t_fp_base[:3, :3])))
         else:
             # no footprint frame: odom -> base carries the odometry pose with the true height and tilt
             t_odom_base = t_odom_fp @ np.linalg.inv(t_map_fp) @ base
-            tfs.append(messages.transform_stamped(t_ns, r.frame(f.odom), r.frame(f.base), t_odom_base[:3, 3], mat_to_quat(t_odom_base[:3, :3])))
+            tfs.append(messages.transform_stamped(t_ns, names["odom"], names["base"], t_odom_base[:3, 3].tolist(), mat_to_quat(t_odom_base[:3, :3])))
         self.publish("/tf", messages.TF_MESSAGE, messages.tf_message(tfs))
 
     def _publish_imu(self, t_ns: int, base: np.ndarray) -> None:
         cfg = self.robot.imu
-        gyro = np.array(self.data.sensor("imu_gyro").data, dtype=np.float64)
-        accel = np.array(self.data.sensor("imu_accel").data, dtype=np.float64)
+        sd = self.data.sensordata
+        g, a = self._sensor_adr["imu_gyro"], self._sensor_adr["imu_accel"]
+        gx, gy, gz = sd[g:g + 3].tolist()
+        ax, ay, az = sd[a:a + 3].tolist()
         if self.options.noise:
-            gyro = gyro + self._gyro_bias + self.rng_imu.normal(0, cfg.gyro_noise, 3)
-            accel = accel + self._accel_bias + self.rng_imu.normal(0, cfg.accel_noise, 3)
-            dq = self.rng_imu.normal(0, cfg.orientation_noise, 3)
+            row = self._imu_noise.next()
+            n = row.tolist()
+            bg, ba = self._gyro_bias.tolist(), self._accel_bias.tolist()
+            gx, gy, gz = gx + bg[0] + n[0], gy + bg[1] + n[1], gz + bg[2] + n[2]
+            ax, ay, az = ax + ba[0] + n[3], ay + ba[1] + n[4], az + ba[2] + n[5]
+            dq = row[6:9]
             noise = np.zeros(9)
-            mujoco.mju_quat2Mat(noise, np.array([1.0, dq[0] / 2, dq[1] / 2, dq[2] / 2]) / math.sqrt(1 + (dq @ dq) / 4))
-            q = mat_to_quat(base[:3, :3] @ noise.reshape(3, 3))
+            mujoco.mju_quat2Mat(noise, np.array([1.0, n[6] / 2, n[7] / 2, n[8] / 2]) / math.sqrt(1 + (dq @ dq) / 4))
+            q = _mat9_to_quat((base[:3, :3] @ noise.reshape(3, 3)).ravel())
         else:
-            q = mat_to_quat(base[:3, :3])
+            q = _mat9_to_quat(self.data.xmat[self._bid])
         cov_o, cov_g, cov_a = self._imu_cov
         msg = self._Imu(
-            header=messages.header(t_ns, self.robot.frame(cfg.frame)),
-            orientation=messages.quaternion(q),
-            orientation_covariance=cov_o,
-            angular_velocity=messages.vector3(*gyro),
-            angular_velocity_covariance=cov_g,
-            linear_acceleration=messages.vector3(*accel),
-            linear_acceleration_covariance=cov_a,
+            messages.header(t_ns, self.robot.frame(cfg.frame)),
+            messages.quaternion(q),
+            cov_o,
+            messages.vector3(gx, gy, gz),
+            cov_g,
+            messages.vector3(ax, ay, az),
+            cov_a,
         )
         self.publish(cfg.topic, messages.IMU, msg)
 
@@ -312,6 +381,4 @@ class SimNode(Node):
         window = [((tp - t_ns) / 1e9, self.sensor_pose(b, cfg.frame)) for tp, b in self._pose_history]
         cols = sensors.lidar_sweep(self.caster, cfg, self._lidar_frames, window, self.rng_lidar if self.options.noise else None)
         self._lidar_frames += 1
-        from replay.pointcloud import make_cloud
-
         self.publish(cfg.topic, messages.POINT_CLOUD2, make_cloud(t_ns, self.robot.frame(cfg.frame), cols))

@@ -7,7 +7,9 @@ Time is integer nanoseconds everywhere; ``stamp(ns)`` and ``to_ns(stamp)`` conve
 from __future__ import annotations
 
 import math
+import sys
 from functools import lru_cache
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -83,30 +85,70 @@ def msgdef(typename: str) -> str:
     return typestore().generate_msgdef(typename, ros_version=2)[0]
 
 
+_LITTLE = sys.byteorder == "little"
+
+
+@lru_cache(maxsize=None)
+def _cdr_functions(typename: str):
+    """The type store's generated (size, serialize) functions of a type, looked up once."""
+    md = typestore().get_msgdef(typename)
+    return md.getsize_cdr, (md.serialize_cdr_le if _LITTLE else md.serialize_cdr_be)
+
+
 def serialize(msg: Any, typename: str) -> bytes:
-    return bytes(typestore().serialize_cdr(msg, typename))
+    """CDR bytes (4-byte encapsulation header, native byte order), as ``Typestore.serialize_cdr`` makes them.
+
+    The type store's generated functions are called directly, which saves the per-call lookups of
+    ``serialize_cdr`` on the recording hot path; the bytes are the same.
+    """
+    getsize, write = _cdr_functions(typename)
+    store = typestore()
+    size = 4 + getsize(0, msg, store)
+    raw = bytearray(size)
+    raw[1] = _LITTLE
+    if write(memoryview(raw)[4:], 0, msg, store) + 4 != size:
+        raise ValueError(f"CDR size mismatch serializing {typename}")
+    return bytes(raw)
 
 
 def deserialize(data: bytes, typename: str) -> Any:
     return typestore().deserialize_cdr(data, typename)
 
 
+@lru_cache(maxsize=None)
 def msg_class(typename: str):
     return typestore().types[typename]
+
+
+@lru_cache(maxsize=1)
+def _types() -> SimpleNamespace:
+    """The message classes the builders use, looked up once."""
+    c = msg_class
+    return SimpleNamespace(
+        Time=c("builtin_interfaces/msg/Time"),
+        Header=c("std_msgs/msg/Header"),
+        Vector3=c("geometry_msgs/msg/Vector3"),
+        Quaternion=c("geometry_msgs/msg/Quaternion"),
+        Point=c("geometry_msgs/msg/Point"),
+        Pose=c("geometry_msgs/msg/Pose"),
+        Transform=c("geometry_msgs/msg/Transform"),
+        TransformStamped=c(TRANSFORM_STAMPED),
+        TFMessage=c(TF_MESSAGE),
+        Twist=c(TWIST),
+        Clock=c(CLOCK),
+        PoseWithCovariance=c("geometry_msgs/msg/PoseWithCovariance"),
+        TwistWithCovariance=c("geometry_msgs/msg/TwistWithCovariance"),
+        Odometry=c(ODOMETRY),
+        Event=c(EVENT_TYPE),
+    )
 
 
 # ---------------------------------------------------------------- builders
 
 
-def f32(x: float) -> float:
-    """A value as a float32 field holds it: live messages must equal what a log gives back."""
-    return float(np.float32(x))
-
-
 def stamp(ns: int):
     """builtin_interfaces/Time from integer nanoseconds."""
-    Time = msg_class("builtin_interfaces/msg/Time")
-    return Time(sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000))
+    return _types().Time(int(ns // 1_000_000_000), int(ns % 1_000_000_000))
 
 
 def to_ns(t: Any) -> int:
@@ -115,41 +157,43 @@ def to_ns(t: Any) -> int:
 
 
 def header(ns: int, frame_id: str):
-    Header = msg_class("std_msgs/msg/Header")
-    return Header(stamp=stamp(ns), frame_id=frame_id)
+    T = _types()
+    return T.Header(T.Time(int(ns // 1_000_000_000), int(ns % 1_000_000_000)), frame_id)
 
 
 def vector3(x: float, y: float, z: float):
-    return msg_class("geometry_msgs/msg/Vector3")(x=float(x), y=float(y), z=float(z))
+    return _types().Vector3(float(x), float(y), float(z))
 
 
 def quaternion(q_xyzw) -> Any:
-    x, y, z, w = (float(v) for v in q_xyzw)
-    return msg_class("geometry_msgs/msg/Quaternion")(x=x, y=y, z=z, w=w)
+    x, y, z, w = q_xyzw
+    return _types().Quaternion(float(x), float(y), float(z), float(w))
 
 
 def pose(xyz, q_xyzw):
-    Point = msg_class("geometry_msgs/msg/Point")
-    return msg_class("geometry_msgs/msg/Pose")(
-        position=Point(x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2])), orientation=quaternion(q_xyzw)
-    )
+    T = _types()
+    x, y, z, w = q_xyzw
+    return T.Pose(T.Point(float(xyz[0]), float(xyz[1]), float(xyz[2])), T.Quaternion(float(x), float(y), float(z), float(w)))
 
 
 def transform_stamped(ns: int, parent: str, child: str, xyz, q_xyzw):
-    Transform = msg_class("geometry_msgs/msg/Transform")
-    return msg_class(TRANSFORM_STAMPED)(
-        header=header(ns, parent),
-        child_frame_id=child,
-        transform=Transform(translation=vector3(*xyz), rotation=quaternion(q_xyzw)),
+    T = _types()
+    tx, ty, tz = xyz
+    x, y, z, w = q_xyzw
+    return T.TransformStamped(
+        header(ns, parent),
+        child,
+        T.Transform(T.Vector3(float(tx), float(ty), float(tz)), T.Quaternion(float(x), float(y), float(z), float(w))),
     )
 
 
 def tf_message(transforms: list) -> Any:
-    return msg_class(TF_MESSAGE)(transforms=list(transforms))
+    return _types().TFMessage(list(transforms))
 
 
 def twist(vx: float, vy: float, wz: float):
-    return msg_class(TWIST)(linear=vector3(vx, vy, 0.0), angular=vector3(0.0, 0.0, wz))
+    T = _types()
+    return T.Twist(T.Vector3(float(vx), float(vy), 0.0), T.Vector3(0.0, 0.0, float(wz)))
 
 
 def twist_values(msg: Any) -> tuple[float, float, float]:
@@ -159,25 +203,28 @@ def twist_values(msg: Any) -> tuple[float, float, float]:
 
 
 def clock(ns: int):
-    return msg_class(CLOCK)(clock=stamp(ns))
+    T = _types()
+    return T.Clock(T.Time(int(ns // 1_000_000_000), int(ns % 1_000_000_000)))
 
 
 def odometry(ns: int, frame: str, child: str, xyz, q_xyzw, lin, ang, pose_cov=None, twist_cov=None):
-    PoseWithCov = msg_class("geometry_msgs/msg/PoseWithCovariance")
-    TwistWithCov = msg_class("geometry_msgs/msg/TwistWithCovariance")
-    Twist = msg_class(TWIST)
+    T = _types()
     pc = np.zeros(36) if pose_cov is None else np.asarray(pose_cov, dtype=np.float64)
     tc = np.zeros(36) if twist_cov is None else np.asarray(twist_cov, dtype=np.float64)
-    return msg_class(ODOMETRY)(
-        header=header(ns, frame),
-        child_frame_id=child,
-        pose=PoseWithCov(pose=pose(xyz, q_xyzw), covariance=pc),
-        twist=TwistWithCov(twist=Twist(linear=vector3(*lin), angular=vector3(*ang)), covariance=tc),
+    lx, ly, lz = lin
+    ax, ay, az = ang
+    return T.Odometry(
+        header(ns, frame),
+        child,
+        T.PoseWithCovariance(pose(xyz, q_xyzw), pc),
+        T.TwistWithCovariance(
+            T.Twist(T.Vector3(float(lx), float(ly), float(lz)), T.Vector3(float(ax), float(ay), float(az))), tc
+        ),
     )
 
 
 def event(ns: int, kind: str, source: str, detail: str = "", value: float = 0.0):
-    return msg_class(EVENT_TYPE)(header=header(ns, ""), kind=kind, source=source, detail=detail, value=float(value))
+    return _types().Event(header(ns, ""), kind, source, detail, float(value))
 
 
 # ---------------------------------------------------------------- rotations (x, y, z, w order)
