@@ -83,8 +83,10 @@ def laser_ranges(caster: RayCaster, cfg: LaserConfig, pose: np.ndarray, rng: np.
 @lru_cache(maxsize=8)
 def _scan_constants(cfg: LaserConfig) -> tuple[float, float, float, float, float, float]:
     _, inc = laser_directions(cfg)
-    return (float(cfg.angle_min), float(cfg.angle_min + inc * (cfg.samples - 1)), float(inc), float(1.0 / cfg.rate),
-            float(cfg.range_min), float(cfg.range_max))
+    # float32 fields hold float32 values, so that live subscribers see what a replayed log gives back
+    f = messages.f32
+    return (f(cfg.angle_min), f(cfg.angle_min + inc * (cfg.samples - 1)), f(inc), f(1.0 / cfg.rate),
+            f(cfg.range_min), f(cfg.range_max))
 
 
 def scan_message(ns: int, frame: str, cfg: LaserConfig, ranges: np.ndarray):

@@ -146,6 +146,11 @@ def _types() -> SimpleNamespace:
 # ---------------------------------------------------------------- builders
 
 
+def f32(x: float) -> float:
+    """A value as a float32 field holds it: live messages must equal what a log gives back."""
+    return float(np.float32(x))
+
+
 def stamp(ns: int):
     """builtin_interfaces/Time from integer nanoseconds."""
     return _types().Time(int(ns // 1_000_000_000), int(ns % 1_000_000_000))
