@@ -14,7 +14,7 @@ Steps (reference: nav2.md §2):
 
 Two ways to grow the potential give the same field up to the order of updates inside one band:
 ``potential_exact`` updates cell by cell exactly in NavFn's order (pure Python, for small grids and
-as the reference), ``potential_wavefront`` updates each band's cells together with numpy (default).
+as the reference), ``potential_wavefront`` updates each cycle's cells together with numpy (default).
 """
 
 from __future__ import annotations
@@ -51,16 +51,6 @@ def navfn_costs(costs: np.ndarray, allow_unknown: bool = True) -> np.ndarray:
     out[0, :] = out[-1, :] = COST_OBS
     out[:, 0] = out[:, -1] = COST_OBS
     return out
-
-
-def _quad(ta: np.ndarray, tc: np.ndarray, hf: np.ndarray) -> np.ndarray:
-    dc = tc - ta
-    neg = dc < 0
-    ta = np.where(neg, tc, ta)
-    dc = np.abs(dc)
-    r = dc / hf
-    quad = ta + hf * ((-0.2301 * r + 0.5307) * r + 0.7040)
-    return np.where(dc >= hf, ta + hf, quad).astype(np.float32)
 
 
 def potential_exact(cost: np.ndarray, seed: tuple[int, int], target: tuple[int, int], use_astar: bool = False,
@@ -132,67 +122,112 @@ def potential_exact(cost: np.ndarray, seed: tuple[int, int], target: tuple[int, 
 
 def potential_wavefront(cost: np.ndarray, seed: tuple[int, int], target: tuple[int, int], use_astar: bool = False,
                         cycles: int | None = None) -> np.ndarray:
-    """NavFn's propagation with each band's cells updated together (numpy)."""
+    """NavFn's propagation with each cycle's cells updated together (numpy).
+
+    The same cycles, bands and queueing rule as ``potential_exact``. Inside a cycle the cells are
+    updated red-black: cells of one parity (x + y) have no 4-neighbour of the same parity, so all
+    cells of one parity are updated together, then those of the other with the new values, as
+    NavFn's in-order updates use the newest values.
+    """
     ny, nx = cost.shape
     ns = nx * ny
-    c = cost.ravel().astype(np.float32)
-    blocked = cost.ravel() >= COST_OBS
-    pot = np.full(ns, POT_HIGH, dtype=np.float32)
-    pending = np.zeros(ns, dtype=bool)
+    flat = cost.ravel()
+    c = flat.astype(np.float32)
+    blocked = flat >= COST_OBS
+    # the potential lives in a padded buffer, so each 4-neighbour is a view (no index arithmetic)
+    pad = nx + 1
+    buf = np.full(ns + 2 * pad, POT_HIGH, dtype=np.float32)
+    pot = buf[pad:pad + ns]
+    left, right = buf[pad - 1:pad - 1 + ns], buf[pad + 1:pad + 1 + ns]
+    up, down = buf[pad - nx:pad - nx + ns], buf[pad + nx:pad + nx + ns]
+    # queueing threshold 0.7071 * cost, +inf where blocked or already queued: one comparison tests all three
+    thr0 = np.float32(INVSQRT2) * c
+    thr0[blocked] = np.inf
+    thr = thr0.copy()
     s = seed[1] * nx + seed[0]
     t = target[1] * nx + target[0]
     tx, ty = target
     cycles = cycles or max(ns // 20, nx + ny)
-    offsets = np.array([-1, 1, -nx, nx], dtype=np.int64)
+    odd = ((np.arange(ny)[:, None] + np.arange(nx)[None, :]) & 1).astype(bool).ravel()
+    stamp = np.zeros(ns, dtype=np.intp)  # duplicate removal: the last position written for a cell wins
+    off = np.array([-1, 1, -nx, nx], dtype=np.intp)
+    cap = 4 * (nx + ny)
+    positions = np.arange(cap, dtype=np.intp)
+    offsets = np.tile(off, cap // 4)
     pot[s] = 0.0
-    cur = s + offsets
+    cur = s + off
     cur = cur[(cur >= 0) & (cur < ns)]
     cur = cur[~blocked[cur]]
-    pending[cur] = True
-    nxt = np.empty(0, dtype=np.int64)
-    over_parts: list[np.ndarray] = []
+    thr[cur] = np.inf
+    waiting: list[np.ndarray] = []  # cells queued from above the threshold: the next band
     cur_t = float(COST_OBS)
     if use_astar:
         cur_t += math.hypot(seed[0] - tx, seed[1] - ty) * COST_NEUTRAL
-        xs = (np.arange(ns) % nx).astype(np.float32)
-        ys = (np.arange(ns) // nx).astype(np.float32)
+        xs = np.arange(nx, dtype=np.float32)[None, :]
+        ys = np.arange(ny, dtype=np.float32)[:, None]
+        h = (np.hypot(xs - tx, ys - ty) * COST_NEUTRAL).ravel()  # float32, as the priority is added
+    # 0-d float32 arrays: the same arithmetic as Python floats on float32 arrays, with less overhead per call
+    qa, qb, qc, one, inf = (np.array(v, dtype=np.float32) for v in (-0.2301, 0.5307, 0.7040, 1.0, np.inf))
+    threshold = np.array(cur_t, dtype=np.float32)
     for _ in range(cycles):
-        if len(cur) == 0 and len(nxt) == 0:
-            break
-        pending[cur] = False
-        # red-black: cells of one parity have no 4-neighbour of the same parity, so updating one
-        # parity and then the other uses the newest values, as NavFn's in-order updates do
-        parity = ((cur % nx) + (cur // nx)) & 1
-        cells_parts, p_parts = [], []
-        for half in (cur[parity == 0], cur[parity == 1]):
-            hf = c[half]
-            left, right = pot[half - 1], pot[half + 1]
-            up, down = pot[half - nx], pot[half + nx]
-            ph = _quad(np.minimum(up, down), np.minimum(left, right), hf)
-            better = ph < pot[half]
-            pot[half[better]] = ph[better]
-            cells_parts.append(half[better])
-            p_parts.append(ph[better])
-        cells = np.concatenate(cells_parts)
-        p = pot[cells]
-        pri = p + np.hypot(xs[cells] - tx, ys[cells] - ty).astype(np.float32) * COST_NEUTRAL if use_astar else p
-        nb = (cells[:, None] + offsets[None, :]).ravel()
-        nb_pri = np.repeat(pri, 4)
-        nb_low = np.repeat(pri < cur_t, 4)
-        ok = (pot[nb] > nb_pri + np.float32(INVSQRT2) * c[nb]) & ~blocked[nb] & ~pending[nb]
-        nb, nb_low = nb[ok], nb_low[ok]
-        new_next = np.unique(nb[nb_low])
-        pending[new_next] = True
-        new_over = nb[~nb_low]
-        new_over = np.unique(new_over[~pending[new_over]])
-        pending[new_over] = True
-        if len(new_over):
-            over_parts.append(new_over)
-        cur, nxt = new_next, np.empty(0, dtype=np.int64)
         if len(cur) == 0:
+            break
+        thr[cur] = thr0[cur]  # no longer queued
+        o = odd[cur]
+        parts = []
+        for half in (cur[~o], cur[o]):
+            # NavFn's update: ta, tc the lower neighbour on each axis, hf the cell's cost
+            tc = np.minimum(left[half], right[half])
+            ta = np.minimum(up[half], down[half])
+            lo = np.minimum(ta, tc)
+            dc = np.abs(ta - tc)
+            hf = c[half]
+            r = dc / hf
+            p = qa * r
+            p += qb
+            p *= r
+            p += qc
+            p[dc >= hf] = one
+            p *= hf
+            p += lo
+            better = p < pot[half]
+            if np.count_nonzero(better) < len(half):
+                half, p = half[better], p[better]
+            pot[half] = p
+            parts.append((half, p))
+        cells = np.concatenate((parts[0][0], parts[1][0]))
+        pri = np.concatenate((parts[0][1], parts[1][1]))
+        if use_astar:
+            pri = pri + h[cells]
+        # queue the neighbours whose potential is above pri + 0.7071 * their cost
+        n4 = 4 * len(cells)
+        if 2 * n4 > cap:
+            cap = 2 * n4
+            positions = np.arange(cap, dtype=np.intp)
+            offsets = np.tile(off, cap // 4)
+        nb = cells.repeat(4) + offsets[:n4]
+        pri4 = pri.repeat(4)
+        ok = np.flatnonzero(pot[nb] > pri4 + thr[nb])
+        cand = nb[ok]
+        low = pri4[ok] < threshold
+        nxt = cand[low]
+        n = len(nxt)
+        stamp[nxt] = positions[:n]
+        if n < len(cand):  # neighbours of cells above the threshold wait for the next band
+            over = cand[~low]
+            m = len(over)
+            stamp[over] = positions[n:n + m]
+            stamp[nxt] = positions[:n]  # a cell queued from both sides stays in this band
+            over = over[stamp[over] == positions[n:n + m]]
+            thr[over] = inf
+            waiting.append(over)
+        cur = nxt[stamp[nxt] == positions[:n]]
+        thr[cur] = inf
+        if len(cur) == 0:  # the band is done: raise the threshold, the waiting cells are next
             cur_t += PRI_INC
-            cur = np.concatenate(over_parts) if over_parts else np.empty(0, dtype=np.int64)
-            over_parts = []
+            threshold = np.array(cur_t, dtype=np.float32)
+            cur = np.concatenate(waiting) if waiting else np.empty(0, dtype=np.intp)
+            waiting = []
         if pot[t] < POT_HIGH:
             break
     return pot.reshape(ny, nx)
@@ -206,39 +241,42 @@ def extract_path(pot: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
     """
     ny, nx = pot.shape
     ns = nx * ny
-    p = pot.ravel().tolist()
-    gx: dict[int, float] = {}
-    gy: dict[int, float] = {}
+    p = memoryview(np.ascontiguousarray(pot).ravel())  # Python floats on access, no copy of the grid
+    cache: dict[int, tuple[float, float]] = {}
 
-    def grad(n: int) -> None:
-        if gx.get(n, 0.0) + gy.get(n, 0.0) > 0.0:
-            return
-        if n < nx or n > ns - nx:
-            return
-        cv = p[n]
-        dx = dy = 0.0
-        if cv >= POT_HIGH:
-            if p[n - 1] < POT_HIGH:
-                dx = -COST_OBS
-            elif p[n + 1] < POT_HIGH:
-                dx = COST_OBS
-            if p[n - nx] < POT_HIGH:
-                dy = -COST_OBS
-            elif p[n + nx] < POT_HIGH:
-                dy = COST_OBS
-        else:
-            if p[n - 1] < POT_HIGH:
-                dx += p[n - 1] - cv
-            if p[n + 1] < POT_HIGH:
-                dx += cv - p[n + 1]
-            if p[n - nx] < POT_HIGH:
-                dy += p[n - nx] - cv
-            if p[n + nx] < POT_HIGH:
-                dy += cv - p[n + nx]
-        norm = math.hypot(dx, dy)
-        if norm > 0:
-            gx[n] = dx / norm
-            gy[n] = dy / norm
+    def grad(n: int) -> tuple[float, float]:
+        """NavFn's normalised gradient at a cell ((0, 0) on the border rows or where it vanishes)."""
+        g = cache.get(n)
+        if g is not None:
+            return g
+        g = (0.0, 0.0)
+        if not (n < nx or n > ns - nx):
+            cv = p[n]
+            dx = dy = 0.0
+            if cv >= POT_HIGH:
+                if p[n - 1] < POT_HIGH:
+                    dx = -COST_OBS
+                elif p[n + 1] < POT_HIGH:
+                    dx = COST_OBS
+                if p[n - nx] < POT_HIGH:
+                    dy = -COST_OBS
+                elif p[n + nx] < POT_HIGH:
+                    dy = COST_OBS
+            else:
+                pl, pr, pu, pd = p[n - 1], p[n + 1], p[n - nx], p[n + nx]
+                if pl < POT_HIGH:
+                    dx += pl - cv
+                if pr < POT_HIGH:
+                    dx += cv - pr
+                if pu < POT_HIGH:
+                    dy += pu - cv
+                if pd < POT_HIGH:
+                    dy += cv - pd
+            norm = math.hypot(dx, dy)
+            if norm > 0:
+                g = (dx / norm, dy / norm)
+        cache[n] = g
+        return g
 
     stc = start[1] * nx + start[0]
     dx = dy = 0.0
@@ -251,10 +289,9 @@ def extract_path(pot: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
         if stc < nx or stc > ns - nx:
             return []
         path.append((stc % nx + dx, stc // nx + dy))
-        osc = len(path) > 2 and path[-1] == path[-3]
         up, dn = stc - nx, stc + nx
-        around = (stc, stc + 1, stc - 1, dn, dn + 1, dn - 1, up, up + 1, up - 1)
-        if osc or any(p[k] >= POT_HIGH for k in around):
+        if (len(path) > 2 and path[-1] == path[-3]) or max(
+                p[stc], p[stc + 1], p[stc - 1], p[dn], p[dn + 1], p[dn - 1], p[up], p[up + 1], p[up - 1]) >= POT_HIGH:
             minc, minp = stc, p[stc]
             for k in (up - 1, up, up + 1, stc - 1, stc + 1, dn - 1, dn, dn + 1):
                 if p[k] < minp:
@@ -264,13 +301,15 @@ def extract_path(pot: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
             if p[stc] >= POT_HIGH:
                 return []
         else:
-            for k in (stc, stc + 1, dn, dn + 1):
-                grad(k)
-            x1 = (1.0 - dx) * gx.get(stc, 0.0) + dx * gx.get(stc + 1, 0.0)
-            x2 = (1.0 - dx) * gx.get(dn, 0.0) + dx * gx.get(dn + 1, 0.0)
+            g00x, g00y = grad(stc)
+            g10x, g10y = grad(stc + 1)
+            g01x, g01y = grad(dn)
+            g11x, g11y = grad(dn + 1)
+            x1 = (1.0 - dx) * g00x + dx * g10x
+            x2 = (1.0 - dx) * g01x + dx * g11x
             x = (1.0 - dy) * x1 + dy * x2
-            y1 = (1.0 - dx) * gy.get(stc, 0.0) + dx * gy.get(stc + 1, 0.0)
-            y2 = (1.0 - dx) * gy.get(dn, 0.0) + dx * gy.get(dn + 1, 0.0)
+            y1 = (1.0 - dx) * g00y + dx * g10y
+            y2 = (1.0 - dx) * g01y + dx * g11y
             y = (1.0 - dy) * y1 + dy * y2
             if x == 0.0 and y == 0.0:
                 return []
@@ -316,19 +355,34 @@ def path_length(xy: np.ndarray) -> float:
 
 def path_cost(xy: np.ndarray, cell_cost: np.ndarray, resolution: float, origin: tuple[float, float],
               neutral: float, step: float = 0.25) -> float:
-    """Line integral of cell_cost / neutral along a world path (sampled every ``step`` cells)."""
-    total = 0.0
+    """Line integral of cell_cost / neutral along a world path (sampled every ``step`` cells).
+
+    Each segment is sampled at the centres of ceil(length / (step * resolution)) equal parts and
+    contributes length * mean(sampled costs) / neutral; the sum runs in path order.
+    """
+    xy = np.asarray(xy, dtype=np.float64)
+    if len(xy) < 2:
+        return 0.0
     ny, nx = cell_cost.shape
-    for (x0, y0), (x1, y1) in zip(xy[:-1, :2], xy[1:, :2]):
-        seg = math.hypot(x1 - x0, y1 - y0)
-        if seg == 0.0:
-            continue
-        n = max(int(math.ceil(seg / (step * resolution))), 1)
-        t = (np.arange(n) + 0.5) / n
-        mx = np.clip(np.floor((x0 + t * (x1 - x0) - origin[0]) / resolution).astype(int), 0, nx - 1)
-        my = np.clip(np.floor((y0 + t * (y1 - y0) - origin[1]) / resolution).astype(int), 0, ny - 1)
-        total += seg * float(cell_cost[my, mx].mean()) / neutral
-    return total
+    x0, y0 = xy[:-1, 0], xy[:-1, 1]
+    ddx, ddy = xy[1:, 0] - x0, xy[1:, 1] - y0
+    seg = np.array([math.hypot(a, b) for a, b in zip(ddx.tolist(), ddy.tolist())])  # math.hypot: the scalar rounding
+    keep = seg != 0.0
+    x0, y0, ddx, ddy, seg = x0[keep], y0[keep], ddx[keep], ddy[keep], seg[keep]
+    if len(seg) == 0:
+        return 0.0
+    n = np.maximum(np.ceil(seg / (step * resolution)).astype(np.int64), 1)
+    ray = np.repeat(np.arange(len(n)), n)
+    first = np.cumsum(n) - n
+    nr = n[ray]
+    t = (np.arange(len(ray)) - first[ray] + 0.5) / nr
+    mx = np.clip(np.floor((x0[ray] + t * ddx[ray] - origin[0]) / resolution).astype(int), 0, nx - 1)
+    my = np.clip(np.floor((y0[ray] + t * ddy[ray] - origin[1]) / resolution).astype(int), 0, ny - 1)
+    vals = cell_cost[my, mx].astype(np.float64)
+    means = np.add.reduceat(vals, first) / n
+    for i in np.flatnonzero(n >= 8):  # numpy sums 8 or more values pairwise: the same sums as ndarray.mean
+        means[i] = vals[first[i]:first[i] + n[i]].copy().mean()  # a fresh (aligned) array: the same rounding
+    return float(np.cumsum(seg * means / neutral)[-1])
 
 
 class NavfnPlanner:
@@ -430,7 +484,7 @@ class NavfnPlanner:
             notes.append(f"goal unreachable; tolerance moved it by {math.sqrt(best_d):.3f} m to "
                          f"({best[0]:.3f}, {best[1]:.3f})")
         length = path_length(poses)
-        pcost = path_cost(poses, cost.astype(np.float64), res, (cm.origin_x - 0.5 * res, cm.origin_y - 0.5 * res),
+        pcost = path_cost(poses, cost, res, (cm.origin_x - 0.5 * res, cm.origin_y - 0.5 * res),
                           COST_NEUTRAL)
         return PlanResult(poses, length, pcost, time.perf_counter() - t0, (best[0], best[1], goal[2]), "navfn", notes)
 

@@ -13,6 +13,7 @@ from replay.navfn import (
     NavfnPlanner,
     PlanningError,
     navfn_costs,
+    path_cost,
     potential_exact,
     potential_wavefront,
 )
@@ -206,3 +207,43 @@ def test_smac2d_tolerance():
         Smac2DPlanner(Smac2DParams(tolerance=0.0)).plan(g, (1.0, 1.0, 0.0), (4.05, 4.05, 0.0))
     plan = Smac2DPlanner(Smac2DParams(tolerance=0.4)).plan(g, (1.0, 1.0, 0.0), (4.05, 4.05, 0.0))
     assert math.hypot(plan.poses[-1, 0] - 4.05, plan.poses[-1, 1] - 4.05) == pytest.approx(0.3)
+
+
+def test_path_cost_of_known_segments():
+    # 20 x 5 cells at 0.1 m: cost 50 (one unit per metre) for x < 1.0 m, 100 (two units) beyond
+    cell_cost = np.full((5, 20), 50, dtype=np.int16)
+    cell_cost[:, 10:] = 100
+    xs = np.linspace(0.2, 1.8, 33)  # 32 steps of 0.05 m: 16 on each side of x = 1.0
+    fine = np.column_stack([xs, np.full(33, 0.25), np.zeros(33)])
+    assert path_cost(fine, cell_cost, RES, (0.0, 0.0), 50.0) == pytest.approx(0.8 * 1 + 0.8 * 2, rel=1e-12)
+    # one 1.6 m segment: 64 samples, 32 on each side
+    assert path_cost(fine[[0, -1]], cell_cost, RES, (0.0, 0.0), 50.0) == pytest.approx(1.6 * 75 / 50, rel=1e-12)
+    # repeated points add nothing; a single point costs nothing
+    doubled = np.repeat(fine, 2, axis=0)
+    assert path_cost(doubled, cell_cost, RES, (0.0, 0.0), 50.0) == path_cost(fine, cell_cost, RES, (0.0, 0.0), 50.0)
+    assert path_cost(fine[:1], cell_cost, RES, (0.0, 0.0), 50.0) == 0.0
+
+
+def _cluttered(seed: int) -> Grid:
+    rng = np.random.default_rng(seed)
+    g = free_grid(80)
+    for _ in range(25):
+        x, y = rng.integers(5, 70, 2)
+        w, h = rng.integers(2, 7, 2)
+        g.costs[y:y + h, x:x + w] = 254
+    g.costs[:12, :12] = 0
+    g.costs[-12:, -12:] = 0
+    return g
+
+
+@pytest.mark.parametrize("use_astar", [False, True])
+def test_cluttered_plan_is_deterministic_and_near_the_reference(use_astar):
+    g = _cluttered(4)
+    planner = NavfnPlanner(NavfnParams(use_astar=use_astar))
+    a = planner.plan(g, (0.5, 0.5, 0.0), (7.4, 7.4, 0.0))
+    b = planner.plan(g, (0.5, 0.5, 0.0), (7.4, 7.4, 0.0))
+    assert a.poses.tobytes() == b.poses.tobytes() and a.cost == b.cost
+    assert np.array_equal(planner.last_potential, potential_wavefront(navfn_costs(g.costs), (5, 5), (74, 74), use_astar))
+    # free cells only (cost 50): any-angle NavFn is at most the 8-connected optimum, and not far below it
+    ref = navfn_reference(g, (0.5, 0.5), (7.4, 7.4))
+    assert ref * 0.97 <= a.cost <= ref * 1.01
