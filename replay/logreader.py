@@ -9,7 +9,10 @@ error unless ``recover=True``, which reads every complete chunk and reports how 
 
 from __future__ import annotations
 
+import heapq
 import logging
+import os
+import struct
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -22,6 +25,12 @@ from replay.executor import Envelope
 log = logging.getLogger("navlog")
 
 MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+_RECORD_HEAD = struct.Struct("<BQ")  # opcode, record length
+_MESSAGE_HEAD = struct.Struct("<BQHIQQ")  # opcode, length, channel id, sequence, log time, publish time
+_CHUNK_HEAD = struct.Struct("<BQQQQII")  # opcode, length, start, end, uncompressed size, crc, compression length
+_OP_MESSAGE, _OP_CHUNK, _OP_MESSAGE_INDEX = 0x05, 0x06, 0x07
+READ_AHEAD = 2  # MCAP chunks read and decompressed ahead of the one being replayed
 
 
 @dataclass
@@ -182,6 +191,8 @@ class McapLogReader(LogReader):
         if summary is None:
             raise LogError(f"{self.path}: MCAP has no summary section; try `navlog recover`")
         self.profile = header.profile
+        self._summary = summary
+        self._typenames = {sid: sc.name for sid, sc in summary.schemas.items()}
         stats = summary.statistics
         counts = stats.channel_message_counts if stats else {}
         if stats and stats.message_count:
@@ -247,19 +258,104 @@ class McapLogReader(LogReader):
         if self.report.truncated:
             yield from self._messages_truncated(wanted, decode, start_ns, end_ns)
             return
-        from mcap.reader import make_reader
-
-        self._file.seek(0)
-        reader = make_reader(self._file)
         try:
-            for schema, channel, msg in reader.iter_messages(
-                topics=sorted(wanted), start_time=start_ns, end_time=None if end_ns is None else end_ns + 1, log_time_order=True
-            ):
-                env = self._envelope(channel.topic, schema.name if schema else "", msg.log_time, msg.data, decode)
+            for topic, typename, t, data in self._indexed(wanted, start_ns, end_ns):
+                env = self._envelope(topic, typename, t, data, decode)
                 if env is not None:
                     yield env
+        except LogError:
+            raise
         except Exception as exc:
             raise LogError(f"{self.path}: corrupt data after {self.report.read} messages ({exc}); try --recover") from None
+
+    def _indexed(self, wanted: set[str], start_ns: int | None, end_ns: int | None) -> Iterator[tuple[str, str, int, memoryview]]:
+        """(topic, type name, log time, CDR bytes) of the wanted topics, in log-time order.
+
+        The order is the ``mcap`` library's (log time, then chunk offset, then position in the
+        chunk), but only the wanted messages are touched: chunks without a wanted channel are never
+        read, and in the others the chunk's message indexes give the wanted records' offsets, so
+        the rest of the chunk (the LiDAR clouds a 2D replay does not need) is decompressed but not
+        parsed. A chunk without message indexes is parsed whole. Chunks are loaded in the order
+        their time ranges are reached, ``READ_AHEAD`` of them ahead in a background thread
+        (decompression releases the GIL), so at most a few chunks are in memory at any time.
+        """
+        summary = self._summary
+        channels = {cid: (ch.topic, self._typenames.get(ch.schema_id, "")) for cid, ch in summary.channels.items() if ch.topic in wanted}
+        if not channels:
+            return
+        chunks = []
+        for ci in summary.chunk_indexes:
+            if start_ns is not None and ci.message_end_time < start_ns:
+                continue
+            if end_ns is not None and ci.message_start_time > end_ns:
+                continue
+            if ci.message_index_offsets and not any(cid in channels for cid in ci.message_index_offsets):
+                continue
+            chunks.append(ci)
+        chunks.sort(key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
+        # a chunk is opened when the stream reaches its first message time; sorted, the list is a heap
+        queue: list[tuple] = [(ci.message_start_time, ci.chunk_start_offset, -1, None) for ci in chunks]
+        loader = _ReadAhead(lambda ci: self._chunk_messages(ci, channels), chunks, READ_AHEAD)
+        try:
+            while queue:
+                t, chunk_offset, pos, item = heapq.heappop(queue)
+                if pos >= 0:
+                    cid, data = item
+                    topic, typename = channels[cid]
+                    yield topic, typename, t, data
+                    continue
+                for t, pos, cid, data in loader.next():
+                    if (start_ns is None or t >= start_ns) and (end_ns is None or t <= end_ns):
+                        heapq.heappush(queue, (t, chunk_offset, pos, (cid, data)))
+        finally:
+            loader.close()
+
+    def _chunk_messages(self, ci: Any, channels: dict) -> list[tuple[int, int, int, memoryview]]:
+        """(log time, position, channel id, data) of the wanted messages in one chunk.
+
+        Reads with ``os.pread`` (no shared file position), so it may run in another thread.
+        """
+        fd = self._file.fileno()
+        raw = os.pread(fd, ci.chunk_length, ci.chunk_start_offset)
+        if len(raw) < _CHUNK_HEAD.size:
+            raise LogError(f"{self.path}: chunk at offset {ci.chunk_start_offset} is cut short; try --recover")
+        op, _, _, _, size, _, clen = _CHUNK_HEAD.unpack_from(raw, 0)
+        if op != _OP_CHUNK:
+            raise LogError(f"{self.path}: no chunk at offset {ci.chunk_start_offset} (corrupt chunk index); try --recover")
+        at = _CHUNK_HEAD.size
+        compression = raw[at : at + clen].decode()
+        at += clen
+        (dlen,) = struct.unpack_from("<Q", raw, at)
+        buf = memoryview(_decompress(raw[at + 8 : at + 8 + dlen], compression, size))
+        if len(buf) != size:
+            raise LogError(f"{self.path}: chunk at offset {ci.chunk_start_offset} does not decompress to its size; try --recover")
+        out = []
+        if not ci.message_index_offsets:  # no indexes: every record of the chunk is looked at
+            pos = 0
+            while pos < len(buf):
+                op, length = _RECORD_HEAD.unpack_from(buf, pos)
+                if op == _OP_MESSAGE:
+                    cid, _, t, _ = struct.unpack_from("<HIQQ", buf, pos + 9)
+                    if cid in channels:
+                        out.append((t, pos, cid, buf[pos + 31 : pos + 9 + length]))
+                pos += 9 + length
+            return out
+        first = min(ci.message_index_offsets.values())
+        index = os.pread(fd, ci.chunk_start_offset + ci.chunk_length + ci.message_index_length - first, first)
+        for cid, offset in ci.message_index_offsets.items():
+            if cid not in channels:
+                continue
+            at = offset - first
+            op, _, icid, nbytes = struct.unpack_from("<BQHI", index, at)
+            if op != _OP_MESSAGE_INDEX or icid != cid:
+                raise LogError(f"{self.path}: bad message index for channel {cid} at offset {offset}; try --recover")
+            entries = struct.unpack_from(f"<{nbytes // 8}Q", index, at + 15)
+            for pos in entries[1::2]:
+                op, length, mcid, _, t, _ = _MESSAGE_HEAD.unpack_from(buf, pos)
+                if op != _OP_MESSAGE or mcid != cid or pos + 9 + length > len(buf):
+                    raise LogError(f"{self.path}: message index of channel {cid} points at no message of it; try --recover")
+                out.append((t, pos, cid, buf[pos + 31 : pos + 9 + length]))
+        return out
 
     def _messages_truncated(self, wanted, decode, start_ns, end_ns) -> Iterator[Envelope]:
         from mcap.records import Channel, Message, Schema
@@ -284,10 +380,11 @@ class McapLogReader(LogReader):
             if env is not None:
                 yield env
 
-    def _envelope(self, topic: str, typename: str, t: int, data: bytes, decode: bool) -> Envelope | None:
+    def _envelope(self, topic: str, typename: str, t: int, data: bytes | memoryview, decode: bool) -> Envelope | None:
         self.report.read += 1
+        data = bytes(data)  # the message's own copy: nothing keeps a whole chunk alive
         if not decode:
-            return Envelope(topic, typename, t, bytes(data))
+            return Envelope(topic, typename, t, data)
         msg = self._decode(data, typename, topic)
         return None if msg is None else Envelope(topic, typename, t, msg)
 
@@ -395,6 +492,58 @@ class SplitMcapLogReader(LogReader):
     def close(self) -> None:
         for p in self.parts:
             p.close()
+
+
+class _ReadAhead:
+    """``fn(item)`` of each item in order, computed ``depth`` items ahead in one background thread.
+
+    Only the timing changes, never the results or their order; an exception is raised by ``next``
+    for the item that caused it.
+    """
+
+    def __init__(self, fn, items: list, depth: int) -> None:
+        from collections import deque
+        from concurrent.futures import ThreadPoolExecutor
+
+        self._fn = fn
+        self._items = iter(items)
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="navlog-read") if depth > 0 else None
+        self._futures: deque = deque()
+        for _ in range(depth):
+            self._submit()
+
+    def _submit(self) -> None:
+        item = next(self._items, None)
+        if item is not None and self._pool is not None:
+            self._futures.append(self._pool.submit(self._fn, item))
+
+    def next(self) -> Any:
+        if not self._futures:
+            return self._fn(next(self._items))
+        future = self._futures.popleft()
+        self._submit()
+        return future.result()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            for f in self._futures:
+                f.cancel()
+            self._pool.shutdown(wait=True)
+
+
+def _decompress(data: bytes, compression: str, size: int) -> bytes:
+    """The uncompressed records of a chunk (MCAP allows zstd, lz4 and none)."""
+    if compression == "zstd":
+        import zstandard
+
+        return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
+    if compression == "lz4":
+        import lz4.frame
+
+        return lz4.frame.decompress(data)
+    if compression == "":
+        return data
+    raise LogError(f"unsupported MCAP chunk compression '{compression}'")
 
 
 def _bag_files(path: Path) -> list[Path]:

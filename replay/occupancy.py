@@ -64,6 +64,7 @@ class OccupancyGrid2D:
         self.logodds = np.zeros((0, 0), dtype=np.float32)  # (ny, nx)
         self.seen = np.zeros((0, 0), dtype=bool)
         self.stats = ScanStats()
+        self._buffers: dict[str, np.ndarray] = {}  # work arrays of insert_scan, reused between scans
 
     # ------------------------------------------------------------ growth
     def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
@@ -130,21 +131,38 @@ class OccupancyGrid2D:
         self._ensure(min(pos[0], ends[:, 0].min()), min(pos[1], ends[:, 1].min()),
                      max(pos[0], ends[:, 0].max()), max(pos[1], ends[:, 1].max()))
         ny, nx = self.logodds.shape
-        # free space: sample every half cell along each beam, stopping short of the end cell
+        ncell = ny * nx
+        # free space: sample every half cell along each beam, stopping short of the end cell. The
+        # (beams x samples) arrays live in reused work buffers: allocating them afresh for every
+        # scan costs more (page faults) than the arithmetic.
         step = self.res * 0.5
         t = np.arange(int(np.ceil(length.max() / step)) + 1, dtype=np.float32) * np.float32(step / self.res)
-        inside = t[None, :] <= ((length - step) / self.res).astype(np.float32)[:, None]
-        inside[:, 0] = True
+        last = ((length - step) / self.res).astype(np.float32)  # a beam's samples end at this t
         d2c = d2.astype(np.float32)
         g0 = ((pos[:2] - self.origin) / self.res).astype(np.float32)
-        gx = (g0[0] + d2c[:, 0:1] * t[None, :])[inside].astype(np.int64)  # non-negative: truncation = floor
-        gy = (g0[1] + d2c[:, 1:2] * t[None, :])[inside].astype(np.int64)
-        free = gy * nx + gx
+        shape = (len(length), len(t))
+        x = self._work("x", np.float32, shape)
+        gx = self._work("gx", np.intp, shape)
+        cell = self._work("cell", np.intp, shape)
+        past = self._work("past", bool, shape)
+        np.multiply(d2c[:, 0:1], t[None, :], out=x)
+        np.add(g0[0], x, out=x)
+        np.copyto(gx, x, casting="unsafe")  # non-negative inside the beam: truncation = floor
+        np.multiply(d2c[:, 1:2], t[None, :], out=x)
+        np.add(g0[1], x, out=x)
+        np.copyto(cell, x, casting="unsafe")
+        np.multiply(cell, nx, out=cell)
+        np.add(cell, gx, out=cell)
+        np.greater(t[None, :], last[:, None], out=past)
+        past[:, 0] = False  # the sensor's own cell is always crossed
+        np.copyto(cell, ncell, where=past)  # samples past a beam's free part go to a spare cell
         end_cells = self._cells(ends[ishit], nx)
-        mask = np.zeros(ny * nx, dtype=np.int8)
-        mask[free] = 1
+        mask = self._work("mask", np.int8, (ncell + 1,))
+        mask.fill(0)
+        mask[cell.reshape(-1)] = 1
         # a beam's own end cell is not cleared by it (nor by grazing neighbours in this scan)
         mask[end_cells] = 2
+        mask = mask[:ncell]
         flat = self.logodds.reshape(-1)
         seen = self.seen.reshape(-1)
         f = np.flatnonzero(mask == 1)
@@ -153,6 +171,15 @@ class OccupancyGrid2D:
         flat[o] = np.minimum(flat[o] + self.l_hit, self.l_max)
         seen[f] = True
         seen[o] = True
+
+    def _work(self, name: str, dtype, shape: tuple[int, ...]) -> np.ndarray:
+        """A reusable work array of ``shape`` (contents undefined), grown when a scan needs more."""
+        n = int(np.prod(shape))
+        buf = self._buffers.get(name)
+        if buf is None or buf.size < n:
+            buf = np.empty(max(n, 0 if buf is None else buf.size + buf.size // 4), dtype=dtype)
+            self._buffers[name] = buf
+        return buf[:n].reshape(shape)
 
     def _cells(self, xy: np.ndarray, nx: int) -> np.ndarray:
         ij = np.floor((xy - self.origin) / self.res).astype(np.int64)
