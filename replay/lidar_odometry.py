@@ -151,9 +151,8 @@ class GyroTrack:
             return np.tile(np.eye(3), (len(q), 1, 1))
         ts = (np.asarray(self._t[i0 : i1 + 1], dtype=np.int64) - lo) * 1e-9
         slerp = Slerp(ts, Rotation.from_quat(np.asarray(self._q[i0 : i1 + 1])))
-        r_ref = slerp([(t_ref_ns - lo) * 1e-9])
-        r_q = slerp((q - lo) * 1e-9)
-        return (r_ref.inv() * r_q).as_matrix()
+        r = slerp(np.concatenate([[(t_ref_ns - lo) * 1e-9], (q - lo) * 1e-9]))  # the reference first
+        return (r[0:1].inv() * r[1:]).as_matrix()
 
 
 class PoseTrack:
@@ -191,12 +190,13 @@ class PoseTrack:
         if len(t) == 1:
             out[:] = self._p[0]
             return out
-        p = np.asarray(self._p)
+        p0 = np.asarray([self._p[k] for k in i])  # only the poses around the queries
+        p1 = np.asarray([self._p[k + 1] for k in i])
         a = np.clip((q - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0)
-        r0, r1 = Rotation.from_matrix(p[i, :3, :3]), Rotation.from_matrix(p[i + 1, :3, :3])
+        r0, r1 = Rotation.from_matrix(p0[:, :3, :3]), Rotation.from_matrix(p1[:, :3, :3])
         delta = (r0.inv() * r1).as_rotvec()
         out[:, :3, :3] = (r0 * Rotation.from_rotvec(delta * a[:, None])).as_matrix()
-        out[:, :3, 3] = (1 - a)[:, None] * p[i, :3, 3] + a[:, None] * p[i + 1, :3, 3]
+        out[:, :3, 3] = (1 - a)[:, None] * p0[:, :3, 3] + a[:, None] * p1[:, :3, 3]
         return out
 
     def relative(self, t_ref_ns: int, query_ns: np.ndarray) -> np.ndarray | None:
@@ -204,8 +204,8 @@ class PoseTrack:
         q = np.asarray(query_ns, dtype=np.int64)
         if not self.covers(int(min(t_ref_ns, q.min())), int(max(t_ref_ns, q.max()))):
             return None
-        ref = self.poses(np.array([t_ref_ns]))[0]
-        return np.linalg.inv(ref) @ self.poses(q)
+        both = self.poses(np.concatenate([[t_ref_ns], q]))  # the reference first
+        return np.linalg.inv(both[0]) @ both[1:]
 
 
 @dataclass
@@ -318,11 +318,11 @@ class LidarOdometry:
     def _relative(self, t_ref_ns: int, query_ns: np.ndarray, prior: MotionPrior | None) -> np.ndarray:
         """(K, 4, 4): base_link at ``t_ref`` <- base_link at each query time, from the best prior."""
         q_ns = np.asarray(query_ns, dtype=np.int64)
-        rel = self._motion.relative((q_ns - t_ref_ns) * 1e-9)
+        rel = None
         if prior is not None and prior.odom is not None:
-            odom = prior.odom.relative(t_ref_ns, q_ns)
-            if odom is not None:
-                rel = odom
+            rel = prior.odom.relative(t_ref_ns, q_ns)
+        if rel is None:
+            rel = self._motion.relative((q_ns - t_ref_ns) * 1e-9)
         if prior is not None and prior.gyro is not None:
             rot = prior.gyro.relative_rotations(t_ref_ns, q_ns)
             if rot is not None:
@@ -440,7 +440,7 @@ class LidarOdometry:
         if len(keep) > p.local_map_max_points:
             keep = keep[np.argsort(dist[keep], kind="stable")[: p.local_map_max_points]]
             keep.sort()
-        local = merged.select_by_index(keep.tolist()) if len(keep) < len(pts) else merged
+        local = _pcd(pts[keep]) if len(keep) < len(pts) else merged  # the kept points, in order
         search = o3d.geometry.KDTreeSearchParamHybrid(radius=p.normal_radius, max_nn=p.normal_max_nn)
         local.estimate_normals(search)
         if p.method == "gicp":

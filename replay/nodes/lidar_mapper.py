@@ -75,6 +75,8 @@ class LidarMapperNode(Node):
         self.frames_in = 0
         self._pending: list[_Pending] = []
         self._odom_fix: dict[str, np.ndarray] = {}  # odom child frame -> base_link
+        self._mounts: dict[str, np.ndarray | None] = {}  # frame -> base_link <- frame, until /tf_static changes
+        self._path_items: list = []  # PoseStamped of the poses published so far (poses never change)
 
     # ------------------------------------------------------------ wiring
     def setup(self) -> None:
@@ -103,15 +105,24 @@ class LidarMapperNode(Node):
     # ------------------------------------------------------------ callbacks
     def _on_tf_static(self, msg: Any, t_ns: int) -> None:
         self.tf.add_message(msg, static=True)
+        self._mounts.clear()
 
     def _mount(self, frame: str) -> np.ndarray | None:
-        """base_link <- ``frame`` from the static transforms, identity for base_link itself."""
+        """base_link <- ``frame`` from the static transforms, identity for base_link itself (read-only)."""
+        if frame in self._mounts:
+            return self._mounts[frame]
+        mount: np.ndarray | None
         if not frame or frame.lstrip("/") == self.params.base_frame:
-            return np.eye(4)
-        try:
-            return self.tf.lookup(self.params.base_frame, frame, None)
-        except TransformError:
-            return None
+            mount = np.eye(4)
+        else:
+            try:
+                mount = self.tf.lookup(self.params.base_frame, frame, None)
+            except TransformError:
+                mount = None
+        if mount is not None:
+            mount.flags.writeable = False
+        self._mounts[frame] = mount
+        return mount
 
     def _on_imu(self, msg: Any, t_ns: int) -> None:
         mount = self._mount(msg.header.frame_id)
@@ -215,11 +226,12 @@ class LidarMapperNode(Node):
             return
         frame = self.params.map_frame
         pose_stamped = messages.msg_class(messages.POSE_STAMPED)
-        items = [
+        items = self._path_items  # built once per pose: a path message holds every pose so far
+        items.extend(
             pose_stamped(header=messages.header(int(t), frame), pose=messages.pose(m[:3, 3], messages.matrix_to_quat(m[:3, :3])))
-            for t, m in zip(stamps, poses)
-        ]
-        path = messages.msg_class(messages.PATH)(header=messages.header(int(stamps[-1]), frame), poses=items)
+            for t, m in zip(stamps[len(items) :], poses[len(items) :])
+        )
+        path = messages.msg_class(messages.PATH)(header=messages.header(int(stamps[-1]), frame), poses=list(items))
         self.publish(self.params.path_topic, messages.PATH, path)
 
     def finish(self) -> None:
