@@ -145,11 +145,11 @@ def _lidar_pattern(cfg: LidarConfig, frame_index: int) -> tuple[np.ndarray, np.n
 
 @lru_cache(maxsize=8)
 def _sweep_timing(cfg: LidarConfig, frame_index: int, pose_times: tuple[float, ...]):
-    """Per-point times (float64 and float32), and the runs of points cast from each pose of the window.
+    """Per-point times, and the runs of points cast from each pose of the window.
 
-    Returns (t_rel, t_rel as float32, runs) where runs is a list of (pose index, start, end), or None
-    when the pose index does not grow along the sweep (then every point picks its pose itself), and
-    the per-point pose index.
+    Returns (t_rel, t_rel as float32, runs, run lengths, per-point pose index); runs is a list of
+    (pose index, start, end), or None when the pose index does not grow along the sweep (then every
+    point picks its pose itself).
     """
     _, _, frac = lidar_pattern(cfg, frame_index)
     period = 1.0 / cfg.rate
@@ -161,11 +161,11 @@ def _sweep_timing(cfg: LidarConfig, frame_index: int, pose_times: tuple[float, .
         starts = np.concatenate([[0], bounds])
         ends = np.concatenate([bounds, [len(idx)]])
         runs = [(int(idx[a]), int(a), int(b)) for a, b in zip(starts, ends)]
-    for arr in (t_rel, idx):
-        arr.flags.writeable = False
+        counts = ends - starts
     t32 = t_rel.astype(np.float32)
-    t32.flags.writeable = False
-    return t_rel, t32, runs, idx
+    for arr in (t_rel, t32, idx):
+        arr.flags.writeable = False
+    return t_rel, t32, runs, counts if runs is not None else None, idx
 
 
 def lidar_sweep(
@@ -183,15 +183,13 @@ def lidar_sweep(
     """
     dirs, ring, _ = lidar_pattern(cfg, frame_index)
     pattern_index = 0 if cfg.pattern == "velodyne" else frame_index
-    t_rel, t32, runs, idx = _sweep_timing(cfg, pattern_index, tuple(p[0] for p in poses))
+    t_rel, t32, runs, counts, idx = _sweep_timing(cfg, pattern_index, tuple(p[0] for p in poses))
     # rays are grouped by the pose they are cast from: one matrix product per pose
     if runs is not None:
         world_dirs = np.empty_like(dirs)
-        origins = np.empty_like(dirs)
         for i, a, b in runs:
-            pose = poses[i][1]
-            world_dirs[a:b] = dirs[a:b] @ pose[:3, :3].T
-            origins[a:b] = pose[:3, 3]
+            np.matmul(dirs[a:b], poses[i][1][:3, :3].T, out=world_dirs[a:b])
+        origins = np.repeat(np.array([poses[i][1][:3, 3] for i, _, _ in runs]), counts, axis=0)
     else:
         rots = np.stack([p[1][:3, :3] for p in poses])
         world_dirs = np.einsum("nij,nj->ni", rots[idx], dirs)

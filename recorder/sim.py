@@ -90,7 +90,7 @@ class _Normals:
 def planar(x: float, y: float, yaw: float) -> np.ndarray:
     """4x4 transform of a planar pose."""
     c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([[c, -s, 0.0, x], [s, c, 0.0, y], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+    return np.array([c, -s, 0.0, x, s, c, 0.0, y, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]).reshape(4, 4)
 
 
 def _period_ns(rate: float) -> int:
@@ -153,10 +153,13 @@ class SimNode(Node):
         self._gain = min(1.0, dt / max(d.response_time, dt))
         self._acc_lo = tuple(float(-a * dt) for a in d.max_accel)
         self._acc_hi = tuple(float(a * dt) for a in d.max_accel)
-        self._sensor_adr = {
-            name: int(self.model.sensor_adr[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, name)])
+        self._imu_adr = tuple(
+            int(self.model.sensor_adr[mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_SENSOR, name)])
             for name in ("imu_gyro", "imu_accel")
-        }
+        )
+        self._imu_bias = (self._gyro_bias.tolist(), self._accel_bias.tolist())
+        self._imu_rot = np.zeros(9)  # orientation noise as a matrix, overwritten for every sample
+        self._imu_frame = robot.frame(robot.imu.frame) if robot.imu else ""
         o = robot.odom
         self._odom_noise = _Normals(self.rng_odom, [o.linear_noise, o.linear_noise, o.angular_noise])
         if robot.imu is not None:
@@ -339,25 +342,25 @@ class SimNode(Node):
 
     def _publish_imu(self, t_ns: int, base: np.ndarray) -> None:
         cfg = self.robot.imu
-        sd = self.data.sensordata
-        g, a = self._sensor_adr["imu_gyro"], self._sensor_adr["imu_accel"]
-        gx, gy, gz = sd[g:g + 3].tolist()
-        ax, ay, az = sd[a:a + 3].tolist()
+        sd = self.data.sensordata.tolist()
+        g, a = self._imu_adr
+        gx, gy, gz = sd[g:g + 3]
+        ax, ay, az = sd[a:a + 3]
         if self.options.noise:
             row = self._imu_noise.next()
             n = row.tolist()
-            bg, ba = self._gyro_bias.tolist(), self._accel_bias.tolist()
+            bg, ba = self._imu_bias
             gx, gy, gz = gx + bg[0] + n[0], gy + bg[1] + n[1], gz + bg[2] + n[2]
             ax, ay, az = ax + ba[0] + n[3], ay + ba[1] + n[4], az + ba[2] + n[5]
             dq = row[6:9]
-            noise = np.zeros(9)
+            noise = self._imu_rot
             mujoco.mju_quat2Mat(noise, np.array([1.0, n[6] / 2, n[7] / 2, n[8] / 2]) / math.sqrt(1 + (dq @ dq) / 4))
             q = _mat9_to_quat((base[:3, :3] @ noise.reshape(3, 3)).ravel())
         else:
             q = _mat9_to_quat(self.data.xmat[self._bid])
         cov_o, cov_g, cov_a = self._imu_cov
         msg = self._Imu(
-            messages.header(t_ns, self.robot.frame(cfg.frame)),
+            messages.header(t_ns, self._imu_frame),
             messages.quaternion(q),
             cov_o,
             messages.vector3(gx, gy, gz),

@@ -52,6 +52,8 @@ class McapLogWriter:
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._channel_types: dict[str, str] = {}
+        self._known: dict[tuple[str, str], int] = {}  # (topic, type) -> channel id, once checked
+        self._add = self._writer.add_message
         self._metadata = metadata or {}
         self.count = 0
         self.first_ns: int | None = None
@@ -71,15 +73,19 @@ class McapLogWriter:
         cid = self._writer.register_channel(topic, "cdr", sid, metadata={"offered_qos_profiles": messages.qos_for(topic)})
         self._channels[topic] = cid
         self._channel_types[topic] = typename
+        self._known[(topic, typename)] = cid
         return cid
 
     def write(self, env: Envelope) -> None:
-        data = env.msg if isinstance(env.msg, (bytes, bytearray, memoryview)) else messages.serialize(env.msg, env.typename)
-        self.write_raw(env.topic, env.typename, env.time_ns, bytes(data))
+        msg = env.msg
+        data = bytes(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else messages.serialize(msg, env.typename)
+        self.write_raw(env.topic, env.typename, env.time_ns, data)
 
     def write_raw(self, topic: str, typename: str, time_ns: int, data: bytes) -> None:
-        cid = self._channel(topic, typename)
-        self._writer.add_message(cid, log_time=time_ns, publish_time=time_ns, data=data, sequence=self.count)
+        cid = self._known.get((topic, typename))
+        if cid is None:
+            cid = self._channel(topic, typename)
+        self._add(cid, log_time=time_ns, publish_time=time_ns, data=data, sequence=self.count)
         self.count += 1
         if self.first_ns is None:
             self.first_ns = time_ns
