@@ -70,7 +70,7 @@ class OccupancyGrid2D:
     def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
         block = self.p.grow_block
         lo = np.floor(np.array([xmin, ymin]) / block) * block
-        hi = np.ceil(np.array([xmax, ymax]) / block) * block
+        hi = (np.floor(np.array([xmax, ymax]) / block) + 1) * block  # strictly beyond the max, never empty
         if self.logodds.size == 0:
             self.origin = lo
             nx, ny = (np.round((hi - lo) / self.res)).astype(int)

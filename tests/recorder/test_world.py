@@ -1,0 +1,57 @@
+"""World geometry: solids from YAML, clearance, the ground-truth grid."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from recorder.world import clearance, load_world, occupancy, world_mesh
+
+
+def test_indoor_room_solids_at_the_article_poses():
+    w = load_world("indoor_room")
+    names = {s.name.split("/")[0] for s in w.solids}
+    assert names == {"wall_east", "wall_west", "wall_north", "wall_south", "wall_block_1", "wall_block_2",
+                     "cabinet_1", "bookshelf_1", "wooden_case_1"}
+    back = next(s for s in w.solids if s.name == "bookshelf_1/back")
+    assert back.center == pytest.approx((-2.0, -2.0 + 0.005, 0.6)) and back.size == pytest.approx((0.9, 0.01, 1.2))
+    # the cabinet is turned 90°: its back plate (model +x) faces +y
+    cab = next(s for s in w.solids if s.name == "cabinet_1/back_plate")
+    assert cab.center[:2] == pytest.approx((-2.0, 2.0 + 0.235), abs=1e-4)
+
+
+def test_clearance_to_known_geometry():
+    w = load_world("walled_room")
+    pts = np.array([[2.0, 2.0], [2.0, 3.0], [0.0, 0.0], [-2.0, -3.0], [4.5, 0.0]])
+    d = clearance(w, pts)
+    assert d[0] == pytest.approx(-0.5)  # inside the cylinder, 0.5 from its side
+    assert d[1] == pytest.approx(0.5)  # 1 m from the cylinder axis
+    assert d[2] == pytest.approx(math.hypot(1.5, 1.5))  # to the box corner (-1.5, -1.5)
+    assert d[3] == pytest.approx(0.5)  # 0.5 m below the box
+    assert d[4] == pytest.approx(0.4)  # wall_1 inner face at x = 4.9
+    # the cylinder is 1 m tall: above it, only walls count
+    assert clearance(w, pts[:1], z_min=1.2, z_max=1.5)[0] == pytest.approx(2.9)
+
+
+def test_occupancy_grid_with_margin_and_height_slice():
+    w = load_world("walled_room")
+    g0 = occupancy(w, 0.05, 0.0)
+    g15 = occupancy(w, 0.05, 0.15)
+    assert g0.value_at(2.0, 2.0) == 100 and g0.value_at(2.6, 2.0) == 0
+    assert g15.value_at(2.6, 2.0) == 100 and g15.value_at(2.7, 2.0) == 0
+    assert g0.value_at(0.0, 0.0) == 0
+    # above the 1 m obstacles only the 2 m walls remain
+    high = occupancy(w, 0.05, 0.0, 1.5, 1.5)
+    assert high.value_at(2.0, 2.0) == 0 and high.value_at(5.0, 0.0) == 100
+    # indoor_room at the scan plane (0.15 m) crosses the bookshelf's sides and back but not its shelves
+    room = occupancy(load_world("indoor_room"), 0.05, 0.0, 0.15, 0.15)
+    assert room.value_at(-2.0, -2.2) == 0 and room.value_at(-2.0, -2.0) == 100 and room.value_at(-2.45, -2.2) == 100
+
+
+def test_mesh_covers_every_solid_and_the_floor():
+    mesh = world_mesh(load_world("indoor_room"))
+    assert len(mesh.triangles) == 35 * 12 + 12
+    lo, hi = mesh.get_min_bound(), mesh.get_max_bound()
+    assert lo[2] == pytest.approx(-0.01) and hi[2] == pytest.approx(2.5)
