@@ -6,7 +6,8 @@ cell centre. An update works like ``LayeredCostmap::updateMap``: for a rolling w
 follows the robot (snapped to whole cells, overlapping data kept); each layer reports the cells it
 changed (the update bounds), the master grid is reset to its default there, then the layers write
 into it in list order. The inflation layer grows the bounds by its radius and computes distances
-with an exact Euclidean distance transform (scipy), as the newest Nav2 does.
+with an exact Euclidean distance transform (scipy), as the newest Nav2 does, over the bounds plus
+its radius only; costs come from a table by integer squared distance (Nav2 caches them per cell offset).
 
 Pure computation: observations come in as points already transformed into the costmap's global
 frame; the node (``replay.nodes.planner``) does the TF lookups.
@@ -97,18 +98,22 @@ def transform_footprint(points, x: float, y: float, yaw: float) -> np.ndarray:
 # ---------------------------------------------------------------- rays
 
 
-def bresenham_cells(x0, y0, x1, y1, max_length, min_length):
-    """Cells Nav2's ``raytraceLine`` visits for each ray, vectorised over rays.
+def _bresenham(x0, y0, x1, y1, max_length: float, min_length: float):
+    """Nav2's ``raytraceLine`` for each ray (x0, y0) -> (x1, y1) (cells; starts may be one cell or one per ray).
 
-    x0, y0: sensor cell (ints); x1, y1: end cells (int arrays); lengths in cells. Returns (mx, my).
+    Rays shorter than ``min_length`` are dropped, the others start ``min_length`` cells out and are
+    cut at ``max_length`` cells. Returns per ray: start (sx, sy), major and minor unit steps
+    ((ax, ay), (bx, by)), the cell count, and per cell the step index i and the minor offset.
     """
     x1 = np.asarray(x1, dtype=np.int64)
     y1 = np.asarray(y1, dtype=np.int64)
+    x0 = np.broadcast_to(np.asarray(x0, dtype=np.int64), x1.shape)
+    y0 = np.broadcast_to(np.asarray(y0, dtype=np.int64), y1.shape)
     dxf = (x1 - x0).astype(np.float64)
     dyf = (y1 - y0).astype(np.float64)
     dist = np.hypot(dxf, dyf)
     keep = dist >= min_length
-    x1, y1, dxf, dyf, dist = x1[keep], y1[keep], dxf[keep], dyf[keep], dist[keep]
+    x0, y0, x1, y1, dxf, dyf, dist = x0[keep], y0[keep], x1[keep], y1[keep], dxf[keep], dyf[keep], dist[keep]
     safe = np.where(dist > 0, dist, 1.0)
     sx = np.where(dist > 0, (x0 + dxf / safe * min_length).astype(np.int64), x0)
     sy = np.where(dist > 0, (y0 + dyf / safe * min_length).astype(np.int64), y0)
@@ -118,20 +123,26 @@ def bresenham_cells(x0, y0, x1, y1, max_length, min_length):
     x_major = adx >= ady
     da = np.where(x_major, adx, ady)
     db = np.where(x_major, ady, adx)
-    steps = np.minimum((scale * da).astype(np.int64), da)
-    counts = steps + 1
+    counts = np.minimum((scale * da).astype(np.int64), da) + 1
+    sgx, sgy = np.sign(dx), np.sign(dy)
+    ax, ay = np.where(x_major, sgx, 0), np.where(x_major, 0, sgy)
+    bx, by = sgx - ax, sgy - ay
     total = int(counts.sum())
-    if total == 0:
-        return np.empty(0, np.int64), np.empty(0, np.int64)
-    ray = np.repeat(np.arange(len(counts)), counts)
     first = np.cumsum(counts) - counts
-    i = np.arange(total) - first[ray]
-    da_r = da[ray]
-    minor = np.where(da_r > 0, (da_r // 2 + i * db[ray]) // np.where(da_r > 0, da_r, 1), 0)
-    sgx, sgy = np.sign(dx)[ray], np.sign(dy)[ray]
-    xm = x_major[ray]
-    mx = sx[ray] + np.where(xm, i, minor) * sgx
-    my = sy[ray] + np.where(xm, minor, i) * sgy
+    i = np.arange(total, dtype=np.int64) - first.repeat(counts)
+    minor = ((da // 2).repeat(counts) + i * db.repeat(counts)) // np.maximum(da, 1).repeat(counts)
+    return sx, sy, (ax, ay), (bx, by), counts, i, minor
+
+
+def bresenham_cells(x0, y0, x1, y1, max_length, min_length):
+    """Cells Nav2's ``raytraceLine`` visits for each ray, vectorised over rays.
+
+    x0, y0: start cell (ints, or one per ray); x1, y1: end cells (int arrays); lengths in cells.
+    Returns (mx, my).
+    """
+    sx, sy, (ax, ay), (bx, by), counts, i, minor = _bresenham(x0, y0, x1, y1, max_length, min_length)
+    mx = sx.repeat(counts) + i * ax.repeat(counts) + minor * bx.repeat(counts)
+    my = sy.repeat(counts) + i * ay.repeat(counts) + minor * by.repeat(counts)
     return mx, my
 
 
@@ -147,23 +158,19 @@ def polygon_cells(poly: np.ndarray, ox: float, oy: float, res: float, nx: int, n
     gx, gy = np.meshgrid(np.arange(x0, x1 + 1), np.arange(y0, y1 + 1))
     cx = ox + (gx + 0.5) * res
     cy = oy + (gy + 0.5) * res
-    inside = np.zeros(gx.shape, dtype=bool)
-    n = len(poly)
-    for i in range(n):  # ray crossing
-        ax, ay = poly[i]
-        bx, by = poly[(i + 1) % n]
-        cond = (ay > cy) != (by > cy)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xint = ax + (cy - ay) * (bx - ax) / (by - ay)
-        inside ^= cond & (cx < xint)
-    mx, my = list(gx[inside]), list(gy[inside])
+    # ray crossing, all edges at once: edge k runs from vertex k to vertex k + 1
+    following = np.arange(1, len(poly) + 1) % len(poly)
+    ax, ay = xs[:, None, None], ys[:, None, None]
+    bx, by = xs[following][:, None, None], ys[following][:, None, None]
+    cond = (ay > cy) != (by > cy)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xint = ax + (cy - ay) * (bx - ax) / (by - ay)
+    inside = np.logical_xor.reduce(cond & (cx < xint), axis=0)
     vx = np.floor((xs - ox) / res).astype(np.int64)
     vy = np.floor((ys - oy) / res).astype(np.int64)
-    for i in range(n):
-        ex, ey = bresenham_cells(int(vx[i]), int(vy[i]), [vx[(i + 1) % n]], [vy[(i + 1) % n]], 1e9, 0.0)
-        mx.extend(ex.tolist())
-        my.extend(ey.tolist())
-    mx, my = np.asarray(mx, dtype=np.int64), np.asarray(my, dtype=np.int64)
+    ex, ey = bresenham_cells(vx, vy, vx[following], vy[following], 1e9, 0.0)
+    mx = np.concatenate([gx[inside], ex])
+    my = np.concatenate([gy[inside], ey])
     ok = (mx >= 0) & (mx < nx) & (my >= 0) & (my < ny)
     return mx[ok], my[ok]
 
@@ -267,10 +274,13 @@ class StaticLayer:
 
 
 def _update_with_max(master: np.ndarray, layer_win: np.ndarray, b: Bounds) -> None:
+    """Where the layer knows the cell: the layer's cost if the master's is unknown, else the higher one."""
     x0, y0, x1, y1 = b
     mw = master[y0:y1, x0:x1]
-    take = (layer_win != NO_INFORMATION) & ((mw == NO_INFORMATION) | (mw < layer_win))
-    mw[take] = layer_win[take]
+    known = layer_win != NO_INFORMATION
+    out = np.maximum(mw, layer_win)
+    np.copyto(out, layer_win, where=known & (mw == NO_INFORMATION))
+    np.copyto(mw, out, where=known)
 
 
 class ObstacleLayer:
@@ -369,13 +379,29 @@ class ObstacleLayer:
         ok = (x1 >= 0) & (x1 < cm.size_x) & (y1 >= 0) & (y1 < cm.size_y)
         max_cells = math.ceil(sp.raytrace_max_range / cm.resolution)
         min_cells = math.ceil(sp.raytrace_min_range / cm.resolution)
-        mx, my = bresenham_cells(x0, y0, x1[ok], y1[ok], max_cells, min_cells)
-        inside = (mx >= 0) & (mx < cm.size_x) & (my >= 0) & (my < cm.size_y)
-        mx, my = mx[inside], my[inside]
-        self.grid[my, mx] = FREE_SPACE
-        if len(mx) == 0:
+        sx, sy, (ax, ay), (bx, by), counts, i, minor = _bresenham(x0, y0, x1[ok], y1[ok], max_cells, min_cells)
+        if len(i) == 0:
             return x0, y0, x0 + 1, y0 + 1
-        return (min(int(mx.min()), x0), min(int(my.min()), y0), max(int(mx.max()), x0) + 1, max(int(my.max()), y0) + 1)
+        # a ray's cells run from its start to its last cell, so those bound them
+        end = np.cumsum(counts) - 1
+        lx = sx + i[end] * ax + minor[end] * bx
+        ly = sy + i[end] * ay + minor[end] * by
+        xmin, xmax = min(int(sx.min()), int(lx.min())), max(int(sx.max()), int(lx.max()))
+        ymin, ymax = min(int(sy.min()), int(ly.min())), max(int(sy.max()), int(ly.max()))
+        w = cm.size_x
+        if xmin >= 0 and ymin >= 0 and xmax < w and ymax < cm.size_y:  # always, the rays being clipped: flat indices
+            flat = (sy * w + sx).repeat(counts) + i * (ay * w + ax).repeat(counts) + minor * (by * w + bx).repeat(counts)
+            self.grid.put(flat, FREE_SPACE)
+        else:
+            mx = sx.repeat(counts) + i * ax.repeat(counts) + minor * bx.repeat(counts)
+            my = sy.repeat(counts) + i * ay.repeat(counts) + minor * by.repeat(counts)
+            inside = (mx >= 0) & (mx < cm.size_x) & (my >= 0) & (my < cm.size_y)
+            mx, my = mx[inside], my[inside]
+            self.grid[my, mx] = FREE_SPACE
+            if len(mx) == 0:
+                return x0, y0, x0 + 1, y0 + 1
+            xmin, xmax, ymin, ymax = int(mx.min()), int(mx.max()), int(my.min()), int(my.max())
+        return min(xmin, x0), min(ymin, y0), max(xmax, x0) + 1, max(ymax, y0) + 1
 
     def update_costs(self, master: np.ndarray, b: Bounds) -> None:
         cm = self.cm
@@ -386,15 +412,12 @@ class ObstacleLayer:
         win = self.grid[y0:y1, x0:x1]
         method = self.p.combination_method
         if method == 0:  # overwrite where the layer knows something
-            mw = master[y0:y1, x0:x1]
-            known = win != NO_INFORMATION
-            mw[known] = win[known]
+            np.copyto(master[y0:y1, x0:x1], win, where=win != NO_INFORMATION)
         elif method == 1:
             _update_with_max(master, win, b)
         else:  # max, never overwriting unknown
             mw = master[y0:y1, x0:x1]
-            take = (win != NO_INFORMATION) & (mw != NO_INFORMATION) & (mw < win)
-            mw[take] = win[take]
+            np.copyto(mw, np.maximum(mw, win), where=(win != NO_INFORMATION) & (mw != NO_INFORMATION))
 
 
 def inflation_costs(d_cells: np.ndarray, resolution: float, inscribed: float, k: float) -> np.ndarray:
@@ -427,6 +450,17 @@ class InflationLayer:
         x0, y0, x1, y1 = bounds
         return max(x0 - r, 0), max(y0 - r, 0), min(x1 + r, cm.size_x), min(y1 + r, cm.size_y)
 
+    def _cost_table(self) -> np.ndarray:
+        """Inflation cost by squared distance in cells (0 .. r^2), then 0 for 'beyond the radius'."""
+        r = self.cell_radius
+        key = (r, self.cm.resolution, self.cm.inscribed_radius, self.p.cost_scaling_factor)
+        if getattr(self, "_table_key", None) != key:
+            d = np.sqrt(np.arange(r * r + 1, dtype=np.float64))  # as the distance transform computes them
+            table = inflation_costs(d, self.cm.resolution, self.cm.inscribed_radius, self.p.cost_scaling_factor)
+            self._table = np.append(table, np.uint8(FREE_SPACE))
+            self._table_key = key
+        return self._table
+
     def update_costs(self, master: np.ndarray, b: Bounds) -> None:
         cm = self.cm
         r = self.cell_radius
@@ -439,21 +473,31 @@ class InflationLayer:
             sources |= region == NO_INFORMATION
         if not sources.any():
             return
-        d = ndimage.distance_transform_edt(~sources)
-        d = d[y0 - ry0 : y1 - ry0, x0 - rx0 : x1 - rx0]
-        near = d <= r
-        if not near.any():
-            return
-        new = inflation_costs(d[near], cm.resolution, cm.inscribed_radius, self.p.cost_scaling_factor)
+        d2 = squared_distance_within(sources, (y0 - ry0, y1 - ry0), (x0 - rx0, x1 - rx0))
+        # the table's last entry, FREE, stands for every distance beyond the radius: it changes no cell
+        new = self._cost_table().take(d2, mode="clip")
         mw = master[y0:y1, x0:x1]
-        old = mw[near]
-        unknown = old == NO_INFORMATION
-        if self.p.inflate_unknown:
-            write_unknown = new > FREE_SPACE
-        else:
-            write_unknown = new >= INSCRIBED
-        out = np.where(unknown, np.where(write_unknown, new, old), np.maximum(old, new))
-        mw[near] = out
+        out = np.maximum(mw, new)
+        # an unknown cell takes the new cost only if it is high enough (any cost with inflate_unknown)
+        take = mw == NO_INFORMATION
+        take &= (new > FREE_SPACE) if self.p.inflate_unknown else (new >= INSCRIBED)
+        np.copyto(out, new, where=take)
+        mw[...] = out
+
+
+def squared_distance_within(sources: np.ndarray, rows: tuple[int, int], cols: tuple[int, int]) -> np.ndarray:
+    """Squared Euclidean distance in cells (int) from each cell of sources[rows, cols] to the nearest
+    True cell of ``sources``: the exact distance transform's nearest cells (scipy), squared in integers.
+    """
+    fy, fx = ndimage.distance_transform_edt(~sources, return_distances=False, return_indices=True)
+    a, b = rows
+    c0, c1 = cols
+    dy = fy[a:b, c0:c1] - np.arange(a, b, dtype=fy.dtype)[:, None]
+    dx = fx[a:b, c0:c1] - np.arange(c0, c1, dtype=fx.dtype)[None, :]
+    dy *= dy
+    dx *= dx
+    dy += dx
+    return dy
 
 
 # ---------------------------------------------------------------- the costmap

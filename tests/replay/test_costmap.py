@@ -196,3 +196,72 @@ def test_costmap_message():
     assert msg.header.frame_id == "map" and msg.info.width == 3
     assert msg.data.tolist() == [0, 0, 0, 0, 100, 0, 0, 0, 0]
     assert msg.info.origin.position.x == -1.0
+
+
+def _brute_force_inflation(static: np.ndarray, res: float, inscribed: float, k: float, radius: float,
+                           unknown_cost: int) -> np.ndarray:
+    """Nav2's inflation from first principles: every cell against every lethal cell (no distance transform)."""
+    ny, nx = static.shape
+    lethal = np.argwhere(static == LETHAL)
+    gy, gx = np.mgrid[0:ny, 0:nx]
+    d = np.sqrt(((gy[..., None] - lethal[:, 0]) ** 2 + (gx[..., None] - lethal[:, 1]) ** 2).min(axis=-1))
+    cost = np.floor(252.0 * np.exp(-k * (d * res - inscribed)))
+    cost = np.where(d * res <= inscribed, INSCRIBED, cost)
+    cost = np.where(d == 0, LETHAL, cost).astype(np.int64)
+    near = d <= math.ceil(radius / res)
+    out = static.astype(np.int64).copy()
+    known = static != NO_INFORMATION
+    out[near & known] = np.maximum(static, cost)[near & known]
+    take = near & ~known & (cost >= unknown_cost)
+    out[take] = cost[take]
+    return out.astype(np.uint8)
+
+
+@pytest.mark.parametrize("inflate_unknown", [False, True])
+def test_inflation_matches_a_brute_force_reference(inflate_unknown):
+    rng = np.random.default_rng(5)
+    data = np.zeros((45, 60), dtype=np.int8)
+    data[rng.random(data.shape) < 0.01] = 100
+    data[30:33, 10:25] = 100
+    data[5:15, 40:50] = -1
+    cm = Costmap2D(_params(footprint=SQUARE_02, footprint_padding=0.0, resolution=0.05, track_unknown_space=True,
+                           layers={"static_layer": StaticLayerParams(),
+                                   "inflation_layer": InflationLayerParams(inflate_unknown=inflate_unknown)}))
+    cm.set_static_map(_static_map(data))
+    cm.update(0.5, 0.5)
+    static = cm.static_layers[0].map_costs
+    expected = _brute_force_inflation(static, 0.05, 0.2, 10.0, 0.55, 1 if inflate_unknown else INSCRIBED)
+    assert np.array_equal(cm.costs, expected)
+    assert (cm.costs == 152).any() and (cm.costs == NO_INFORMATION).any()  # the reference is not trivial
+
+
+def test_windowed_scan_update_equals_a_full_recompute():
+    data = np.zeros((160, 160), dtype=np.int8)
+    data[40:44, 20:120] = 100
+    data[100:140, 90:94] = 100
+    src = ObservationSourceParams(topic="/scan", data_type="LaserScan", clearing=True, marking=True,
+                                  max_obstacle_height=2.0, obstacle_max_range=2.5, raytrace_max_range=3.0)
+    cm = Costmap2D(_params(resolution=0.05, robot_radius=0.22, layers={
+        "static_layer": StaticLayerParams(),
+        "obstacle_layer": ObstacleLayerParams(observation_sources=("scan",), sources={"scan": src}),
+        "inflation_layer": InflationLayerParams(cost_scaling_factor=3.0)}))
+    cm.set_static_map(_static_map(data))
+    cm.update(4.0, 4.0)
+    rng = np.random.default_rng(2)
+    for step, (x, y) in enumerate([(4.0, 4.0), (4.6, 3.8), (5.3, 4.4)]):
+        ang = np.linspace(-np.pi, np.pi, 360, endpoint=False)
+        rr = rng.uniform(0.3, 3.5, 360)
+        pts = np.column_stack([x + rr * np.cos(ang), y + rr * np.sin(ang), np.full(360, 0.1)])
+        cm.add_observation(Observation(np.array([x, y, 0.1]), pts, "scan"))
+        before = cm.costs.copy()
+        x0, y0, x1, y1 = cm.update(x, y)
+        # a 3.0 m ray clears 60 cells out; the bounds grow by the 0.55 m (11-cell) inflation radius
+        assert x1 - x0 <= 2 * (60 + 11) + 2 and y1 - y0 <= 2 * (60 + 11) + 2
+        outside = np.ones(cm.costs.shape, dtype=bool)
+        outside[y0:y1, x0:x1] = False
+        assert np.array_equal(cm.costs[outside], before[outside])
+        windowed = cm.costs.copy()
+        cm.initialized = False  # the next update recomputes every cell from the layers
+        assert cm.update(x, y) == (0, 0, 160, 160)
+        assert np.array_equal(cm.costs, windowed), step
+        assert (windowed == LETHAL).sum() > (data == 100).sum()  # the scan marked cells
