@@ -285,7 +285,7 @@ class SimNode(Node):
         self.publish("/tf_static", messages.TF_MESSAGE, messages.tf_message(tfs))
 
     def _publish_odometry(self, t_ns: int, base: np.ndarray) -> None:
-        r, o = self.robot, self.robot.odom
+        o = self.robot.odom
         names = self._frame_names
         wx, wy, wz, vx, vy, vz = self._velocity6().tolist()
         q_base = _mat9_to_quat(self.data.xmat[self._bid])
