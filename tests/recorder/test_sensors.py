@@ -188,3 +188,33 @@ def test_cmd_vel_timeout_stops_robot():
     ex.run(until_ns=4_500_000_000)
     lin, _ = sim.base_velocity()
     assert abs(lin[0]) < 0.005  # stopped after cmd_vel_timeout (0.5 s) and the response
+
+
+def test_livox_pattern_is_non_repetitive_and_on_surfaces():
+    import dataclasses
+
+    import open3d as o3d
+
+    go2 = load_robot("go2")
+    robot = dataclasses.replace(go2, lidar=dataclasses.replace(go2.lidar, pattern="livox_mid360", points=20000, vertical_fov=(-7.0, 52.0)))
+    ex = Executor()
+    sim = SimNode(load_world("indoor_room"), robot, SimOptions(seed=1, noise=False))
+    ex.add_node(sim, source=True)
+    col = _Collect(["/livox/lidar"])
+    ex.add_node(col)
+    ex.run(until_ns=300_000_000)
+    (t1, c1), (t2, c2) = col.got["/livox/lidar"][:2]
+    p1, p2 = read_points(c1), read_points(c2)
+    assert len(p1) > 8000 and len(p2) > 8000  # of 20000 rays: those above the 2.5 m walls find nothing (no ceiling)
+    d1 = np.stack([p1["x"], p1["y"], p1["z"]], 1)
+    d2 = np.stack([p2["x"], p2["y"], p2["z"]], 1)
+    assert not np.allclose(d1[:1000], d2[:1000])  # successive frames cover other directions
+    elev = np.degrees(np.arctan2(d1[:, 2], np.hypot(d1[:, 0], d1[:, 1])))
+    assert elev.min() >= -7.01 and elev.max() <= 52.01
+    # standing still: every point lies on a surface of the world
+    pose = sim.base_pose() @ sim._mounts["livox_frame"]
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(world_mesh(sim.world)))
+    world_pts = d1 @ pose[:3, :3].T + pose[:3, 3]
+    dist = scene.compute_distance(o3d.core.Tensor(world_pts.astype(np.float32))).numpy()
+    assert np.mean(dist < 0.005) >= 0.999
