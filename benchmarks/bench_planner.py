@@ -2,11 +2,13 @@
 
 Run: .venv/bin/python benchmarks/bench_planner.py
 A 20 x 20 m world at 0.05 m (400 x 400 cells) with 120 random boxes (seed 7), inflated as Nav2 does
-(robot radius 0.22, inflation 0.55, k 3); start (1, 1) m, goal (19, 19) m. Prints medians and ratios.
+(robot radius 0.22, inflation 0.55, k 3); start (1, 1) m, goal (19, 19) m. Prints medians and ratios, with the
+process CPU time beside the wall clock and the load average (the machine may be shared).
 """
 
 from __future__ import annotations
 
+import os
 import statistics
 import time
 
@@ -39,12 +41,22 @@ def world() -> OccupancyMap:
 
 
 def median_ms(fn, n: int) -> float:
-    times = []
+    return timed(fn, n)[0]
+
+
+def timed(fn, n: int) -> tuple[float, float]:
+    """(median wall-clock ms, median process CPU ms) over n calls; CPU time shows the one-core cost on a busy machine."""
+    wall, cpu = [], []
     for _ in range(n):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         fn()
-        times.append((time.perf_counter() - t) * 1000)
-    return statistics.median(times)
+        cpu.append((time.process_time() - c) * 1000)
+        wall.append((time.perf_counter() - t) * 1000)
+    return statistics.median(wall), statistics.median(cpu)
+
+
+def load() -> str:
+    return "load average " + " ".join(f"{v:.2f}" for v in os.getloadavg()) + f" on {os.cpu_count()} cores"
 
 
 def main() -> None:
@@ -57,12 +69,13 @@ def main() -> None:
     start, goal = (1.0, 1.0, 0.0), (19.0, 19.0, 0.0)
     print(f"grid {cm.size_x} x {cm.size_y} cells ({cm.size_x * cm.resolution:.0f} x {cm.size_y * cm.resolution:.0f} m "
           f"at {cm.resolution} m), {int((cm.costs == 254).sum())} lethal cells")
-    for potential, n in (("wavefront", 7), ("exact", 3)):
+    print(load())
+    for potential, n in (("wavefront", 15), ("exact", 3)):
         planner = NavfnPlanner(NavfnParams(), potential=potential)
         plan = planner.plan(cm, start, goal)
-        ms = median_ms(lambda: planner.plan(cm, start, goal), n)
-        print(f"NavFn ({potential:9s}) median {ms:7.1f} ms over {n} runs; target 50 ms: ratio {ms / 50:.2f}; "
-              f"path {plan.length:.2f} m, cost {plan.cost:.2f}, {len(plan.poses)} poses")
+        ms, cpu = timed(lambda: planner.plan(cm, start, goal), n)
+        print(f"NavFn ({potential:9s}) median {ms:7.1f} ms (CPU {cpu:6.1f} ms) over {n} runs; target 50 ms: "
+              f"ratio {ms / 50:.2f}; path {plan.length:.2f} m, cost {plan.cost:.2f}, {len(plan.poses)} poses")
     c = navfn_costs(cm.costs)
     a = potential_exact(c, (20, 20), (380, 380))
     b = potential_wavefront(c, (20, 20), (380, 380))
@@ -93,9 +106,10 @@ def main() -> None:
         cm2.add_observation(Observation(np.array([10.0, 10.0, 0.1]), pts, "scan"))
         cm2.update(10.0, 10.0)
 
-    ms = median_ms(one_update, 21)
+    ms, cpu = timed(one_update, 41)
     print(f"costmap update (720-beam scan, clearing + marking + inflation) on {cm2.size_x} x {cm2.size_y}: "
-          f"median {ms:.2f} ms; target 5 ms: ratio {ms / 5:.2f}")
+          f"median {ms:.2f} ms (CPU {cpu:.2f} ms); target 5 ms: ratio {ms / 5:.2f}")
+    print(load())
 
 
 if __name__ == "__main__":
