@@ -17,7 +17,7 @@ one) unless `--no-pin`, since the target is stated for one core. Prints:
    alternated `--repeat` times; the percentage is ceiling time / navlog time (target >= 70 %).
    Both files must come out byte-identical; the script says whether they do.
 
-    .venv/bin/python benchmarks/bench_record.py [--duration 30] [--runs 3] [--repeat 3] [--no-pin]
+    .venv/bin/python benchmarks/bench_record.py [--duration 30] [--runs 5] [--repeat 5] [--no-pin]
 
 Nothing is asserted: the numbers are measurements on a shared machine, so the load average is
 printed with them.
@@ -276,12 +276,15 @@ def write_navlog(path: Path, envelopes, metadata) -> float:
 
 def writing_throughput(args, work: Path, captured, metadata) -> None:
     envelopes = [env for env, _ in captured]
-    prepared = [(env.topic, env.typename, env.time_ns, data) for env, data in captured]
+    prepared = [(env.topic, env.typename, env.time_ns, bytes(data)) for env, data in captured]
     raw_bytes = sum(len(d) for *_, d in prepared)
     ceiling, navlog, ser = [], [], []
-    for _ in range(args.repeat):
-        ceiling.append(write_ceiling(work / "ceiling.mcap", prepared, metadata))
+    for i in range(args.repeat):  # alternate which writer goes first
+        if i % 2 == 0:
+            ceiling.append(write_ceiling(work / "ceiling.mcap", prepared, metadata))
         navlog.append(write_navlog(work / "navlog.mcap", envelopes, metadata))
+        if i % 2 == 1:
+            ceiling.append(write_ceiling(work / "ceiling.mcap", prepared, metadata))
         t0 = time.perf_counter()
         for env in envelopes:
             messages.serialize(env.msg, env.typename)
@@ -301,8 +304,8 @@ def writing_throughput(args, work: Path, captured, metadata) -> None:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, help="cut the mapping tour after this many sim seconds (default: the whole tour)")
-    ap.add_argument("--runs", type=int, default=3, help="clean recordings for the real-time factor (median)")
-    ap.add_argument("--repeat", type=int, default=3, help="alternations of the two writers (median)")
+    ap.add_argument("--runs", type=int, default=5, help="clean recordings for the real-time factor (median)")
+    ap.add_argument("--repeat", type=int, default=5, help="alternations of the two writers (median)")
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--no-pin", action="store_true", help="do not pin the process to one CPU")
     ap.add_argument("--keep", type=Path, help="keep the outputs in this folder")

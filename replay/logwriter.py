@@ -78,10 +78,10 @@ class McapLogWriter:
 
     def write(self, env: Envelope) -> None:
         msg = env.msg
-        data = bytes(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else messages.serialize(msg, env.typename)
+        data = bytes(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else messages.serialize_buffer(msg, env.typename)
         self.write_raw(env.topic, env.typename, env.time_ns, data)
 
-    def write_raw(self, topic: str, typename: str, time_ns: int, data: bytes) -> None:
+    def write_raw(self, topic: str, typename: str, time_ns: int, data: bytes | bytearray) -> None:
         cid = self._known.get((topic, typename))
         if cid is None:
             cid = self._channel(topic, typename)

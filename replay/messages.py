@@ -96,7 +96,12 @@ def _cdr_functions(typename: str):
 
 
 def serialize(msg: Any, typename: str) -> bytes:
-    """CDR bytes (4-byte encapsulation header, native byte order), as ``Typestore.serialize_cdr`` makes them.
+    """CDR bytes (4-byte encapsulation header, native byte order), as ``Typestore.serialize_cdr`` makes them."""
+    return bytes(serialize_buffer(msg, typename))
+
+
+def serialize_buffer(msg: Any, typename: str) -> bytearray:
+    """``serialize`` into a new bytearray, without the copy into immutable bytes (for writers).
 
     The type store's generated functions are called directly, which saves the per-call lookups of
     ``serialize_cdr`` on the recording hot path; the bytes are the same.
@@ -108,7 +113,7 @@ def serialize(msg: Any, typename: str) -> bytes:
     raw[1] = _LITTLE
     if write(memoryview(raw)[4:], 0, msg, store) + 4 != size:
         raise ValueError(f"CDR size mismatch serializing {typename}")
-    return bytes(raw)
+    return raw
 
 
 def deserialize(data: bytes, typename: str) -> Any:
