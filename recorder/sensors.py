@@ -41,6 +41,11 @@ class RayCaster:
         out = self._cast(origins, directions)
         return out["t_hit"].numpy().astype(np.float64), out["primitive_normals"].numpy().astype(np.float64)
 
+    def cast_rays(self, rays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``cast`` of rays already laid out as Open3D takes them: float32 (N, 6), origin then direction."""
+        out = self.scene.cast_rays(self._o3d.core.Tensor.from_numpy(rays), nthreads=1)
+        return out["t_hit"].numpy().astype(np.float64), out["primitive_normals"].numpy().astype(np.float64)
+
     def cast_distances(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """Distances only (float64, inf for no hit): ``cast`` without the normals."""
         return self._cast(origins, directions)["t_hit"].numpy().astype(np.float64)
@@ -187,32 +192,40 @@ def lidar_sweep(
     # rays are grouped by the pose they are cast from: one matrix product per pose
     if runs is not None:
         world_dirs = np.empty_like(dirs)
+        rays = np.empty((len(dirs), 6), dtype=np.float32)
         for i, a, b in runs:
-            np.matmul(dirs[a:b], poses[i][1][:3, :3].T, out=world_dirs[a:b])
-        origins = np.repeat(np.array([poses[i][1][:3, 3] for i, _, _ in runs]), counts, axis=0)
+            pose = poses[i][1]
+            np.matmul(dirs[a:b], pose[:3, :3].T, out=world_dirs[a:b])
+            rays[a:b, :3] = pose[:3, 3]
+        rays[:, 3:] = world_dirs
+        dist, normals = caster.cast_rays(rays)
     else:
         rots = np.stack([p[1][:3, :3] for p in poses])
         world_dirs = np.einsum("nij,nj->ni", rots[idx], dirs)
         origins = np.stack([p[1][:3, 3] for p in poses])[idx]
-    dist, normals = caster.cast(origins, world_dirs)
+        dist, normals = caster.cast(origins, world_dirs)
     if rng is not None and cfg.noise_std > 0:
-        dist = dist + rng.normal(0.0, cfg.noise_std, size=dist.shape)
+        dist += rng.normal(0.0, cfg.noise_std, size=dist.shape)
     # the two comparisons alone keep exactly the finite returns within range: +inf (a miss) fails the
     # upper bound, -inf the lower one, NaN both
     ok = (dist >= cfg.range_min) & (dist <= cfg.range_max)
-    cos_all = np.einsum("ij,ij->i", normals, world_dirs)
+    cos = np.einsum("ij,ij->i", normals, world_dirs)
     if ok.all():  # the usual case indoors: every ray returns; no selection copies
-        d, dirs_ok, cosang, ring_ok, t_ok = dist, dirs, np.abs(cos_all), ring.copy(), t32.copy()
+        d, dirs_ok, ring_ok, t_ok = dist, dirs, ring.copy(), t32.copy()
     else:
         sel = np.flatnonzero(ok)
-        d, dirs_ok, cosang, ring_ok, t_ok = dist[sel], dirs[sel], np.abs(cos_all[sel]), ring[sel], t32[sel]
-    pts = dirs_ok * d[:, None]
-    intensity = 255.0 * cosang * np.exp(-d / 20.0)
+        d, dirs_ok, cos, ring_ok, t_ok = dist[sel], dirs[sel], cos[sel], ring[sel], t32[sel]
+    # intensity = 255 |cos| exp(-d / 20), evaluated in place where that cannot change a bit
+    np.abs(cos, out=cos)
+    cos *= 255.0
+    fade = d / 20.0
+    np.negative(fade, out=fade)
+    cos *= np.exp(fade)
     return {
-        "x": pts[:, 0].astype(np.float32),
-        "y": pts[:, 1].astype(np.float32),
-        "z": pts[:, 2].astype(np.float32),
-        "intensity": intensity.astype(np.float32),
+        "x": (dirs_ok[:, 0] * d).astype(np.float32),
+        "y": (dirs_ok[:, 1] * d).astype(np.float32),
+        "z": (dirs_ok[:, 2] * d).astype(np.float32),
+        "intensity": cos.astype(np.float32),
         "ring": ring_ok,
         "time": t_ok,
     }
