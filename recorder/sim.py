@@ -160,6 +160,10 @@ class SimNode(Node):
         self._imu_bias = (self._gyro_bias.tolist(), self._accel_bias.tolist())
         self._imu_rot = np.zeros(9)  # orientation noise as a matrix, overwritten for every sample
         self._imu_frame = robot.frame(robot.imu.frame) if robot.imu else ""
+        self._imu_types = tuple(
+            messages.msg_class(t)
+            for t in ("builtin_interfaces/msg/Time", "std_msgs/msg/Header", "geometry_msgs/msg/Quaternion", "geometry_msgs/msg/Vector3")
+        )
         o = robot.odom
         self._odom_noise = _Normals(self.rng_odom, [o.linear_noise, o.linear_noise, o.angular_noise])
         if robot.imu is not None:
@@ -353,19 +357,23 @@ class SimNode(Node):
             gx, gy, gz = gx + bg[0] + n[0], gy + bg[1] + n[1], gz + bg[2] + n[2]
             ax, ay, az = ax + ba[0] + n[3], ay + ba[1] + n[4], az + ba[2] + n[5]
             dq = row[6:9]
+            r = math.sqrt(1 + (dq @ dq) / 4)
             noise = self._imu_rot
-            mujoco.mju_quat2Mat(noise, np.array([1.0, n[6] / 2, n[7] / 2, n[8] / 2]) / math.sqrt(1 + (dq @ dq) / 4))
+            mujoco.mju_quat2Mat(noise, np.array([1.0 / r, n[6] / 2 / r, n[7] / 2 / r, n[8] / 2 / r]))
             q = _mat9_to_quat((base[:3, :3] @ noise.reshape(3, 3)).ravel())
         else:
             q = _mat9_to_quat(self.data.xmat[self._bid])
+        # the builders' work without their conversions: every value here is already a Python float
         cov_o, cov_g, cov_a = self._imu_cov
+        Time, Header, Quaternion, Vector3 = self._imu_types
+        sec, nsec = divmod(t_ns, 1_000_000_000)
         msg = self._Imu(
-            messages.header(t_ns, self._imu_frame),
-            messages.quaternion(q),
+            Header(Time(sec, nsec), self._imu_frame),
+            Quaternion(*q),
             cov_o,
-            messages.vector3(gx, gy, gz),
+            Vector3(gx, gy, gz),
             cov_g,
-            messages.vector3(ax, ay, az),
+            Vector3(ax, ay, az),
             cov_a,
         )
         self.publish(cfg.topic, messages.IMU, msg)
