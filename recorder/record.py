@@ -50,6 +50,13 @@ class RecordSetup:
     seed: int
     noise: bool
 
+    def topics(self) -> set[str]:
+        """The topics the simulator and the scenario publish."""
+        r = self.robot
+        out = {"/clock", "/tf", "/tf_static", "/cmd_vel", r.odom.topic, r.odom.ground_truth_topic}
+        out.update(cfg.topic for cfg in (r.scan, r.lidar, r.imu) if cfg is not None)
+        return out
+
     def metadata(self) -> dict[str, str]:
         full = {
             "world": to_mapping(self.world.spec),

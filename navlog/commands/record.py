@@ -23,11 +23,19 @@ def register(sub) -> None:
     p.add_argument("--no-noise", action="store_true", help="switch every sensor and odometry noise off")
     p.add_argument("-o", "--output", required=True, type=Path, help="output .mcap file")
     p.add_argument("--force", action="store_true", help="overwrite the output if it exists")
+    p.add_argument("--pipeline", help="also run a replay pipeline's nodes live (e.g. mapping) and record their outputs")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a pipeline parameter")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     setup = prepare(args.world, args.robot, args.scenario, seed=args.seed, noise=not args.no_noise)
-    res = record(setup, args.output, force=args.force, progress=not args.quiet)
+    live = []
+    if args.pipeline:
+        from replay.runner import load_pipeline_module, pipeline_params
+
+        params = pipeline_params(args.pipeline, overrides=args.set)
+        live = load_pipeline_module(args.pipeline).build(params, setup.topics()).nodes
+    res = record(setup, args.output, force=args.force, progress=not args.quiet, live_nodes=live)
     print(format_summary(res))
     return 130 if res.interrupted else 0

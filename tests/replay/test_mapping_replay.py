@@ -165,8 +165,8 @@ def test_live_mapping_during_record_equals_replay(tmp_path):
 
     setup = prepare("indoor_room", "go2", "teleop", seed=5)
     params = pipeline_params("mapping")
-    live_topics = {"/scan", "/livox/lidar", "/imu/data", "/odom", "/odom/ground_truth", "/tf", "/tf_static", "/clock", "/cmd_vel"}
-    pipe = load_pipeline_module("mapping").build(params, live_topics)
+    assert setup.topics() == {"/scan", "/livox/lidar", "/imu/data", "/odom", "/odom/ground_truth", "/tf", "/tf_static", "/clock", "/cmd_vel"}
+    pipe = load_pipeline_module("mapping").build(params, setup.topics())
     log = tmp_path / "live.mcap"
     record(setup, log, progress=False, live_nodes=pipe.nodes)
     res = run_replay(log, "mapping", tmp_path / "out", params=params, progress=False)
