@@ -156,7 +156,7 @@ def instrumented_run(args, work: Path):
         real_sim_init(self, *a, **k)
         self._drive = tm.wrap("drive control", self._drive)
         self._tick = tm.wrap("sim tick", self._tick)
-        for name in ("cast", "cast_distances"):
+        for name in ("cast", "cast_distances", "cast_rays"):
             if hasattr(self.caster, name):
                 setattr(self.caster, name, tm.wrap("ray casting", getattr(self.caster, name)))
 
