@@ -30,7 +30,7 @@ _RECORD_HEAD = struct.Struct("<BQ")  # opcode, record length
 _MESSAGE_HEAD = struct.Struct("<BQHIQQ")  # opcode, length, channel id, sequence, log time, publish time
 _CHUNK_HEAD = struct.Struct("<BQQQQII")  # opcode, length, start, end, uncompressed size, crc, compression length
 _OP_MESSAGE, _OP_CHUNK, _OP_MESSAGE_INDEX = 0x05, 0x06, 0x07
-READ_AHEAD = 2  # MCAP chunks read and decompressed ahead of the one being replayed
+READ_AHEAD = 1  # MCAP chunks read and decompressed (in a second thread) ahead of the one being replayed
 
 
 @dataclass
@@ -268,7 +268,7 @@ class McapLogReader(LogReader):
         except Exception as exc:
             raise LogError(f"{self.path}: corrupt data after {self.report.read} messages ({exc}); try --recover") from None
 
-    def _indexed(self, wanted: set[str], start_ns: int | None, end_ns: int | None) -> Iterator[tuple[str, str, int, memoryview]]:
+    def _indexed(self, wanted: set[str], start_ns: int | None, end_ns: int | None) -> Iterator[tuple[str, str, int, bytes]]:
         """(topic, type name, log time, CDR bytes) of the wanted topics, in log-time order.
 
         The order is the ``mcap`` library's (log time, then chunk offset, then position in the
@@ -277,7 +277,8 @@ class McapLogReader(LogReader):
         the rest of the chunk (the LiDAR clouds a 2D replay does not need) is decompressed but not
         parsed. A chunk without message indexes is parsed whole. Chunks are loaded in the order
         their time ranges are reached, ``READ_AHEAD`` of them ahead in a background thread
-        (decompression releases the GIL), so at most a few chunks are in memory at any time.
+        (decompression releases the GIL); each is read and decompressed into the same two buffers
+        and only its wanted messages are copied out, so memory does not depend on the log's length.
         """
         summary = self._summary
         channels = {cid: (ch.topic, self._typenames.get(ch.schema_id, "")) for cid, ch in summary.channels.items() if ch.topic in wanted}
@@ -295,7 +296,9 @@ class McapLogReader(LogReader):
         chunks.sort(key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
         # a chunk is opened when the stream reaches its first message time; sorted, the list is a heap
         queue: list[tuple] = [(ci.message_start_time, ci.chunk_start_offset, -1, None) for ci in chunks]
-        loader = _ReadAhead(lambda ci: self._chunk_messages(ci, channels), chunks, READ_AHEAD)
+        buffers = _ChunkBuffers(max((ci.chunk_length for ci in chunks), default=0),
+                                max((ci.uncompressed_size for ci in chunks), default=0))
+        loader = _ReadAhead(lambda ci: self._chunk_messages(ci, channels, buffers), chunks, READ_AHEAD)
         try:
             while queue:
                 t, chunk_offset, pos, item = heapq.heappop(queue)
@@ -310,23 +313,24 @@ class McapLogReader(LogReader):
         finally:
             loader.close()
 
-    def _chunk_messages(self, ci: Any, channels: dict) -> list[tuple[int, int, int, memoryview]]:
-        """(log time, position, channel id, data) of the wanted messages in one chunk.
+    def _chunk_messages(self, ci: Any, channels: dict, buffers: "_ChunkBuffers") -> list[tuple[int, int, int, bytes]]:
+        """(log time, position, channel id, bytes) of the wanted messages in one chunk.
 
-        Reads with ``os.pread`` (no shared file position), so it may run in another thread.
+        Reads with ``os.preadv`` (no shared file position), so it may run in another thread; one
+        call at a time per ``buffers``.
         """
         fd = self._file.fileno()
-        raw = os.pread(fd, ci.chunk_length, ci.chunk_start_offset)
+        raw = buffers.read(fd, ci.chunk_start_offset, ci.chunk_length)
         if len(raw) < _CHUNK_HEAD.size:
             raise LogError(f"{self.path}: chunk at offset {ci.chunk_start_offset} is cut short; try --recover")
         op, _, _, _, size, _, clen = _CHUNK_HEAD.unpack_from(raw, 0)
         if op != _OP_CHUNK:
             raise LogError(f"{self.path}: no chunk at offset {ci.chunk_start_offset} (corrupt chunk index); try --recover")
         at = _CHUNK_HEAD.size
-        compression = raw[at : at + clen].decode()
+        compression = bytes(raw[at : at + clen]).decode()
         at += clen
         (dlen,) = struct.unpack_from("<Q", raw, at)
-        buf = memoryview(_decompress(raw[at + 8 : at + 8 + dlen], compression, size))
+        buf = buffers.decompress(raw[at + 8 : at + 8 + dlen], compression, size)
         if len(buf) != size:
             raise LogError(f"{self.path}: chunk at offset {ci.chunk_start_offset} does not decompress to its size; try --recover")
         out = []
@@ -337,7 +341,7 @@ class McapLogReader(LogReader):
                 if op == _OP_MESSAGE:
                     cid, _, t, _ = struct.unpack_from("<HIQQ", buf, pos + 9)
                     if cid in channels:
-                        out.append((t, pos, cid, buf[pos + 31 : pos + 9 + length]))
+                        out.append((t, pos, cid, bytes(buf[pos + 31 : pos + 9 + length])))
                 pos += 9 + length
             return out
         first = min(ci.message_index_offsets.values())
@@ -354,7 +358,7 @@ class McapLogReader(LogReader):
                 op, length, mcid, _, t, _ = _MESSAGE_HEAD.unpack_from(buf, pos)
                 if op != _OP_MESSAGE or mcid != cid or pos + 9 + length > len(buf):
                     raise LogError(f"{self.path}: message index of channel {cid} points at no message of it; try --recover")
-                out.append((t, pos, cid, buf[pos + 31 : pos + 9 + length]))
+                out.append((t, pos, cid, bytes(buf[pos + 31 : pos + 9 + length])))
         return out
 
     def _messages_truncated(self, wanted, decode, start_ns, end_ns) -> Iterator[Envelope]:
@@ -380,9 +384,8 @@ class McapLogReader(LogReader):
             if env is not None:
                 yield env
 
-    def _envelope(self, topic: str, typename: str, t: int, data: bytes | memoryview, decode: bool) -> Envelope | None:
+    def _envelope(self, topic: str, typename: str, t: int, data: bytes, decode: bool) -> Envelope | None:
         self.report.read += 1
-        data = bytes(data)  # the message's own copy: nothing keeps a whole chunk alive
         if not decode:
             return Envelope(topic, typename, t, data)
         msg = self._decode(data, typename, topic)
@@ -531,19 +534,43 @@ class _ReadAhead:
             self._pool.shutdown(wait=True)
 
 
-def _decompress(data: bytes, compression: str, size: int) -> bytes:
-    """The uncompressed records of a chunk (MCAP allows zstd, lz4 and none)."""
-    if compression == "zstd":
+class _ChunkBuffers:
+    """The two buffers a chunk is read and decompressed into, reused from chunk to chunk.
+
+    Allocating a few MB afresh for every chunk makes the heap grow and fragment (more so from a
+    second thread); the views returned are valid until the next call.
+    """
+
+    def __init__(self, raw_size: int, data_size: int) -> None:
+        self._raw = bytearray(raw_size)
+        self._data = bytearray(data_size)
+
+    def read(self, fd: int, offset: int, length: int) -> memoryview:
+        view = memoryview(self._raw)[:length]
+        got = os.preadv(fd, [view], offset)
+        return view[:got]
+
+    def decompress(self, data: memoryview, compression: str, size: int) -> memoryview:
+        """The uncompressed records of a chunk (MCAP allows zstd, lz4 and none)."""
+        if compression == "":
+            return data
+        if compression == "lz4":
+            import lz4.frame
+
+            return memoryview(lz4.frame.decompress(data))
+        if compression != "zstd":
+            raise LogError(f"unsupported MCAP chunk compression '{compression}'")
         import zstandard
 
-        return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
-    if compression == "lz4":
-        import lz4.frame
-
-        return lz4.frame.decompress(data)
-    if compression == "":
-        return data
-    raise LogError(f"unsupported MCAP chunk compression '{compression}'")
+        out = memoryview(self._data)[:size]
+        got = 0
+        with zstandard.ZstdDecompressor().stream_reader(data) as reader:
+            while got < size:
+                n = reader.readinto(out[got:])
+                if n == 0:
+                    break
+                got += n
+        return out[:got]
 
 
 def _bag_files(path: Path) -> list[Path]:

@@ -16,6 +16,7 @@ from mcap.reader import make_reader
 from mcap.writer import CompressionType, IndexType, Writer
 
 from replay.errors import LogError
+import replay.logreader
 from replay.logreader import McapLogReader, open_log
 
 TOPICS = ("/a", "/b", "/c")
@@ -79,7 +80,9 @@ LAYOUTS = {
 
 @pytest.mark.parametrize("layout", sorted(LAYOUTS))
 @pytest.mark.parametrize("content", ["in_order", "overlapping"])
-def test_same_stream_as_the_mcap_library(tmp_path, layout, content):
+@pytest.mark.parametrize("read_ahead", [0, 1, 3])
+def test_same_stream_as_the_mcap_library(tmp_path, monkeypatch, layout, content, read_ahead):
+    monkeypatch.setattr(replay.logreader, "READ_AHEAD", read_ahead)
     msgs = in_order() if content == "in_order" else overlapping()
     path = write_mcap(tmp_path / "x.mcap", msgs, **LAYOUTS[layout])
     subsets = [None] + [list(c) for n in (1, 2) for c in itertools.combinations(TOPICS, n)]
@@ -103,9 +106,9 @@ def test_chunks_without_a_wanted_topic_are_never_read(tmp_path, monkeypatch):
     opened: list[int] = []
     real = McapLogReader._chunk_messages
 
-    def spy(self, ci, channels):
+    def spy(self, ci, *args):
         opened.append(ci.chunk_start_offset)
-        return real(self, ci, channels)
+        return real(self, ci, *args)
 
     monkeypatch.setattr(McapLogReader, "_chunk_messages", spy)
     assert [m[2] for m in ours(path, ["/c"])] == [b"c" * 40] * 10

@@ -1,0 +1,161 @@
+"""Replay speed and memory of the mapping pipeline (the issue's Speed and Memory targets), in one run.
+
+Records its logs with `navlog record` in a work folder (a temporary one unless --workdir is given;
+logs already there are reused):
+
+- the mapping log: indoor_room + go2 + scenario mapping, seed 7 (138 s of sim time, ~230 MB);
+- a 1-minute and a 10-minute log of scenario patrol (config/scenarios/patrol.yaml, the mapping loop
+  driven six times; the 1-minute log is a copy of it with max_duration 60), seed 7. The 10-minute
+  log is ~1 GB and takes a minute or two to record.
+
+Then prints, each replay in a fresh child process:
+
+(a) 2D mapping replay (`--set lidar_mapper=off`) of the mapping log: real-time factor = log seconds
+    / wall seconds of the replay itself (what `navlog replay` prints: reading, nodes, writing the
+    outputs; not the process start), best and median of --repeat runs; target >= 100x;
+(b) 3D mapping replay (the full mapping pipeline) of the mapping log: real-time factor; target >= 5x;
+(c) peak resident memory (the child's ru_maxrss) of the full mapping pipeline replaying the
+    10-minute log and the 1-minute log, and their ratio; target: within 20 %. The resident size after
+    the imports (before the log is opened) is printed too, so the replay's own growth is visible.
+
+Each replay also reports its CPU time over the same span (all threads: the reader decompresses
+chunks ahead in a second thread, so CPU may exceed wall on an idle machine): on a shared machine,
+wall >> CPU means the replay waited for a core. Nothing is asserted; the script prints measured
+numbers and ratios.
+
+    .venv/bin/python benchmarks/bench_replay.py [--repeat 3] [--workdir DIR] [--skip-3d] [--skip-memory]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# run in a child process: one replay, then its timing and memory figures as JSON on stdout
+CHILD = r"""
+import json, resource, sys, time
+sys.path.insert(0, sys.argv[1])
+
+def rss_kib():
+    with open("/proc/self/status") as f:
+        for line in f:
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1])
+    return 0
+
+import replay.runner as runner
+import replay.pipelines.mapping, replay.nodes.lidar_mapper, replay.nodes.occupancy_mapper  # noqa: F401 (imports first)
+
+span = {}
+run = runner._run
+
+def timed_run(*args, **kwargs):  # CPU time (all threads) over the span that run_replay's wall_s covers
+    c0 = time.process_time()
+    out = run(*args, **kwargs)
+    span["cpu_s"] = time.process_time() - c0
+    return out
+
+runner._run = timed_run
+base = rss_kib()
+result = runner.run_replay(sys.argv[2], "mapping", sys.argv[3], overrides=sys.argv[4:], progress=False, force=True)
+print(json.dumps({
+    "wall_s": result.wall_s,
+    "log_s": result.log_s,
+    "cpu_s": span["cpu_s"],
+    "peak_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
+    "base_kib": base,
+    "messages": result.manifest["log"]["messages_read"],
+}))
+"""
+
+
+def record(out: Path, scenario: str, log: Path) -> None:
+    if out.exists():
+        print(f"  reusing {out}", flush=True)
+        return
+    cmd = [sys.executable, "-m", "navlog", "record", "--world", "indoor_room", "--robot", "go2",
+           "--scenario", scenario, "--seed", "7", "-o", str(out)]
+    print(f"  {' '.join(['navlog', *cmd[3:]])}", flush=True)
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    with open(log, "w") as f:
+        subprocess.run(cmd, cwd=ROOT, env=env, stdout=f, stderr=subprocess.STDOUT, check=True)
+
+
+def replay(log: Path, out: Path, overrides: list[str]) -> dict:
+    proc = subprocess.run([sys.executable, "-c", CHILD, str(ROOT), str(log), str(out), *overrides],
+                          cwd=ROOT, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise SystemExit(f"replay of {log} failed:\n{proc.stderr}")
+    shutil.rmtree(out, ignore_errors=True)
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def speed(label: str, log: Path, work: Path, overrides: list[str], repeat: int, target: float) -> None:
+    runs = [replay(log, work / "out", overrides) for _ in range(repeat)]
+    log_s = runs[0]["log_s"]
+    walls = [r["wall_s"] for r in runs]
+    cpus = [r["cpu_s"] for r in runs]
+    best, median = log_s / min(walls), log_s / statistics.median(walls)
+    print(f"{label}: {log_s:.1f} s of log, {runs[0]['messages']} messages read, {repeat} run(s)")
+    print(f"  wall {min(walls):.2f} s best, {statistics.median(walls):.2f} s median -> "
+          f"{best:.1f}x real time best, {median:.1f}x median (target >= {target:g}x: best/target {best / target:.2f})")
+    print(f"  CPU  {min(cpus):.2f} s best -> {log_s / min(cpus):.1f}x real time per CPU second")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--repeat", type=int, default=3, help="runs of the 2D replay (the 3D one runs once)")
+    ap.add_argument("--workdir", type=Path, help="keep the logs here (and reuse them); default: a temporary folder")
+    ap.add_argument("--skip-3d", action="store_true", help="skip (b)")
+    ap.add_argument("--skip-memory", action="store_true", help="skip (c) and the patrol recordings")
+    args = ap.parse_args()
+
+    work = args.workdir or Path(tempfile.mkdtemp(prefix="navlog-bench-replay-"))
+    work.mkdir(parents=True, exist_ok=True)
+    try:
+        print(f"{os.cpu_count()} CPUs, load average {' '.join(f'{x:.2f}' for x in os.getloadavg())}; logs in {work}")
+        print("recording:", flush=True)
+        mapping = work / "mapping.mcap"
+        record(mapping, "mapping", work / "record_mapping.txt")
+        if not args.skip_memory:
+            short_yaml = work / "patrol_60s.yaml"
+            spec = yaml.safe_load((ROOT / "config" / "scenarios" / "patrol.yaml").read_text())
+            spec["max_duration"] = 60.0
+            short_yaml.write_text(yaml.safe_dump(spec, sort_keys=False))
+            short, long = work / "patrol_1min.mcap", work / "patrol_10min.mcap"
+            record(short, str(short_yaml), work / "record_patrol_1min.txt")
+            record(long, "patrol", work / "record_patrol_10min.txt")
+        print()
+
+        speed("(a) 2D mapping replay (--set lidar_mapper=off)", mapping, work, ["lidar_mapper=off"], args.repeat, 100.0)
+        if not args.skip_3d:
+            speed("(b) 3D mapping replay (full pipeline)", mapping, work, [], 1, 5.0)
+        if not args.skip_memory:
+            print("(c) peak resident memory, full mapping pipeline")
+            figures = {}
+            for name, log in (("1-minute", short), ("10-minute", long)):
+                r = replay(log, work / "out", [])
+                figures[name] = r
+                print(f"  {name:9s} log ({r['log_s']:.0f} s, {log.stat().st_size / 2**20:.0f} MiB): peak {r['peak_kib'] / 1024:.0f} MiB "
+                      f"(after imports {r['base_kib'] / 1024:.0f} MiB, replay's own growth {(r['peak_kib'] - r['base_kib']) / 1024:.0f} MiB); "
+                      f"{r['log_s'] / r['wall_s']:.1f}x real time", flush=True)
+            ratio = figures["10-minute"]["peak_kib"] / figures["1-minute"]["peak_kib"]
+            print(f"  10-minute / 1-minute peak: {ratio:.3f} (target <= 1.20)")
+    finally:
+        if args.workdir is None:
+            shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
