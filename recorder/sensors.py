@@ -150,11 +150,10 @@ def _lidar_pattern(cfg: LidarConfig, frame_index: int) -> tuple[np.ndarray, np.n
 
 @lru_cache(maxsize=8)
 def _sweep_timing(cfg: LidarConfig, frame_index: int, pose_times: tuple[float, ...]):
-    """Per-point times, and the runs of points cast from each pose of the window.
+    """Per-point times (float32, as published), and the runs of points cast from each pose of the window.
 
-    Returns (t_rel, t_rel as float32, runs, run lengths, per-point pose index); runs is a list of
-    (pose index, start, end), or None when the pose index does not grow along the sweep (then every
-    point picks its pose itself).
+    Returns (times, runs, per-point pose index); runs is a list of (pose index, start, end), or None
+    when the pose index does not grow along the sweep (then every point picks its pose itself).
     """
     _, _, frac = lidar_pattern(cfg, frame_index)
     period = 1.0 / cfg.rate
@@ -166,11 +165,10 @@ def _sweep_timing(cfg: LidarConfig, frame_index: int, pose_times: tuple[float, .
         starts = np.concatenate([[0], bounds])
         ends = np.concatenate([bounds, [len(idx)]])
         runs = [(int(idx[a]), int(a), int(b)) for a, b in zip(starts, ends)]
-        counts = ends - starts
     t32 = t_rel.astype(np.float32)
-    for arr in (t_rel, t32, idx):
+    for arr in (t32, idx):
         arr.flags.writeable = False
-    return t_rel, t32, runs, counts if runs is not None else None, idx
+    return t32, runs, idx
 
 
 def lidar_sweep(
@@ -188,7 +186,7 @@ def lidar_sweep(
     """
     dirs, ring, _ = lidar_pattern(cfg, frame_index)
     pattern_index = 0 if cfg.pattern == "velodyne" else frame_index
-    t_rel, t32, runs, counts, idx = _sweep_timing(cfg, pattern_index, tuple(p[0] for p in poses))
+    t32, runs, idx = _sweep_timing(cfg, pattern_index, tuple(p[0] for p in poses))
     # rays are grouped by the pose they are cast from: one matrix product per pose
     if runs is not None:
         world_dirs = np.empty_like(dirs)
