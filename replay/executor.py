@@ -170,6 +170,11 @@ class Executor:
             for cb in callbacks:
                 cb(env.msg, env.time_ns)
 
+    @property
+    def sources_pending(self) -> bool:
+        """True while a source still has a message waiting to be delivered."""
+        return self._pending_sources > 0
+
     def stop(self) -> None:
         """Ask the run loop to end after the current event (Ctrl-C handling uses this)."""
         self._stopped = True

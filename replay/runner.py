@@ -195,7 +195,7 @@ def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp
             before = ex.now
             ex.run(until_ns=t)
             bar.update((ex.now - t0) / 1e9)
-            if ex._pending_sources == 0:
+            if not ex.sources_pending:
                 break
         ex.finish()
     bar.close()

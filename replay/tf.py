@@ -110,6 +110,24 @@ class TFBuffer:
         if drop > 1:
             del edge.times[: drop - 1], edge.trans[: drop - 1], edge.quats[: drop - 1]
 
+    def name(self, frame: str) -> str:
+        """A frame's name as the buffer stores it (leading slash and prefix removed)."""
+        return self._name(frame)
+
+    def static_between(self, frame: str, ancestor: str) -> bool:
+        """True if every edge from ``frame`` up to ``ancestor`` (or the root) is static."""
+        f = self._name(frame)
+        while f in self._edges and f != ancestor:
+            if not self._edges[f].static:
+                return False
+            f = self._edges[f].parent
+        return True
+
+    def time_range(self, child: str) -> tuple[int, int] | None:
+        """First and last stamp buffered for the edge into ``child`` (None when there is none)."""
+        e = self._edges.get(self._name(child))
+        return (e.times[0], e.times[-1]) if e is not None and e.times else None
+
     def frames(self) -> list[str]:
         out = set(self._edges)
         out.update(e.parent for e in self._edges.values())

@@ -86,7 +86,7 @@ class OccupancyMapperNode(Node):
     def _on_pose(self, msg, t_ns: int) -> None:
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         child = msg.child_frame_id
-        self._pose_child = self.poses._name(child)
+        self._pose_child = self.poses.name(child)
         self.poses.add("__pose_origin__", child, messages.to_ns(msg.header.stamp), (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
         self._drain(t_ns)
 
@@ -100,17 +100,7 @@ class OccupancyMapperNode(Node):
         if self._pose_child is None:
             raise TransformError(f"no pose on {self.pose_topic} yet")
         base = self.poses.lookup("__pose_origin__", self._pose_child, stamp)
-        return base, base @ self.tf.lookup(self._pose_child, frame, None if self._is_static(frame) else stamp)
-
-    def _is_static(self, frame: str) -> bool:
-        """True if the chain from the pose's child frame to ``frame`` is all static."""
-        f = self.tf._name(frame)
-        edges = self.tf._edges
-        while f in edges and f != self._pose_child:
-            if not edges[f].static:
-                return False
-            f = edges[f].parent
-        return True
+        return base, base @ self.tf.lookup(self._pose_child, frame, None if self.tf.static_between(frame, self._pose_child) else stamp)
 
     def _on_scan(self, msg, t_ns: int) -> None:
         self._pending.append(msg)
@@ -142,10 +132,10 @@ class OccupancyMapperNode(Node):
         """False when poses newer than ``stamp`` exist but none cover it (it will never be known)."""
         if self.p.pose_source == "tf" or self._pose_child is None:
             return None
-        edge = self.poses._edges.get(self._pose_child)
-        if edge is None or not edge.times:
+        span = self.poses.time_range(self._pose_child)
+        if span is None:
             return None
-        return None if edge.times[-1] < stamp else (edge.times[0] <= stamp)
+        return None if span[1] < stamp else (span[0] <= stamp)
 
     def _insert(self, msg, stamp: int, base: np.ndarray, pose: np.ndarray) -> None:
         if self._last_pose is not None and self.p.minimum_travel_distance > 0:
