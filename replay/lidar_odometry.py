@@ -31,7 +31,8 @@ from typing import Literal
 
 import numpy as np
 import open3d as o3d
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
 
 _reg = o3d.pipelines.registration
 
@@ -103,6 +104,87 @@ def _quat_exp(rotvec: np.ndarray) -> np.ndarray:
     return np.concatenate([axis * math.sin(angle / 2), [math.cos(angle / 2)]])
 
 
+def _quats_to_matrices(q: np.ndarray) -> np.ndarray:
+    """(K, 3, 3) rotation matrices of unit quaternions (K, 4) in (x, y, z, w) order."""
+    x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    out = np.empty((len(q), 3, 3))
+    out[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    out[:, 0, 1] = 2 * (x * y - z * w)
+    out[:, 0, 2] = 2 * (x * z + y * w)
+    out[:, 1, 0] = 2 * (x * y + z * w)
+    out[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    out[:, 1, 2] = 2 * (y * z - x * w)
+    out[:, 2, 0] = 2 * (x * z - y * w)
+    out[:, 2, 1] = 2 * (y * z + x * w)
+    out[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return out
+
+
+def _quats_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise Hamilton products of (K, 4) quaternions in (x, y, z, w) order."""
+    ax, ay, az, aw = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
+    bx, by, bz, bw = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
+    return np.stack([
+        aw * bx + ax * bw + ay * bz - az * by,
+        aw * by - ax * bz + ay * bw + az * bx,
+        aw * bz + ax * by - ay * bx + az * bw,
+        aw * bw - ax * bx - ay * by - az * bz,
+    ], axis=1)
+
+
+def _slerp(q0: np.ndarray, q1: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Row-wise shortest-path slerp of unit quaternions (K, 4) at fractions ``a`` (K,)."""
+    dot = np.sum(q0 * q1, axis=1)
+    q1 = np.where(dot[:, None] < 0, -q1, q1)
+    dot = np.minimum(np.abs(dot), 1.0)
+    theta = np.arccos(dot)
+    s = np.sin(theta)
+    small = s < 1e-9
+    s_safe = np.where(small, 1.0, s)
+    w0 = np.where(small, 1.0 - a, np.sin((1.0 - a) * theta) / s_safe)
+    w1 = np.where(small, a, np.sin(a * theta) / s_safe)
+    q = w0[:, None] * q0 + w1[:, None] * q1
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def _rotvecs_to_matrices(v: np.ndarray) -> np.ndarray:
+    """(K, 3, 3) rotation matrices of rotation vectors (K, 3) (Rodrigues' formula)."""
+    angle = np.linalg.norm(v, axis=1)
+    half = 0.5 * angle
+    small = angle < 1e-12
+    scale = np.where(small, 0.5, np.sin(half) / np.where(small, 1.0, angle))
+    q = np.concatenate([v * scale[:, None], np.cos(half)[:, None]], axis=1)
+    return _quats_to_matrices(q)
+
+
+def _matrices_to_quats(r: np.ndarray) -> np.ndarray:
+    """(K, 4) unit quaternions (x, y, z, w) of rotation matrices (K, 3, 3) (Shepperd's method)."""
+    m = np.asarray(r, dtype=np.float64).reshape(-1, 3, 3)
+    tr = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
+    d = np.stack([m[:, 0, 0], m[:, 1, 1], m[:, 2, 2], tr], axis=1)
+    choice = np.argmax(d, axis=1)
+    q = np.empty((len(m), 4))
+    for c in range(4):
+        sel = choice == c
+        if not sel.any():
+            continue
+        s = m[sel]
+        if c == 3:
+            w = np.sqrt(1.0 + tr[sel]) * 2
+            q[sel] = np.stack([(s[:, 2, 1] - s[:, 1, 2]) / w, (s[:, 0, 2] - s[:, 2, 0]) / w,
+                               (s[:, 1, 0] - s[:, 0, 1]) / w, 0.25 * w], axis=1)
+        else:
+            i, j, k = c, (c + 1) % 3, (c + 2) % 3
+            f = np.sqrt(1.0 + s[:, i, i] - s[:, j, j] - s[:, k, k]) * 2
+            out = np.empty((len(s), 4))
+            out[:, i] = 0.25 * f
+            out[:, j] = (s[:, j, i] + s[:, i, j]) / f
+            out[:, k] = (s[:, k, i] + s[:, i, k]) / f
+            out[:, 3] = (s[:, k, j] - s[:, j, k]) / f
+            q[sel] = out
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
 class GyroTrack:
     """Angular velocity samples of base_link, integrated as they arrive (midpoint rule) into an
     orientation track; rotations between two times are read from it by slerp."""
@@ -149,10 +231,14 @@ class GyroTrack:
         i1 = min(bisect.bisect_left(self._t, hi), len(self._t) - 1)
         if i1 == i0:
             return np.tile(np.eye(3), (len(q), 1, 1))
-        ts = (np.asarray(self._t[i0 : i1 + 1], dtype=np.int64) - lo) * 1e-9
-        slerp = Slerp(ts, Rotation.from_quat(np.asarray(self._q[i0 : i1 + 1])))
-        r = slerp(np.concatenate([[(t_ref_ns - lo) * 1e-9], (q - lo) * 1e-9]))  # the reference first
-        return (r[0:1].inv() * r[1:]).as_matrix()
+        ts = np.asarray(self._t[i0 : i1 + 1], dtype=np.int64)
+        qs = np.asarray(self._q[i0 : i1 + 1])
+        both = np.concatenate([[t_ref_ns], q])  # the reference first
+        k = np.clip(np.searchsorted(ts, both, side="right") - 1, 0, len(ts) - 2)
+        a = np.clip((both - ts[k]) / (ts[k + 1] - ts[k]), 0.0, 1.0)
+        r = _slerp(qs[k], qs[k + 1], a)
+        ref_inv = r[0:1] * np.array([-1.0, -1.0, -1.0, 1.0])
+        return _quats_to_matrices(_quats_mul(np.repeat(ref_inv, len(q), axis=0), r[1:]))
 
 
 class PoseTrack:
@@ -193,9 +279,10 @@ class PoseTrack:
         p0 = np.asarray([self._p[k] for k in i])  # only the poses around the queries
         p1 = np.asarray([self._p[k + 1] for k in i])
         a = np.clip((q - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0)
-        r0, r1 = Rotation.from_matrix(p0[:, :3, :3]), Rotation.from_matrix(p1[:, :3, :3])
-        delta = (r0.inv() * r1).as_rotvec()
-        out[:, :3, :3] = (r0 * Rotation.from_rotvec(delta * a[:, None])).as_matrix()
+        r0, r1 = p0[:, :3, :3], p1[:, :3, :3]
+        delta = _matrices_to_quats(np.transpose(r0, (0, 2, 1)) @ r1)  # r0 <- r1
+        identity = np.tile([0.0, 0.0, 0.0, 1.0], (len(q), 1))
+        out[:, :3, :3] = r0 @ _quats_to_matrices(_slerp(identity, delta, a))
         out[:, :3, 3] = (1 - a)[:, None] * p0[:, :3, 3] + a[:, None] * p1[:, :3, 3]
         return out
 
@@ -240,7 +327,7 @@ class _Motion:
     def relative(self, dt: np.ndarray) -> np.ndarray:
         dt = np.asarray(dt, dtype=np.float64)
         out = np.tile(np.eye(4), (len(dt), 1, 1))
-        out[:, :3, :3] = Rotation.from_rotvec(self.w[None, :] * dt[:, None]).as_matrix()
+        out[:, :3, :3] = _rotvecs_to_matrices(self.w[None, :] * dt[:, None])
         out[:, :3, 3] = self.v[None, :] * dt[:, None]
         return out
 
@@ -261,6 +348,60 @@ def sorted_points(points: np.ndarray, voxel: float) -> np.ndarray:
     key = np.floor(p / voxel).astype(np.int64)
     order = np.lexsort((p[:, 2], p[:, 1], p[:, 0], key[:, 2], key[:, 1], key[:, 0]))
     return p[order]
+
+
+_KEY_BITS = 21  # voxel indices within +-2**20 of the origin on each axis
+_KEY_OFFSET = 1 << (_KEY_BITS - 1)
+
+
+def voxel_keys(points: np.ndarray, voxel: float) -> np.ndarray:
+    """One int64 per point naming its voxel; ordered by x index, then y, then z. The grid is fixed
+    (keys stay valid as a map grows) and centred on the origin: voxel centres at multiples of
+    ``voxel``, so a surface at a round coordinate falls inside one layer of voxels, not across two."""
+    k = np.floor(points / voxel + 0.5).astype(np.int64) + _KEY_OFFSET
+    return (k[:, 0] << (2 * _KEY_BITS)) | (k[:, 1] << _KEY_BITS) | k[:, 2]
+
+
+def voxel_sums(points: np.ndarray, voxel: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(sorted unique voxel keys, per-voxel coordinate sums (M, 3), per-voxel counts (M,))."""
+    keys = voxel_keys(points, voxel)
+    uk, inv = np.unique(keys, return_inverse=True)
+    counts = np.bincount(inv, minlength=len(uk))
+    sums = np.stack([np.bincount(inv, weights=points[:, d], minlength=len(uk)) for d in range(3)], axis=1)
+    return uk, sums, counts
+
+
+class VoxelStore:
+    """A running voxel filter: per-voxel sums and counts under sorted keys; the points are the
+    per-voxel means of everything added (what one voxel filter of all the points would give)."""
+
+    def __init__(self, voxel: float) -> None:
+        self.voxel = voxel
+        self.keys = np.zeros(0, dtype=np.int64)
+        self.sums = np.zeros((0, 3))
+        self.counts = np.zeros(0, dtype=np.int64)
+
+    def add(self, points: np.ndarray) -> None:
+        if len(points) == 0:
+            return
+        uk, sums, counts = voxel_sums(points, self.voxel)
+        pos = np.searchsorted(self.keys, uk)
+        found = pos < len(self.keys)
+        found[found] = self.keys[pos[found]] == uk[found]
+        self.sums[pos[found]] += sums[found]
+        self.counts[pos[found]] += counts[found]
+        fresh = ~found
+        if fresh.any():
+            at = pos[fresh]
+            self.keys = np.insert(self.keys, at, uk[fresh])
+            self.sums = np.insert(self.sums, at, sums[fresh], axis=0)
+            self.counts = np.insert(self.counts, at, counts[fresh])
+
+    def points(self) -> np.ndarray:
+        return self.sums / self.counts[:, None]
+
+    def __len__(self) -> int:
+        return len(self.keys)
 
 
 class _Threads:
@@ -298,8 +439,11 @@ class LidarOdometry:
         self._motion = _Motion()
         self._ref: tuple[int, np.ndarray] | None = None  # (time, pose) of the last registration
         self._local = o3d.geometry.PointCloud()
+        self._local_keys = np.zeros(0, dtype=np.int64)  # sorted voxel keys of the local map points
+        self._local_points = np.zeros((0, 3))
+        self._local_normals = np.zeros((0, 3))
         self._last_key: np.ndarray | None = None
-        self._global = np.zeros((0, 3))
+        self._global = VoxelStore(params.save_voxel)
         self._buffer: list[np.ndarray] = []
         self._buffered = 0
         self._chunk: list[np.ndarray] = []
@@ -417,12 +561,16 @@ class LidarOdometry:
         self.stamps.append(int(stamp_ns))
         self.trajectory.append(out)
         points_map = base @ pose[:3, :3].T + pose[:3, 3]
-        keyframe = self._update_local_map(pose, frame)
+        keyframe = self._update_local_map(pose, points_map)
         self._accumulate(points_map)
         velocity = np.concatenate([self._motion.v, self._motion.w])
         return FrameResult(int(stamp_ns), out, points_map, fitness, rmse, keyframe, velocity)
 
-    def _update_local_map(self, pose: np.ndarray, frame: o3d.geometry.PointCloud) -> bool:
+    def _update_local_map(self, pose: np.ndarray, points_map: np.ndarray) -> bool:
+        """Add a keyframe to the local map: one point per ``map_voxel`` voxel (a voxel keeps the
+        point it got first, so the map does not shift under the registration), cropped around the
+        pose; normals are estimated only for the new points and the map points within
+        ``normal_radius`` of them (on the cloud of their neighbourhoods), the others keep theirs."""
         p = self.params
         if self._last_key is not None:
             rel = np.linalg.inv(self._last_key) @ pose
@@ -431,20 +579,37 @@ class LidarOdometry:
             if moved < p.keyframe_distance and turned < p.keyframe_angle_deg:
                 return False
         self._last_key = pose
-        new = frame.voxel_down_sample(p.map_voxel).transform(pose)
-        merged = _pcd(np.concatenate([np.asarray(self._local.points), np.asarray(new.points)]))
-        merged = merged.voxel_down_sample(p.map_voxel)
-        pts = np.asarray(merged.points)
+        uk, sums, counts = voxel_sums(points_map, p.map_voxel)
+        pos = np.searchsorted(self._local_keys, uk)
+        found = pos < len(self._local_keys)
+        found[found] = self._local_keys[pos[found]] == uk[found]
+        fresh = ~found
+        at = pos[fresh]
+        keys = np.insert(self._local_keys, at, uk[fresh])
+        pts = np.insert(self._local_points, at, sums[fresh] / counts[fresh, None], axis=0)
+        normals = np.insert(self._local_normals, at, 0.0, axis=0)
+        is_new = np.insert(np.zeros(len(self._local_keys), dtype=bool), at, True)
         dist = np.linalg.norm(pts - pose[:3, 3], axis=1)
         keep = np.nonzero(dist <= p.local_map_radius)[0]
         if len(keep) > p.local_map_max_points:
             keep = keep[np.argsort(dist[keep], kind="stable")[: p.local_map_max_points]]
             keep.sort()
-        local = _pcd(pts[keep]) if len(keep) < len(pts) else merged  # the kept points, in order
-        search = o3d.geometry.KDTreeSearchParamHybrid(radius=p.normal_radius, max_nn=p.normal_max_nn)
-        local.estimate_normals(search)
+        if len(keep) < len(pts):
+            keys, pts, normals, is_new = keys[keep], pts[keep], normals[keep], is_new[keep]
+        if is_new.any():
+            r = p.normal_radius
+            near, _ = cKDTree(pts[is_new]).query(pts, k=1, distance_upper_bound=2.0 * r)
+            context = near <= 2.0 * r  # every neighbour (within r) of an updated point
+            update = near[context] <= r
+            sub = _pcd(pts[context])
+            sub.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(radius=r, max_nn=p.normal_max_nn))
+            idx = np.nonzero(context)[0][update]
+            normals[idx] = np.asarray(sub.normals)[update]
+        local = _pcd(pts)
+        local.normals = o3d.utility.Vector3dVector(normals)
         if p.method == "gicp":
             local.estimate_covariances(o3d.geometry.KDTreeSearchParamKNN(p.normal_max_nn))
+        self._local_keys, self._local_points, self._local_normals = keys, pts, normals
         self._local = local
         return True
 
@@ -463,8 +628,7 @@ class LidarOdometry:
     def _flush(self) -> None:
         if not self._buffer:
             return
-        allp = np.concatenate([self._global, *self._buffer])
-        self._global = np.asarray(_pcd(allp).voxel_down_sample(self.params.save_voxel).points)
+        self._global.add(np.concatenate(self._buffer))
         self._buffer, self._buffered = [], 0
 
     def _close_chunk(self) -> None:
@@ -477,7 +641,7 @@ class LidarOdometry:
         """(N, 3) every registered frame, voxel-filtered at ``save_voxel``, in a deterministic order."""
         with _Threads(self.params.threads):
             self._flush()
-        return sorted_points(self._global, self.params.save_voxel)
+        return sorted_points(self._global.points(), self.params.save_voxel)
 
     def finish_chunks(self) -> list[np.ndarray]:
         """The chunks of ``save_every_n_frames`` frames, the last partial one included."""
