@@ -12,9 +12,9 @@ Per frame (points in the sensor frame, per-point times in seconds after the fram
 4. scan-to-local-map ICP with Open3D's legacy ``o3d.pipelines.registration`` (point-to-plane by
    default, generalized ICP optional) on the scan voxel-filtered at ``scan_voxel``;
 5. keyframes (every ``keyframe_distance`` m or ``keyframe_angle_deg``) are merged into the local
-   map (voxel ``map_voxel``, cropped to ``local_map_radius``); its normals / covariances are
-   estimated once per update, not per frame;
-6. every registered frame is accumulated into one voxel-filtered global cloud (``save_voxel``,
+   map (one point per ``map_voxel`` voxel, cropped to ``local_map_radius``); normals are
+   estimated per keyframe only for its new points and their neighbours (covariances for GICP);
+6. every registered frame is accumulated into one running per-voxel mean (``save_voxel``,
    FAST-LIO's ``interval: -1``), and optionally into chunks of ``save_every_n_frames`` frames.
 
 Poses are base_link in the map frame (4x4); the map frame is the first frame's base_link unless an
