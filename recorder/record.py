@@ -135,8 +135,9 @@ def record(
         bar.close()
     wall = time.perf_counter() - start
     counts = {}
+    types = writer.topic_types
     for topic, n in sorted(ex.stats.published.items()):
-        counts[topic] = (writer._channel_types.get(topic, ""), n)
+        counts[topic] = (types.get(topic, ""), n)
     return RecordResult(out, ex.now / 1e9, wall, out.stat().st_size, counts, interrupted, meta)
 
 

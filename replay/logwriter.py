@@ -76,6 +76,11 @@ class McapLogWriter:
         self._known[(topic, typename)] = cid
         return cid
 
+    @property
+    def topic_types(self) -> dict[str, str]:
+        """topic -> message type of every channel written so far."""
+        return dict(self._channel_types)
+
     def write(self, env: Envelope) -> None:
         msg = env.msg
         data = bytes(msg) if isinstance(msg, (bytes, bytearray, memoryview)) else messages.serialize_buffer(msg, env.typename)

@@ -22,7 +22,7 @@ from typing import Any, Iterator, Sequence
 
 import replay.pipelines
 from replay import __version__
-from replay.config import config_root, from_mapping, load_config, suggest, to_mapping
+from replay.config import apply_overrides, config_root, from_mapping, load_config, suggest, to_mapping
 from replay.errors import ConfigError, NavlogError
 from replay.executor import Envelope, Executor
 from replay.logreader import LogReader, open_log
@@ -58,8 +58,6 @@ def pipeline_params(name: str, params_file: Path | None = None, overrides: Seque
     path = params_file or config_root() / "pipelines" / f"{name}.yaml"
     if path.is_file():
         return load_config(module.Params, path, overrides)
-    from replay.config import apply_overrides
-
     return from_mapping(module.Params, apply_overrides({}, overrides))
 
 
@@ -192,7 +190,6 @@ def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp
         t = t0
         while True:
             t += chunk
-            before = ex.now
             ex.run(until_ns=t)
             bar.update((ex.now - t0) / 1e9)
             if not ex.sources_pending:

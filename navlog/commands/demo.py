@@ -68,8 +68,8 @@ def run(args) -> int:
 
     print(f"\ndone in {time.perf_counter() - t0:.0f} s. Outputs in {out}/:")
     print(f"  mapping.mcap          the recorded log (`navlog info {out}/mapping.mcap`)")
-    print(f"  replay/               map.yaml + map.pgm, map.pcd, trajectory.tum, replay.mcap, manifest.json")
-    print(f"  reference/            the world's map at the scan plane, its Nav2 map (0.15 m margin), its mesh")
-    print(f"  metrics.json          ATE/RPE, 2D precision/recall/F1, 3D accuracy")
+    print("  replay/               map.yaml + map.pgm, map.pcd, trajectory.tum, replay.mcap, manifest.json")
+    print("  reference/            the world's map at the scan plane, its Nav2 map (0.15 m margin), its mesh")
+    print("  metrics.json          ATE/RPE, 2D precision/recall/F1, 3D accuracy")
     print(f"  demo.rrd              open with `.venv/bin/rerun {out}/demo.rrd`")
     return 0
