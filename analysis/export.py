@@ -17,16 +17,18 @@ import os
 import shutil
 import tempfile
 from collections import Counter
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
-from replay import __version__, messages
-from replay.config import suggest
-from replay.errors import NavlogError
-from replay.logreader import LogReader
+from navlog.errors import NavlogError
+from navlog.replay import messages
+from navlog.replay.config import suggest
+from navlog.replay.io.logreader import LogReader
+from navlog.version import __version__
 
 log = logging.getLogger("navlog")
 
@@ -44,11 +46,15 @@ class BagOptions:
     start_s: float | None = None  # seconds from the log's first message
     end_s: float | None = None
 
-    def validate(self) -> "BagOptions":
+    def validate(self) -> BagOptions:
         if self.storage not in STORAGES:
-            raise NavlogError(f"storage {self.storage!r}: choose one of {', '.join(STORAGES)}{suggest(self.storage, STORAGES)}")
+            raise NavlogError(
+                f"storage {self.storage!r}: choose one of {', '.join(STORAGES)}{suggest(self.storage, STORAGES)}"
+            )
         if self.distro not in DISTRO_VERSIONS:
-            raise NavlogError(f"distro {self.distro!r}: choose one of {', '.join(DISTRO_VERSIONS)}{suggest(self.distro, DISTRO_VERSIONS)}")
+            raise NavlogError(
+                f"distro {self.distro!r}: choose one of {', '.join(DISTRO_VERSIONS)}{suggest(self.distro, DISTRO_VERSIONS)}"
+            )
         _check_window(self.start_s, self.end_s)
         return self
 
@@ -107,8 +113,17 @@ def _qos_profiles(topic: str, source_qos: str, distro: str) -> list:
     from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
     infinite = QosTime(9223372036, 854775807)
-    default = Qos(QosHistory.KEEP_LAST, 10, QosReliability.RELIABLE, QosDurability.VOLATILE,
-                  infinite, infinite, QosLiveliness.AUTOMATIC, infinite, False)
+    default = Qos(
+        QosHistory.KEEP_LAST,
+        10,
+        QosReliability.RELIABLE,
+        QosDurability.VOLATILE,
+        infinite,
+        infinite,
+        QosLiveliness.AUTOMATIC,
+        infinite,
+        False,
+    )
     if topic in messages.LATCHED_TOPICS:
         return [default._replace(depth=1, durability=QosDurability.TRANSIENT_LOCAL)]
     if source_qos:
@@ -157,7 +172,9 @@ def _replace(tmp: Path, out: Path) -> None:
         os.replace(tmp, out)
 
 
-def export_rosbag2(reader: LogReader, out: Path | str, options: BagOptions | None = None, *, force: bool = False) -> ExportSummary:
+def export_rosbag2(
+    reader: LogReader, out: Path | str, options: BagOptions | None = None, *, force: bool = False
+) -> ExportSummary:
     """Write the selected messages of a log as a rosbag2 folder; message bytes are copied unchanged."""
     from rosbags.rosbag2 import StoragePlugin, Writer
 
@@ -176,10 +193,16 @@ def export_rosbag2(reader: LogReader, out: Path | str, options: BagOptions | Non
         else:
             stores[t] = store
     if unknown:
-        log.warning("%s: skipping topics of unknown types: %s", reader.path, ", ".join(f"{t} ({ty})" for t, ty in sorted(unknown.items())))
+        log.warning(
+            "%s: skipping topics of unknown types: %s",
+            reader.path,
+            ", ".join(f"{t} ({ty})" for t, ty in sorted(unknown.items())),
+        )
     topics = [t for t in topics if t not in unknown]
     if not topics:
-        raise NavlogError(f"{reader.path}: no topic of a known type to export (unknown: {', '.join(sorted(unknown)) or 'none'})")
+        raise NavlogError(
+            f"{reader.path}: no topic of a known type to export (unknown: {', '.join(sorted(unknown)) or 'none'})"
+        )
     start_ns, end_ns = time_window(reader, opt.start_s, opt.end_s)
 
     summary = ExportSummary(out)
@@ -265,7 +288,7 @@ def trajectory_from_rows(rows: Iterable[tuple[int, tuple, tuple]]) -> tuple[Any,
 
     Returns (trajectory, number of dropped repeats).
     """
-    from analysis.trajectory import Trajectory
+    from navlog.analysis.metrics.trajectory import Trajectory
 
     ordered = sorted(enumerate(rows), key=lambda r: (r[1][0], r[0]))
     times, pos, quat, dropped = [], [], [], 0
@@ -299,13 +322,16 @@ def _pose_rows(reader: LogReader, topic: str, typename: str, use_header: bool, s
     return rows
 
 
-def _tf_rows(reader: LogReader, target: str, source: str, frame_prefix: str, use_header: bool, start_ns, end_ns, skipped: Counter) -> list:
-    from replay.tf import TFBuffer, TransformError
+def _tf_rows(
+    reader: LogReader, target: str, source: str, frame_prefix: str, use_header: bool, start_ns, end_ns, skipped: Counter
+) -> list:
+    from navlog.replay.runtime.tf import TFBuffer, TransformError
 
     tf_topics = [t for t in ("/tf_static", "/tf") if t in reader.topics]
     if "/tf" not in tf_topics:
         raise NavlogError(f"{reader.path}: no /tf topic; a TF chain needs one")
     buf = TFBuffer(cache_ns=1 << 62, frame_prefix=frame_prefix)
+
     def name(frame: str) -> str:
         f = frame.lstrip("/")
         return f[len(frame_prefix) :] if frame_prefix and f.startswith(frame_prefix) else f
@@ -318,15 +344,20 @@ def _tf_rows(reader: LogReader, target: str, source: str, frame_prefix: str, use
         for ts in env.msg.transforms:
             parent[name(ts.child_frame_id)] = name(ts.header.frame_id)
         if not static:
-            samples.append((env.time_ns, [(name(ts.child_frame_id), messages.to_ns(ts.header.stamp)) for ts in env.msg.transforms]))
+            samples.append(
+                (env.time_ns, [(name(ts.child_frame_id), messages.to_ns(ts.header.stamp)) for ts in env.msg.transforms])
+            )
     frames = buf.frames()
     for f in (target, source):
         if name(f) not in frames:
-            raise NavlogError(f"--tf: frame {f!r} is not in the TF tree of {reader.path}{suggest(f, frames)}; frames: {', '.join(frames)}")
+            raise NavlogError(
+                f"--tf: frame {f!r} is not in the TF tree of {reader.path}{suggest(f, frames)}; frames: {', '.join(frames)}"
+            )
     try:
         buf.lookup(target, source, None)
     except TransformError as exc:
         raise NavlogError(f"--tf {target}:{source}: {exc}") from None
+
     def up(frame: str) -> list[str]:
         out = [frame]
         while out[-1] in parent and parent[out[-1]] not in out:
@@ -376,7 +407,9 @@ def export_tum(
         info = reader.topics.get(topic)
         if info is None:
             names = sorted(reader.topics)
-            raise NavlogError(f"--topic {topic}: not in {reader.path}{suggest(topic, names)}; it has {', '.join(names) or 'none'}")
+            raise NavlogError(
+                f"--topic {topic}: not in {reader.path}{suggest(topic, names)}; it has {', '.join(names) or 'none'}"
+            )
         if info.typename not in TUM_TYPES:
             raise NavlogError(
                 f"--topic {topic}: type {info.typename} has no pose; use an Odometry, PoseStamped, "
@@ -389,7 +422,7 @@ def export_tum(
         source = f"tf {tf[0]} <- {tf[1]}"
     if not rows:
         raise NavlogError(f"{reader.path}: no pose from {source} in the chosen time window; nothing written")
-    from analysis.tum import format_tum
+    from navlog.analysis.tum import format_tum
 
     traj, dropped = trajectory_from_rows(rows)
     if dropped:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from replay.logreader import LogReader
+from navlog.replay.io.logreader import LogReader
 
 
 def summarize(reader: LogReader) -> dict[str, Any]:
@@ -13,7 +13,9 @@ def summarize(reader: LogReader) -> dict[str, Any]:
     topics = []
     for t in sorted(reader.topics.values(), key=lambda t: t.name):
         rate = (t.count - 1) / dur_s if dur_s > 0 and t.count > 1 else 0.0
-        topics.append({"topic": t.name, "type": t.typename, "count": t.count, "rate_hz": round(rate, 3), "known": t.known})
+        topics.append(
+            {"topic": t.name, "type": t.typename, "count": t.count, "rate_hz": round(rate, 3), "known": t.known}
+        )
     return {
         "path": str(reader.path),
         "format": reader.format,
@@ -61,7 +63,9 @@ def format_info(info: dict[str, Any]) -> str:
     twidth = max([len(t["type"]) for t in info["topics"]] + [4])
     for t in info["topics"]:
         mark = "" if t["known"] else "  [unknown type: skipped]"
-        lines.append(f"  {t['topic']:<{width}}  {t['type']:<{twidth}}  {t['count']:>7} msgs  {t['rate_hz']:>9.2f} Hz{mark}")
+        lines.append(
+            f"  {t['topic']:<{width}}  {t['type']:<{twidth}}  {t['count']:>7} msgs  {t['rate_hz']:>9.2f} Hz{mark}"
+        )
     for name, data in info["metadata"].items():
         lines.append(f"Metadata {name}:")
         for k, v in data.items():

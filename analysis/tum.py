@@ -12,9 +12,10 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.trajectory import Trajectory
-from replay.errors import NavlogError
-from replay.tum import HEADER, format_rows, format_seconds  # noqa: F401  (one writer for both packages)
+from navlog.analysis.metrics.trajectory import Trajectory
+from navlog.errors import NavlogError
+from navlog.replay.io.tum import HEADER, format_rows, format_seconds  # noqa: F401  (one writer for both packages)
+
 
 def parse_seconds_ns(text: str) -> int:
     """Integer nanoseconds from a decimal number of seconds (``"12.000000001"`` -> 12000000001)."""

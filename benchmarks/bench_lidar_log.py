@@ -21,14 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from analysis.trajectory import Trajectory, absolute_trajectory_error
-from replay import messages
-from replay.executor import Executor
-from replay.logreader import open_log
-from replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
-from replay.pointcloud import read_points
-from replay.runner import pipeline_params
-from replay.tf import TFBuffer
+from navlog.analysis.metrics.trajectory import Trajectory, absolute_trajectory_error
+from navlog.replay import messages
+from navlog.replay.io.logreader import open_log
+from navlog.replay.nodes.lidar_mapper import LidarMapperNode
+from navlog.replay.pointcloud import read_points
+from navlog.replay.runtime.executor import Executor
+from navlog.replay.runtime.session import pipeline_params
+from navlog.replay.runtime.tf import TFBuffer
 
 
 def lidar_frame_ground_truth(log: Path, frame: str) -> tuple[Trajectory, np.ndarray]:
@@ -104,7 +104,10 @@ def main() -> int:
     if log is None:
         work = tempfile.mkdtemp(prefix="navlog-bench-")
         log = Path(work) / "mapping.mcap"
-        subprocess.run([sys.executable, "-m", "navlog", "-q", "record", "--scenario", "mapping", "--seed", "7", "-o", str(log)], check=True)
+        subprocess.run(
+            [sys.executable, "-m", "navlog", "-q", "record", "--scenario", "mapping", "--seed", "7", "-o", str(log)],
+            check=True,
+        )
     frame = "livox_frame"
     gt, mount = lidar_frame_ground_truth(log, frame)
 
@@ -120,8 +123,10 @@ def main() -> int:
     print(f"log {log} ({len(st_k)} sweeps), load average {os.getloadavg()[0]:.2f}")
     print(f"navlog 3D mapper: {fps_n:6.1f} frames/s, ATE {ate_n * 100:.2f} cm (SE(3)-aligned, LiDAR frame)")
     print(f"KISS-ICP (voxel {args.kiss_voxel}, 1 thread, deskew): {fps_k:6.1f} frames/s, ATE {ate_k * 100:.2f} cm")
-    print(f"ratios: frames/s navlog / KISS-ICP = {fps_n / fps_k:.2f} (target >= 1); "
-          f"ATE KISS-ICP / navlog = {ate_k / ate_n:.1f} (target > 1)")
+    print(
+        f"ratios: frames/s navlog / KISS-ICP = {fps_n / fps_k:.2f} (target >= 1); "
+        f"ATE KISS-ICP / navlog = {ate_k / ate_n:.1f} (target > 1)"
+    )
     if work:
         import shutil
 

@@ -21,22 +21,18 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import open3d as o3d
 from scipy.spatial.transform import Rotation
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from analysis.trajectory import umeyama  # noqa: E402
-from replay import messages  # noqa: E402
-from replay.executor import Envelope, Executor  # noqa: E402
-from replay.lidar_odometry import LidarOdometryParams  # noqa: E402
-from replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams  # noqa: E402
-from tests.replay import lidar_scene as scene  # noqa: E402
+from navlog.analysis.metrics.trajectory import umeyama
+from navlog.replay import messages
+from navlog.replay.mapping.lidar_odometry import LidarOdometryParams
+from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
+from navlog.replay.runtime.executor import Envelope, Executor
+from tests.replay import lidar_scene as scene
 
 
 def ate(positions: np.ndarray, truth: np.ndarray) -> float:
@@ -103,8 +99,10 @@ def main() -> None:
     seq = scene.make_sequence(scene.loop_trajectory(speed=0.3, radius=1.5), args.frames, scene=room)
     n = len(seq.frames)
     sim_s = n * scene.SWEEP_S
-    print(f"sequence: {n} frames ({sim_s:.1f} s), {np.mean([len(f.points) for f in seq.frames]):.0f} points/frame, "
-          f"generated in {time.perf_counter() - t0:.1f} s")
+    print(
+        f"sequence: {n} frames ({sim_s:.1f} s), {np.mean([len(f.points) for f in seq.frames]):.0f} points/frame, "
+        f"generated in {time.perf_counter() - t0:.1f} s"
+    )
 
     g0 = seq.ground_truth([0])[0]
     rpy = Rotation.from_matrix(g0[:3, :3]).as_euler("xyz")
@@ -114,11 +112,13 @@ def main() -> None:
     ate_nav = ate(poses[:, :3, 3], gt[:, :3, 3])
     d = room.compute_distance(o3d.core.Tensor(node.map_points().astype(np.float32))).numpy()
     fps_nav = len(stamps) / wall
-    print(f"navlog lidar_mapper ({args.method}): {fps_nav:.1f} frames/s, real-time factor {sim_s / wall:.1f}x "
-          f"(target >= 5x; CPU time of this process: {sim_s / cpu:.1f}x, load average {os.getloadavg()[0]:.1f} "
-          f"on {os.cpu_count()} cores), ATE RMSE {ate_nav * 100:.2f} cm "
-          f"({ate_aligned(poses[:, :3, 3], gt[:, :3, 3]) * 100:.2f} cm SE(3)-aligned), map {len(d)} points, "
-          f"{np.mean(d <= 0.05) * 100:.2f} % within 5 cm, {np.mean(d <= 0.02) * 100:.2f} % within 2 cm, skipped {node.skipped_counts()}")
+    print(
+        f"navlog lidar_mapper ({args.method}): {fps_nav:.1f} frames/s, real-time factor {sim_s / wall:.1f}x "
+        f"(target >= 5x; CPU time of this process: {sim_s / cpu:.1f}x, load average {os.getloadavg()[0]:.1f} "
+        f"on {os.cpu_count()} cores), ATE RMSE {ate_nav * 100:.2f} cm "
+        f"({ate_aligned(poses[:, :3, 3], gt[:, :3, 3]) * 100:.2f} cm SE(3)-aligned), map {len(d)} points, "
+        f"{np.mean(d <= 0.05) * 100:.2f} % within 5 cm, {np.mean(d <= 0.02) * 100:.2f} % within 2 cm, skipped {node.skipped_counts()}"
+    )
 
     kiss = run_kiss(seq, args.kiss_voxel, args.kiss_threads)
     if kiss is None:
@@ -133,10 +133,14 @@ def main() -> None:
     ate_kiss = ate(est[:, :3, 3], g_mid[:, :3, 3])
     ate_kiss_al = ate_aligned(est[:, :3, 3], g_mid[:, :3, 3])
     fps_kiss = n / kwall
-    print(f"KISS-ICP 1.x (voxel {args.kiss_voxel}, {args.kiss_threads} thread(s), deskew on): {fps_kiss:.1f} frames/s, "
-          f"ATE RMSE {ate_kiss * 100:.2f} cm ({ate_kiss_al * 100:.2f} cm SE(3)-aligned)")
-    print(f"ratios: navlog/KISS-ICP frames/s = {fps_nav / fps_kiss:.2f} (includes navlog's message decoding and publishing); "
-          f"KISS-ICP ATE / navlog ATE = {ate_kiss / ate_nav:.2f} (> 1: navlog more accurate)")
+    print(
+        f"KISS-ICP 1.x (voxel {args.kiss_voxel}, {args.kiss_threads} thread(s), deskew on): {fps_kiss:.1f} frames/s, "
+        f"ATE RMSE {ate_kiss * 100:.2f} cm ({ate_kiss_al * 100:.2f} cm SE(3)-aligned)"
+    )
+    print(
+        f"ratios: navlog/KISS-ICP frames/s = {fps_nav / fps_kiss:.2f} (includes navlog's message decoding and publishing); "
+        f"KISS-ICP ATE / navlog ATE = {ate_kiss / ate_nav:.2f} (> 1: navlog more accurate)"
+    )
 
 
 if __name__ == "__main__":

@@ -44,17 +44,16 @@ import types  # noqa: E402
 from collections import defaultdict  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
 import mcap.writer  # noqa: E402
 import open3d  # noqa: E402, F401  (imported up front, so that no run's CPU time includes the import)
 from mcap.writer import CompressionType, Writer  # noqa: E402
 
-import recorder.record as record_mod  # noqa: E402
-import recorder.sim as sim_mod  # noqa: E402
-from recorder.record import prepare, record  # noqa: E402
-from replay import __version__, messages  # noqa: E402
-from replay.logwriter import McapLogWriter  # noqa: E402
+import navlog.recorder.record as record_mod  # noqa: E402
+import navlog.recorder.sim as sim_mod  # noqa: E402
+from navlog.recorder.record import prepare, record  # noqa: E402
+from navlog.replay import messages  # noqa: E402
+from navlog.replay.io.logwriter import McapLogWriter  # noqa: E402
+from navlog.version import __version__  # noqa: E402
 
 TARGET_RTF = 20.0
 TARGET_WRITE = 0.70
@@ -63,6 +62,7 @@ COMMAND = "navlog record --world indoor_room --robot go2 --scenario mapping --se
 
 def idlest_cpu(sample_s: float = 0.5) -> int:
     """The CPU (of those this process may use) with the most idle time over a short sample."""
+
     def idle() -> dict[int, int]:
         out = {}
         with open("/proc/stat") as f:
@@ -105,8 +105,11 @@ def clean_runs(args, work: Path) -> tuple[list[float], list[float], list[float],
         walls.append(res.wall_s)
         cpu_rtfs.append(res.sim_s / cpu)
         digests.add(hashlib.sha256((work / "run.mcap").read_bytes()).hexdigest())
-        print(f"  run {i + 1}: sim {res.sim_s:.2f} s, wall {res.wall_s:.2f} s, {res.real_time_factor:.1f}x real time "
-              f"(CPU time {cpu:.2f} s: {res.sim_s / cpu:.1f}x), {res.size_bytes / 1e6:.1f} MB ({load()})", flush=True)
+        print(
+            f"  run {i + 1}: sim {res.sim_s:.2f} s, wall {res.wall_s:.2f} s, {res.real_time_factor:.1f}x real time "
+            f"(CPU time {cpu:.2f} s: {res.sim_s / cpu:.1f}x), {res.size_bytes / 1e6:.1f} MB ({load()})",
+            flush=True,
+        )
     same = "byte-identical" if len(digests) == 1 else f"{len(digests)} DIFFERENT files"
     return rtfs, walls, cpu_rtfs, same
 
@@ -196,7 +199,12 @@ def instrumented_run(args, work: Path):
     real_scenario_timer = record_mod.ScenarioNode._on_timer
 
     saved = (sim_mod.mujoco, sim_mod.sensors, record_mod.McapLogWriter, mcap.writer.zstandard)
-    sim_mod.mujoco, sim_mod.sensors, record_mod.McapLogWriter, mcap.writer.zstandard = proxy, sproxy, TimedWriter, zproxy
+    sim_mod.mujoco, sim_mod.sensors, record_mod.McapLogWriter, mcap.writer.zstandard = (
+        proxy,
+        sproxy,
+        TimedWriter,
+        zproxy,
+    )
     sim_mod.SimNode.__init__ = sim_init
     record_mod.ScenarioNode._on_timer = tm.wrap("scenario node", real_scenario_timer)
     try:
@@ -228,8 +236,10 @@ def print_breakdown(tm: Timers, res) -> None:
         ("compression (zstd)", compression, f"{tm.n['compression']} chunks"),
         ("MCAP records + file writing", writing, ""),
     ]
-    print(f"per-stage breakdown, instrumented run: wall {res.wall_s:.2f} s for {res.sim_s:.2f} s of sim time "
-          f"({res.real_time_factor:.1f}x; timers included)")
+    print(
+        f"per-stage breakdown, instrumented run: wall {res.wall_s:.2f} s for {res.sim_s:.2f} s of sim time "
+        f"({res.real_time_factor:.1f}x; timers included)"
+    )
     for name, sec, note in rows:
         print(f"  {name:<48} {sec:6.2f} s  {100 * sec / res.wall_s:5.1f} %  {note}")
 
@@ -256,7 +266,9 @@ def write_ceiling(path: Path, prepared, metadata) -> float:
                 sid = schemas.get(typename)
                 if sid is None:
                     sid = schemas[typename] = w.register_schema(typename, "ros2msg", messages.msgdef(typename).encode())
-                cid = channels[topic] = w.register_channel(topic, "cdr", sid, metadata={"offered_qos_profiles": messages.qos_for(topic)})
+                cid = channels[topic] = w.register_channel(
+                    topic, "cdr", sid, metadata={"offered_qos_profiles": messages.qos_for(topic)}
+                )
             add(cid, log_time=t, publish_time=t, data=data, sequence=seq)
         for name in sorted(metadata):
             w.add_metadata(name, {k: str(v) for k, v in metadata[name].items()})
@@ -292,20 +304,30 @@ def writing_throughput(args, work: Path, captured, metadata) -> None:
     c, n = statistics.median(ceiling), statistics.median(navlog)
     same = (work / "ceiling.mcap").read_bytes() == (work / "navlog.mcap").read_bytes()
     size = (work / "navlog.mcap").stat().st_size
-    print(f"writing throughput, {len(prepared)} messages, {raw_bytes / 1e6:.1f} MB of CDR -> {size / 1e6:.1f} MB "
-          f"(chunks {chunk_size_default() >> 20} MiB, zstd), median of {args.repeat}:")
-    print(f"  ceiling: raw mcap Writer, pre-serialized   {c:6.2f} s  {len(prepared) / c / 1e3:6.1f} k msg/s  {raw_bytes / c / 1e6:6.1f} MB/s")
-    print(f"  navlog: McapLogWriter, serialize + write   {n:6.2f} s  {len(prepared) / n / 1e3:6.1f} k msg/s  {raw_bytes / n / 1e6:6.1f} MB/s")
+    print(
+        f"writing throughput, {len(prepared)} messages, {raw_bytes / 1e6:.1f} MB of CDR -> {size / 1e6:.1f} MB "
+        f"(chunks {chunk_size_default() >> 20} MiB, zstd), median of {args.repeat}:"
+    )
+    print(
+        f"  ceiling: raw mcap Writer, pre-serialized   {c:6.2f} s  {len(prepared) / c / 1e3:6.1f} k msg/s  {raw_bytes / c / 1e6:6.1f} MB/s"
+    )
+    print(
+        f"  navlog: McapLogWriter, serialize + write   {n:6.2f} s  {len(prepared) / n / 1e3:6.1f} k msg/s  {raw_bytes / n / 1e6:6.1f} MB/s"
+    )
     print(f"  serialization alone (messages.serialize of every message): {statistics.median(ser):.2f} s")
     cb, nb = min(ceiling), min(navlog)
-    print(f"  navlog / ceiling throughput: {100 * c / n:.1f} % (target >= {100 * TARGET_WRITE:.0f} %: "
-          f"ratio {c / n / TARGET_WRITE:.2f}); best against best {100 * cb / nb:.1f} %; "
-          f"files byte-identical: {'yes' if same else 'NO'}")
+    print(
+        f"  navlog / ceiling throughput: {100 * c / n:.1f} % (target >= {100 * TARGET_WRITE:.0f} %: "
+        f"ratio {c / n / TARGET_WRITE:.2f}); best against best {100 * cb / nb:.1f} %; "
+        f"files byte-identical: {'yes' if same else 'NO'}"
+    )
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--duration", type=float, help="cut the mapping tour after this many sim seconds (default: the whole tour)")
+    ap.add_argument(
+        "--duration", type=float, help="cut the mapping tour after this many sim seconds (default: the whole tour)"
+    )
     ap.add_argument("--runs", type=int, default=5, help="clean recordings for the real-time factor (median)")
     ap.add_argument("--repeat", type=int, default=5, help="alternations of the two writers (median)")
     ap.add_argument("--seed", type=int, default=7)
@@ -323,9 +345,11 @@ def main() -> int:
         print(f"recording: {cmd}, {args.runs} runs ({load()})", flush=True)
         rtfs, walls, cpu_rtfs, same = clean_runs(args, work)
         rtf = statistics.median(rtfs)
-        print(f"real-time factor: median {rtf:.1f}x, best {max(rtfs):.1f}x (wall median {statistics.median(walls):.2f} s); "
-              f"target {TARGET_RTF:.0f}x: ratio {rtf / TARGET_RTF:.2f} (best {max(rtfs) / TARGET_RTF:.2f}); "
-              f"by CPU time median {statistics.median(cpu_rtfs):.1f}x; runs {same}")
+        print(
+            f"real-time factor: median {rtf:.1f}x, best {max(rtfs):.1f}x (wall median {statistics.median(walls):.2f} s); "
+            f"target {TARGET_RTF:.0f}x: ratio {rtf / TARGET_RTF:.2f} (best {max(rtfs) / TARGET_RTF:.2f}); "
+            f"by CPU time median {statistics.median(cpu_rtfs):.1f}x; runs {same}"
+        )
         tm, res, captured, writer_args = instrumented_run(args, work)
         print_breakdown(tm, res)
         gc.freeze()

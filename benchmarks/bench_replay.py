@@ -54,7 +54,7 @@ def rss_kib():
                 return int(line.split()[1])
     return 0
 
-import replay.runner as runner
+import navlog.replay.runtime.session as runner
 import replay.pipelines.mapping, replay.nodes.lidar_mapper, replay.nodes.occupancy_mapper  # noqa: F401 (imports first)
 
 span = {}
@@ -84,8 +84,22 @@ def record(out: Path, scenario: str, log: Path) -> None:
     if out.exists():
         print(f"  reusing {out}", flush=True)
         return
-    cmd = [sys.executable, "-m", "navlog", "record", "--world", "indoor_room", "--robot", "go2",
-           "--scenario", scenario, "--seed", "7", "-o", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "navlog",
+        "record",
+        "--world",
+        "indoor_room",
+        "--robot",
+        "go2",
+        "--scenario",
+        scenario,
+        "--seed",
+        "7",
+        "-o",
+        str(out),
+    ]
     print(f"  {' '.join(['navlog', *cmd[3:]])}", flush=True)
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     with open(log, "w") as f:
@@ -93,8 +107,12 @@ def record(out: Path, scenario: str, log: Path) -> None:
 
 
 def replay(log: Path, out: Path, overrides: list[str]) -> dict:
-    proc = subprocess.run([sys.executable, "-c", CHILD, str(ROOT), str(log), str(out), *overrides],
-                          cwd=ROOT, capture_output=True, text=True)
+    proc = subprocess.run(
+        [sys.executable, "-c", CHILD, str(ROOT), str(log), str(out), *overrides],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+    )
     if proc.returncode != 0:
         raise SystemExit(f"replay of {log} failed:\n{proc.stderr}")
     shutil.rmtree(out, ignore_errors=True)
@@ -108,8 +126,10 @@ def speed(label: str, log: Path, work: Path, overrides: list[str], repeat: int, 
     cpus = [r["cpu_s"] for r in runs]
     best, median = log_s / min(walls), log_s / statistics.median(walls)
     print(f"{label}: {log_s:.1f} s of log, {runs[0]['messages']} messages read, {repeat} run(s)")
-    print(f"  wall {min(walls):.2f} s best, {statistics.median(walls):.2f} s median -> "
-          f"{best:.1f}x real time best, {median:.1f}x median (target >= {target:g}x: best/target {best / target:.2f})")
+    print(
+        f"  wall {min(walls):.2f} s best, {statistics.median(walls):.2f} s median -> "
+        f"{best:.1f}x real time best, {median:.1f}x median (target >= {target:g}x: best/target {best / target:.2f})"
+    )
     print(f"  CPU  {min(cpus):.2f} s best -> {log_s / min(cpus):.1f}x real time per CPU second")
 
 
@@ -147,9 +167,12 @@ def main() -> None:
             for name, log in (("1-minute", short), ("10-minute", long)):
                 r = replay(log, work / "out", [])
                 figures[name] = r
-                print(f"  {name:9s} log ({r['log_s']:.0f} s, {log.stat().st_size / 2**20:.0f} MiB): peak {r['peak_kib'] / 1024:.0f} MiB "
-                      f"(after imports {r['base_kib'] / 1024:.0f} MiB, replay's own growth {(r['peak_kib'] - r['base_kib']) / 1024:.0f} MiB); "
-                      f"{r['log_s'] / r['wall_s']:.1f}x real time", flush=True)
+                print(
+                    f"  {name:9s} log ({r['log_s']:.0f} s, {log.stat().st_size / 2**20:.0f} MiB): peak {r['peak_kib'] / 1024:.0f} MiB "
+                    f"(after imports {r['base_kib'] / 1024:.0f} MiB, replay's own growth {(r['peak_kib'] - r['base_kib']) / 1024:.0f} MiB); "
+                    f"{r['log_s'] / r['wall_s']:.1f}x real time",
+                    flush=True,
+                )
             ratio = figures["10-minute"]["peak_kib"] / figures["1-minute"]["peak_kib"]
             print(f"  10-minute / 1-minute peak: {ratio:.3f} (target <= 1.20)")
     finally:

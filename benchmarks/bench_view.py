@@ -23,11 +23,9 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
-from analysis.export import BagOptions, export_rosbag2  # noqa: E402
-from analysis.rerun_view import save_view  # noqa: E402
-from replay.logreader import open_log  # noqa: E402
+from navlog.analysis.export import BagOptions, export_rosbag2
+from navlog.analysis.view.rerun_view import save_view
+from navlog.replay.io.logreader import open_log
 
 BUDGET_S = 30.0
 
@@ -55,7 +53,19 @@ def main() -> int:
         log = args.log
         if log is None:
             log = work / "mapping.mcap"
-            cmd = [str(navlog), "record", "--world", "indoor_room", "--robot", "go2", "--scenario", "mapping", "-o", str(log), "--force"]
+            cmd = [
+                str(navlog),
+                "record",
+                "--world",
+                "indoor_room",
+                "--robot",
+                "go2",
+                "--scenario",
+                "mapping",
+                "-o",
+                str(log),
+                "--force",
+            ]
             print("recording:", " ".join(cmd[1:]), flush=True)
             t0 = time.perf_counter()
             subprocess.run(cmd, check=True, capture_output=True)
@@ -82,7 +92,9 @@ def main() -> int:
 
         def peer() -> None:
             peer_rrd.unlink(missing_ok=True)
-            subprocess.run([str(rerun), "mcap", "convert", str(log), "-o", str(peer_rrd)], check=True, capture_output=True)
+            subprocess.run(
+                [str(rerun), "mcap", "convert", str(log), "-o", str(peer_rrd)], check=True, capture_output=True
+            )
 
         t_floor = best(floor, args.repeat)
         t_view = best(view, args.repeat)
@@ -107,7 +119,9 @@ def main() -> int:
                     export_rosbag2(r, out, BagOptions(storage=storage, distro="humble"), force=True)
 
             t_exp = best(export, args.repeat)
-            print(f"navlog export rosbag2 {storage:<7} {t_exp:7.2f} s   {size_mb / t_exp:.0f} MB/s, {t_exp / t_floor:.2f} x the floor")
+            print(
+                f"navlog export rosbag2 {storage:<7} {t_exp:7.2f} s   {size_mb / t_exp:.0f} MB/s, {t_exp / t_floor:.2f} x the floor"
+            )
         print(f"\ncommand: navlog view {log} --save {rrd}")
     finally:
         if args.keep is None:

@@ -13,8 +13,8 @@ import logging
 import os
 import sys
 
-from replay import __version__
-from replay.errors import NavlogError
+from navlog.errors import NavlogError
+from navlog.version import __version__
 
 # One module per command, in the order `navlog --help` lists them.
 COMMANDS = [

@@ -10,19 +10,19 @@ from __future__ import annotations
 
 import signal
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
 
-from recorder.robot import RobotSpec, load_robot
-from recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
-from recorder.sim import SimNode, SimOptions
-from recorder.world import World, load_world
-from replay import __version__
-from replay.config import config_hash, to_mapping
-from replay.executor import Executor, Node
-from replay.logwriter import McapLogWriter, check_output
-from replay.progress import Progress
+from navlog.recorder.robot import RobotSpec, load_robot
+from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
+from navlog.recorder.sim import SimNode, SimOptions
+from navlog.recorder.world import World, load_world
+from navlog.replay.config import config_hash, to_mapping
+from navlog.replay.io.logwriter import McapLogWriter, check_output
+from navlog.replay.runtime.executor import Executor, Node
+from navlog.replay.runtime.progress import Progress
+from navlog.version import __version__
 
 
 @dataclass

@@ -16,8 +16,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
-from replay.config import load_config, named_config
-from replay.messages import quat_from_rpy
+from navlog.replay.config import load_config, named_config
+from navlog.replay.messages import quat_from_rpy
 
 Vec3 = tuple[float, float, float]
 Mount = tuple[float, float, float, float, float, float]  # x, y, z, roll, pitch, yaw (rad)
@@ -192,38 +192,76 @@ def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> No
             ("pitch", mujoco.mjtJoint.mjJNT_HINGE, [0, 1, 0]),
             ("roll", mujoco.mjtJoint.mjJNT_HINGE, [1, 0, 0]),
         ):
-            base.add_joint(name=f"base_{name}", type=jtype, axis=axis, damping=[1.0, 0, 0] if name in "xyz" else [0.2, 0, 0])
-        base.add_geom(name="trunk", type=G.mjGEOM_BOX, size=[bx / 2, by / 2, bz / 2], mass=robot.body.mass,
-                      group=ROBOT_GROUP, contype=0, conaffinity=0)
+            base.add_joint(
+                name=f"base_{name}", type=jtype, axis=axis, damping=[1.0, 0, 0] if name in "xyz" else [0.2, 0, 0]
+            )
+        base.add_geom(
+            name="trunk",
+            type=G.mjGEOM_BOX,
+            size=[bx / 2, by / 2, bz / 2],
+            mass=robot.body.mass,
+            group=ROBOT_GROUP,
+            contype=0,
+            conaffinity=0,
+        )
         m = robot.body.mass
         spec.add_actuator(name="act_x", target="base_x", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
         spec.add_actuator(name="act_y", target="base_y", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
         spec.add_actuator(name="act_yaw", target="base_yaw", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=20.0)
-        spec.add_actuator(name="act_z", target="base_z", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(kp=6000.0, kv=400.0)
-        spec.add_actuator(name="act_pitch", target="base_pitch", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(kp=400.0, kv=20.0)
-        spec.add_actuator(name="act_roll", target="base_roll", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(kp=400.0, kv=20.0)
+        spec.add_actuator(name="act_z", target="base_z", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
+            kp=6000.0, kv=400.0
+        )
+        spec.add_actuator(name="act_pitch", target="base_pitch", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
+            kp=400.0, kv=20.0
+        )
+        spec.add_actuator(name="act_roll", target="base_roll", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
+            kp=400.0, kv=20.0
+        )
         base.add_site(name="imu", pos=list(robot.imu.mount[:3]) if robot.imu else [0, 0, 0])
     else:
         d = robot.drive
         r_true = d.wheel_radius * (1.0 + d.wheel_radius_error)
         base = spec.worldbody.add_body(name="base_link", pos=[x, y, r_true], quat=list(_wxyz(0.0, 0.0, yaw)))
         base.add_freejoint(name="base_free")
-        base.add_geom(name="chassis", type=G.mjGEOM_BOX, size=[bx / 2, by / 2, bz / 2], pos=[0, 0, bz / 2],
-                      mass=robot.body.mass, group=ROBOT_GROUP)
+        base.add_geom(
+            name="chassis",
+            type=G.mjGEOM_BOX,
+            size=[bx / 2, by / 2, bz / 2],
+            pos=[0, 0, bz / 2],
+            mass=robot.body.mass,
+            group=ROBOT_GROUP,
+        )
         for side, sy in (("left", 1.0), ("right", -1.0)):
             wheel = base.add_body(name=f"wheel_{side}", pos=[0, sy * d.wheel_separation / 2, 0])
             wheel.add_joint(name=f"wheel_{side}_joint", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0], armature=0.01)
-            wheel.add_geom(name=f"wheel_{side}_geom", type=G.mjGEOM_CYLINDER, size=[r_true, 0.02, 0],
-                           quat=list(_wxyz(math.pi / 2, 0.0, 0.0)), mass=0.5, friction=[1.0, 0.005, 0.0001],
-                           group=ROBOT_GROUP)
-            spec.add_actuator(name=f"act_wheel_{side}", target=f"wheel_{side}_joint",
-                              trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=8.0)
+            wheel.add_geom(
+                name=f"wheel_{side}_geom",
+                type=G.mjGEOM_CYLINDER,
+                size=[r_true, 0.02, 0],
+                quat=list(_wxyz(math.pi / 2, 0.0, 0.0)),
+                mass=0.5,
+                friction=[1.0, 0.005, 0.0001],
+                group=ROBOT_GROUP,
+            )
+            spec.add_actuator(
+                name=f"act_wheel_{side}", target=f"wheel_{side}_joint", trntype=mujoco.mjtTrn.mjTRN_JOINT
+            ).set_to_velocity(kv=8.0)
         caster_r = r_true / 2
-        base.add_geom(name="caster", type=G.mjGEOM_SPHERE, size=[caster_r, 0, 0], pos=[-bx / 2 + caster_r, 0, caster_r - r_true],
-                      friction=[0.0, 0.0, 0.0], condim=1, mass=0.1, group=ROBOT_GROUP)
+        base.add_geom(
+            name="caster",
+            type=G.mjGEOM_SPHERE,
+            size=[caster_r, 0, 0],
+            pos=[-bx / 2 + caster_r, 0, caster_r - r_true],
+            friction=[0.0, 0.0, 0.0],
+            condim=1,
+            mass=0.1,
+            group=ROBOT_GROUP,
+        )
         base.add_site(name="imu", pos=list(robot.imu.mount[:3]) if robot.imu else [0, 0, 0])
     spec.add_sensor(name="imu_gyro", type=mujoco.mjtSensor.mjSENS_GYRO, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
-    spec.add_sensor(name="imu_accel", type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
+    spec.add_sensor(
+        name="imu_accel", type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu"
+    )
 
 
 def _wxyz(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:

@@ -16,12 +16,12 @@ from typing import Literal
 
 import numpy as np
 
-from recorder.robot import RobotSpec
-from recorder.world import World, clearance
-from replay import messages
-from replay.config import load_config, named_config
-from replay.errors import ConfigError
-from replay.executor import Node
+from navlog.errors import ConfigError
+from navlog.recorder.robot import RobotSpec
+from navlog.recorder.world import World, clearance
+from navlog.replay import messages
+from navlog.replay.config import load_config, named_config
+from navlog.replay.runtime.executor import Node
 
 
 @dataclass(frozen=True)

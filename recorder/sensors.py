@@ -12,8 +12,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from recorder.robot import LaserConfig, LidarConfig, Mount
-from replay import messages
+from navlog.recorder.robot import LaserConfig, LidarConfig, Mount
+from navlog.replay import messages
 
 
 def mount_matrix(mount: Mount) -> np.ndarray:
@@ -90,8 +90,14 @@ def _scan_constants(cfg: LaserConfig) -> tuple[float, float, float, float, float
     _, inc = laser_directions(cfg)
     # float32 fields hold float32 values, so that live subscribers see what a replayed log gives back
     f = messages.f32
-    return (f(cfg.angle_min), f(cfg.angle_min + inc * (cfg.samples - 1)), f(inc), f(1.0 / cfg.rate),
-            f(cfg.range_min), f(cfg.range_max))
+    return (
+        f(cfg.angle_min),
+        f(cfg.angle_min + inc * (cfg.samples - 1)),
+        f(inc),
+        f(1.0 / cfg.rate),
+        f(cfg.range_min),
+        f(cfg.range_max),
+    )
 
 
 def scan_message(ns: int, frame: str, cfg: LaserConfig, ranges: np.ndarray):

@@ -25,12 +25,12 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from recorder import sensors
-from recorder.robot import RobotSpec, add_to_spec
-from recorder.world import World, build_spec, world_mesh
-from replay import messages
-from replay.executor import Node
-from replay.pointcloud import make_cloud
+from navlog.recorder import sensors
+from navlog.recorder.robot import RobotSpec, add_to_spec
+from navlog.recorder.world import World, build_spec, world_mesh
+from navlog.replay import messages
+from navlog.replay.pointcloud import make_cloud
+from navlog.replay.runtime.executor import Node
 
 TICK_NS = 5_000_000  # 200 Hz
 CLOCK_PERIOD_NS = 10_000_000  # /clock at 100 Hz
@@ -125,8 +125,12 @@ class SimNode(Node):
         self._odom = tuple(float(v) for v in options.start)
         self._odom_twist = (0.0, 0.0, 0.0)
         d = robot.drive
-        self._gyro_bias = self.rng_imu.normal(0, robot.imu.gyro_bias, 3) if (robot.imu and options.noise) else np.zeros(3)
-        self._accel_bias = self.rng_imu.normal(0, robot.imu.accel_bias, 3) if (robot.imu and options.noise) else np.zeros(3)
+        self._gyro_bias = (
+            self.rng_imu.normal(0, robot.imu.gyro_bias, 3) if (robot.imu and options.noise) else np.zeros(3)
+        )
+        self._accel_bias = (
+            self.rng_imu.normal(0, robot.imu.accel_bias, 3) if (robot.imu and options.noise) else np.zeros(3)
+        )
         self._lidar_frames = 0
         self._mounts = {}
         for cfg in (robot.scan, robot.lidar, robot.imu):
@@ -141,7 +145,8 @@ class SimNode(Node):
         self._Imu = messages.msg_class(messages.IMU)
         if robot.imu is not None:
             self._imu_cov = tuple(
-                np.diag([v**2] * 3).ravel() for v in (robot.imu.orientation_noise, robot.imu.gyro_noise, robot.imu.accel_noise)
+                np.diag([v**2] * 3).ravel()
+                for v in (robot.imu.orientation_noise, robot.imu.gyro_noise, robot.imu.accel_noise)
             )
         # per-tick constants and noise streams (the same draws, in the same order, as one call per sample)
         keep = self._periods["lidar"] // TICK_NS + 2 if self._periods["lidar"] else 1
@@ -162,16 +167,26 @@ class SimNode(Node):
         self._imu_frame = robot.frame(robot.imu.frame) if robot.imu else ""
         self._imu_types = tuple(
             messages.msg_class(t)
-            for t in ("builtin_interfaces/msg/Time", "std_msgs/msg/Header", "geometry_msgs/msg/Quaternion", "geometry_msgs/msg/Vector3")
+            for t in (
+                "builtin_interfaces/msg/Time",
+                "std_msgs/msg/Header",
+                "geometry_msgs/msg/Quaternion",
+                "geometry_msgs/msg/Vector3",
+            )
         )
         o = robot.odom
         self._odom_noise = _Normals(self.rng_odom, [o.linear_noise, o.linear_noise, o.angular_noise])
         if robot.imu is not None:
             i = robot.imu
-            self._imu_noise = _Normals(self.rng_imu, [i.gyro_noise] * 3 + [i.accel_noise] * 3 + [i.orientation_noise] * 3)
+            self._imu_noise = _Normals(
+                self.rng_imu, [i.gyro_noise] * 3 + [i.accel_noise] * 3 + [i.orientation_noise] * 3
+            )
         f = robot.frames
         self._frame_names = {
-            "world": f.world, "map": f.map, "odom": robot.frame(f.odom), "base": robot.frame(f.base),
+            "world": f.world,
+            "map": f.map,
+            "odom": robot.frame(f.odom),
+            "base": robot.frame(f.base),
             "footprint": robot.frame(f.base_footprint),
         }
 
@@ -182,11 +197,19 @@ class SimNode(Node):
         if self.robot.drive.type == "legged":
             for name, value in (("base_x", x), ("base_y", y), ("base_yaw", yaw)):
                 d.qpos[m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)]] = value
-            self._act = {n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"act_{n}") for n in ("x", "y", "yaw", "z", "pitch", "roll")}
+            self._act = {
+                n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"act_{n}")
+                for n in ("x", "y", "yaw", "z", "pitch", "roll")
+            }
             self._z0 = self.robot.body.height
         else:
-            self._act = {n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"act_wheel_{n}") for n in ("left", "right")}
-            self._wheel_dof = [m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"wheel_{n}_joint")] for n in ("left", "right")]
+            self._act = {
+                n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"act_wheel_{n}") for n in ("left", "right")
+            }
+            self._wheel_dof = [
+                m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"wheel_{n}_joint")]
+                for n in ("left", "right")
+            ]
         mujoco.mj_forward(m, d)
 
     def base_pose(self) -> np.ndarray:
@@ -204,7 +227,9 @@ class SimNode(Node):
     def _velocity6(self) -> np.ndarray:
         """(angular, linear) velocity of base_link in its own frame, MuJoCo's order."""
         v = np.zeros(6)
-        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_XBODY, self._bid, v, 1)  # body frame, not inertial
+        mujoco.mj_objectVelocity(
+            self.model, self.data, mujoco.mjtObj.mjOBJ_XBODY, self._bid, v, 1
+        )  # body frame, not inertial
         return v
 
     # ------------------------------------------------------------ node
@@ -285,7 +310,11 @@ class SimNode(Node):
             if cfg is None:
                 continue
             x, y, z, roll, pitch, yaw = cfg.mount
-            tfs.append(messages.transform_stamped(t_ns, r.frame(f.base), r.frame(cfg.frame), (x, y, z), messages.quat_from_rpy(roll, pitch, yaw)))
+            tfs.append(
+                messages.transform_stamped(
+                    t_ns, r.frame(f.base), r.frame(cfg.frame), (x, y, z), messages.quat_from_rpy(roll, pitch, yaw)
+                )
+            )
         self.publish("/tf_static", messages.TF_MESSAGE, messages.tf_message(tfs))
 
     def _publish_odometry(self, t_ns: int, base: np.ndarray) -> None:
@@ -333,23 +362,35 @@ class SimNode(Node):
         t_map_fp = planar(bx, by, yaw)
         t_odom_fp = planar(ox, oy, oth)
         t_map_odom = t_map_fp @ np.linalg.inv(t_odom_fp)
-        tfs = [messages.transform_stamped(t_ns, names["map"], names["odom"], t_map_odom[:3, 3].tolist(), mat_to_quat(t_map_odom[:3, :3]))]
+        tfs = [
+            messages.transform_stamped(
+                t_ns, names["map"], names["odom"], t_map_odom[:3, 3].tolist(), mat_to_quat(t_map_odom[:3, :3])
+            )
+        ]
         if names["footprint"]:
             tfs.append(messages.transform_stamped(t_ns, names["odom"], names["footprint"], (ox, oy, 0.0), q_odom))
             t_fp_base = np.linalg.inv(t_map_fp) @ base
-            tfs.append(messages.transform_stamped(t_ns, names["footprint"], names["base"], t_fp_base[:3, 3].tolist(), mat_to_quat(t_fp_base[:3, :3])))
+            tfs.append(
+                messages.transform_stamped(
+                    t_ns, names["footprint"], names["base"], t_fp_base[:3, 3].tolist(), mat_to_quat(t_fp_base[:3, :3])
+                )
+            )
         else:
             # no footprint frame: odom -> base carries the odometry pose with the true height and tilt
             t_odom_base = t_odom_fp @ np.linalg.inv(t_map_fp) @ base
-            tfs.append(messages.transform_stamped(t_ns, names["odom"], names["base"], t_odom_base[:3, 3].tolist(), mat_to_quat(t_odom_base[:3, :3])))
+            tfs.append(
+                messages.transform_stamped(
+                    t_ns, names["odom"], names["base"], t_odom_base[:3, 3].tolist(), mat_to_quat(t_odom_base[:3, :3])
+                )
+            )
         self.publish("/tf", messages.TF_MESSAGE, messages.tf_message(tfs))
 
     def _publish_imu(self, t_ns: int, base: np.ndarray) -> None:
         cfg = self.robot.imu
         sd = self.data.sensordata.tolist()
         g, a = self._imu_adr
-        gx, gy, gz = sd[g:g + 3]
-        ax, ay, az = sd[a:a + 3]
+        gx, gy, gz = sd[g : g + 3]
+        ax, ay, az = sd[a : a + 3]
         if self.options.noise:
             row = self._imu_noise.next()
             n = row.tolist()
@@ -385,11 +426,15 @@ class SimNode(Node):
         cfg = self.robot.scan
         pose = self.sensor_pose(base, cfg.frame)
         ranges = sensors.laser_ranges(self.caster, cfg, pose, self.rng_scan if self.options.noise else None)
-        self.publish(cfg.topic, messages.LASER_SCAN, sensors.scan_message(t_ns, self.robot.frame(cfg.frame), cfg, ranges))
+        self.publish(
+            cfg.topic, messages.LASER_SCAN, sensors.scan_message(t_ns, self.robot.frame(cfg.frame), cfg, ranges)
+        )
 
     def _publish_lidar(self, t_ns: int) -> None:
         cfg = self.robot.lidar
         window = [((tp - t_ns) / 1e9, self.sensor_pose(b, cfg.frame)) for tp, b in self._pose_history]
-        cols = sensors.lidar_sweep(self.caster, cfg, self._lidar_frames, window, self.rng_lidar if self.options.noise else None)
+        cols = sensors.lidar_sweep(
+            self.caster, cfg, self._lidar_frames, window, self.rng_lidar if self.options.noise else None
+        )
         self._lidar_frames += 1
         self.publish(cfg.topic, messages.POINT_CLOUD2, make_cloud(t_ns, self.robot.frame(cfg.frame), cols))

@@ -19,8 +19,8 @@ from typing import Literal
 
 import numpy as np
 
-from replay.config import load_config, named_config
-from replay.errors import ConfigError
+from navlog.errors import ConfigError
+from navlog.replay.config import load_config, named_config
 
 
 @dataclass(frozen=True)
@@ -197,7 +197,9 @@ def world_mesh(world: World, with_floor: bool | None = None):
             m = o3d.geometry.TriangleMesh.create_box(*s.size)
             m.translate(-np.asarray(s.size) / 2)
         else:
-            m = o3d.geometry.TriangleMesh.create_cylinder(radius=s.size[0] / 2, height=s.size[2], resolution=48, split=1)
+            m = o3d.geometry.TriangleMesh.create_cylinder(
+                radius=s.size[0] / 2, height=s.size[2], resolution=48, split=1
+            )
         rot = o3d.geometry.get_rotation_matrix_from_xyz((0.0, 0.0, s.yaw))
         m.rotate(rot, center=(0, 0, 0))
         m.translate(s.center)
@@ -223,12 +225,17 @@ def build_spec(world: World):
     for s in world.solids:
         if s.shape == "box":
             body.add_geom(
-                name=s.name, type=mujoco.mjtGeom.mjGEOM_BOX, size=[v / 2 for v in s.size], pos=list(s.center),
+                name=s.name,
+                type=mujoco.mjtGeom.mjGEOM_BOX,
+                size=[v / 2 for v in s.size],
+                pos=list(s.center),
                 euler=[0, 0, math.degrees(s.yaw)],
             )
         else:
             body.add_geom(
-                name=s.name, type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=[s.size[0] / 2, s.size[2] / 2, 0],
+                name=s.name,
+                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                size=[s.size[0] / 2, s.size[2] / 2, 0],
                 pos=list(s.center),
             )
     return spec
@@ -248,7 +255,7 @@ def occupancy(
     A cell counts as touched when the solid comes within half a cell of its centre, so thin panels
     (2 cm shelf sides) always occupy at least one cell.
     """
-    from replay.mapio import OccupancyMap
+    from navlog.replay.io.map_server import OccupancyMap
 
     if resolution <= 0:
         raise ConfigError(f"resolution must be positive, got {resolution}")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import difflib
 import hashlib
+import importlib.resources
 import json
 import os
 import types
@@ -20,17 +21,40 @@ from typing import Any, TypeVar
 
 import yaml
 
-from replay.errors import ConfigError
+from navlog.errors import ConfigError
 
 T = TypeVar("T")
 
-CONFIG_ENV = "NAVLOG_CONFIG"
+CONFIG_PATH_ENV = "NAVLOG_CONFIG_PATH"
 
 
-def config_root() -> Path:
-    """The folder holding worlds/, robots/, scenarios/ and pipelines/ (``$NAVLOG_CONFIG`` overrides)."""
-    env = os.environ.get(CONFIG_ENV)
-    return Path(env) if env else Path(__file__).resolve().parents[1] / "config"
+def builtin_config_dir() -> Path:
+    """The folder of navlog's shipped YAML (the package ``navlog.config``)."""
+    return Path(str(importlib.resources.files("navlog.config")))
+
+
+def config_dirs() -> list[Path]:
+    """Where named worlds, models, robots, scenarios, goals and pipelines are looked up, in order.
+
+    The folders of ``$NAVLOG_CONFIG_PATH`` (separated like ``PATH``) come first, so a user's own
+    files add to the built-in ones or replace one of the same name; the built-in files come last.
+    """
+    env = os.environ.get(CONFIG_PATH_ENV, "")
+    return [Path(p).expanduser() for p in env.split(os.pathsep) if p] + [builtin_config_dir()]
+
+
+def find_config(kind: str, name: str) -> Path | None:
+    """The first ``KIND/NAME.yaml`` along the search path, or None."""
+    for folder in config_dirs():
+        path = folder / kind / f"{name}.yaml"
+        if path.is_file():
+            return path
+    return None
+
+
+def known_configs(kind: str) -> list[str]:
+    """Names of every ``KIND/*.yaml`` along the search path, sorted."""
+    return sorted({p.stem for folder in config_dirs() for p in (folder / kind).glob("*.yaml")})
 
 
 def suggest(word: str, choices: typing.Iterable[str]) -> str:
@@ -56,17 +80,17 @@ def load_yaml(path: Path) -> Any:
 
 def named_config(kind: str, name: str) -> Path:
     """The YAML file for a named world, robot, scenario or pipeline, with a suggestion if unknown."""
-    folder = config_root() / kind
-    path = folder / f"{name}.yaml"
-    if path.is_file():
+    path = find_config(kind, name)
+    if path is not None:
         return path
     candidate = Path(name)
     if candidate.suffix in (".yaml", ".yml") and candidate.is_file():
         return candidate
-    known = sorted(p.stem for p in folder.glob("*.yaml"))
+    known = known_configs(kind)
+    where = os.pathsep.join(str(d / kind) for d in config_dirs())
     raise ConfigError(
         f"unknown {kind[:-1]} '{name}'{suggest(name, known)}; known: {', '.join(known) or 'none'} "
-        f"(files in {folder})"
+        f"(searched {where}; add folders with ${CONFIG_PATH_ENV} or give a path)"
     )
 
 
@@ -148,8 +172,7 @@ def from_mapping(cls: type[T], data: Any, where: str = "") -> T:
     if unknown:
         key = unknown[0]
         raise ConfigError(
-            f"{where + '.' if where else ''}{key}: unknown key{suggest(str(key), fields)}; "
-            f"allowed: {', '.join(fields)}"
+            f"{where + '.' if where else ''}{key}: unknown key{suggest(str(key), fields)}; allowed: {', '.join(fields)}"
         )
     kwargs = {}
     for name, field in fields.items():

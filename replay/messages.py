@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import sys
-from functools import lru_cache
+from functools import cache, lru_cache
 from types import SimpleNamespace
 from typing import Any
 
@@ -88,7 +88,7 @@ def msgdef(typename: str) -> str:
 _LITTLE = sys.byteorder == "little"
 
 
-@lru_cache(maxsize=None)
+@cache
 def _cdr_functions(typename: str):
     """The type store's generated (size, serialize) functions of a type, looked up once."""
     md = typestore().get_msgdef(typename)
@@ -120,7 +120,7 @@ def deserialize(data: bytes, typename: str) -> Any:
     return typestore().deserialize_cdr(data, typename)
 
 
-@lru_cache(maxsize=None)
+@cache
 def msg_class(typename: str):
     return typestore().types[typename]
 
@@ -183,7 +183,9 @@ def quaternion(q_xyzw) -> Any:
 def pose(xyz, q_xyzw):
     T = _types()
     x, y, z, w = q_xyzw
-    return T.Pose(T.Point(float(xyz[0]), float(xyz[1]), float(xyz[2])), T.Quaternion(float(x), float(y), float(z), float(w)))
+    return T.Pose(
+        T.Point(float(xyz[0]), float(xyz[1]), float(xyz[2])), T.Quaternion(float(x), float(y), float(z), float(w))
+    )
 
 
 def transform_stamped(ns: int, parent: str, child: str, xyz, q_xyzw):

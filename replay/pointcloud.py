@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from replay import messages
+from navlog.replay import messages
 
 # sensor_msgs/PointField datatypes
 _DTYPES = {1: "i1", 2: "u1", 3: "i2", 4: "u2", 5: "i4", 6: "u4", 7: "f4", 8: "f8"}
@@ -58,7 +58,9 @@ def xyz(msg: Any) -> np.ndarray:
     return pts[np.isfinite(pts).all(axis=1)]
 
 
-def make_cloud(ns: int, frame_id: str, columns: dict[str, np.ndarray], layout=VELODYNE_FIELDS, point_step=VELODYNE_POINT_STEP) -> Any:
+def make_cloud(
+    ns: int, frame_id: str, columns: dict[str, np.ndarray], layout=VELODYNE_FIELDS, point_step=VELODYNE_POINT_STEP
+) -> Any:
     """A dense PointCloud2 (height 1) from named columns, in the given field layout."""
     PointField = messages.msg_class(messages.POINT_FIELD)
     n = len(next(iter(columns.values()))) if columns else 0
@@ -84,4 +86,6 @@ def make_cloud(ns: int, frame_id: str, columns: dict[str, np.ndarray], layout=VE
 def xyz_cloud(ns: int, frame_id: str, points: np.ndarray) -> Any:
     """A PointCloud2 of float32 x, y, z only (for registered clouds and maps)."""
     p = np.asarray(points, dtype=np.float32).reshape(-1, 3)
-    return make_cloud(ns, frame_id, {"x": p[:, 0], "y": p[:, 1], "z": p[:, 2]}, (("x", 0, 7), ("y", 4, 7), ("z", 8, 7)), 12)
+    return make_cloud(
+        ns, frame_id, {"x": p[:, 0], "y": p[:, 1], "z": p[:, 2]}, (("x", 0, 7), ("y", 4, 7), ("z", 8, 7)), 12
+    )

@@ -25,7 +25,7 @@ def bags_dir(shared_dir: Path) -> Path:
 @pytest.fixture(scope="session")
 def teleop_log(tmp_path_factory) -> Path:
     """A 17 s teleop recording of go2 in indoor_room, seed 3, noise on."""
-    from recorder.record import prepare, record
+    from navlog.recorder.record import prepare, record
 
     out = tmp_path_factory.mktemp("teleop") / "teleop.mcap"
     record(prepare("indoor_room", "go2", "teleop", seed=3), out, progress=False)
@@ -35,7 +35,7 @@ def teleop_log(tmp_path_factory) -> Path:
 @pytest.fixture(scope="session")
 def mapping_log(tmp_path_factory) -> Path:
     """The full mapping tour of go2 in indoor_room (about 138 s of sim time), seed 7, noise on."""
-    from recorder.record import prepare, record
+    from navlog.recorder.record import prepare, record
 
     out = tmp_path_factory.mktemp("mapping") / "mapping.mcap"
     record(prepare("indoor_room", "go2", "mapping", seed=7), out, progress=False)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from replay.nav2_params import ERROR, NOTE, WARNING, load_nav2_params
+from navlog.replay.nav2.params import ERROR, NOTE, WARNING, load_nav2_params
 
 
 def register(sub) -> None:
@@ -26,11 +26,23 @@ def run(args) -> int:
         if q.severity != NOTE or args.notes:
             print(q.format(args.file))
     notes = [q for q in problems if q.severity == NOTE]
-    implemented = [n for n in ("global_costmap", "local_costmap", "planner_server", "controller_server",
-                               "velocity_smoother", "collision_monitor") if getattr(params, n) is not None]
+    implemented = [
+        n
+        for n in (
+            "global_costmap",
+            "local_costmap",
+            "planner_server",
+            "controller_server",
+            "velocity_smoother",
+            "collision_monitor",
+        )
+        if getattr(params, n) is not None
+    ]
     print(f"checked: {', '.join(implemented) or 'no implemented node'}")
     if params.not_implemented:
         print(f"read, not implemented: {', '.join(params.not_implemented)}")
-    print(f"{len(params.errors)} error(s), {len(params.warnings)} warning(s), {len(notes)} note(s)"
-          + ("" if args.notes or not notes else " (--notes lists them)"))
+    print(
+        f"{len(params.errors)} error(s), {len(params.warnings)} warning(s), {len(notes)} note(s)"
+        + ("" if args.notes or not notes else " (--notes lists them)")
+    )
     return 1 if params.errors else 0

@@ -7,13 +7,13 @@ import shutil
 import time
 from pathlib import Path
 
-from analysis.metrics_report import MetricsOptions, compute_metrics, format_table, write_json
-from analysis.rerun_view import save_view
-from recorder.record import format_summary, prepare, record
-from recorder.world import occupancy, write_mesh
-from replay.errors import NavlogError
-from replay.mapio import save_map
-from replay.runner import run_replay
+from navlog.analysis.metrics.report import MetricsOptions, compute_metrics, format_table, write_json
+from navlog.analysis.view.rerun_view import save_view
+from navlog.errors import NavlogError
+from navlog.recorder.record import format_summary, prepare, record
+from navlog.recorder.world import occupancy, write_mesh
+from navlog.replay.io.map_server import save_map
+from navlog.replay.runtime.session import run_replay
 
 
 def register(sub) -> None:
@@ -48,8 +48,11 @@ def run(args) -> int:
 
     print("\n== 2/4 replay through the mapping pipeline", flush=True)
     rep = run_replay(rec.path, "mapping", out / "replay", progress=progress)
-    print(f"replayed {rep.log_s:.1f} s of log in {rep.wall_s:.1f} s into {rep.out_dir}/: "
-          + ", ".join(o["file"] for o in rep.manifest["outputs"].values()), flush=True)
+    print(
+        f"replayed {rep.log_s:.1f} s of log in {rep.wall_s:.1f} s into {rep.out_dir}/: "
+        + ", ".join(o["file"] for o in rep.manifest["outputs"].values()),
+        flush=True,
+    )
 
     print("\n== 3/4 metrics against the world's true geometry", flush=True)
     ref = out / "reference"
@@ -58,7 +61,9 @@ def run(args) -> int:
     map_yaml, _ = save_map(occupancy(setup.world, 0.05, 0.0, scan_height, scan_height), ref / "world_scan_plane.yaml")
     save_map(occupancy(setup.world, 0.05, 0.15), ref / "world_nav2.yaml")
     mesh = write_mesh(setup.world, ref / "world.ply")
-    metrics = compute_metrics(rec.path, rep.out_dir, reference_map=map_yaml, reference_mesh=mesh, options=MetricsOptions())
+    metrics = compute_metrics(
+        rec.path, rep.out_dir, reference_map=map_yaml, reference_mesh=mesh, options=MetricsOptions()
+    )
     write_json(metrics, out / "metrics.json")
     print(format_table(metrics), flush=True)
 

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from replay.errors import NavlogError
-from replay.logreader import open_log
+from navlog.errors import NavlogError
+from navlog.replay.io.logreader import open_log
 
 
 def register(sub) -> None:
@@ -18,12 +18,32 @@ def register(sub) -> None:
     p.add_argument("log", help="a .mcap file, a .db3 file or a rosbag2 folder")
     p.add_argument("--to", required=True, choices=("rosbag2", "tum"), help="output kind")
     p.add_argument("-o", "--output", required=True, help="rosbag2: a new folder; tum: a file")
-    p.add_argument("--storage", default="sqlite3", choices=("sqlite3", "mcap"), help="rosbag2 storage (default sqlite3)")
-    p.add_argument("--distro", default="humble", choices=("humble", "jazzy"), help="ROS 2 distribution that reads the bag (default humble)")
-    p.add_argument("--topics", nargs="+", default=[], metavar="TOPIC", help="rosbag2: topics (names or patterns like '/cmd_vel*') to export; default all")
+    p.add_argument(
+        "--storage", default="sqlite3", choices=("sqlite3", "mcap"), help="rosbag2 storage (default sqlite3)"
+    )
+    p.add_argument(
+        "--distro",
+        default="humble",
+        choices=("humble", "jazzy"),
+        help="ROS 2 distribution that reads the bag (default humble)",
+    )
+    p.add_argument(
+        "--topics",
+        nargs="+",
+        default=[],
+        metavar="TOPIC",
+        help="rosbag2: topics (names or patterns like '/cmd_vel*') to export; default all",
+    )
     p.add_argument("--topic", help="tum: the pose topic (Odometry, PoseStamped, PoseWithCovarianceStamped, Path)")
-    p.add_argument("--tf", metavar="TARGET:SOURCE", help="tum: the pose of SOURCE in TARGET from the TF tree, e.g. map:base_link")
-    p.add_argument("--time", default="header", choices=("header", "log"), help="tum: timestamps from header stamps (default) or receive times")
+    p.add_argument(
+        "--tf", metavar="TARGET:SOURCE", help="tum: the pose of SOURCE in TARGET from the TF tree, e.g. map:base_link"
+    )
+    p.add_argument(
+        "--time",
+        default="header",
+        choices=("header", "log"),
+        help="tum: timestamps from header stamps (default) or receive times",
+    )
     p.add_argument("--frame-prefix", default="", help="tum --tf: prefix stripped from frame names, e.g. simple_robot/")
     p.add_argument("--start", type=float, help="seconds from the log's first message")
     p.add_argument("--end", type=float, help="seconds from the log's first message")
@@ -33,19 +53,25 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from analysis.export import BagOptions, export_rosbag2, export_tum
+    from navlog.analysis.export import BagOptions, export_rosbag2, export_tum
 
     if args.to == "rosbag2":
         if args.topic or args.tf:
             raise NavlogError("--topic and --tf are for --to tum; use --topics to choose bag topics")
-        opts = BagOptions(storage=args.storage, distro=args.distro, topics=tuple(args.topics), start_s=args.start, end_s=args.end).validate()
+        opts = BagOptions(
+            storage=args.storage, distro=args.distro, topics=tuple(args.topics), start_s=args.start, end_s=args.end
+        ).validate()
         with open_log(args.log, recover=args.recover) as reader:
             summary = export_rosbag2(reader, args.output, opts, force=args.force)
         skipped = sum(summary.skipped.values())
         print(
             f"{summary.path}: rosbag2 {args.storage} for {args.distro}, {summary.messages} messages on "
             f"{len(summary.topics)} topics, {(summary.end_ns - summary.start_ns) / 1e9:.3f} s"
-            + (f"; skipped {skipped}: " + "; ".join(f"{k} x{v}" for k, v in sorted(summary.skipped.items())) if skipped else "")
+            + (
+                f"; skipped {skipped}: " + "; ".join(f"{k} x{v}" for k, v in sorted(summary.skipped.items()))
+                if skipped
+                else ""
+            )
         )
         return 0
     if args.topics:
@@ -58,8 +84,15 @@ def run(args) -> int:
         tf = (target, source)
     with open_log(args.log, recover=args.recover) as reader:
         summary = export_tum(
-            reader, args.output, topic=args.topic, tf=tf, time_source=args.time, start_s=args.start, end_s=args.end,
-            frame_prefix=args.frame_prefix, force=args.force,
+            reader,
+            args.output,
+            topic=args.topic,
+            tf=tf,
+            time_source=args.time,
+            start_s=args.start,
+            end_s=args.end,
+            frame_prefix=args.frame_prefix,
+            force=args.force,
         )
     skipped = sum(summary.skipped.values())
     print(f"{summary.path}: {summary.poses} poses from {summary.source}" + (f"; skipped {skipped}" if skipped else ""))

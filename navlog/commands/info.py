@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import json
 
-from analysis.loginfo import format_info, summarize
-from replay.logreader import open_log
+from navlog.analysis.loginfo import format_info, summarize
+from navlog.replay.io.logreader import open_log
 
 
 def register(sub) -> None:

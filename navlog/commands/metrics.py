@@ -2,8 +2,15 @@
 
 from __future__ import annotations
 
-from analysis.metrics_report import PCD_FRAMES, MetricsOptions, compute_metrics, format_table, to_json, write_json
-from analysis.trajectory import ALIGN_MODES, DELTA_UNITS
+from navlog.analysis.metrics.report import (
+    PCD_FRAMES,
+    MetricsOptions,
+    compute_metrics,
+    format_table,
+    to_json,
+    write_json,
+)
+from navlog.analysis.metrics.trajectory import ALIGN_MODES, DELTA_UNITS
 
 
 def register(sub) -> None:
@@ -23,33 +30,52 @@ def register(sub) -> None:
     p.add_argument("--reference-mesh", metavar="MESH.ply", help="triangle mesh of the true surfaces")
     p.add_argument("--tau", type=float, default=0.05, help="2D tolerance in metres (default 0.05)")
     p.add_argument(
-        "--tau-3d", type=float, nargs="+", default=[0.02, 0.05], metavar="TAU",
+        "--tau-3d",
+        type=float,
+        nargs="+",
+        default=[0.02, 0.05],
+        metavar="TAU",
         help="3D accuracy tolerances in metres (default 0.02 0.05)",
     )
-    p.add_argument("--max-diff", type=float, default=0.01, help="timestamp association window in seconds (default 0.01)")
     p.add_argument(
-        "--interpolate", action="store_true",
+        "--max-diff", type=float, default=0.01, help="timestamp association window in seconds (default 0.01)"
+    )
+    p.add_argument(
+        "--interpolate",
+        action="store_true",
         help="interpolate the ground truth at the estimate's stamps (instead of the nearest stamp within --max-diff)",
     )
-    p.add_argument("--max-gap", type=float, default=0.1, help="--interpolate: largest ground-truth gap bridged, s (default 0.1)")
+    p.add_argument(
+        "--max-gap", type=float, default=0.1, help="--interpolate: largest ground-truth gap bridged, s (default 0.1)"
+    )
     p.add_argument("--align", choices=ALIGN_MODES, default="se3", help="ATE alignment (default se3)")
     p.add_argument("--rpe-delta", type=float, default=1.0, help="RPE delta (default 1)")
     p.add_argument("--rpe-unit", choices=DELTA_UNITS, default="m", help="RPE delta unit (default m)")
     p.add_argument(
-        "--rpe-pairs-from", choices=("reference", "estimate"), default="reference",
+        "--rpe-pairs-from",
+        choices=("reference", "estimate"),
+        default="reference",
         help="path along which RPE pairs are chosen (default reference; evo's default is estimate)",
     )
     p.add_argument("--gt-topic", default="/odom/ground_truth", help="ground-truth nav_msgs/Odometry topic")
     p.add_argument(
-        "--pcd-frame", choices=PCD_FRAMES, default="first-pose",
+        "--pcd-frame",
+        choices=PCD_FRAMES,
+        default="first-pose",
         help="how map.pcd is put in the world frame (default first-pose: anchored at the first matched pose)",
     )
     p.add_argument(
-        "--view-fov", type=float, nargs=2, default=[-15.0, 15.0], metavar=("LOW", "HIGH"),
+        "--view-fov",
+        type=float,
+        nargs=2,
+        default=[-15.0, 15.0],
+        metavar=("LOW", "HIGH"),
         help="elevation band (deg) of the rays that find the visible surfaces for 3D completeness (default -15 15)",
     )
     p.add_argument("--view-range", type=float, default=30.0, help="range (m) of those rays (default 30)")
-    p.add_argument("--view-spacing", type=float, default=0.5, help="one viewpoint per this many metres of path (default 0.5)")
+    p.add_argument(
+        "--view-spacing", type=float, default=0.5, help="one viewpoint per this many metres of path (default 0.5)"
+    )
     p.add_argument("-o", "--output", metavar="metrics.json", help="write the metrics as JSON")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
     p.set_defaults(func=run)

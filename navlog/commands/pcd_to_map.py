@@ -6,10 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
-from replay.errors import NavlogError
-from replay.logwriter import check_output
-from replay.mapio import save_map
-from replay.occupancy import project_points
+from navlog.errors import NavlogError
+from navlog.replay.io.logwriter import check_output
+from navlog.replay.io.map_server import save_map
+from navlog.replay.mapping.occupancy import project_points
 
 
 def register(sub) -> None:
@@ -44,11 +44,14 @@ def run(args) -> int:
     if len(pts) == 0:
         raise NavlogError(f"{args.pcd}: no points could be read (is it a PCD file?)")
     try:
-        grid = project_points(pts, args.z_min, args.z_max, args.resolution, args.min_points,
-                              None if args.all_free else args.z_min)
+        grid = project_points(
+            pts, args.z_min, args.z_max, args.resolution, args.min_points, None if args.all_free else args.z_min
+        )
     except ValueError as exc:
         raise NavlogError(f"{args.pcd}: {exc}") from None
     yaml_path, pgm_path = save_map(grid, args.output)
-    print(f"wrote {yaml_path} and {pgm_path}: {grid.width} x {grid.height} cells, {int((grid.data == 100).sum())} occupied, "
-          f"{int((grid.data == 0).sum())} free, from {len(pts)} points between {args.z_min} and {args.z_max} m")
+    print(
+        f"wrote {yaml_path} and {pgm_path}: {grid.width} x {grid.height} cells, {int((grid.data == 100).sum())} occupied, "
+        f"{int((grid.data == 0).sum())} free, from {len(pts)} points between {args.z_min} and {args.z_max} m"
+    )
     return 0

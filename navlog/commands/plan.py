@@ -6,12 +6,12 @@ from pathlib import Path
 
 import numpy as np
 
-from replay.errors import ConfigError
-from replay.mapio import load_map
-from replay.navfn import PlanningError
-from replay.nav2_params import load_nav2_params, parse_nav2_params
-from replay.nodes.planner import path_msg
-from replay.pipelines.planner import default_costmap, make_planner
+from navlog.errors import ConfigError
+from navlog.replay.io.map_server import load_map
+from navlog.replay.nav2.params import load_nav2_params, parse_nav2_params
+from navlog.replay.nav2.planners.navfn import PlanningError
+from navlog.replay.nodes.planner import path_msg
+from navlog.replay.pipelines.planner import default_costmap, make_planner
 
 
 def _pose(text: str, what: str) -> tuple[float, float, float]:
@@ -37,20 +37,22 @@ def register(sub) -> None:
     p.add_argument("--params", type=Path, help="Nav2 parameter file (default: Nav2's defaults)")
     p.add_argument("--planner", choices=("navfn", "smac2d"), default="navfn")
     p.add_argument("--potential", choices=("wavefront", "exact"), default="wavefront", help="NavFn potential")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="Nav2 override (full or short key path)")
+    p.add_argument(
+        "--set", action="append", default=[], metavar="KEY=VALUE", help="Nav2 override (full or short key path)"
+    )
     p.add_argument("-o", "--output", type=Path, help="write the plan (and the costmap) to this MCAP")
     p.add_argument("--png", type=Path, help="draw costmap and plan to this PNG")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from replay.costmap import Costmap2D
+    from navlog.replay.nav2.costmap import Costmap2D
 
     start, goal = _pose(args.start, "start"), _pose(args.goal, "goal")
     if args.params:
         nav2 = load_nav2_params(args.params, args.set)
     else:
-        from replay.nav2_params import apply_nav2_overrides
+        from navlog.replay.nav2.params import apply_nav2_overrides
 
         nav2 = parse_nav2_params(apply_nav2_overrides({}, args.set) if args.set else {}, source="<defaults>")
     nav2.require_valid(("global_costmap", "planner_server"))
@@ -68,14 +70,16 @@ def run(args) -> int:
         plan = planner.plan(cm, start, goal)
     except PlanningError as exc:
         raise PlanningError(f"{args.map}: {exc}") from None
-    print(f"planner {plan.planner}: {len(plan.poses)} poses, length {plan.length:.3f} m, cost {plan.cost:.3f} "
-          f"(cost-weighted m), time {plan.time_s * 1000:.1f} ms on {cm.size_x} x {cm.size_y} cells")
+    print(
+        f"planner {plan.planner}: {len(plan.poses)} poses, length {plan.length:.3f} m, cost {plan.cost:.3f} "
+        f"(cost-weighted m), time {plan.time_s * 1000:.1f} ms on {cm.size_x} x {cm.size_y} cells"
+    )
     for note in plan.notes:
         print(f"note: {note}")
     if args.output:
-        from replay import messages as m
-        from replay.executor import Envelope
-        from replay.logwriter import McapLogWriter
+        from navlog.replay import messages as m
+        from navlog.replay.io.logwriter import McapLogWriter
+        from navlog.replay.runtime.executor import Envelope
 
         with McapLogWriter(args.output, force=True) as w:
             w.write(Envelope("/global_costmap/costmap", m.OCCUPANCY_GRID, 0, cm.to_msg(0)))

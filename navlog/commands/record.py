@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from recorder.record import format_summary, prepare, record
+from navlog.recorder.record import format_summary, prepare, record
 
 
 def register(sub) -> None:
@@ -32,7 +32,7 @@ def run(args) -> int:
     setup = prepare(args.world, args.robot, args.scenario, seed=args.seed, noise=not args.no_noise)
     live = []
     if args.pipeline:
-        from replay.runner import load_pipeline_module, pipeline_params
+        from navlog.replay.runtime.session import load_pipeline_module, pipeline_params
 
         params = pipeline_params(args.pipeline, overrides=args.set)
         live = load_pipeline_module(args.pipeline).build(params, setup.topics()).nodes

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from replay.recovery import recover_mcap
+from navlog.replay.io.recovery import recover_mcap
 
 
 def register(sub) -> None:

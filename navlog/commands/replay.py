@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from replay.runner import parse_remaps, pipeline_names, pipeline_params, run_replay
+from navlog.replay.runtime.session import parse_remaps, pipeline_names, pipeline_params, run_replay
 
 
 def register(sub) -> None:
@@ -24,7 +24,13 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", type=Path, required=True, help="output folder")
     p.add_argument("--params", type=Path, help="pipeline parameter YAML (default: config/pipelines/NAME.yaml)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a parameter (repeatable)")
-    p.add_argument("--remap", action="append", default=[], metavar="PIPELINE_TOPIC=LOG_TOPIC", help="read another topic (repeatable)")
+    p.add_argument(
+        "--remap",
+        action="append",
+        default=[],
+        metavar="PIPELINE_TOPIC=LOG_TOPIC",
+        help="read another topic (repeatable)",
+    )
     p.add_argument("--recover", action="store_true", help="replay the readable part of a truncated log")
     p.add_argument("--force", action="store_true", help="replace an existing output folder")
     p.set_defaults(func=run)
@@ -32,12 +38,23 @@ def register(sub) -> None:
 
 def run(args) -> int:
     params = pipeline_params(args.pipeline, args.params, args.set)
-    res = run_replay(args.log, args.pipeline, args.output, params=params, remap=parse_remaps(args.remap),
-                     recover=args.recover, force=args.force, progress=not args.quiet)
+    res = run_replay(
+        args.log,
+        args.pipeline,
+        args.output,
+        params=params,
+        remap=parse_remaps(args.remap),
+        recover=args.recover,
+        force=args.force,
+        progress=not args.quiet,
+    )
     m = res.manifest
     print(f"replayed {args.log} through '{args.pipeline}' into {res.out_dir}/")
-    print(f"log {res.log_s:.2f} s in {res.wall_s:.2f} s wall ({res.log_s / max(res.wall_s, 1e-9):.1f}x real time), "
-          f"{m['log']['messages_read']} messages read" + (" (truncated log: readable part only)" if m["log"]["truncated"] else ""))
+    print(
+        f"log {res.log_s:.2f} s in {res.wall_s:.2f} s wall ({res.log_s / max(res.wall_s, 1e-9):.1f}x real time), "
+        f"{m['log']['messages_read']} messages read"
+        + (" (truncated log: readable part only)" if m["log"]["truncated"] else "")
+    )
     for k, v in m["pipeline_info"].items():
         print(f"  {k}: {v}")
     for name, o in m["outputs"].items():

@@ -7,7 +7,7 @@ import logging
 import sys
 import time
 
-from replay.errors import NavlogError
+from navlog.errors import NavlogError
 
 log = logging.getLogger("navlog")
 
@@ -22,7 +22,9 @@ def register(sub) -> None:
         "--connect streams to a running one.",
     )
     p.add_argument("log", help="a .mcap file, a .db3 file or a rosbag2 folder")
-    p.add_argument("--replay", metavar="OUT", help="a replay output folder (replay.mcap, map.yaml, map.pcd, trajectory.tum)")
+    p.add_argument(
+        "--replay", metavar="OUT", help="a replay output folder (replay.mcap, map.yaml, map.pcd, trajectory.tum)"
+    )
     sink = p.add_mutually_exclusive_group(required=True)
     sink.add_argument("--save", metavar="FILE.rrd", help="write the recording to an .rrd file (headless)")
     sink.add_argument("--spawn", action="store_true", help="open a Rerun viewer and stream the recording to it")
@@ -39,18 +41,22 @@ def register(sub) -> None:
 def run(args) -> int:
     import rerun as rr
 
-    from analysis.rerun_view import ViewOptions, save_view, stream_view
+    from navlog.analysis.view.rerun_view import ViewOptions, save_view, stream_view
 
     rr.set_strict_mode(True)
     opts = ViewOptions(fixed_frame=args.fixed_frame, frame_prefix=args.frame_prefix, cloud_stride=args.cloud_stride)
     t0 = time.perf_counter()
     if args.save:
-        summary = save_view(args.log, args.save, replay_dir=args.replay, options=opts, force=args.force, recover=args.recover)
+        summary = save_view(
+            args.log, args.save, replay_dir=args.replay, options=opts, force=args.force, recover=args.recover
+        )
         where = args.save
     else:
         if args.connect and not args.connect.startswith(("rerun://", "rerun+http://", "rerun+https://")):
             raise NavlogError(f"--connect {args.connect}: expected a URL like rerun+http://127.0.0.1:9876/proxy")
-        summary = stream_view(args.log, spawn=args.spawn, connect=args.connect, replay_dir=args.replay, options=opts, recover=args.recover)
+        summary = stream_view(
+            args.log, spawn=args.spawn, connect=args.connect, replay_dir=args.replay, options=opts, recover=args.recover
+        )
         where = "the viewer" if args.spawn else args.connect
     dt = time.perf_counter() - t0
     if args.json:
@@ -62,7 +68,11 @@ def run(args) -> int:
     print(
         f"{where}: {summary.messages} messages, {summary.points} points, {len(summary.entities)} entities "
         f"in frame {summary.fixed_frame} ({dt:.1f} s)"
-        + (f"; skipped {skipped}: " + "; ".join(f"{k} x{v}" for k, v in sorted(summary.skipped.items())) if skipped else "")
+        + (
+            f"; skipped {skipped}: " + "; ".join(f"{k} x{v}" for k, v in sorted(summary.skipped.items()))
+            if skipped
+            else ""
+        )
         + (f"; stored but not drawn: {', '.join(sorted(summary.not_drawn))}" if summary.not_drawn else ""),
         file=sys.stdout,
     )

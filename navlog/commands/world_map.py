@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from recorder.world import load_world, occupancy, write_mesh
-from replay.logwriter import check_output
-from replay.mapio import save_map
+from navlog.recorder.world import load_world, occupancy, write_mesh
+from navlog.replay.io.logwriter import check_output
+from navlog.replay.io.map_server import save_map
 
 
 def register(sub) -> None:
@@ -26,8 +26,12 @@ def register(sub) -> None:
     p.add_argument("--z-max", type=float, default=2.0, help="highest height that counts (default 2.0)")
     p.add_argument("--height", type=float, help="keep only what crosses this height (sets z-min = z-max)")
     p.add_argument("-o", "--output", type=Path, required=True, help="map YAML to write (the PGM goes beside it)")
-    p.add_argument("--mesh", type=Path, help="also write the world's surfaces as a triangle mesh (.ply), "
-                   "the reference of `navlog metrics --reference-mesh`")
+    p.add_argument(
+        "--mesh",
+        type=Path,
+        help="also write the world's surfaces as a triangle mesh (.ply), "
+        "the reference of `navlog metrics --reference-mesh`",
+    )
     p.add_argument("--force", action="store_true", help="overwrite existing files")
     p.set_defaults(func=run)
 
@@ -42,8 +46,10 @@ def run(args) -> int:
     grid = occupancy(world, args.resolution, args.margin, z_min, z_max)
     yaml_path, pgm_path = save_map(grid, args.output)
     occ = int((grid.data == 100).sum())
-    print(f"wrote {yaml_path} and {pgm_path}: {grid.width} x {grid.height} cells at {grid.resolution} m, "
-          f"{occ} occupied ({args.margin} m margin, heights {z_min}..{z_max} m)")
+    print(
+        f"wrote {yaml_path} and {pgm_path}: {grid.width} x {grid.height} cells at {grid.resolution} m, "
+        f"{occ} occupied ({args.margin} m margin, heights {z_min}..{z_max} m)"
+    )
     if args.mesh is not None:
         write_mesh(world, args.mesh)
         print(f"wrote {args.mesh}: the surfaces of {world.name}")

@@ -18,12 +18,12 @@ from typing import Any
 import numpy as np
 import open3d as o3d
 
-from replay import messages
-from replay.executor import Node
-from replay.errors import NavlogError
-from replay.lidar_odometry import GyroTrack, LidarOdometry, LidarOdometryParams, MotionPrior, PoseTrack
-from replay.pointcloud import read_points, xyz_cloud
-from replay.tf import TFBuffer, TransformError
+from navlog.errors import NavlogError
+from navlog.replay import messages
+from navlog.replay.mapping.lidar_odometry import GyroTrack, LidarOdometry, LidarOdometryParams, MotionPrior, PoseTrack
+from navlog.replay.pointcloud import read_points, xyz_cloud
+from navlog.replay.runtime.executor import Node
+from navlog.replay.runtime.tf import TFBuffer, TransformError
 
 
 @dataclass(frozen=True)
@@ -42,7 +42,14 @@ class LidarMapperParams:
     use_odom: bool = True
     cloud_every_n_frames: int = 5  # 0: never publish /cloud_registered
     path_every_n_frames: int = 50  # 0: only at the end
-    initial_pose: tuple[float, float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # x y z roll pitch yaw
+    initial_pose: tuple[float, float, float, float, float, float] = (
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+        0.0,
+    )  # x y z roll pitch yaw
     odometry: LidarOdometryParams = field(default_factory=LidarOdometryParams)
 
     def __post_init__(self) -> None:
@@ -141,7 +148,11 @@ class LidarMapperNode(Node):
         fix = self._odom_fix.get(child)
         if fix is None:
             try:  # odom child (base_footprint) <- base_link, from the static mounts
-                fix = self.tf.lookup(child, self.params.base_frame, None) if child and child != self.params.base_frame else np.eye(4)
+                fix = (
+                    self.tf.lookup(child, self.params.base_frame, None)
+                    if child and child != self.params.base_frame
+                    else np.eye(4)
+                )
             except TransformError:
                 # not static (a walking body moves over its footprint): only the relative motion is
                 # used, and for planar motion a vertical offset commutes with it, so identity is close
@@ -228,7 +239,9 @@ class LidarMapperNode(Node):
         pose_stamped = messages.msg_class(messages.POSE_STAMPED)
         items = self._path_items  # built once per pose: a path message holds every pose so far
         items.extend(
-            pose_stamped(header=messages.header(int(t), frame), pose=messages.pose(m[:3, 3], messages.matrix_to_quat(m[:3, :3])))
+            pose_stamped(
+                header=messages.header(int(t), frame), pose=messages.pose(m[:3, 3], messages.matrix_to_quat(m[:3, :3]))
+            )
             for t, m in zip(stamps[len(items) :], poses[len(items) :])
         )
         path = messages.msg_class(messages.PATH)(header=messages.header(int(stamps[-1]), frame), poses=list(items))

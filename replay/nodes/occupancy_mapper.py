@@ -21,10 +21,10 @@ from typing import Literal
 
 import numpy as np
 
-from replay import messages
-from replay.executor import Node
-from replay.occupancy import OccupancyGrid2D, OccupancyParams
-from replay.tf import TFBuffer, TransformError
+from navlog.replay import messages
+from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
+from navlog.replay.runtime.executor import Node
+from navlog.replay.runtime.tf import TFBuffer, TransformError
 
 PoseSource = Literal["ground_truth", "odom", "lidar_mapper", "tf"]
 
@@ -87,7 +87,9 @@ class OccupancyMapperNode(Node):
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
         child = msg.child_frame_id
         self._pose_child = self.poses.name(child)
-        self.poses.add("__pose_origin__", child, messages.to_ns(msg.header.stamp), (p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+        self.poses.add(
+            "__pose_origin__", child, messages.to_ns(msg.header.stamp), (p.x, p.y, p.z), (q.x, q.y, q.z, q.w)
+        )
         self._drain(t_ns)
 
     def _poses(self, frame: str, stamp: int) -> tuple[np.ndarray, np.ndarray]:
@@ -100,7 +102,9 @@ class OccupancyMapperNode(Node):
         if self._pose_child is None:
             raise TransformError(f"no pose on {self.pose_topic} yet")
         base = self.poses.lookup("__pose_origin__", self._pose_child, stamp)
-        return base, base @ self.tf.lookup(self._pose_child, frame, None if self.tf.static_between(frame, self._pose_child) else stamp)
+        return base, base @ self.tf.lookup(
+            self._pose_child, frame, None if self.tf.static_between(frame, self._pose_child) else stamp
+        )
 
     def _on_scan(self, msg, t_ns: int) -> None:
         self._pending.append(msg)

@@ -15,13 +15,13 @@ from typing import Any
 
 import numpy as np
 
-from replay import messages as m
-from replay.costmap import Costmap2D, Observation, scan_points, scan_points_inf_valid
-from replay.executor import Node
-from replay.mapio import OccupancyMap
-from replay.navfn import PlanningError, PlanResult
-from replay.pointcloud import xyz
-from replay.tf import TFBuffer, TransformError
+from navlog.replay import messages as m
+from navlog.replay.io.map_server import OccupancyMap
+from navlog.replay.nav2.costmap import Costmap2D, Observation, scan_points, scan_points_inf_valid
+from navlog.replay.nav2.planners.navfn import PlanningError, PlanResult
+from navlog.replay.pointcloud import xyz
+from navlog.replay.runtime.executor import Node
+from navlog.replay.runtime.tf import TFBuffer, TransformError
 
 
 def _count(d: dict[str, int], key: str) -> None:
@@ -29,8 +29,9 @@ def _count(d: dict[str, int], key: str) -> None:
 
 
 class CostmapNode(Node):
-    def __init__(self, params, name: str = "global_costmap", static_map: OccupancyMap | None = None,
-                 map_topic: str = "/map") -> None:
+    def __init__(
+        self, params, name: str = "global_costmap", static_map: OccupancyMap | None = None, map_topic: str = "/map"
+    ) -> None:
         super().__init__()
         self.name = name
         self.params = params
@@ -98,16 +99,20 @@ class CostmapNode(Node):
         return Observation(origin=T[:3, 3].copy(), points=world, source=sname)
 
     def _update(self, t: int) -> None:
-        if self.costmap.static_layers and self.static_map is None and all(
-            layer.map_costs is None for layer in self.costmap.static_layers
+        if (
+            self.costmap.static_layers
+            and self.static_map is None
+            and all(layer.map_costs is None for layer in self.costmap.static_layers)
         ):
             if not self.costmap.obstacle_layers:
                 return
         robot = self.robot_pose(t)
         if robot is None:
             if self.costmap.params.rolling_window or self.costmap.obstacle_layers:
-                _count(self.skipped, f"costmap update: no transform {self.params.global_frame} <- "
-                       f"{self.params.robot_base_frame}")
+                _count(
+                    self.skipped,
+                    f"costmap update: no transform {self.params.global_frame} <- {self.params.robot_base_frame}",
+                )
                 if not self.costmap.static_layers:
                     return
             robot = (0.0, 0.0, 0.0) if self.robot is None else self.robot
@@ -123,23 +128,36 @@ class CostmapNode(Node):
         self.costmap.update(*robot)
         self.updates += 1
         self.publish(f"/{self.name}/costmap", m.OCCUPANCY_GRID, self.costmap.to_msg(t))
-        self.publish(f"/{self.name}/published_footprint", "geometry_msgs/msg/PolygonStamped",
-                     self.costmap.footprint_msg(t, *robot))
+        self.publish(
+            f"/{self.name}/published_footprint",
+            "geometry_msgs/msg/PolygonStamped",
+            self.costmap.footprint_msg(t, *robot),
+        )
 
 
 def path_msg(plan: PlanResult, t: int, frame: str) -> Any:
     PoseStamped = m.msg_class(m.POSE_STAMPED)
-    poses = [PoseStamped(header=m.header(t, frame), pose=m.pose((x, y, 0.0), m.quat_from_yaw(yaw)))
-             for x, y, yaw in plan.poses]
+    poses = [
+        PoseStamped(header=m.header(t, frame), pose=m.pose((x, y, 0.0), m.quat_from_yaw(yaw)))
+        for x, y, yaw in plan.poses
+    ]
     return m.msg_class(m.PATH)(header=m.header(t, frame), poses=poses)
 
 
 class PlannerNode(Node):
     name = "planner_server"
 
-    def __init__(self, costmap_node: CostmapNode, planner, goals: list[tuple[float, float, float]] | None = None,
-                 goal_frame: str = "map", replan_period_s: float = 1.0, goal_tolerance: float = 0.25,
-                 start: tuple[float, float, float] = (0.0, 0.0, 0.0), goal_topic: str = "/goal_pose") -> None:
+    def __init__(
+        self,
+        costmap_node: CostmapNode,
+        planner,
+        goals: list[tuple[float, float, float]] | None = None,
+        goal_frame: str = "map",
+        replan_period_s: float = 1.0,
+        goal_tolerance: float = 0.25,
+        start: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        goal_topic: str = "/goal_pose",
+    ) -> None:
         super().__init__()
         self.cm_node = costmap_node
         self.planner = planner

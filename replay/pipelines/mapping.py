@@ -10,12 +10,12 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
-from replay.errors import ConfigError
-from replay.mapio import save_map
-from replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
-from replay.nodes.occupancy_mapper import DEFAULT_POSE_TOPICS, OccupancyMapperNode, OccupancyMapperParams
-from replay.pipeline import Pipeline
-from replay.tum import write_poses
+from navlog.errors import ConfigError
+from navlog.replay.io.map_server import save_map
+from navlog.replay.io.tum import write_poses
+from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
+from navlog.replay.nodes.occupancy_mapper import DEFAULT_POSE_TOPICS, OccupancyMapperNode, OccupancyMapperParams
+from navlog.replay.runtime.pipeline import Pipeline
 
 
 @dataclass(frozen=True)
@@ -31,9 +31,15 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
     lidar_on = params.lidar_mapper == "on" or (params.lidar_mapper == "auto" and params.lidar.lidar_topic in log_topics)
     source = params.pose_source
     if source == "auto":
-        source = "ground_truth" if (params.occupancy.pose_topic or DEFAULT_POSE_TOPICS["ground_truth"]) in log_topics else "tf"
+        source = (
+            "ground_truth"
+            if (params.occupancy.pose_topic or DEFAULT_POSE_TOPICS["ground_truth"]) in log_topics
+            else "tf"
+        )
     if source == "lidar_mapper" and not lidar_on:
-        raise ConfigError("pose_source lidar_mapper needs the 3D mapper: set lidar_mapper=on (the log needs a LiDAR topic)")
+        raise ConfigError(
+            "pose_source lidar_mapper needs the 3D mapper: set lidar_mapper=on (the log needs a LiDAR topic)"
+        )
     occ = OccupancyMapperNode(replace(params.occupancy, pose_source=source))
     nodes = []
     inputs = [params.occupancy.scan_topic]
@@ -46,7 +52,14 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         lidar = LidarMapperNode(params.lidar)
         nodes.append(lidar)
         inputs.append(params.lidar.lidar_topic)
-        optional += [t for t, use in ((params.lidar.imu_topic, params.lidar.use_imu), (params.lidar.odom_topic, params.lidar.use_odom)) if use]
+        optional += [
+            t
+            for t, use in (
+                (params.lidar.imu_topic, params.lidar.use_imu),
+                (params.lidar.odom_topic, params.lidar.use_odom),
+            )
+            if use
+        ]
         outputs += [params.lidar.odometry_topic, params.lidar.cloud_topic, params.lidar.path_topic]
     nodes.append(occ)
 
@@ -70,6 +83,9 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
             out.update({f"lidar_mapper: {k}": v for k, v in lidar.skipped_counts().items()})
         return out
 
-    info = {"pose_source": source, "lidar_mapper": "on" if lidar_on else "off",
-            "trajectory": "3D mapper base_link poses" if lidar_on else f"robot poses from {source} (scans inserted)"}
+    info = {
+        "pose_source": source,
+        "lidar_mapper": "on" if lidar_on else "off",
+        "trajectory": "3D mapper base_link poses" if lidar_on else f"robot poses from {source} (scans inserted)",
+    }
     return Pipeline("mapping", nodes, inputs, optional, outputs, write_artifacts, skipped, info)

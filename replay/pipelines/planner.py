@@ -17,10 +17,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from replay.config import config_root, load_yaml, suggest
-from replay.errors import ConfigError
-from replay.mapio import load_map
-from replay.nav2_params import (
+from navlog.errors import ConfigError
+from navlog.replay.config import find_config, known_configs, load_yaml, suggest
+from navlog.replay.io.map_server import load_map
+from navlog.replay.nav2.params import (
     CostmapParams,
     InflationLayerParams,
     NavfnParams,
@@ -31,11 +31,10 @@ from replay.nav2_params import (
     load_nav2_params,
     parse_nav2_params,
 )
-from replay.navfn import NavfnPlanner
-from replay.nodes.planner import CostmapNode, PlannerNode
-from replay.pipeline import Pipeline
-from replay.smac2d import Smac2DPlanner
-
+from navlog.replay.nav2.planners.navfn import NavfnPlanner
+from navlog.replay.nav2.planners.smac2d import Smac2DPlanner
+from navlog.replay.nodes.planner import CostmapNode, PlannerNode
+from navlog.replay.runtime.pipeline import Pipeline
 
 # `navlog replay --pipeline planner --params nav2_params.yaml` fills this key
 PARAMS_FILE_KEY = "nav2_params"
@@ -68,19 +67,22 @@ def _flatten(prefix: str, d: Any) -> list[str]:
 
 
 def nav2_overrides(params: Params) -> list[str]:
-    return _flatten("global_costmap", params.global_costmap) + _flatten("planner_server", params.planner_server) \
-        if (params.global_costmap or params.planner_server) else []
+    return (
+        _flatten("global_costmap", params.global_costmap) + _flatten("planner_server", params.planner_server)
+        if (params.global_costmap or params.planner_server)
+        else []
+    )
 
 
 def load_goals(spec: str) -> tuple[list[tuple[float, float, float]], str]:
     """Goals (x, y, yaw) and their frame from a goals YAML: name in config/goals/ or a path."""
     path = Path(spec)
     if not path.is_file():
-        folder = config_root() / "goals"
-        path = folder / f"{spec}.yaml"
-        if not path.is_file():
-            known = sorted(p.stem for p in folder.glob("*.yaml"))
+        found = find_config("goals", spec)
+        if found is None:
+            known = known_configs("goals")
             raise ConfigError(f"goals '{spec}' not found{suggest(spec, known)}; known: {', '.join(known) or 'none'}")
+        path = found
     doc = load_yaml(path)
     if not isinstance(doc, dict) or not isinstance(doc.get("goals"), list):
         raise ConfigError(f"{path}: expected 'goals:' with a list of {{name, x, y, yaw}}")
@@ -111,7 +113,9 @@ def make_planner(nav2, planner: str, planner_id: str = "", potential: str = "wav
         found = {k: v for k, v in nav2.planner_server.planners.items() if isinstance(v, wanted)}
     if planner_id:
         if planner_id not in found:
-            raise ConfigError(f"planner '{planner_id}' of type {planner} not in planner_server{suggest(planner_id, found)}")
+            raise ConfigError(
+                f"planner '{planner_id}' of type {planner} not in planner_server{suggest(planner_id, found)}"
+            )
         p = found[planner_id]
     else:
         p = next(iter(found.values()), wanted())
@@ -119,8 +123,11 @@ def make_planner(nav2, planner: str, planner_id: str = "", potential: str = "wav
 
 
 def default_costmap() -> CostmapParams:
-    layers = {"static_layer": StaticLayerParams(), "obstacle_layer": ObstacleLayerParams(),
-              "inflation_layer": InflationLayerParams()}
+    layers = {
+        "static_layer": StaticLayerParams(),
+        "obstacle_layer": ObstacleLayerParams(),
+        "inflation_layer": InflationLayerParams(),
+    }
     return CostmapParams(layers=layers)
 
 
@@ -130,9 +137,16 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
     static_map = load_map(params.map) if params.map else None
     cm_node = CostmapNode(cparams, "global_costmap", static_map=static_map)
     planner = make_planner(nav2, params.planner, params.planner_id, params.navfn_potential)
-    goals, frame = (load_goals(params.goals) if params.goals else ([], params.goal_frame))
-    pl = PlannerNode(cm_node, planner, goals, goal_frame=frame, replan_period_s=params.replan_period_s,
-                     goal_tolerance=params.goal_tolerance, start=params.start)
+    goals, frame = load_goals(params.goals) if params.goals else ([], params.goal_frame)
+    pl = PlannerNode(
+        cm_node,
+        planner,
+        goals,
+        goal_frame=frame,
+        replan_period_s=params.replan_period_s,
+        goal_tolerance=params.goal_tolerance,
+        start=params.start,
+    )
     inputs: list[str] = []
     optional = ["/tf", "/tf_static"]
     if cm_node.costmap.static_layers and static_map is None:
@@ -143,9 +157,18 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
 
     def write_artifacts(out: Path) -> dict[str, Path]:
         path = out / "plans.json"
-        rows = [{"time_ns": t, "planner": p.planner, "length_m": round(p.length, 6), "cost": round(p.cost, 6),
-                 "goal": [round(v, 6) for v in p.goal_used], "poses": len(p.poses), "notes": p.notes}
-                for t, p in pl.plans]
+        rows = [
+            {
+                "time_ns": t,
+                "planner": p.planner,
+                "length_m": round(p.length, 6),
+                "cost": round(p.cost, 6),
+                "goal": [round(v, 6) for v in p.goal_used],
+                "poses": len(p.poses),
+                "notes": p.notes,
+            }
+            for t, p in pl.plans
+        ]
         fails = [{"time_ns": t, "error": e} for t, e in pl.failures]
         path.write_text(json.dumps({"plans": rows, "failures": fails}, indent=2, sort_keys=True) + "\n")
         return {"plans": path}
@@ -158,7 +181,11 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         return out
 
     return Pipeline(
-        name="planner", nodes=[cm_node, pl], inputs=inputs, optional_inputs=optional,
+        name="planner",
+        nodes=[cm_node, pl],
+        inputs=inputs,
+        optional_inputs=optional,
         outputs=["/global_costmap/costmap", "/global_costmap/published_footprint", "/plan", "/navlog/events"],
-        write_artifacts=write_artifacts, skipped=skipped,
+        write_artifacts=write_artifacts,
+        skipped=skipped,
     )

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from replay import messages as m
-from replay.logwriter import McapLogWriter
-from replay.pointcloud import make_cloud
+from navlog.replay import messages as m
+from navlog.replay.io.logwriter import McapLogWriter
+from navlog.replay.pointcloud import make_cloud
 
 WALL_X = 4.0  # map frame
 MAP_TO_ODOM_X = 1.0
@@ -70,33 +70,75 @@ def write_sample_log(
         writer.write_raw(topic, typename, t, m.serialize(msg, typename))
 
     # static TF and map at t=0
-    emit((0, "/tf_static", m.TF_MESSAGE, m.tf_message([
-        m.transform_stamped(0, "map", "odom", (MAP_TO_ODOM_X, 0, 0), (0, 0, 0, 1)),
-        m.transform_stamped(0, "base_footprint", "base_link", (0, 0, 0.2), (0, 0, 0, 1)),
-        m.transform_stamped(0, "base_link", "front_laser", (LASER_X, 0, 0.0), (0, 0, 0, 1)),
-        m.transform_stamped(0, "base_link", "livox_frame", (0.2, 0, 0.08), (0, 0, 0, 1)),
-    ])))
+    emit(
+        (
+            0,
+            "/tf_static",
+            m.TF_MESSAGE,
+            m.tf_message(
+                [
+                    m.transform_stamped(0, "map", "odom", (MAP_TO_ODOM_X, 0, 0), (0, 0, 0, 1)),
+                    m.transform_stamped(0, "base_footprint", "base_link", (0, 0, 0.2), (0, 0, 0, 1)),
+                    m.transform_stamped(0, "base_link", "front_laser", (LASER_X, 0, 0.0), (0, 0, 0, 1)),
+                    m.transform_stamped(0, "base_link", "livox_frame", (0.2, 0, 0.08), (0, 0, 0, 1)),
+                ]
+            ),
+        )
+    )
     emit((0, "/map", m.OCCUPANCY_GRID, occupancy_grid(0)))
     emit((0, "/plan", m.PATH, path_msg(0, [(MAP_TO_ODOM_X + 0.25 * i, 0.0) for i in range(9)])))
     emit((0, "/goal_pose", m.POSE_STAMPED, pose_stamped(0, "map", (3.0, 0.0, 0.0), m.quat_from_yaw(0.0))))
     if with_events:
         emit((0, "/events", m.EVENT_TYPE, m.event(0, "goal_accepted", "navigator", "corridor_end")))
     period = {
-        "odom": every(odom_hz), "scan": every(scan_hz), "cloud": every(cloud_hz), "imu": every(imu_hz), "cmd": every(20.0),
+        "odom": every(odom_hz),
+        "scan": every(scan_hz),
+        "cloud": every(cloud_hz),
+        "imu": every(imu_hz),
+        "cmd": every(20.0),
     }
     for t in range(0, end_ns + 1, step_ns):
         ts = t / 1e9
         x_odom = speed * ts
         if t % period["odom"] == 0:
-            emit((t, "/tf", m.TF_MESSAGE, m.tf_message([m.transform_stamped(t, "odom", "base_footprint", (x_odom, 0, 0), (0, 0, 0, 1))])))
-            emit((t, "/odom/ground_truth", m.ODOMETRY, m.odometry(t, "world", "base_link", (x_odom, 0, 0.2), (0, 0, 0, 1), (speed, 0, 0), (0, 0, 0))))
-            emit((t, "/odom", m.ODOMETRY, m.odometry(t, "odom", "base_footprint", (x_odom, DRIFT * ts, 0), (0, 0, 0, 1), (speed, 0, 0), (0, 0, 0))))
+            emit(
+                (
+                    t,
+                    "/tf",
+                    m.TF_MESSAGE,
+                    m.tf_message([m.transform_stamped(t, "odom", "base_footprint", (x_odom, 0, 0), (0, 0, 0, 1))]),
+                )
+            )
+            emit(
+                (
+                    t,
+                    "/odom/ground_truth",
+                    m.ODOMETRY,
+                    m.odometry(t, "world", "base_link", (x_odom, 0, 0.2), (0, 0, 0, 1), (speed, 0, 0), (0, 0, 0)),
+                )
+            )
+            emit(
+                (
+                    t,
+                    "/odom",
+                    m.ODOMETRY,
+                    m.odometry(
+                        t, "odom", "base_footprint", (x_odom, DRIFT * ts, 0), (0, 0, 0, 1), (speed, 0, 0), (0, 0, 0)
+                    ),
+                )
+            )
         if t % period["scan"] == 0 and t > 0:
             emit((t, "/scan", m.LASER_SCAN, laser_scan(t, robot_x_map(ts, speed), beams)))
         if t % period["cloud"] == 0 and t > 0:
             pts = rng.uniform(-3, 3, size=(cloud_points, 3)).astype(np.float32)
-            cols = {"x": pts[:, 0], "y": pts[:, 1], "z": pts[:, 2], "intensity": np.full(cloud_points, 10.0, np.float32),
-                    "ring": (np.arange(cloud_points) % 16).astype(np.uint16), "time": np.zeros(cloud_points, np.float32)}
+            cols = {
+                "x": pts[:, 0],
+                "y": pts[:, 1],
+                "z": pts[:, 2],
+                "intensity": np.full(cloud_points, 10.0, np.float32),
+                "ring": (np.arange(cloud_points) % 16).astype(np.uint16),
+                "time": np.zeros(cloud_points, np.float32),
+            }
             emit((t, "/livox/lidar", m.POINT_CLOUD2, make_cloud(t, "livox_frame", cols)))
         if costmap_hz and t % every(costmap_hz) == 0:
             emit((t, "/global_costmap/costmap", m.OCCUPANCY_GRID, occupancy_grid(t)))
@@ -133,9 +175,16 @@ def laser_scan(t_ns: int, robot_x: float, beams: int):
         r = np.where(c > 1e-6, (WALL_X - laser_x) / np.where(c > 1e-6, c, 1.0), np.inf)
     r = np.where(r <= 6.0, r, np.inf).astype(np.float32)
     return m.msg_class(m.LASER_SCAN)(
-        header=m.header(t_ns, "front_laser"), angle_min=-math.pi, angle_max=math.pi - 2 * math.pi / beams,
-        angle_increment=2 * math.pi / beams, time_increment=0.0, scan_time=0.1, range_min=0.12, range_max=6.0,
-        ranges=r, intensities=np.zeros(0, np.float32),
+        header=m.header(t_ns, "front_laser"),
+        angle_min=-math.pi,
+        angle_max=math.pi - 2 * math.pi / beams,
+        angle_increment=2 * math.pi / beams,
+        time_increment=0.0,
+        scan_time=0.1,
+        range_min=0.12,
+        range_max=6.0,
+        ranges=r,
+        intensities=np.zeros(0, np.float32),
     )
 
 
@@ -146,8 +195,13 @@ def occupancy_grid(t_ns: int):
     cells[:, wall_col] = 100
     cells[:, wall_col + 1 :] = -1
     MapMetaData = m.msg_class("nav_msgs/msg/MapMetaData")
-    info = MapMetaData(map_load_time=m.stamp(t_ns), resolution=GRID_RES, width=w, height=h,
-                       origin=m.pose((GRID_ORIGIN[0], GRID_ORIGIN[1], 0.0), (0, 0, 0, 1)))
+    info = MapMetaData(
+        map_load_time=m.stamp(t_ns),
+        resolution=GRID_RES,
+        width=w,
+        height=h,
+        origin=m.pose((GRID_ORIGIN[0], GRID_ORIGIN[1], 0.0), (0, 0, 0, 1)),
+    )
     return m.msg_class(m.OCCUPANCY_GRID)(header=m.header(t_ns, "map"), info=info, data=cells.reshape(-1))
 
 
@@ -156,11 +210,19 @@ def pose_stamped(t_ns: int, frame: str, xyz, q):
 
 
 def path_msg(t_ns: int, xy):
-    return m.msg_class(m.PATH)(header=m.header(t_ns, "map"), poses=[pose_stamped(t_ns, "map", (x, y, 0.0), (0, 0, 0, 1)) for x, y in xy])
+    return m.msg_class(m.PATH)(
+        header=m.header(t_ns, "map"), poses=[pose_stamped(t_ns, "map", (x, y, 0.0), (0, 0, 0, 1)) for x, y in xy]
+    )
 
 
 def imu(t_ns: int):
     Imu = m.msg_class(m.IMU)
-    return Imu(header=m.header(t_ns, "base_link"), orientation=m.quaternion((0, 0, 0, 1)), orientation_covariance=np.zeros(9),
-               angular_velocity=m.vector3(0, 0, 0.02), angular_velocity_covariance=np.zeros(9),
-               linear_acceleration=m.vector3(0.1, 0, 9.81), linear_acceleration_covariance=np.zeros(9))
+    return Imu(
+        header=m.header(t_ns, "base_link"),
+        orientation=m.quaternion((0, 0, 0, 1)),
+        orientation_covariance=np.zeros(9),
+        angular_velocity=m.vector3(0, 0, 0.02),
+        angular_velocity_covariance=np.zeros(9),
+        linear_acceleration=m.vector3(0.1, 0, 9.81),
+        linear_acceleration_covariance=np.zeros(9),
+    )

@@ -9,12 +9,12 @@ import numpy as np
 import pytest
 import yaml
 
-from analysis.export import BagOptions, export_rosbag2
-from analysis.tum import read_tum
+from navlog.analysis.export import BagOptions, export_rosbag2
+from navlog.analysis.tum import read_tum
 from navlog.cli import main
-from replay import messages as m
-from replay.logreader import open_log
-from replay.logwriter import McapLogWriter
+from navlog.replay import messages as m
+from navlog.replay.io.logreader import open_log
+from navlog.replay.io.logwriter import McapLogWriter
 from tests.analysis import sample_nav_log as sample
 
 NS = 1_000_000_000
@@ -50,7 +50,24 @@ def by_topic(msgs):
 @pytest.mark.parametrize("storage, distro", COMBOS)
 def test_rosbag2_round_trips_with_rosbags(storage, distro, sample_log, tmp_path):
     out = tmp_path / "bag"
-    assert main(["-q", "export", str(sample_log), "--to", "rosbag2", "--storage", storage, "--distro", distro, "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "export",
+                str(sample_log),
+                "--to",
+                "rosbag2",
+                "--storage",
+                storage,
+                "--distro",
+                distro,
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     src = by_topic(source_messages(sample_log))
     got_list, qos = rosbags_messages(out)
     got = by_topic(got_list)
@@ -88,7 +105,24 @@ def test_mcap_export_reads_back_with_the_mcap_ros2_decoder(sample_log, tmp_path)
     from mcap_ros2.decoder import DecoderFactory
 
     out = tmp_path / "bag"
-    assert main(["-q", "export", str(sample_log), "--to", "rosbag2", "--storage", "mcap", "--distro", "jazzy", "-o", str(out)]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "export",
+                str(sample_log),
+                "--to",
+                "rosbag2",
+                "--storage",
+                "mcap",
+                "--distro",
+                "jazzy",
+                "-o",
+                str(out),
+            ]
+        )
+        == 0
+    )
     src = by_topic(source_messages(sample_log))
     got: dict[str, list] = {}
     scans = []
@@ -127,10 +161,32 @@ def test_sqlite3_export_reads_back_with_plain_sqlite(sample_log, tmp_path):
 
 def test_topic_and_time_filters(sample_log, tmp_path):
     out = tmp_path / "bag"
-    assert main(["-q", "export", str(sample_log), "--to", "rosbag2", "-o", str(out), "--topics", "/cmd_vel*", "/odom", "--start", "0.5", "--end", "1.0"]) == 0
+    assert (
+        main(
+            [
+                "-q",
+                "export",
+                str(sample_log),
+                "--to",
+                "rosbag2",
+                "-o",
+                str(out),
+                "--topics",
+                "/cmd_vel*",
+                "/odom",
+                "--start",
+                "0.5",
+                "--end",
+                "1.0",
+            ]
+        )
+        == 0
+    )
     got = by_topic(rosbags_messages(out)[0])
     assert sorted(got) == ["/cmd_vel", "/cmd_vel_nav", "/cmd_vel_smoothed", "/odom"]
-    assert [t for _, t, _ in got["/odom"]] == [NS // 2 + k * 20_000_000 for k in range(26)]  # 50 Hz, 0.5 .. 1.0 s inclusive
+    assert [t for _, t, _ in got["/odom"]] == [
+        NS // 2 + k * 20_000_000 for k in range(26)
+    ]  # 50 Hz, 0.5 .. 1.0 s inclusive
     assert len(got["/cmd_vel"]) == 11  # 20 Hz
 
 
@@ -141,12 +197,17 @@ def test_unknown_types_are_skipped_with_one_warning(bags_dir, tmp_path, caplog):
         known = {t.name: t.count for t in r.topics.values() if t.known}
     warned = [rec.getMessage() for rec in caplog.records if "unknown types" in rec.getMessage()]
     assert len(warned) == 1 and "/accel (neato2_interfaces/msg/Accel)" in warned[0]
-    assert summary.skipped == {"unknown type neato2_interfaces/msg/Accel on /accel": 194, "unknown type neato2_interfaces/msg/Bump on /bump": 194}
+    assert summary.skipped == {
+        "unknown type neato2_interfaces/msg/Accel on /accel": 194,
+        "unknown type neato2_interfaces/msg/Bump on /bump": 194,
+    }
     got = by_topic(rosbags_messages(out)[0])
     assert {t: len(v) for t, v in got.items()} == known
 
 
-@pytest.mark.parametrize("bag", ["neato_drive_square", "tb3_gazebo_walker", "rosbag2_talker_mcap", "rosbag2_wbag_split_mcap"])
+@pytest.mark.parametrize(
+    "bag", ["neato_drive_square", "tb3_gazebo_walker", "rosbag2_talker_mcap", "rosbag2_wbag_split_mcap"]
+)
 @pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
 def test_every_external_bag_exports_unchanged(bag, storage, bags_dir, tmp_path):
     out = tmp_path / "out"
@@ -171,7 +232,11 @@ def test_tum_from_odometry_and_from_the_tf_chain(sample_log, tmp_path):
     assert main(["-q", "export", str(sample_log), "--to", "tum", "--tf", "map:base_link", "-o", str(chain)]) == 0
     traj = read_tum(chain)
     assert len(traj.times_ns) == 101
-    assert np.allclose(traj.positions, np.c_[sample.MAP_TO_ODOM_X + 0.5 * traj.times_ns / NS, np.zeros(101), np.full(101, 0.2)], atol=1e-9)
+    assert np.allclose(
+        traj.positions,
+        np.c_[sample.MAP_TO_ODOM_X + 0.5 * traj.times_ns / NS, np.zeros(101), np.full(101, 0.2)],
+        atol=1e-9,
+    )
     assert np.allclose(traj.quaternions, [0, 0, 0, 1])
     # every line is the 8 numbers evo reads
     lines = [ln for ln in chain.read_text().splitlines() if not ln.startswith("#")]
@@ -222,7 +287,9 @@ def test_existing_output_needs_force_and_is_replaced_whole(sample_log, tmp_path,
     assert main(["export", str(sample_log), "--to", "rosbag2", "-o", str(out)]) == 2
     assert "already exists" in capsys.readouterr().err
     assert sorted(p.name for p in out.iterdir()) == ["old.txt"]
-    assert main(["-q", "export", str(sample_log), "--to", "rosbag2", "--storage", "mcap", "-o", str(out), "--force"]) == 0
+    assert (
+        main(["-q", "export", str(sample_log), "--to", "rosbag2", "--storage", "mcap", "-o", str(out), "--force"]) == 0
+    )
     assert sorted(p.name for p in out.iterdir()) == ["bag.mcap", "metadata.yaml"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from analysis.trajectory import Trajectory
-from analysis.tum import format_seconds, parse_seconds_ns, parse_tum, read_tum, write_tum
-from replay.errors import NavlogError
+from navlog.analysis.metrics.trajectory import Trajectory
+from navlog.analysis.tum import format_seconds, parse_seconds_ns, parse_tum, read_tum, write_tum
+from navlog.errors import NavlogError
 
 
 def test_seconds_are_exact_nanoseconds():
@@ -33,7 +33,10 @@ def test_round_trip_is_exact_and_byte_stable(tmp_path):
     assert p1.read_bytes() == p2.read_bytes()
     lines = p1.read_text().splitlines()
     assert lines[0].startswith("#")
-    assert lines[1] == "1700000000.000000001 0.000000000 0.000000000 0.000000000 0.000000000 0.000000000 0.000000000 1.000000000"
+    assert (
+        lines[1]
+        == "1700000000.000000001 0.000000000 0.000000000 0.000000000 0.000000000 0.000000000 0.000000000 1.000000000"
+    )
     assert lines[3].split()[1] == "-3.000000001"
 
 

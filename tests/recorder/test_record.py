@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from recorder.record import prepare, record
-from recorder.world import clearance, load_world
-from replay.errors import ConfigError, NavlogError
-from replay.logreader import open_log
+from navlog.errors import ConfigError, NavlogError
+from navlog.recorder.record import prepare, record
+from navlog.recorder.world import clearance, load_world
+from navlog.replay.io.logreader import open_log
 
 NAVLOG = [sys.executable, "-m", "navlog"]
 REPO = Path(__file__).resolve().parents[2]
@@ -23,14 +23,33 @@ REPO = Path(__file__).resolve().parents[2]
 
 def gt_xy(path: Path) -> np.ndarray:
     with open_log(path) as r:
-        return np.array([(e.msg.pose.pose.position.x, e.msg.pose.pose.position.y) for e in r.messages(["/odom/ground_truth"])])
+        return np.array(
+            [(e.msg.pose.pose.position.x, e.msg.pose.pose.position.y) for e in r.messages(["/odom/ground_truth"])]
+        )
 
 
 def test_same_seed_is_byte_identical_in_a_fresh_process(teleop_log, tmp_path):
     again = tmp_path / "again.mcap"
     proc = subprocess.run(
-        NAVLOG + ["-q", "record", "--world", "indoor_room", "--robot", "go2", "--scenario", "teleop", "--seed", "3", "-o", str(again)],
-        cwd=REPO, capture_output=True, text=True, timeout=300,
+        NAVLOG
+        + [
+            "-q",
+            "record",
+            "--world",
+            "indoor_room",
+            "--robot",
+            "go2",
+            "--scenario",
+            "teleop",
+            "--seed",
+            "3",
+            "-o",
+            str(again),
+        ],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 0, proc.stderr
     assert again.read_bytes() == teleop_log.read_bytes()
@@ -72,7 +91,7 @@ def test_mcap_format_and_metadata(teleop_log):
         # log_time = publish_time = header.stamp
         for schema, channel, msg in reader.iter_messages(topics=["/scan", "/odom"]):
             assert msg.log_time == msg.publish_time
-        from replay import messages
+        from navlog.replay import messages
 
         for schema, channel, msg in reader.iter_messages(topics=["/scan"]):
             scan = messages.deserialize(msg.data, schema.name)
@@ -105,7 +124,9 @@ def test_rerun_converts_the_log(teleop_log, tmp_path):
     if not rerun.exists():
         pytest.skip("rerun CLI not installed")
     out = tmp_path / "t.rrd"
-    proc = subprocess.run([str(rerun), "mcap", "convert", str(teleop_log), "-o", str(out)], capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [str(rerun), "mcap", "convert", str(teleop_log), "-o", str(out)], capture_output=True, text=True, timeout=300
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert out.stat().st_size > 1000
 
@@ -149,11 +170,15 @@ def write(path: Path, text: str) -> Path:
 
 
 def test_misspelled_key_wrong_type_and_malformed_yaml(tmp_path):
-    bad = write(tmp_path / "r.yaml", Path(REPO / "config/robots/go2.yaml").read_text().replace("radius: 0.22", "raduis: 0.22"))
+    bad = write(
+        tmp_path / "r.yaml", Path(REPO / "config/robots/go2.yaml").read_text().replace("radius: 0.22", "raduis: 0.22")
+    )
     with pytest.raises(ConfigError) as exc:
         prepare("indoor_room", str(bad), "mapping")
     assert str(bad) in str(exc.value) and "raduis" in str(exc.value) and "did you mean 'radius'" in str(exc.value)
-    bad2 = write(tmp_path / "r2.yaml", Path(REPO / "config/robots/go2.yaml").read_text().replace("rate: 200.0", "rate: fast"))
+    bad2 = write(
+        tmp_path / "r2.yaml", Path(REPO / "config/robots/go2.yaml").read_text().replace("rate: 200.0", "rate: fast")
+    )
     with pytest.raises(ConfigError) as exc:
         prepare("indoor_room", str(bad2), "mapping")
     assert "imu.rate" in str(exc.value) and "expected a number" in str(exc.value)
@@ -164,7 +189,10 @@ def test_misspelled_key_wrong_type_and_malformed_yaml(tmp_path):
 
 
 def test_spawn_inside_obstacle_and_colliding_scenario(tmp_path):
-    inside = write(tmp_path / "s.yaml", "name: s\nkind: teleop\nstart: [2.0, 1.5, 0.0]\ncommands: [{duration: 1.0, cmd: [0.1, 0, 0]}]\n")
+    inside = write(
+        tmp_path / "s.yaml",
+        "name: s\nkind: teleop\nstart: [2.0, 1.5, 0.0]\ncommands: [{duration: 1.0, cmd: [0.1, 0, 0]}]\n",
+    )
     with pytest.raises(ConfigError, match="spawn pose .* inside an obstacle"):
         prepare("indoor_room", "go2", str(inside))
     crash = write(tmp_path / "c.yaml", "name: c\nkind: teleop\ncommands: [{duration: 20.0, cmd: [0.3, 0, 0]}]\n")
@@ -174,7 +202,9 @@ def test_spawn_inside_obstacle_and_colliding_scenario(tmp_path):
 
 def test_cli_errors_exit_nonzero_without_traceback_and_write_nothing(tmp_path):
     out = tmp_path / "x.mcap"
-    proc = subprocess.run(NAVLOG + ["record", "--robot", "go3", "-o", str(out)], cwd=REPO, capture_output=True, text=True)
+    proc = subprocess.run(
+        NAVLOG + ["record", "--robot", "go3", "-o", str(out)], cwd=REPO, capture_output=True, text=True
+    )
     assert proc.returncode == 2 and "Traceback" not in proc.stderr
     assert "did you mean 'go2'" in proc.stderr
     assert not out.exists() and not list(tmp_path.iterdir())
@@ -187,8 +217,11 @@ def test_existing_output_needs_force(teleop_log):
 
 def _start_recording(out: Path) -> subprocess.Popen:
     return subprocess.Popen(
-        NAVLOG + ["-q", "record", "--scenario", "mapping", "-o", str(out)], cwd=REPO,
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        NAVLOG + ["-q", "record", "--scenario", "mapping", "-o", str(out)],
+        cwd=REPO,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
 
 

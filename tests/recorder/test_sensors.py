@@ -7,13 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from recorder.robot import load_robot
-from recorder.sim import SimNode, SimOptions
-from recorder.world import load_world, world_mesh
-from replay import messages
-from replay.executor import Executor, Node
-from replay.pointcloud import read_points
-from replay.tf import TFBuffer
+from navlog.recorder.robot import load_robot
+from navlog.recorder.sim import SimNode, SimOptions
+from navlog.recorder.world import load_world, world_mesh
+from navlog.replay import messages
+from navlog.replay.pointcloud import read_points
+from navlog.replay.runtime.executor import Executor, Node
+from navlog.replay.runtime.tf import TFBuffer
 
 
 def ray_to_boxes(origin: np.ndarray, direction: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray]]) -> float:
@@ -65,7 +65,9 @@ def run_sim(world="indoor_room", robot="go2", start=(0.0, 0.0, 0.0), until_ns=0,
 
         class Drive(Node):
             def setup(self):
-                self.create_timer(50_000_000, lambda t: self.publish("/cmd_vel", messages.TWIST, messages.twist(*cmd)), 0)
+                self.create_timer(
+                    50_000_000, lambda t: self.publish("/cmd_vel", messages.TWIST, messages.twist(*cmd)), 0
+                )
 
         ex.add_node(Drive())
     ex.run(until_ns=until_ns)
@@ -146,7 +148,16 @@ def test_ground_truth_equals_mujoco_body_pose_and_tf_is_consistent():
         tf.add_message(m, static=True)
     for _, m in got["/tf"]:
         tf.add_message(m)
-    assert set(tf.frames()) == {"world", "map", "odom", "base_footprint", "base_link", "front_laser", "livox_frame", "imu_link"}
+    assert set(tf.frames()) == {
+        "world",
+        "map",
+        "odom",
+        "base_footprint",
+        "base_link",
+        "front_laser",
+        "livox_frame",
+        "imu_link",
+    }
     # map -> base_link through map -> odom -> base_footprint -> base_link is the true pose
     assert np.allclose(tf.lookup("map", "base_link", ns), base, atol=1e-9)
     assert np.allclose(tf.lookup("map", "livox_frame", ns), base @ sim._mounts["livox_frame"], atol=1e-9)
@@ -196,7 +207,9 @@ def test_livox_pattern_is_non_repetitive_and_on_surfaces():
     import open3d as o3d
 
     go2 = load_robot("go2")
-    robot = dataclasses.replace(go2, lidar=dataclasses.replace(go2.lidar, pattern="livox_mid360", points=20000, vertical_fov=(-7.0, 52.0)))
+    robot = dataclasses.replace(
+        go2, lidar=dataclasses.replace(go2.lidar, pattern="livox_mid360", points=20000, vertical_fov=(-7.0, 52.0))
+    )
     ex = Executor()
     sim = SimNode(load_world("indoor_room"), robot, SimOptions(seed=1, noise=False))
     ex.add_node(sim, source=True)

@@ -7,14 +7,23 @@ import math
 import numpy as np
 import pytest
 
-from recorder.world import clearance, load_world, occupancy, world_mesh
+from navlog.recorder.world import clearance, load_world, occupancy, world_mesh
 
 
 def test_indoor_room_solids_at_the_article_poses():
     w = load_world("indoor_room")
     names = {s.name.split("/")[0] for s in w.solids}
-    assert names == {"wall_east", "wall_west", "wall_north", "wall_south", "wall_block_1", "wall_block_2",
-                     "cabinet_1", "bookshelf_1", "wooden_case_1"}
+    assert names == {
+        "wall_east",
+        "wall_west",
+        "wall_north",
+        "wall_south",
+        "wall_block_1",
+        "wall_block_2",
+        "cabinet_1",
+        "bookshelf_1",
+        "wooden_case_1",
+    }
     back = next(s for s in w.solids if s.name == "bookshelf_1/back")
     assert back.center == pytest.approx((-2.0, -2.0 + 0.005, 0.6)) and back.size == pytest.approx((0.9, 0.01, 1.2))
     # the cabinet is turned 90°: its back plate (model +x) faces +y

@@ -9,16 +9,16 @@ same trajectory, so the data has no error source apart from the range noise aske
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 import open3d as o3d
 from scipy.spatial.transform import Rotation
 
-from replay import messages
-from replay.executor import Envelope
-from replay.pointcloud import make_cloud
+from navlog.replay import messages
+from navlog.replay.pointcloud import make_cloud
+from navlog.replay.runtime.executor import Envelope
 
 EXTRINSIC_XYZ = (0.2, 0.0, 0.08)  # livox_frame in base_link
 SWEEP_S = 0.1
@@ -63,8 +63,9 @@ def _ramped_distance(t: np.ndarray, speed: float, ramp_s: float) -> np.ndarray:
     return np.where(t < ramp_s, speed * t**2 / (2 * ramp_s), speed * (t - ramp_s / 2))
 
 
-def loop_trajectory(speed: float = 0.3, radius: float = 1.0, center=(0.0, -0.5), sway_deg: float = 0.5,
-                    ramp_s: float = 1.0) -> Trajectory:
+def loop_trajectory(
+    speed: float = 0.3, radius: float = 1.0, center=(0.0, -0.5), sway_deg: float = 0.5, ramp_s: float = 1.0
+) -> Trajectory:
     """A circle driven counter-clockwise from rest (speed reached after ``ramp_s``), with roll/pitch
     sway (3 and 2.3 Hz) and a 2 Hz bob, as a walking robot's body moves."""
 
@@ -76,7 +77,9 @@ def loop_trajectory(speed: float = 0.3, radius: float = 1.0, center=(0.0, -0.5),
         out[:, 1, 3] = center[1] + radius * np.sin(a)
         out[:, 2, 3] = 0.32 + 0.005 * np.sin(2 * np.pi * 2.0 * t)
         sway = np.deg2rad(sway_deg)
-        rpy = np.stack([sway * np.sin(2 * np.pi * 3.0 * t), sway * np.sin(2 * np.pi * 2.3 * t + 1.0), a + np.pi / 2], axis=1)
+        rpy = np.stack(
+            [sway * np.sin(2 * np.pi * 3.0 * t), sway * np.sin(2 * np.pi * 2.3 * t + 1.0), a + np.pi / 2], axis=1
+        )
         out[:, :3, :3] = Rotation.from_euler("xyz", rpy).as_matrix()
         return out
 
@@ -145,7 +148,11 @@ def make_sequence(
     az = 2 * np.pi * np.arange(columns) / columns
     # sensor-frame directions, column-major: (columns, rings, 3)
     dirs = np.stack(
-        [np.cos(elev)[None, :] * np.cos(az)[:, None], np.cos(elev)[None, :] * np.sin(az)[:, None], np.broadcast_to(np.sin(elev), (columns, rings))],
+        [
+            np.cos(elev)[None, :] * np.cos(az)[:, None],
+            np.cos(elev)[None, :] * np.sin(az)[:, None],
+            np.broadcast_to(np.sin(elev), (columns, rings)),
+        ],
         axis=2,
     )
     col_t = SWEEP_S * np.arange(columns) / columns
@@ -162,7 +169,9 @@ def make_sequence(
         pts = (dirs.reshape(-1, 3) * r[:, None])[ok]
         times = np.repeat(col_t, rings)[ok]
         ring = np.tile(np.arange(rings), columns)[ok]
-        frames.append(Frame(int(round(t0 * 1e9)), pts.astype(np.float32), times.astype(np.float32), ring.astype(np.uint16)))
+        frames.append(
+            Frame(int(round(t0 * 1e9)), pts.astype(np.float32), times.astype(np.float32), ring.astype(np.uint16))
+        )
     # IMU at 200 Hz from central differences of the exact trajectory
     imu_t = np.arange(0.0, n_frames * SWEEP_S + 0.05, 0.005)
     h = 1e-4
@@ -192,12 +201,21 @@ def imu_msg(t_ns: int, gyro, accel):
 
 def cloud_msg(frame: Frame, frame_id: str = "livox_frame"):
     p = frame.points
-    cols = {"x": p[:, 0], "y": p[:, 1], "z": p[:, 2], "intensity": np.ones(len(p), np.float32), "ring": frame.rings, "time": frame.times}
+    cols = {
+        "x": p[:, 0],
+        "y": p[:, 1],
+        "z": p[:, 2],
+        "intensity": np.ones(len(p), np.float32),
+        "ring": frame.rings,
+        "time": frame.times,
+    }
     return make_cloud(frame.stamp_ns, frame_id, cols)
 
 
 def tf_static_msg():
-    return messages.tf_message([messages.transform_stamped(0, "base_link", "livox_frame", EXTRINSIC_XYZ, (0.0, 0.0, 0.0, 1.0))])
+    return messages.tf_message(
+        [messages.transform_stamped(0, "base_link", "livox_frame", EXTRINSIC_XYZ, (0.0, 0.0, 0.0, 1.0))]
+    )
 
 
 def envelopes(seq: Sequence, extra: list[Envelope] = ()) -> list[Envelope]:

@@ -7,8 +7,8 @@ from typing import Literal
 
 import pytest
 
-from replay.config import apply_overrides, config_hash, from_mapping, load_config
-from replay.errors import ConfigError
+from navlog.errors import ConfigError
+from navlog.replay.config import apply_overrides, config_hash, from_mapping, load_config
 
 
 @dataclass(frozen=True)

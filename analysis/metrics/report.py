@@ -1,0 +1,421 @@
+"""The metrics of one replay: trajectory (ATE, RPE), 2D map and 3D map, as a dict, a table and JSON.
+
+``compute_metrics(log, replay_dir, ...)`` is what ``navlog metrics`` runs. It reads
+
+- the ground-truth trajectory from the log (``/odom/ground_truth``, nav_msgs/Odometry, header stamps),
+- ``OUT/trajectory.tum`` (the estimate), ``OUT/map.yaml`` (2D map) and ``OUT/map.pcd`` (3D map),
+- the reference grid (``reference_map``) and the reference mesh (``reference_mesh``) when given,
+
+and computes every metric whose inputs are there. A missing replay output or reference is not an
+error: the metric is skipped and a note says which input it needs. Same inputs -> same JSON bytes.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navlog.analysis.metrics import maps as map_metrics
+from navlog.analysis.metrics import trajectory as tr
+from navlog.analysis.tum import read_tum
+from navlog.errors import NavlogError
+from navlog.replay import messages as m
+from navlog.replay.io.logreader import open_log
+
+GT_TOPIC = "/odom/ground_truth"
+PCD_FRAMES = ("first-pose", "as-is", "aligned")
+TRAJECTORY_FILE = "trajectory.tum"
+MAP_FILE = "map.yaml"
+PCD_FILE = "map.pcd"
+
+
+@dataclass(frozen=True)
+class MetricsOptions:
+    """Parameters of ``compute_metrics``; validated on construction.
+
+    ``pcd_frame``: how map.pcd is put into the world frame of the reference mesh. ``first-pose``
+    (default) moves it by ``T_gt(t0) T_est(t0)^-1`` at the first matched pose -- the identity when the
+    mapper already works in the world frame, and the right move when its frame starts at the robot's
+    first pose, as FAST-LIO's does; ``aligned`` uses the ATE alignment; ``as-is`` takes it unchanged.
+    """
+
+    tau: float = 0.05
+    taus_3d: tuple[float, ...] = map_metrics.DEFAULT_TAUS_3D
+    max_diff_ns: int = tr.DEFAULT_MAX_DIFF_NS
+    interpolate: bool = False  # ground truth interpolated at the estimate's stamps instead of nearest
+    max_gap_ns: int = 100_000_000  # interpolation only between ground-truth poses this close
+    align: str = "se3"
+    rpe_delta: float = 1.0
+    rpe_unit: str = "m"
+    rpe_pairs_from: str = "reference"
+    gt_topic: str = GT_TOPIC
+    pcd_frame: str = "first-pose"
+    view_spacing_m: float = 0.5
+    view_fov_deg: tuple[float, float] = (-15.0, 15.0)
+    view_range_m: float = 30.0
+
+    def __post_init__(self) -> None:
+        def bad(name: str, value: Any, want: str) -> NavlogError:
+            return NavlogError(f"metrics option {name} = {value!r}: {want}")
+
+        if not (isinstance(self.tau, (int, float)) and math.isfinite(self.tau) and self.tau >= 0):
+            raise bad("tau", self.tau, "must be a distance >= 0 in metres")
+        if not self.taus_3d or any(not (math.isfinite(t) and t > 0) for t in self.taus_3d):
+            raise bad("taus_3d", self.taus_3d, "must be one or more distances > 0 in metres")
+        if not self.max_diff_ns >= 0:
+            raise bad("max_diff", self.max_diff_ns, "must be >= 0")
+        if not self.max_gap_ns > 0:
+            raise bad("max_gap", self.max_gap_ns, "must be > 0")
+        if self.align not in tr.ALIGN_MODES:
+            raise bad("align", self.align, f"use one of {', '.join(tr.ALIGN_MODES)}")
+        if self.rpe_unit not in tr.DELTA_UNITS:
+            raise bad("rpe_unit", self.rpe_unit, f"use one of {', '.join(tr.DELTA_UNITS)}")
+        if not (math.isfinite(self.rpe_delta) and self.rpe_delta > 0):
+            raise bad("rpe_delta", self.rpe_delta, "must be > 0")
+        if self.rpe_unit == "frames" and int(self.rpe_delta) != self.rpe_delta:
+            raise bad("rpe_delta", self.rpe_delta, "must be a whole number of frames")
+        lo, hi = self.view_fov_deg
+        if not (-90.0 <= lo <= hi <= 90.0):
+            raise bad("view_fov", self.view_fov_deg, "must be LOW HIGH elevations in degrees within -90..90")
+        if not (self.view_spacing_m > 0 and self.view_range_m > 0):
+            raise bad("view_spacing/view_range", (self.view_spacing_m, self.view_range_m), "must be > 0")
+        if self.rpe_pairs_from not in ("reference", "estimate"):
+            raise bad("rpe_pairs_from", self.rpe_pairs_from, "use reference or estimate")
+        if self.pcd_frame not in PCD_FRAMES:
+            raise bad("pcd_frame", self.pcd_frame, f"use one of {', '.join(PCD_FRAMES)}")
+
+
+# ---------------------------------------------------------------- inputs
+
+
+def ground_truth_trajectory(reader, topic: str = GT_TOPIC) -> tuple[tr.Trajectory, dict[str, int]]:
+    """Poses of a nav_msgs/Odometry topic by header stamp, sorted; repeated stamps keep the first.
+
+    Returns the trajectory and counts of what was dropped or reordered."""
+    info = reader.topics.get(topic)
+    if info is None:
+        have = ", ".join(f"{t.name} ({t.typename})" for t in sorted(reader.topics.values(), key=lambda t: t.name))
+        raise NavlogError(f"{reader.path}: no topic {topic}; the log has {have or 'nothing'}")
+    if info.typename != m.ODOMETRY:
+        raise NavlogError(f"{reader.path}: topic {topic} is {info.typename}, expected {m.ODOMETRY}")
+    times, rows = [], []
+    for env in reader.messages([topic]):
+        msg = env.msg
+        if msg is None:
+            continue
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        times.append(m.to_ns(msg.header.stamp))
+        rows.append((p.x, p.y, p.z, q.x, q.y, q.z, q.w))
+    if not times:
+        raise NavlogError(f"{reader.path}: topic {topic} has no readable messages")
+    t = np.asarray(times, dtype=np.int64)
+    vals = np.asarray(rows, dtype=np.float64)
+    order = np.argsort(t, kind="stable")
+    out_of_order = int(np.count_nonzero(np.diff(t) < 0))
+    t, vals = t[order], vals[order]
+    first_of_stamp = np.concatenate([[True], np.diff(t) > 0])
+    valid = np.all(np.isfinite(vals), axis=1) & (np.linalg.norm(vals[:, 3:], axis=1) > 1e-9)
+    keep = first_of_stamp & valid
+    counts = {
+        "messages": len(times),
+        "out_of_order": out_of_order,
+        "repeated_stamps": int(np.count_nonzero(~first_of_stamp)),
+        "invalid_poses": int(np.count_nonzero(~valid)),
+    }
+    return tr.Trajectory(t[keep], vals[keep, :3], vals[keep, 3:]), counts
+
+
+def read_pcd_points(path: Path) -> np.ndarray:
+    import open3d as o3d
+
+    with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
+        pcd = o3d.io.read_point_cloud(str(path))
+    return np.asarray(pcd.points, dtype=np.float64)
+
+
+def read_mesh(path: str | Path):
+    import open3d as o3d
+
+    p = Path(path)
+    if not p.is_file():
+        raise NavlogError(f"{p}: no such mesh file (--reference-mesh takes a .ply/.obj/.stl triangle mesh)")
+    with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
+        mesh = o3d.io.read_triangle_mesh(str(p))
+    if len(mesh.triangles) == 0:
+        raise NavlogError(f"{p}: no triangles read; --reference-mesh needs a triangle mesh (.ply, .obj, .stl)")
+    return mesh
+
+
+# ---------------------------------------------------------------- the computation
+
+
+def compute_metrics(
+    log: str | Path,
+    replay_dir: str | Path,
+    *,
+    reference_map: str | Path | None = None,
+    reference_mesh: str | Path | None = None,
+    options: MetricsOptions = MetricsOptions(),
+) -> dict[str, Any]:
+    """Every metric whose inputs exist, plus ``skipped`` notes for the others (see module doc)."""
+    from navlog.replay.io.map_server import load_map
+
+    out_dir = Path(replay_dir)
+    if not out_dir.is_dir():
+        raise NavlogError(f"{out_dir}: no such replay output folder (give the folder of `navlog replay ... -o OUT/`)")
+    if reference_map is not None and not Path(reference_map).is_file():
+        raise NavlogError(f"{reference_map}: no such map file (--reference-map takes a map_server YAML)")
+    if reference_mesh is not None and not Path(reference_mesh).is_file():
+        raise NavlogError(
+            f"{reference_mesh}: no such mesh file (--reference-mesh takes a .ply/.obj/.stl triangle mesh)"
+        )
+    paths = {
+        "trajectory": out_dir / TRAJECTORY_FILE,
+        "map": out_dir / MAP_FILE,
+        "pcd": out_dir / PCD_FILE,
+    }
+    result: dict[str, Any] = {
+        "inputs": {
+            "log": str(log),
+            "replay": str(out_dir),
+            **{k: (str(p) if p.is_file() else None) for k, p in paths.items()},
+            "reference_map": str(reference_map) if reference_map else None,
+            "reference_mesh": str(reference_mesh) if reference_mesh else None,
+        },
+        "parameters": {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(options).items()},
+    }
+    skipped: list[str] = []
+
+    # -- trajectory
+    gt: tr.Trajectory | None = None
+    est: tr.Trajectory | None = None
+    with open_log(log) as reader:
+        if options.gt_topic in reader.topics:
+            gt, gt_counts = ground_truth_trajectory(reader, options.gt_topic)
+        else:
+            gt_counts = {}
+            skipped.append(
+                f"ATE, RPE, and the first-pose frame of map.pcd need the ground truth topic {options.gt_topic} "
+                f"({m.ODOMETRY}) in the log; {reader.path} has none (choose another with --gt-topic)"
+            )
+    if paths["trajectory"].is_file():
+        est = read_tum(paths["trajectory"])
+    else:
+        skipped.append(f"ATE and RPE need the estimated trajectory {paths['trajectory']} (not found)")
+
+    ate = None
+    if gt is not None and est is not None:
+        try:
+            ref_a, est_a = _associate(gt, est, options)
+            ate = tr.absolute_trajectory_error(ref_a, est_a, align_mode=options.align, max_diff_ns=None)  # type: ignore[arg-type]
+        except tr.TrajectoryError as exc:
+            skipped.append(f"ATE and RPE of {paths['trajectory']} against {options.gt_topic}: {exc}")
+    if ate is not None:
+        section: dict[str, Any] = {
+            "ground_truth_poses": len(gt),
+            "ground_truth_read": gt_counts,
+            "estimate_poses": len(est),
+            "ate": ate.to_dict(),
+        }
+        try:
+            rpe = tr.relative_pose_error(
+                ref_a,
+                est_a,
+                delta=options.rpe_delta,
+                unit=options.rpe_unit,
+                max_diff_ns=None,  # type: ignore[arg-type]
+                align_mode="sim3" if options.align == "sim3" else "none",
+                pairs_from=options.rpe_pairs_from,  # type: ignore[arg-type]
+            )
+            section["rpe"] = rpe.to_dict()
+        except tr.TrajectoryError as exc:
+            skipped.append(f"RPE: {exc}")
+        result["trajectory"] = section
+
+    # -- 2D map
+    if reference_map is None:
+        skipped.append(
+            "2D map precision/recall/F1, IoU, mean distances and coverage need a reference grid: "
+            "--reference-map MAP.yaml (e.g. from `navlog world-map WORLD --margin 0 -o MAP.yaml`)"
+        )
+    elif not paths["map"].is_file():
+        skipped.append(f"2D map metrics need the replayed map {paths['map']} (not found)")
+    else:
+        ref_map = load_map(reference_map)
+        est_map = load_map(paths["map"])
+        seed = tuple(gt.positions[0, :2]) if gt is not None and len(gt) else None
+        gm = map_metrics.grid_metrics(est_map, ref_map, tau=options.tau, seed_xy=seed)
+        result["map_2d"] = {
+            **gm.to_dict(),
+            "resolution_m": ref_map.resolution,
+            "coverage_seed": "first ground-truth pose" if seed is not None else "largest free region",
+        }
+
+    # -- 3D map
+    if reference_mesh is None:
+        skipped.append("3D map accuracy@tau needs the true surfaces: --reference-mesh MESH.ply")
+    elif not paths["pcd"].is_file():
+        skipped.append(f"3D map accuracy@tau needs the replayed point map {paths['pcd']} (not found)")
+    else:
+        mesh = read_mesh(reference_mesh)
+        points = read_pcd_points(paths["pcd"])
+        if len(points) == 0:
+            skipped.append(f"3D map accuracy@tau: {paths['pcd']} holds no points (or is not a PCD file)")
+        else:
+            frame, transform = _pcd_transform(options.pcd_frame, gt, est, ate, options, skipped)
+            pts = points @ transform[:3, :3].T + transform[:3, 3]
+            result["map_3d"] = {
+                **map_metrics.map_accuracy(pts, mesh, options.taus_3d),
+                "frame": frame,
+                "transform": [[float(v) for v in row] for row in transform[:3]],
+            }
+            if gt is not None and len(gt):
+                views = gt.positions[viewpoint_indices(gt, options.view_spacing_m)]
+                samples = map_metrics.visible_surface_samples(
+                    mesh,
+                    views,
+                    directions=map_metrics.band_directions(options.view_fov_deg),
+                    max_range=options.view_range_m,
+                )
+                result["map_3d"]["visible"] = {
+                    **map_metrics.completeness(samples, pts, options.taus_3d),
+                    "viewpoints": int(len(views)),
+                }
+            else:
+                skipped.append(
+                    f"3D completeness@tau needs the ground-truth path ({options.gt_topic}) for its viewpoints"
+                )
+
+    result["skipped"] = skipped
+    if not any(k in result for k in ("trajectory", "map_2d", "map_3d")):
+        raise NavlogError("no metric could be computed: " + "; ".join(skipped))
+    return result
+
+
+def viewpoint_indices(traj: tr.Trajectory, spacing_m: float) -> np.ndarray:
+    """Indices of the first pose and then one pose each ``spacing_m`` metres of path."""
+    cells = np.floor(traj.path_lengths() / spacing_m).astype(np.int64)
+    return np.flatnonzero(np.concatenate([[True], np.diff(cells) > 0]))
+
+
+def _associate(gt: tr.Trajectory, est: tr.Trajectory, options: MetricsOptions) -> tuple[tr.Trajectory, tr.Trajectory]:
+    if options.interpolate:
+        return tr.associate_interpolated(gt, est, max_gap_ns=options.max_gap_ns)
+    return tr.associate(gt, est, max_diff_ns=options.max_diff_ns)
+
+
+def _pcd_transform(mode, gt, est, ate, options, skipped) -> tuple[str, np.ndarray]:
+    if mode == "as-is":
+        return "as-is", np.eye(4)
+    if gt is None or est is None or ate is None:
+        skipped.append(f"map.pcd taken as-is: the {mode} frame needs both trajectories")
+        return "as-is", np.eye(4)
+    if mode == "aligned":
+        return "aligned", ate.alignment.matrix()
+    ref_a, est_a = _associate(gt, est, options)
+    t_world = ref_a.matrices()[0] @ np.linalg.inv(est_a.matrices()[0])
+    return "first-pose", t_world
+
+
+# ---------------------------------------------------------------- output
+
+
+def to_json(metrics: dict[str, Any]) -> str:
+    return json.dumps(metrics, indent=2, allow_nan=False) + "\n"
+
+
+def write_json(metrics: dict[str, Any], path: str | Path) -> Path:
+    p = Path(path)
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        p.write_text(to_json(metrics), encoding="utf-8")
+    except OSError as exc:
+        raise NavlogError(f"{p}: cannot write metrics: {exc.strerror}") from None
+    return p
+
+
+def _f(v: Any, unit: str = "", digits: int = 4) -> str:
+    if v is None:
+        return "n/a"
+    if unit == "%":
+        return f"{100.0 * v:.2f} %"
+    return f"{v:.{digits}f}{' ' + unit if unit else ''}"
+
+
+def _stats_row(label: str, s: dict, unit: str) -> str:
+    return (
+        f"  {label:<22} rmse {_f(s['rmse'], unit)}  mean {_f(s['mean'], unit)}  "
+        f"median {_f(s['median'], unit)}  max {_f(s['max'], unit)}"
+    )
+
+
+def format_table(metrics: dict[str, Any]) -> str:
+    """The metrics as aligned text for people."""
+    lines = [f"Metrics of {metrics['inputs']['replay']} (log {metrics['inputs']['log']})"]
+    t = metrics.get("trajectory")
+    if t:
+        a = t["ate"]
+        lines.append(
+            f"Trajectory: {t['estimate_poses']} estimated vs {t['ground_truth_poses']} ground-truth poses, "
+            f"{a['pairs']} matched ({'interpolated' if metrics['parameters']['interpolate'] else 'nearest stamp'}), "
+            f"{a['align']} alignment"
+        )
+        lines.append(_stats_row("ATE translation", a["translation_m"], "m"))
+        lines.append(_stats_row("ATE rotation", a["rotation_deg"], "deg"))
+        if "rpe" in t:
+            r = t["rpe"]
+            per = f"per {r['delta']:g} {r['unit']}"
+            lines.append(_stats_row("RPE translation", r["translation_m"], "m") + f"  ({per}, {r['pairs']} pairs)")
+            lines.append(_stats_row("RPE rotation", r["rotation_deg"], "deg"))
+    g = metrics.get("map_2d")
+    if g:
+        c = g["counts"]
+        lines.append(
+            f"2D map: tau {g['tau_m']:g} m, {c['est_occupied']} occupied cells vs {c['ref_occupied']} in the reference"
+        )
+        lines.append(
+            f"  {'precision':<22} {_f(g['precision'])}  ({c['matched_est_occupied']}/{c['est_occupied']} cells)"
+        )
+        lines.append(f"  {'recall':<22} {_f(g['recall'])}  ({c['matched_ref_occupied']}/{c['ref_occupied']} cells)")
+        lines.append(f"  {'F1':<22} {_f(g['f1'])}")
+        lines.append(
+            f"  {'recall (observable)':<22} {_f(g['recall_observable'])}  "
+            f"({c['matched_ref_occupied_observable']}/{c['ref_occupied_observable']} surface cells facing reachable free space)"
+        )
+        lines.append(f"  {'F1 (observable)':<22} {_f(g['f1_observable'])}")
+        lines.append(f"  {'IoU / IoU@tau':<22} {_f(g['iou'])} / {_f(g['iou_tau'])}")
+        lines.append(f"  {'mean dist ref->map':<22} {_f(g['mean_dist_ref_to_est_m'], 'm')}")
+        lines.append(f"  {'mean dist map->ref':<22} {_f(g['mean_dist_est_to_ref_m'], 'm')}")
+        lines.append(f"  {'Chamfer / Hausdorff':<22} {_f(g['chamfer_m'], 'm')} / {_f(g['hausdorff_m'], 'm')}")
+        lines.append(
+            f"  {'free-space coverage':<22} {_f(g['coverage'], '%')}  (of {c['ref_free_reachable']} reachable free cells)"
+        )
+        if g["origin_residual_m"] > 1e-9:
+            lines.append(
+                f"  note: origins differ by a fraction of a cell ({g['origin_residual_m']:.4f} m); compared on the nearest cells"
+            )
+    d = metrics.get("map_3d")
+    if d:
+        lines.append(f"3D map: {d['points']} points, frame {d['frame']}")
+        for tau, share in d["accuracy"].items():
+            lines.append(f"  {'accuracy@' + tau + ' m':<22} {_f(share, '%')}")
+        s = d["distance_m"]
+        lines.append(
+            f"  {'distance to surface':<22} mean {_f(s['mean'], 'm')}  median {_f(s['median'], 'm')}  max {_f(s['max'], 'm')}"
+        )
+        v = d.get("visible")
+        if v:
+            for tau, share in v["completeness"].items():
+                lines.append(
+                    f"  {'completeness@' + tau + ' m':<22} {_f(share, '%')}  "
+                    f"(of {v['samples']} visible surface samples from {v['viewpoints']} viewpoints)"
+                )
+    if metrics.get("skipped"):
+        lines.append("Skipped:")
+        lines.extend(f"  - {note}" for note in metrics["skipped"])
+    return "\n".join(lines)

@@ -1,0 +1,311 @@
+"""Occupancy maps: the in-memory grid, nav_msgs/OccupancyGrid conversion, map_server YAML + image I/O.
+
+``OccupancyMap.data`` is an int8 array of shape (height, width) laid out as nav_msgs/OccupancyGrid:
+row 0 is the lowest y, column 0 the lowest x; values -1 (unknown) or 0..100 (occupancy percent).
+World <-> cell conversions follow Nav2's costmap convention: world -> cell truncates towards the
+lower cell, cell -> world gives the cell centre. Only the origin position is used for them; the
+origin yaw is carried through (map_server YAML and messages) but, as in Nav2, ignored.
+
+map_server files (``load_map`` / ``save_map``): a YAML with image, resolution, origin, free_thresh,
+occupied_thresh, negate, mode (trinary | scale | raw). Image rows are stored top-down, so they are
+flipped on load and on save. ``save_map`` writes a binary PGM (P5) in trinary form -- free 254,
+occupied 0, unknown 205 -- with thresholds chosen so the file reloads exactly as saved (see
+``SAVE_FREE_THRESH``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navlog.errors import ConfigError, NavlogError
+from navlog.replay import messages as m
+from navlog.replay.config import load_yaml, suggest
+
+UNKNOWN = -1
+FREE = 0
+OCCUPIED = 100
+
+# Pixel values written by the trinary saver.
+PIXEL_FREE = 254
+PIXEL_OCCUPIED = 0
+PIXEL_UNKNOWN = 205
+
+# Thresholds written next to saved maps. A 205 pixel has occupancy 1 - 205/255 = 0.19608: with the
+# map_saver default free_thresh 0.25 it would reload as FREE. 0.196 keeps it unknown, while a free
+# pixel (254: occ 0.0039) stays free and an occupied one (0: occ 1.0) stays occupied.
+SAVE_FREE_THRESH = 0.196
+SAVE_OCCUPIED_THRESH = 0.65
+
+# Defaults when a map YAML omits them (map_saver's defaults).
+DEFAULT_FREE_THRESH = 0.25
+DEFAULT_OCCUPIED_THRESH = 0.65
+
+MODES = ("trinary", "scale", "raw")
+
+
+@dataclass
+class OccupancyMap:
+    """A 2-D occupancy grid in nav_msgs/OccupancyGrid layout (row 0 = lowest y)."""
+
+    data: np.ndarray  # int8, shape (height, width), -1 unknown, 0..100
+    resolution: float  # metres per cell
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)  # x, y, yaw of cell (0, 0)'s outer corner
+    frame_id: str = "map"
+
+    def __post_init__(self) -> None:
+        data = np.asarray(self.data)
+        if data.ndim != 2:
+            raise NavlogError(f"occupancy map: data must be 2-D (height, width), got shape {data.shape}")
+        if not (self.resolution > 0.0 and math.isfinite(self.resolution)):
+            raise NavlogError(f"occupancy map: resolution must be > 0, got {self.resolution}")
+        self.data = data.astype(np.int8, copy=False)
+        self.resolution = float(self.resolution)
+        self.origin = tuple(float(v) for v in self.origin)  # type: ignore[assignment]
+
+    # ------------------------------------------------------------ geometry
+
+    @property
+    def width(self) -> int:
+        return int(self.data.shape[1])
+
+    @property
+    def height(self) -> int:
+        return int(self.data.shape[0])
+
+    @property
+    def size_m(self) -> tuple[float, float]:
+        return self.width * self.resolution, self.height * self.resolution
+
+    def world_to_cell(self, x, y):
+        """(mx, my) of the cell containing world point (x, y); floor, no bounds check.
+
+        Scalars give ints, arrays give int arrays. Use ``contains`` to test the result.
+        """
+        mx = np.floor((np.asarray(x, dtype=np.float64) - self.origin[0]) / self.resolution).astype(np.int64)
+        my = np.floor((np.asarray(y, dtype=np.float64) - self.origin[1]) / self.resolution).astype(np.int64)
+        if mx.ndim == 0:
+            return int(mx), int(my)
+        return mx, my
+
+    def cell_to_world(self, mx, my):
+        """World (x, y) of the centre of cell (mx, my)."""
+        x = self.origin[0] + (np.asarray(mx, dtype=np.float64) + 0.5) * self.resolution
+        y = self.origin[1] + (np.asarray(my, dtype=np.float64) + 0.5) * self.resolution
+        if np.ndim(x) == 0:
+            return float(x), float(y)
+        return x, y
+
+    def contains(self, mx, my):
+        """True where (mx, my) is a cell of the map."""
+        mx = np.asarray(mx)
+        my = np.asarray(my)
+        inside = (mx >= 0) & (mx < self.width) & (my >= 0) & (my < self.height)
+        return bool(inside) if inside.ndim == 0 else inside
+
+    def value_at(self, x: float, y: float) -> int | None:
+        """Occupancy value at a world point, or None outside the map."""
+        mx, my = self.world_to_cell(x, y)
+        if not self.contains(mx, my):
+            return None
+        return int(self.data[my, mx])
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, OccupancyMap):
+            return NotImplemented
+        return (
+            self.data.shape == other.data.shape
+            and bool(np.array_equal(self.data, other.data))
+            and self.resolution == other.resolution
+            and self.origin == other.origin
+            and self.frame_id == other.frame_id
+        )
+
+    # ------------------------------------------------------------ messages
+
+    def to_msg(self, ns: int) -> Any:
+        """nav_msgs/OccupancyGrid stamped at ``ns`` (map_load_time too)."""
+        MapMetaData = m.msg_class("nav_msgs/msg/MapMetaData")
+        info = MapMetaData(
+            map_load_time=m.stamp(ns),
+            resolution=m.f32(self.resolution),
+            width=self.width,
+            height=self.height,
+            origin=m.pose((self.origin[0], self.origin[1], 0.0), m.quat_from_yaw(self.origin[2])),
+        )
+        return m.msg_class(m.OCCUPANCY_GRID)(
+            header=m.header(ns, self.frame_id),
+            info=info,
+            data=np.ascontiguousarray(self.data, dtype=np.int8).reshape(-1).copy(),
+        )
+
+    @classmethod
+    def from_msg(cls, msg: Any) -> OccupancyMap:
+        """An OccupancyMap from a nav_msgs/OccupancyGrid (origin yaw from its quaternion)."""
+        info = msg.info
+        width, height = int(info.width), int(info.height)
+        data = np.asarray(msg.data, dtype=np.int8)
+        if data.size != width * height:
+            raise NavlogError(
+                f"OccupancyGrid in frame '{msg.header.frame_id}': {data.size} cells but "
+                f"width x height = {width} x {height}"
+            )
+        o = info.origin
+        yaw = m.yaw_from_quat((o.orientation.x, o.orientation.y, o.orientation.z, o.orientation.w))
+        return cls(
+            data=data.reshape(height, width).copy(),
+            # the message holds float32: take the shortest decimal of that float32 (0.05, not 0.0500000007)
+            resolution=float(str(np.float32(info.resolution))),
+            origin=(float(o.position.x), float(o.position.y), yaw),
+            frame_id=str(msg.header.frame_id) or "map",
+        )
+
+
+# ---------------------------------------------------------------- map_server I/O
+
+
+def _read_image(path: Path) -> np.ndarray:
+    """Pixels as float shade in 0..1, shape (rows, cols), row 0 = top of the image."""
+    if not path.is_file():
+        raise ConfigError(f"{path}: map image not found")
+    try:
+        from PIL import Image
+
+        with Image.open(path) as img:
+            img.load()
+            if img.mode in ("I;16", "I;16B", "I;16L", "I"):
+                arr = np.asarray(img, dtype=np.float64)
+                maxval = 65535.0 if arr.max(initial=0) > 255 else 255.0
+                return arr / maxval
+            if img.mode not in ("L", "RGB"):
+                img = img.convert("RGBA" if "A" in img.mode else "RGB")
+            arr = np.asarray(img, dtype=np.float64)
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"{path}: cannot read map image: {exc}") from None
+    if arr.ndim == 3:
+        arr = arr[:, :, :3].mean(axis=2)  # shade = mean of RGB, alpha ignored
+    return arr / 255.0
+
+
+def _number(doc: dict, key: str, path: Path, default: float | None = None) -> float:
+    if key not in doc:
+        if default is None:
+            raise ConfigError(f"{path}: missing key '{key}'")
+        return default
+    value = doc[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{path}: key '{key}' must be a number, got {value!r}")
+    return float(value)
+
+
+def load_map(yaml_path: str | Path) -> OccupancyMap:
+    """Load a map_server map (YAML + image) as an OccupancyMap."""
+    path = Path(yaml_path)
+    doc = load_yaml(path)
+    if not isinstance(doc, dict):
+        raise ConfigError(f"{path}: a map YAML must be a mapping with keys image, resolution, origin")
+    known = ("image", "resolution", "origin", "free_thresh", "occupied_thresh", "negate", "mode")
+    for key in doc:
+        if key not in known:
+            raise ConfigError(f"{path}: unknown key '{key}'{suggest(str(key), known)}")
+    if "image" not in doc:
+        raise ConfigError(f"{path}: missing key 'image'")
+    if not isinstance(doc["image"], str) or not doc["image"]:
+        raise ConfigError(f"{path}: key 'image' must be a file name, got {doc['image']!r}")
+    resolution = _number(doc, "resolution", path)
+    if resolution <= 0.0:
+        raise ConfigError(f"{path}: key 'resolution' must be > 0, got {resolution}")
+    origin = doc.get("origin")
+    if origin is None:
+        raise ConfigError(f"{path}: missing key 'origin'")
+    if (
+        not isinstance(origin, list)
+        or len(origin) != 3
+        or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in origin)
+    ):
+        raise ConfigError(f"{path}: key 'origin' must be [x, y, yaw], got {origin!r}")
+    free = _number(doc, "free_thresh", path, DEFAULT_FREE_THRESH)
+    occupied = _number(doc, "occupied_thresh", path, DEFAULT_OCCUPIED_THRESH)
+    if not 0.0 <= free < occupied <= 1.0:
+        raise ConfigError(
+            f"{path}: keys 'free_thresh' ({free}) and 'occupied_thresh' ({occupied}) "
+            "must satisfy 0 <= free_thresh < occupied_thresh <= 1"
+        )
+    negate_raw = doc.get("negate", 0)
+    if negate_raw not in (0, 1, True, False):
+        raise ConfigError(f"{path}: key 'negate' must be 0 or 1, got {negate_raw!r}")
+    negate = bool(negate_raw)
+    mode = doc.get("mode", "trinary")
+    if mode not in MODES:
+        raise ConfigError(f"{path}: key 'mode' must be one of {', '.join(MODES)}{suggest(str(mode), MODES)}")
+
+    image_path = Path(doc["image"])
+    if not image_path.is_absolute():
+        image_path = path.parent / image_path
+    shade = _read_image(image_path)[::-1, :]  # image row 0 is the top (largest y)
+    occ = shade if negate else 1.0 - shade
+
+    data = np.full(shade.shape, UNKNOWN, dtype=np.int8)
+    if mode == "trinary":
+        data[occ > occupied] = OCCUPIED
+        data[occ < free] = FREE
+    elif mode == "scale":
+        data[occ > occupied] = OCCUPIED
+        data[occ < free] = FREE
+        between = (occ >= free) & (occ <= occupied)
+        data[between] = np.rint((occ[between] - free) / (occupied - free) * 100.0).astype(np.int8)
+    else:  # raw
+        raw = np.rint(shade * 255.0)
+        ok = raw <= 100
+        data[ok] = raw[ok].astype(np.int8)
+    return OccupancyMap(data=data, resolution=resolution, origin=tuple(float(v) for v in origin))
+
+
+def trinary_pixels(
+    data: np.ndarray, free_thresh: float = SAVE_FREE_THRESH, occupied_thresh: float = SAVE_OCCUPIED_THRESH
+) -> np.ndarray:
+    """map_saver's trinary pixels for occupancy values (same layout, no flip)."""
+    values = np.asarray(data, dtype=np.int16)
+    pixels = np.full(values.shape, PIXEL_UNKNOWN, dtype=np.uint8)
+    known = values >= 0
+    pixels[known & (values <= int(np.rint(free_thresh * 100)))] = PIXEL_FREE
+    pixels[known & (values >= int(np.rint(occupied_thresh * 100)))] = PIXEL_OCCUPIED
+    return pixels
+
+
+def save_map(occ_map: OccupancyMap, yaml_path: str | Path) -> tuple[Path, Path]:
+    """Write ``NAME.yaml`` + ``NAME.pgm`` (binary P5, trinary). Returns (yaml path, image path).
+
+    Cells <= 20 become free, >= 65 occupied, the rest (and -1) unknown, so a map holding only
+    -1 / 0 / 100 reloads exactly as it was.
+    """
+    path = Path(yaml_path)
+    image_path = path.with_suffix(".pgm")
+    pixels = trinary_pixels(occ_map.data)[::-1, :]  # top row of the image = largest y
+    header = f"P5\n# CREATOR: navlog {occ_map.resolution:.3f} m/pix\n{occ_map.width} {occ_map.height}\n255\n"
+    doc = (
+        f"image: {image_path.name}\n"
+        f"mode: trinary\n"
+        f"resolution: {_fmt(occ_map.resolution)}\n"
+        f"origin: [{', '.join(_fmt(v) for v in occ_map.origin)}]\n"
+        f"negate: 0\n"
+        f"occupied_thresh: {SAVE_OCCUPIED_THRESH}\n"
+        f"free_thresh: {SAVE_FREE_THRESH}\n"
+    )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        image_path.write_bytes(header.encode("ascii") + np.ascontiguousarray(pixels).tobytes())
+        path.write_text(doc)
+    except OSError as exc:
+        raise NavlogError(f"{path}: cannot write map: {exc.strerror}") from None
+    return path, image_path
+
+
+def _fmt(value: float) -> str:
+    """Shortest decimal text that reloads as the same float (YAML reads it back exactly)."""
+    text = repr(float(value))
+    return "0.0" if text == "-0.0" else text

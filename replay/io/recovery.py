@@ -1,0 +1,82 @@
+"""Salvaging a truncated MCAP file (a recorder killed with SIGKILL, a disk that filled up).
+
+Every record up to the first incomplete one is copied — schemas, channels, metadata and the messages
+of every complete chunk — into a new, properly finished MCAP file.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from mcap.records import Channel, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, Writer
+
+from navlog.errors import LogError
+from navlog.replay.io.logreader import MCAP_MAGIC
+from navlog.replay.io.logwriter import check_output
+
+
+@dataclass
+class RecoveryResult:
+    messages: int
+    first_ns: int | None
+    last_ns: int | None
+    bytes_read: int
+    bytes_total: int
+    complete: bool  # the input was not truncated after all
+
+    @property
+    def seconds(self) -> float:
+        return 0.0 if self.first_ns is None else (self.last_ns - self.first_ns) / 1e9
+
+
+def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) -> RecoveryResult:
+    src, dst = Path(broken), Path(out)
+    if not src.is_file():
+        raise LogError(f"{src}: no such file")
+    check_output(dst, force)
+    total = src.stat().st_size
+    with open(src, "rb") as f:
+        if f.read(8) != MCAP_MAGIC:
+            raise LogError(f"{src}: not an MCAP file (bad magic bytes)")
+    tmp = dst.with_name(dst.name + ".part")
+    n, first, last, ok = 0, None, None, True
+    with open(src, "rb") as f, open(tmp, "wb") as o:
+        w = Writer(o, compression=CompressionType.ZSTD)
+        w.start(profile="ros2", library="navlog recover")
+        schema_ids: dict[int, int] = {}
+        channel_ids: dict[int, int] = {}
+        try:
+            for rec in StreamReader(f).records:
+                if isinstance(rec, Schema):
+                    schema_ids[rec.id] = w.register_schema(rec.name, rec.encoding, rec.data)
+                elif isinstance(rec, Channel):
+                    channel_ids[rec.id] = w.register_channel(
+                        rec.topic, rec.message_encoding, schema_ids.get(rec.schema_id, 0), dict(rec.metadata)
+                    )
+                elif isinstance(rec, Message):
+                    if rec.channel_id not in channel_ids:
+                        continue
+                    w.add_message(
+                        channel_ids[rec.channel_id],
+                        log_time=rec.log_time,
+                        data=rec.data,
+                        publish_time=rec.publish_time,
+                        sequence=rec.sequence,
+                    )
+                    n += 1
+                    first = rec.log_time if first is None else min(first, rec.log_time)
+                    last = rec.log_time if last is None else max(last, rec.log_time)
+                elif isinstance(rec, Metadata):
+                    w.add_metadata(rec.name, dict(rec.metadata))
+        except Exception:
+            ok = False
+        read = f.tell()
+        w.finish()
+        o.flush()
+        os.fsync(o.fileno())
+    os.replace(tmp, dst)
+    return RecoveryResult(n, first, last, min(read, total), total, ok)

@@ -1,0 +1,239 @@
+"""A log-odds occupancy grid updated from 2D laser scans (the slam_toolbox role, for known poses).
+
+Per scan, each cell is updated at most once: cells crossed by a beam become more likely free, the
+cell holding a beam's end point more likely occupied (occupied wins within one scan). Beams with no
+return (``inf``) or beyond ``range_max`` clear up to ``range_max`` without marking; ``-inf`` (too
+close) marks nothing; NaN is skipped and counted. The grid grows as the robot explores, in whole
+blocks, so results do not depend on where the log starts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from navlog.replay.io.map_server import OccupancyMap
+
+
+def logit(p: float) -> float:
+    return math.log(p / (1.0 - p))
+
+
+@dataclass(frozen=True)
+class OccupancyParams:
+    resolution: float = 0.05
+    hit_probability: float = 0.7  # per observation of an end point
+    miss_probability: float = 0.4  # per beam crossing a cell
+    clamp: tuple[float, float] = (0.12, 0.97)  # probability limits of a cell
+    occupied_threshold: float = 0.65  # map_server's occupied_thresh
+    free_threshold: float = 0.196  # map_server's free_thresh
+    max_range: float = 0.0  # use only this much of each beam (0: the scan's range_max)
+    grow_block: float = 5.0  # the grid grows in blocks of this many metres
+
+    def __post_init__(self) -> None:
+        if self.resolution <= 0:
+            raise ValueError("resolution must be positive")
+        if not (0.5 < self.hit_probability < 1.0 and 0.0 < self.miss_probability < 0.5):
+            raise ValueError("hit_probability must be in (0.5, 1) and miss_probability in (0, 0.5)")
+        if not (0.0 < self.free_threshold < self.occupied_threshold < 1.0):
+            raise ValueError("need 0 < free_threshold < occupied_threshold < 1")
+
+
+@dataclass
+class ScanStats:
+    scans: int = 0
+    beams: int = 0
+    hits: int = 0
+    no_return: int = 0  # inf or beyond range_max: cleared to range_max
+    too_close: int = 0  # -inf or below range_min
+    nan: int = 0
+
+
+class OccupancyGrid2D:
+    """The log-odds grid. Cell (ix, iy) covers [origin + i*res, origin + (i+1)*res)."""
+
+    def __init__(self, params: OccupancyParams) -> None:
+        self.p = params
+        self.res = params.resolution
+        self.l_hit = logit(params.hit_probability)
+        self.l_miss = logit(params.miss_probability)
+        self.l_min, self.l_max = logit(params.clamp[0]), logit(params.clamp[1])
+        self.origin = np.zeros(2)  # world position of cell (0, 0)'s corner
+        self.logodds = np.zeros((0, 0), dtype=np.float32)  # (ny, nx)
+        self.seen = np.zeros((0, 0), dtype=bool)
+        self.stats = ScanStats()
+        self._buffers: dict[str, np.ndarray] = {}  # work arrays of insert_scan, reused between scans
+
+    # ------------------------------------------------------------ growth
+    def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
+        block = self.p.grow_block
+        lo = np.floor(np.array([xmin, ymin]) / block) * block
+        hi = (np.floor(np.array([xmax, ymax]) / block) + 1) * block  # strictly beyond the max, never empty
+        if self.logodds.size == 0:
+            self.origin = lo
+            nx, ny = (np.round((hi - lo) / self.res)).astype(int)
+            self.logodds = np.zeros((ny, nx), dtype=np.float32)
+            self.seen = np.zeros((ny, nx), dtype=bool)
+            return
+        ny, nx = self.logodds.shape
+        cur_hi = self.origin + np.array([nx, ny]) * self.res
+        new_lo = np.minimum(self.origin, lo)
+        new_hi = np.maximum(cur_hi, hi)
+        if np.all(new_lo == self.origin) and np.all(new_hi == cur_hi):
+            return
+        off = np.round((self.origin - new_lo) / self.res).astype(int)
+        nnx, nny = np.round((new_hi - new_lo) / self.res).astype(int)
+        lg = np.zeros((nny, nnx), dtype=np.float32)
+        sn = np.zeros((nny, nnx), dtype=bool)
+        lg[off[1] : off[1] + ny, off[0] : off[0] + nx] = self.logodds
+        sn[off[1] : off[1] + ny, off[0] : off[0] + nx] = self.seen
+        self.origin, self.logodds, self.seen = new_lo, lg, sn
+
+    # ------------------------------------------------------------ update
+    def insert_scan(
+        self,
+        sensor_pose: np.ndarray,
+        angles: np.ndarray,
+        ranges: np.ndarray,
+        range_min: float,
+        range_max: float,
+    ) -> None:
+        """Fuse one scan taken at ``sensor_pose`` (4x4 in the map frame); beams lie in the sensor's xy plane."""
+        r = np.asarray(ranges, dtype=np.float64)
+        a = np.asarray(angles, dtype=np.float64)
+        st = self.stats
+        st.scans += 1
+        st.beams += len(r)
+        nan = np.isnan(r)
+        st.nan += int(nan.sum())
+        rmax = min(range_max, self.p.max_range) if self.p.max_range > 0 else range_max
+        close = ~nan & (r < range_min)
+        far = ~nan & ~close & (r > rmax)  # includes +inf
+        hit = ~nan & ~close & ~far
+        st.too_close += int(close.sum())
+        st.no_return += int(far.sum())
+        st.hits += int(hit.sum())
+        use = hit | far
+        if not use.any():
+            return
+        length = np.where(hit, r, rmax)[use]
+        a = a[use]
+        ishit = hit[use]
+        rot, pos = sensor_pose[:3, :3], sensor_pose[:3, 3]
+        dirs = np.stack([np.cos(a), np.sin(a), np.zeros_like(a)], axis=1) @ rot.T
+        d2 = dirs[:, :2]
+        norm = np.linalg.norm(d2, axis=1)
+        d2 = d2 / np.where(norm > 0, norm, 1.0)[:, None]
+        length = length * norm  # projected onto the map plane
+        ends = pos[:2] + d2 * length[:, None]
+        self._ensure(
+            min(pos[0], ends[:, 0].min()),
+            min(pos[1], ends[:, 1].min()),
+            max(pos[0], ends[:, 0].max()),
+            max(pos[1], ends[:, 1].max()),
+        )
+        ny, nx = self.logodds.shape
+        ncell = ny * nx
+        # free space: sample every half cell along each beam, stopping short of the end cell. The
+        # (beams x samples) arrays live in reused work buffers: allocating them afresh for every
+        # scan costs more (page faults) than the arithmetic.
+        step = self.res * 0.5
+        t = np.arange(int(np.ceil(length.max() / step)) + 1, dtype=np.float32) * np.float32(step / self.res)
+        last = ((length - step) / self.res).astype(np.float32)  # a beam's samples end at this t
+        d2c = d2.astype(np.float32)
+        g0 = ((pos[:2] - self.origin) / self.res).astype(np.float32)
+        shape = (len(length), len(t))
+        x = self._work("x", np.float32, shape)
+        gx = self._work("gx", np.intp, shape)
+        cell = self._work("cell", np.intp, shape)
+        past = self._work("past", bool, shape)
+        np.multiply(d2c[:, 0:1], t[None, :], out=x)
+        np.add(g0[0], x, out=x)
+        np.copyto(gx, x, casting="unsafe")  # non-negative inside the beam: truncation = floor
+        np.multiply(d2c[:, 1:2], t[None, :], out=x)
+        np.add(g0[1], x, out=x)
+        np.copyto(cell, x, casting="unsafe")
+        np.multiply(cell, nx, out=cell)
+        np.add(cell, gx, out=cell)
+        np.greater(t[None, :], last[:, None], out=past)
+        past[:, 0] = False  # the sensor's own cell is always crossed
+        np.copyto(cell, ncell, where=past)  # samples past a beam's free part go to a spare cell
+        end_cells = self._cells(ends[ishit], nx)
+        mask = self._work("mask", np.int8, (ncell + 1,))
+        mask.fill(0)
+        mask[cell.reshape(-1)] = 1
+        # a beam's own end cell is not cleared by it (nor by grazing neighbours in this scan)
+        mask[end_cells] = 2
+        mask = mask[:ncell]
+        flat = self.logodds.reshape(-1)
+        seen = self.seen.reshape(-1)
+        f = np.flatnonzero(mask == 1)
+        o = np.flatnonzero(mask == 2)
+        flat[f] = np.maximum(flat[f] + self.l_miss, self.l_min)
+        flat[o] = np.minimum(flat[o] + self.l_hit, self.l_max)
+        seen[f] = True
+        seen[o] = True
+
+    def _work(self, name: str, dtype, shape: tuple[int, ...]) -> np.ndarray:
+        """A reusable work array of ``shape`` (contents undefined), grown when a scan needs more."""
+        n = int(np.prod(shape))
+        buf = self._buffers.get(name)
+        if buf is None or buf.size < n:
+            buf = np.empty(max(n, 0 if buf is None else buf.size + buf.size // 4), dtype=dtype)
+            self._buffers[name] = buf
+        return buf[:n].reshape(shape)
+
+    def _cells(self, xy: np.ndarray, nx: int) -> np.ndarray:
+        ij = np.floor((xy - self.origin) / self.res).astype(np.int64)
+        return ij[:, 1] * nx + ij[:, 0]
+
+    # ------------------------------------------------------------ output
+    def to_map(self, frame_id: str = "map") -> OccupancyMap:
+        """Trinary grid: 100 occupied, 0 free, -1 unknown (never seen or undecided)."""
+        data = np.full(self.logodds.shape, -1, dtype=np.int8)
+        data[self.seen & (self.logodds > logit(self.p.occupied_threshold))] = 100
+        data[self.seen & (self.logodds < logit(self.p.free_threshold))] = 0
+        return OccupancyMap(
+            data=data,
+            resolution=self.res,
+            origin=(float(self.origin[0]), float(self.origin[1]), 0.0),
+            frame_id=frame_id,
+        )
+
+
+def project_points(
+    points: np.ndarray,
+    z_min: float,
+    z_max: float,
+    resolution: float = 0.05,
+    min_points: int = 1,
+    floor_below: float | None = None,
+) -> OccupancyMap:
+    """A 3D point map projected to a 2D grid between two heights (as users hand FAST-LIO maps to Nav2).
+
+    Cells with at least ``min_points`` points in [z_min, z_max] are occupied (100). Cells with points
+    below ``z_min`` only (the floor seen there) are free (0) — or every non-occupied cell inside the
+    cloud's extent when ``floor_below`` is None; cells with no points are unknown (-1).
+    """
+    p = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    p = p[np.isfinite(p).all(axis=1)]
+    if len(p) == 0:
+        raise ValueError("the point cloud is empty")
+    if z_min > z_max:
+        raise ValueError(f"z_min ({z_min}) must not exceed z_max ({z_max})")
+    lo = np.floor(p[:, :2].min(axis=0) / resolution) * resolution - resolution
+    ij = np.floor((p[:, :2] - lo) / resolution).astype(np.int64)
+    nx, ny = ij.max(axis=0) + 2
+    band = (p[:, 2] >= z_min) & (p[:, 2] <= z_max)
+    counts = np.zeros((ny, nx), dtype=np.int64)
+    np.add.at(counts, (ij[band, 1], ij[band, 0]), 1)
+    data = np.full((ny, nx), -1, dtype=np.int8)
+    if floor_below is None:
+        data[:] = 0
+    else:
+        below = p[:, 2] < floor_below
+        data[ij[below, 1], ij[below, 0]] = 0
+    data[counts >= max(1, min_points)] = 100
+    return OccupancyMap(data=data, resolution=resolution, origin=(float(lo[0]), float(lo[1]), 0.0))

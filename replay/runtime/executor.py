@@ -1,0 +1,219 @@
+"""The executor: one deterministic order of messages and timers, the same live and in replay.
+
+Nodes subscribe to topics, publish messages and own timers on sim time (integer nanoseconds).
+Every delivery and every timer firing is an event with the key (time, rank, sequence):
+
+- time: the message's log time (its publish time on the sim clock) or the timer's due time;
+- rank: the rank of what produced it: sources (a log reader, the simulator) have rank 0, other
+  nodes rank 1, 2, ... in the order they were added;
+- sequence: a counter that grows with every event, so ties keep the order of publication.
+
+A node publishes at the current time only, so outputs never overtake inputs. Replaying a log
+through the same nodes delivers their inputs in the same order as the live run did, which is why
+their outputs come out bit for bit the same.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from navlog.errors import NavlogError
+
+Callback = Callable[[Any, int], None]  # (message, time_ns)
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """A message in flight: topic, type name, time (ns) and the message (or its raw CDR bytes)."""
+
+    topic: str
+    typename: str
+    time_ns: int
+    msg: Any
+
+
+class Sink(Protocol):
+    """Something that sees every published message (the MCAP recorder is one)."""
+
+    def write(self, env: Envelope) -> None: ...
+
+
+class Node:
+    """Base class of everything that runs on the executor: subclass and override ``setup``."""
+
+    name = "node"
+
+    def __init__(self) -> None:
+        self._executor: Executor | None = None
+        self.rank = 0
+
+    # -- called by the executor
+    def attach(self, executor: Executor, rank: int) -> None:
+        self._executor = executor
+        self.rank = rank
+        self.setup()
+
+    def setup(self) -> None:
+        """Declare subscriptions, publishers and timers here."""
+
+    def finish(self) -> None:
+        """Called once after the last event: flush state, publish final outputs."""
+
+    # -- used by node code
+    @property
+    def executor(self) -> Executor:
+        if self._executor is None:
+            raise RuntimeError(f"node {self.name} is not attached to an executor")
+        return self._executor
+
+    def now(self) -> int:
+        return self.executor.now
+
+    def subscribe(self, topic: str, callback: Callback) -> None:
+        self.executor.subscribe(topic, callback)
+
+    def publish(self, topic: str, typename: str, msg: Any) -> None:
+        self.executor.publish(Envelope(topic, typename, self.executor.now, msg), self.rank)
+
+    def create_timer(self, period_ns: int, callback: Callable[[int], None], start_ns: int | None = None) -> None:
+        self.executor.add_timer(period_ns, callback, self.rank, start_ns)
+
+
+@dataclass
+class _Timer:
+    period_ns: int
+    callback: Callable[[int], None]
+    rank: int
+
+
+@dataclass
+class Stats:
+    """What the executor did: messages delivered per topic, timer firings, skipped items."""
+
+    delivered: dict[str, int] = field(default_factory=dict)
+    published: dict[str, int] = field(default_factory=dict)
+    timer_fires: int = 0
+    out_of_order: int = 0  # source messages older than the current time, delivered at it
+
+
+class Executor:
+    """Runs nodes over sources in the (time, rank, sequence) order; see the module docstring."""
+
+    def __init__(self, start_ns: int = 0) -> None:
+        """``start_ns``: the time before the first event (a replay starts at the log's first message),
+        where timers created without a start time begin."""
+        self.now = int(start_ns)
+        self._seq = 0
+        self._queue: list[tuple[int, int, int, str, Any]] = []
+        self._subs: dict[str, list[Callback]] = {}
+        self._timers: list[_Timer] = []
+        self._nodes: list[Node] = []
+        self._sinks: list[Sink] = []
+        self._sources: list[Iterator[Envelope]] = []
+        self.stats = Stats()
+        self._stopped = False
+        self._pending_sources = 0  # source events in the queue (at most one per source)
+
+    # ------------------------------------------------------------ wiring
+    def add_node(self, node: Node, *, source: bool = False) -> Node:
+        """Attach a node; a source node (a simulator) publishes at rank 0, others after it."""
+        rank = 0 if source else len([n for n in self._nodes if n.rank > 0]) + 1
+        self._nodes.append(node)
+        node.attach(self, rank)
+        return node
+
+    def add_source(self, messages: Iterable[Envelope]) -> None:
+        """A stream of recorded messages (log time order), published at rank 0 as it is consumed."""
+        it = iter(messages)
+        self._sources.append(it)
+        self._pull(len(self._sources) - 1)
+
+    def add_sink(self, sink: Sink) -> None:
+        self._sinks.append(sink)
+
+    def subscribe(self, topic: str, callback: Callback) -> None:
+        self._subs.setdefault(topic, []).append(callback)
+
+    def add_timer(self, period_ns: int, callback: Callable[[int], None], rank: int, start_ns: int | None) -> None:
+        if period_ns <= 0:
+            raise NavlogError(f"timer period must be positive, got {period_ns} ns")
+        idx = len(self._timers)
+        self._timers.append(_Timer(int(period_ns), callback, rank))
+        first = self.now if start_ns is None else int(start_ns)
+        self._push(first, rank, "timer", idx)
+
+    # ------------------------------------------------------------ events
+    def _push(self, t: int, rank: int, kind: str, payload: Any) -> None:
+        self._seq += 1
+        heapq.heappush(self._queue, (t, rank, self._seq, kind, payload))
+
+    def _pull(self, index: int) -> None:
+        env = next(self._sources[index], None)
+        if env is not None:
+            self._pending_sources += 1
+            if env.time_ns < self.now:
+                self.stats.out_of_order += 1
+            self._push(max(env.time_ns, self.now), 0, "source", (index, env))
+
+    def publish(self, env: Envelope, rank: int) -> None:
+        self.stats.published[env.topic] = self.stats.published.get(env.topic, 0) + 1
+        self._push(env.time_ns, rank, "msg", env)
+
+    def _deliver(self, env: Envelope) -> None:
+        for sink in self._sinks:
+            sink.write(env)
+        callbacks = self._subs.get(env.topic)
+        if callbacks:
+            self.stats.delivered[env.topic] = self.stats.delivered.get(env.topic, 0) + 1
+            for cb in callbacks:
+                cb(env.msg, env.time_ns)
+
+    @property
+    def sources_pending(self) -> bool:
+        """True while a source still has a message waiting to be delivered."""
+        return self._pending_sources > 0
+
+    def stop(self) -> None:
+        """Ask the run loop to end after the current event (Ctrl-C handling uses this)."""
+        self._stopped = True
+
+    def run(self, until_ns: int | None = None, on_step: Callable[[int], None] | None = None) -> None:
+        """Process events in order until ``until_ns`` (inclusive) or until the sources run dry.
+
+        With sources, timers alone do not keep the run going: it ends with the last recorded message.
+        """
+        while self._queue and not self._stopped:
+            t, rank, _seq, kind, payload = self._queue[0]
+            if until_ns is not None and t > until_ns:
+                break
+            if self._sources and kind == "timer" and self._pending_sources == 0 and t > self.now:
+                break  # the recording is over: timers at its last instant still fire, later ones do not
+            heapq.heappop(self._queue)
+            self.now = t
+            if kind == "msg":
+                self._deliver(payload)
+            elif kind == "source":
+                index, env = payload
+                self._pending_sources -= 1
+                self._deliver(env)
+                self._pull(index)
+            else:
+                timer = self._timers[payload]
+                self.stats.timer_fires += 1
+                self._push(t + timer.period_ns, timer.rank, "timer", payload)
+                timer.callback(t)
+            if on_step is not None:
+                on_step(t)
+        # deliver what is still in flight at the last time processed
+        while self._queue and self._queue[0][3] == "msg" and self._queue[0][0] <= self.now:
+            self._deliver(heapq.heappop(self._queue)[4])
+
+    def finish(self) -> None:
+        """Let every node flush its final outputs, and deliver them."""
+        for node in self._nodes:
+            node.finish()
+        while self._queue and self._queue[0][3] == "msg":
+            self._deliver(heapq.heappop(self._queue)[4])

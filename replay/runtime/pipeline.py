@@ -1,0 +1,31 @@
+"""What a replay pipeline is: nodes, the topics they need, the topics they produce, the files they write.
+
+A pipeline module in ``replay/pipelines/<name>.py`` defines a ``Params`` dataclass (its YAML in
+``config/pipelines/<name>.yaml``) and ``build(params, log_topics) -> Pipeline``. The replay runner
+(``replay.runner``) opens the log, checks ``inputs``, streams exactly those topics through the
+executor into ``nodes``, records ``outputs`` to ``OUT/replay.mcap``, then calls ``write_artifacts``
+and writes a manifest with every hash and count.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from navlog.replay.runtime.executor import Node
+
+
+@dataclass
+class Pipeline:
+    name: str
+    nodes: list[Node]
+    inputs: list[str]  # topics that must be in the log
+    optional_inputs: list[str] = field(default_factory=list)  # read when present
+    outputs: list[str] = field(default_factory=list)  # topics recorded into replay.mcap
+    # called after the run with the output folder; returns {artifact name: path written}
+    write_artifacts: Callable[[Path], dict[str, Path]] = lambda out: {}
+    # counts of skipped or invalid inputs, by reason, filled in by the nodes
+    skipped: Callable[[], dict[str, int]] = dict
+    # facts the pipeline decided from the log (e.g. the pose source it chose), for the manifest
+    info: dict[str, str] = field(default_factory=dict)

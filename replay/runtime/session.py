@@ -1,0 +1,234 @@
+"""Replaying a log through a pipeline: the one function behind ``navlog replay``.
+
+The log is streamed (only the topics the pipeline reads) through the executor into the pipeline's
+nodes; their outputs go to ``OUT/replay.mcap``; then the pipeline writes its files and a manifest
+records the input hashes, every parameter, the output hashes and every skipped input with its
+reason. Everything is written into a temporary folder first and moved into place at the end, so
+a failed replay leaves nothing half-written.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import json
+import logging
+import pkgutil
+import shutil
+import time
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import navlog.replay.pipelines
+from navlog.errors import ConfigError, NavlogError
+from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
+from navlog.replay.io.logreader import LogReader, open_log
+from navlog.replay.io.logwriter import McapLogWriter
+from navlog.replay.runtime.executor import Envelope, Executor
+from navlog.replay.runtime.progress import Progress
+from navlog.version import __version__
+
+logger = logging.getLogger("navlog")
+
+
+def pipeline_names() -> list[str]:
+    return sorted(m.name for m in pkgutil.iter_modules(navlog.replay.pipelines.__path__))
+
+
+def load_pipeline_module(name: str):
+    names = pipeline_names()
+    if name not in names:
+        raise ConfigError(f"unknown pipeline '{name}'{suggest(name, names)}; known: {', '.join(names)}")
+    return importlib.import_module(f"navlog.replay.pipelines.{name}")
+
+
+def pipeline_params(name: str, params_file: Path | None = None, overrides: Sequence[str] = ()) -> Any:
+    """The pipeline's parameters: its YAML (config/pipelines/NAME.yaml or ``params_file``) plus overrides.
+
+    A pipeline that takes a foreign parameter file (the planner takes a Nav2 ``nav2_params.yaml``)
+    names the key that holds its path in ``PARAMS_FILE_KEY``; ``params_file`` then fills that key and
+    the pipeline's own YAML still supplies the rest.
+    """
+    module = load_pipeline_module(name)
+    key = getattr(module, "PARAMS_FILE_KEY", None)
+    if params_file is not None and key:
+        overrides = [f"{key}={Path(params_file).resolve()}", *overrides]
+        params_file = None
+    path = Path(params_file) if params_file is not None else find_config("pipelines", name)
+    if path is not None:
+        return load_config(module.Params, path, overrides)
+    return from_mapping(module.Params, apply_overrides({}, overrides))
+
+
+def parse_remaps(items: Sequence[str]) -> dict[str, str]:
+    """``PIPELINE_TOPIC=LOG_TOPIC`` pairs: read LOG_TOPIC where the pipeline expects PIPELINE_TOPIC."""
+    out = {}
+    for item in items:
+        if "=" not in item:
+            raise ConfigError(f"--remap '{item}': expected PIPELINE_TOPIC=LOG_TOPIC, e.g. /scan=/stable_scan")
+        a, b = item.split("=", 1)
+        out[a.strip()] = b.strip()
+    return out
+
+
+def sha256_file(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _input_files(path: Path) -> list[Path]:
+    return sorted(p for p in path.iterdir() if p.is_file()) if path.is_dir() else [path]
+
+
+class _OutputSink:
+    """Writes the pipeline's output topics (only) to the replay log."""
+
+    def __init__(self, writer: McapLogWriter, topics: set[str]) -> None:
+        self.writer, self.topics = writer, topics
+
+    def write(self, env: Envelope) -> None:
+        if env.topic in self.topics:
+            self.writer.write(env)
+
+
+@dataclass
+class ReplayResult:
+    out_dir: Path
+    manifest: dict
+    wall_s: float
+
+    @property
+    def log_s(self) -> float:
+        log = self.manifest["log"]
+        return (log["end_ns"] - log["start_ns"]) / 1e9
+
+
+def run_replay(
+    log: Path | str,
+    pipeline: str,
+    out_dir: Path | str,
+    *,
+    params: Any = None,
+    overrides: Sequence[str] = (),
+    remap: dict[str, str] | None = None,
+    recover: bool = False,
+    force: bool = False,
+    progress: bool = True,
+) -> ReplayResult:
+    log, out_dir = Path(log), Path(out_dir)
+    module = load_pipeline_module(pipeline)
+    if params is None:
+        params = pipeline_params(pipeline, overrides=overrides)
+    remap = dict(remap or {})
+    if out_dir.exists() and any(out_dir.iterdir()) and not force:
+        raise NavlogError(f"{out_dir}: output folder exists and is not empty; choose another or pass --force")
+    with open_log(log, recover=recover) as reader:
+        to_log = dict(remap)  # pipeline topic -> log topic, for remapped topics only
+        log_to = {v: k for k, v in remap.items()}
+        logical_topics = {log_to.get(t, t) for t in reader.topics}
+        pipe = module.build(params, logical_topics)
+        missing = [t for t in pipe.inputs if to_log.get(t, t) not in reader.topics]
+        if missing:
+            have = ", ".join(f"{t.name} ({t.typename})" for t in sorted(reader.topics.values(), key=lambda t: t.name))
+            raise NavlogError(
+                f"{log}: pipeline '{pipeline}' needs {', '.join(pipe.inputs)}; missing {', '.join(missing)}. "
+                f"The log has: {have}. Map a topic with --remap PIPELINE_TOPIC=LOG_TOPIC "
+                f"(e.g. --remap {missing[0]}=/other_topic), or change the pipeline parameters with --set."
+            )
+        wanted = [to_log.get(t, t) for t in pipe.inputs + pipe.optional_inputs if to_log.get(t, t) in reader.topics]
+        if reader.unknown_types:
+            logger.warning(
+                "%s: skipping topics of types without a definition: %s",
+                reader.path,
+                ", ".join(f"{t} ({ty})" for t, ty in sorted(reader.unknown_types.items())),
+            )
+        tmp = out_dir.parent / f".{out_dir.name}.partial"
+        shutil.rmtree(tmp, ignore_errors=True)
+        tmp.mkdir(parents=True)
+        try:
+            result = _run(reader, pipe, wanted, log_to, tmp, progress)
+            manifest = _manifest(log, reader, pipeline, params, pipe, result, tmp, remap)
+            (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
+    if out_dir.exists():
+        shutil.rmtree(out_dir)
+    tmp.rename(out_dir)
+    return ReplayResult(out_dir, manifest, result["wall_s"])
+
+
+def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp: Path, progress: bool) -> dict:
+    ex = Executor(start_ns=reader.start_ns)
+
+    last_stamp: dict[str, int] = {}
+    backwards: dict[str, int] = {}
+
+    def stream() -> Iterator[Envelope]:
+        for env in reader.messages(wanted):
+            topic = log_to.get(env.topic, env.topic)
+            header = getattr(env.msg, "header", None)
+            if header is not None:
+                stamp = header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
+                if stamp < last_stamp.get(topic, stamp):
+                    backwards[topic] = backwards.get(topic, 0) + 1
+                last_stamp[topic] = max(stamp, last_stamp.get(topic, stamp))
+            yield env if topic == env.topic else Envelope(topic, env.typename, env.time_ns, env.msg)
+
+    ex.add_source(stream())
+    for node in pipe.nodes:
+        ex.add_node(node)
+    bar = Progress(reader.duration_ns / 1e9, f"replay {pipe.name}", "log s", enabled=progress)
+    start = time.perf_counter()
+    t0 = reader.start_ns
+    with McapLogWriter(
+        tmp / "replay.mcap", metadata={"navlog": {"navlog_version": __version__, "pipeline": pipe.name}}
+    ) as writer:
+        ex.add_sink(_OutputSink(writer, set(pipe.outputs)))
+        chunk = 1_000_000_000
+        t = t0
+        while True:
+            t += chunk
+            ex.run(until_ns=t)
+            bar.update((ex.now - t0) / 1e9)
+            if not ex.sources_pending:
+                break
+        ex.finish()
+    bar.close()
+    artifacts = pipe.write_artifacts(tmp)
+    return {"wall_s": time.perf_counter() - start, "stats": ex.stats, "artifacts": artifacts, "backwards": backwards}
+
+
+def _manifest(log: Path, reader: LogReader, name: str, params: Any, pipe, result: dict, tmp: Path, remap: dict) -> dict:
+    stats = result["stats"]
+    files = {"replay_mcap": tmp / "replay.mcap", **result["artifacts"]}
+    skipped = {f"log: {k}": v for k, v in sorted(reader.report.skipped.items())}
+    skipped.update({k: v for k, v in sorted(pipe.skipped().items())})
+    if stats.out_of_order:
+        skipped["log: messages with out-of-order timestamps (delivered in arrival order)"] = stats.out_of_order
+    for topic, n in sorted(result["backwards"].items()):
+        skipped[f"log: {topic} header stamps going backwards (replayed in log order)"] = n
+    return {
+        "navlog_version": __version__,
+        "pipeline": name,
+        "parameters": to_mapping(params),
+        "pipeline_info": dict(sorted(pipe.info.items())),
+        "remap": dict(sorted(remap.items())),
+        "inputs": [{"file": p.name, "bytes": p.stat().st_size, "sha256": sha256_file(p)} for p in _input_files(log)],
+        "log": {
+            "start_ns": reader.start_ns,
+            "end_ns": reader.end_ns,
+            "topics_read": sorted({e for e in pipe.inputs + pipe.optional_inputs}),
+            "messages_read": reader.report.read,
+            "truncated": reader.report.truncated,
+            "unknown_types": dict(sorted(reader.unknown_types.items())),
+        },
+        "outputs": {k: {"file": p.name, "sha256": sha256_file(p)} for k, p in sorted(files.items())},
+        "published": dict(sorted((t, n) for t, n in stats.published.items())),
+        "skipped": skipped,
+    }

@@ -1,0 +1,190 @@
+"""A TF buffer: static and dynamic transforms, lookups with interpolation in time.
+
+Frames form a tree; ``lookup(target, source, t_ns)`` returns the 4x4 matrix that maps points in
+``source`` into ``target`` at time ``t_ns``, interpolating each dynamic edge between its two
+nearest samples (linear translation, slerp rotation). A time outside an edge's buffered range
+raises ``TransformError`` (no extrapolation), which callers count as a skipped message.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from navlog.errors import NavlogError
+from navlog.replay import messages
+
+
+def _slerp(q0: np.ndarray, q1: np.ndarray, a: float) -> np.ndarray:
+    """Spherical interpolation of unit quaternions (x, y, z, w), the shorter way round."""
+    dot = float(q0 @ q1)
+    if dot < 0.0:
+        q1, dot = -q1, -dot
+    if dot > 0.9995:  # nearly equal: linear interpolation is exact to rounding
+        q = q0 + a * (q1 - q0)
+        return q / math.sqrt(float(q @ q))
+    theta = math.acos(dot)
+    s = math.sin(theta)
+    return (math.sin((1.0 - a) * theta) / s) * q0 + (math.sin(a * theta) / s) * q1
+
+
+def _quat_matrix(q: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a unit quaternion (x, y, z, w)."""
+    x, y, z, w = (float(v) for v in q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _matrix(xyz: np.ndarray, q: np.ndarray) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, :3] = _quat_matrix(q)
+    m[:3, 3] = xyz
+    return m
+
+
+class TransformError(NavlogError):
+    """No transform between two frames at the asked time."""
+
+
+@dataclass
+class _Edge:
+    parent: str
+    static: bool
+    times: list[int] = field(default_factory=list)
+    trans: list[np.ndarray] = field(default_factory=list)
+    quats: list[np.ndarray] = field(default_factory=list)
+
+
+class TFBuffer:
+    def __init__(self, cache_ns: int = 10_000_000_000, frame_prefix: str = "") -> None:
+        self.cache_ns = cache_ns
+        self.frame_prefix = frame_prefix
+        self._edges: dict[str, _Edge] = {}  # keyed by child frame
+
+    def _name(self, frame: str) -> str:
+        f = frame.lstrip("/")
+        if self.frame_prefix and f.startswith(self.frame_prefix):
+            f = f[len(self.frame_prefix) :]
+        return f
+
+    def add_message(self, msg: Any, static: bool = False) -> None:
+        """Add every transform of a tf2_msgs/TFMessage."""
+        for ts in msg.transforms:
+            tr, rot = ts.transform.translation, ts.transform.rotation
+            self.add(
+                self._name(ts.header.frame_id),
+                self._name(ts.child_frame_id),
+                messages.to_ns(ts.header.stamp),
+                (tr.x, tr.y, tr.z),
+                (rot.x, rot.y, rot.z, rot.w),
+                static,
+            )
+
+    def add(self, parent: str, child: str, t_ns: int, xyz, q_xyzw, static: bool = False) -> None:
+        edge = self._edges.get(child)
+        if edge is None or edge.parent != parent or edge.static != static:
+            edge = _Edge(parent, static)
+            self._edges[child] = edge
+        x, y, z, w = (float(v) for v in q_xyzw)
+        n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
+        q = np.array((x / n, y / n, z / n, w / n))
+        if static:
+            edge.times, edge.trans, edge.quats = [0], [np.asarray(xyz, float)], [q]
+            return
+        i = bisect.bisect_right(edge.times, t_ns)
+        if i > 0 and edge.times[i - 1] == t_ns:
+            edge.trans[i - 1], edge.quats[i - 1] = np.asarray(xyz, float), q
+            return
+        edge.times.insert(i, t_ns)
+        edge.trans.insert(i, np.asarray(xyz, float))
+        edge.quats.insert(i, q)
+        cutoff = edge.times[-1] - self.cache_ns
+        drop = bisect.bisect_left(edge.times, cutoff)
+        if drop > 1:
+            del edge.times[: drop - 1], edge.trans[: drop - 1], edge.quats[: drop - 1]
+
+    def name(self, frame: str) -> str:
+        """A frame's name as the buffer stores it (leading slash and prefix removed)."""
+        return self._name(frame)
+
+    def static_between(self, frame: str, ancestor: str) -> bool:
+        """True if every edge from ``frame`` up to ``ancestor`` (or the root) is static."""
+        f = self._name(frame)
+        while f in self._edges and f != ancestor:
+            if not self._edges[f].static:
+                return False
+            f = self._edges[f].parent
+        return True
+
+    def time_range(self, child: str) -> tuple[int, int] | None:
+        """First and last stamp buffered for the edge into ``child`` (None when there is none)."""
+        e = self._edges.get(self._name(child))
+        return (e.times[0], e.times[-1]) if e is not None and e.times else None
+
+    def frames(self) -> list[str]:
+        out = set(self._edges)
+        out.update(e.parent for e in self._edges.values())
+        return sorted(out)
+
+    def _edge_matrix(self, child: str, t_ns: int | None) -> np.ndarray:
+        e = self._edges[child]
+        if e.static or t_ns is None:
+            return _matrix(e.trans[-1], e.quats[-1])
+        times = e.times
+        if t_ns < times[0] or t_ns > times[-1]:
+            raise TransformError(
+                f"no transform {e.parent} -> {child} at {t_ns / 1e9:.3f} s "
+                f"(buffer holds {times[0] / 1e9:.3f}..{times[-1] / 1e9:.3f} s)"
+            )
+        i = bisect.bisect_left(times, t_ns)
+        if times[i] == t_ns:
+            return _matrix(e.trans[i], e.quats[i])
+        t0, t1 = times[i - 1], times[i]
+        a = (t_ns - t0) / (t1 - t0)
+        return _matrix((1 - a) * e.trans[i - 1] + a * e.trans[i], _slerp(e.quats[i - 1], e.quats[i], a))
+
+    def _chain(self, frame: str) -> list[str]:
+        chain = [frame]
+        seen = {frame}
+        while frame in self._edges:
+            frame = self._edges[frame].parent
+            if frame in seen:
+                raise TransformError(f"TF loop through {frame}")
+            seen.add(frame)
+            chain.append(frame)
+        return chain
+
+    def lookup(self, target: str, source: str, t_ns: int | None) -> np.ndarray:
+        """4x4 transform taking points in ``source`` to ``target`` at ``t_ns`` (None: latest)."""
+        target, source = self._name(target), self._name(source)
+        if target == source:
+            return np.eye(4)
+        up_s, up_t = self._chain(source), self._chain(target)
+        common = next((f for f in up_s if f in set(up_t)), None)
+        if common is None:
+            raise TransformError(
+                f"frames {source} and {target} are not connected (known frames: {', '.join(self.frames()) or 'none'})"
+            )
+        m_s = np.eye(4)  # source -> common
+        for f in up_s[: up_s.index(common)]:
+            m_s = self._edge_matrix(f, t_ns) @ m_s
+        m_t = np.eye(4)  # target -> common
+        for f in up_t[: up_t.index(common)]:
+            m_t = self._edge_matrix(f, t_ns) @ m_t
+        return np.linalg.inv(m_t) @ m_s
+
+    def can_transform(self, target: str, source: str, t_ns: int | None) -> bool:
+        try:
+            self.lookup(target, source, t_ns)
+            return True
+        except TransformError:
+            return False

@@ -1,0 +1,262 @@
+"""Trajectory metrics with known answers: rigid transforms, added noise, known drift."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from navlog.analysis.metrics import trajectory as tr
+from navlog.analysis.metrics.trajectory import Trajectory
+
+
+def _loop(n: int = 200, seed: int = 1) -> Trajectory:
+    """A wavy 3D loop with turning orientation, 10 Hz."""
+    s = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    pos = np.stack([3.0 * np.cos(s), 2.0 * np.sin(s), 0.3 * np.sin(3 * s)], axis=1)
+    rng = np.random.default_rng(seed)
+    quats = Rotation.from_euler(
+        "zyx", np.stack([s + np.pi / 2, 0.05 * rng.standard_normal(n), 0.05 * np.sin(s)], 1)
+    ).as_quat()
+    times = 1_000_000_000 + np.arange(n, dtype=np.int64) * 100_000_000
+    return Trajectory(times, pos, quats)
+
+
+def _rigid(traj: Trajectory, rot: Rotation, t, scale: float = 1.0) -> Trajectory:
+    return traj.transformed(rot.as_matrix(), t, scale)
+
+
+def _kabsch_rmse(ref_pos: np.ndarray, est_pos: np.ndarray) -> float:
+    """Independent check: scipy's Rotation.align_vectors on centred points (Kabsch)."""
+    mr, me = ref_pos.mean(0), est_pos.mean(0)
+    rot, _ = Rotation.align_vectors(ref_pos - mr, est_pos - me)
+    aligned = rot.apply(est_pos - me) + mr
+    return float(np.sqrt(np.mean(np.sum((aligned - ref_pos) ** 2, axis=1))))
+
+
+# ---------------------------------------------------------------- the type
+
+
+def test_trajectory_validates_and_normalises():
+    t = Trajectory(np.array([0, 5], dtype=np.int64), [[0, 0, 0], [1, 0, 0]], [[0, 0, 0, 2.0], [0, 0, 1, 1]])
+    assert np.allclose(t.quaternions[0], [0, 0, 0, 1])
+    assert np.allclose(np.linalg.norm(t.quaternions, axis=1), 1.0)
+    with pytest.raises(tr.TrajectoryError, match="increase strictly"):
+        Trajectory(np.array([0, 5, 5]), np.zeros((3, 3)), np.tile([0, 0, 0, 1.0], (3, 1)))
+    with pytest.raises(tr.TrajectoryError, match="zero quaternion"):
+        Trajectory(np.array([0]), np.zeros((1, 3)), np.zeros((1, 4)))
+    with pytest.raises(tr.TrajectoryError, match="integer"):
+        Trajectory(np.array([0.5]), np.zeros((1, 3)), [[0, 0, 0, 1.0]])
+
+
+def test_matrices_roundtrip():
+    traj = _loop(20)
+    back = Trajectory.from_matrices(traj.times_ns, traj.matrices())
+    assert np.allclose(back.positions, traj.positions)
+    assert np.allclose(tr.rotation_angles_deg(back.rotations(), traj.rotations()), 0.0, atol=1e-6)
+    assert traj.path_lengths()[1] == pytest.approx(np.linalg.norm(traj.positions[1] - traj.positions[0]))
+
+
+# ---------------------------------------------------------------- association
+
+
+def test_associate_nearest_within_window():
+    ref = Trajectory(np.arange(10, dtype=np.int64) * 100_000_000, np.zeros((10, 3)), np.tile([0, 0, 0, 1.0], (10, 1)))
+    # estimate at 5 stamps: 3 ms, 48 ms (too far from 0 and 100 ms), 204 ms, 296 ms, 900 ms exactly
+    est_t = np.array([3, 48, 204, 296, 900], dtype=np.int64) * 1_000_000
+    est = Trajectory(est_t, np.arange(15.0).reshape(5, 3), np.tile([0, 0, 0, 1.0], (5, 1)))
+    r, e = tr.associate(ref, est, max_diff_ns=10_000_000)
+    assert list(r.times_ns) == [0, 200_000_000, 300_000_000, 900_000_000]
+    assert list(e.times_ns) == [3_000_000, 204_000_000, 296_000_000, 900_000_000]
+    # an offset moves the estimate's clock: +50 ms brings 48 ms onto 100 ms... and the others away
+    r2, e2 = tr.associate(ref, est, max_diff_ns=5_000_000, offset_ns=52_000_000)
+    assert list(e2.times_ns) == [48_000_000]
+    assert list(r2.times_ns) == [100_000_000]
+
+
+def test_associate_nothing_matches_says_why():
+    ref = _loop(10)
+    est = Trajectory(ref.times_ns + 10**12, ref.positions, ref.quaternions)
+    with pytest.raises(tr.TrajectoryError, match="same clock"):
+        tr.associate(ref, est)
+
+
+# ---------------------------------------------------------------- alignment and ATE
+
+
+def test_se3_alignment_recovers_known_transform_and_zero_ate():
+    ref = _loop()
+    rot = Rotation.from_euler("zyx", [40.0, -7.0, 12.0], degrees=True)
+    shift = np.array([1.5, -2.0, 0.7])
+    est = _rigid(ref, rot, shift)  # est = T * ref, so the alignment must be T^-1
+    res = tr.absolute_trajectory_error(ref, est, align_mode="se3")
+    assert res.pairs == len(ref)
+    assert res.translation.rmse < 1e-9
+    assert res.rotation.max < 1e-5
+    inv = rot.inv()
+    assert np.allclose(res.alignment.rotation, inv.as_matrix(), atol=1e-9)
+    assert np.allclose(res.alignment.translation, -inv.apply(shift), atol=1e-9)
+    # without alignment the error is the displacement of the transform itself
+    raw = tr.absolute_trajectory_error(ref, est, align_mode="none")
+    expected = np.linalg.norm(est.positions - ref.positions, axis=1)
+    assert raw.translation.rmse == pytest.approx(np.sqrt(np.mean(expected**2)))
+    assert raw.rotation.mean == pytest.approx(np.degrees(rot.magnitude()), abs=1e-6)
+
+
+def test_se3_ate_with_noise_matches_independent_kabsch():
+    ref = _loop(300)
+    rng = np.random.default_rng(7)
+    noisy = Trajectory(ref.times_ns, ref.positions + rng.normal(0.0, 0.03, ref.positions.shape), ref.quaternions)
+    est = _rigid(noisy, Rotation.from_euler("z", 1.1), [4.0, 1.0, -0.5])
+    res = tr.absolute_trajectory_error(ref, est, align_mode="se3")
+    expected = _kabsch_rmse(ref.positions, est.positions)
+    assert res.translation.rmse == pytest.approx(expected, rel=1e-9)
+    # with 3 cm noise per axis, the 3D error is about 0.03 * sqrt(3)
+    assert 0.045 < res.translation.rmse < 0.057
+    errs = res.translation_errors
+    assert res.translation.mean == pytest.approx(np.mean(errs))
+    assert res.translation.median == pytest.approx(np.median(errs))
+    assert res.translation.max == pytest.approx(np.max(errs))
+
+
+def test_sim3_recovers_scale():
+    ref = _loop()
+    est = _rigid(ref, Rotation.from_euler("x", 0.3), [0.0, 2.0, 0.0], scale=0.5)
+    se3 = tr.absolute_trajectory_error(ref, est, align_mode="se3")
+    sim3 = tr.absolute_trajectory_error(ref, est, align_mode="sim3")
+    assert sim3.alignment.scale == pytest.approx(2.0, rel=1e-9)
+    assert sim3.translation.rmse < 1e-9
+    assert se3.translation.rmse > 0.5  # a rigid alignment cannot undo a scale of 0.5
+
+
+def test_umeyama_rejects_degenerate_input():
+    line = np.stack([np.arange(10.0), np.zeros(10), np.zeros(10)], 1)
+    with pytest.raises(tr.TrajectoryError, match="line"):
+        tr.umeyama(line, line + 1.0)
+    with pytest.raises(tr.TrajectoryError, match="at least 3"):
+        tr.umeyama(line[:2], line[:2])
+
+
+def test_planar_trajectory_aligns_with_proper_rotation():
+    # a ground robot: all z = 0; the alignment must be a rotation (det +1), not a reflection
+    s = np.linspace(0, 2 * np.pi, 50, endpoint=False)
+    pos = np.stack([np.cos(s), 2 * np.sin(s), np.zeros_like(s)], 1)
+    ref = Trajectory(np.arange(50, dtype=np.int64), pos, Rotation.from_euler("z", s[:, None]).as_quat())
+    est = _rigid(ref, Rotation.from_euler("z", -0.8), [0.2, 0.1, 0.0])
+    res = tr.absolute_trajectory_error(ref, est, max_diff_ns=0)
+    assert np.linalg.det(res.alignment.rotation) == pytest.approx(1.0)
+    assert res.translation.rmse < 1e-9
+
+
+# ---------------------------------------------------------------- RPE
+
+
+def _straight(n: int, step: float) -> Trajectory:
+    pos = np.stack([np.arange(n) * step, np.zeros(n), np.zeros(n)], 1)
+    return Trajectory(np.arange(n, dtype=np.int64) * 100_000_000, pos, np.tile([0, 0, 0, 1.0], (n, 1)))
+
+
+def _drifting(n: int, step: float, yaw_per_step: float) -> Trajectory:
+    """Each step: move `step` along the body x axis, then turn by yaw_per_step."""
+    s = np.eye(4)
+    s[:3, :3] = Rotation.from_euler("z", yaw_per_step).as_matrix()
+    s[0, 3] = step
+    poses = [np.eye(4)]
+    for _ in range(n - 1):
+        poses.append(poses[-1] @ s)
+    return Trajectory.from_matrices(np.arange(n, dtype=np.int64) * 100_000_000, np.array(poses))
+
+
+def test_rpe_on_known_drift_per_frame():
+    alpha = np.radians(0.5)
+    ref = _straight(50, 0.1)
+    est = _drifting(50, 0.11, alpha)  # 1 cm per step too far and 0.5 deg per step of yaw drift
+    res = tr.relative_pose_error(ref, est, delta=1, unit="frames")
+    assert res.pairs == 49
+    assert res.translation.max == pytest.approx(0.01, abs=1e-12)
+    assert res.translation.min == pytest.approx(0.01, abs=1e-12)
+    assert res.rotation.rmse == pytest.approx(0.5, abs=1e-9)
+
+
+def test_rpe_over_two_frames_matches_closed_form():
+    alpha = np.radians(0.5)
+    ref = _straight(51, 0.1)
+    est = _drifting(51, 0.11, alpha)
+    res = tr.relative_pose_error(ref, est, delta=2, unit="frames")
+    # est over 2 steps: (0.11 + 0.11 cos a, 0.11 sin a); ref: (0.2, 0)
+    expected = np.hypot(0.11 + 0.11 * np.cos(alpha) - 0.2, 0.11 * np.sin(alpha))
+    assert res.pairs == 25
+    assert res.translation.rmse == pytest.approx(expected, rel=1e-9)
+    assert res.rotation.mean == pytest.approx(1.0, abs=1e-9)
+    all_pairs = tr.relative_pose_error(ref, est, delta=2, unit="frames", all_pairs=True)
+    assert all_pairs.pairs == 49
+
+
+def test_rpe_in_metres_and_seconds_picks_pairs_along_reference():
+    ref = _straight(51, 0.1)  # 5 m at 1 m/s
+    i, j = tr.pair_indices(ref, 0.5, "m")
+    assert list(i) == list(range(0, 50, 5)) and list(j) == list(range(5, 51, 5))
+    i, j = tr.pair_indices(ref, 1.0, "s")
+    assert list(i) == list(range(0, 50, 10)) and list(j) == list(range(10, 51, 10))
+    est = _drifting(51, 0.11, 0.0)
+    res = tr.relative_pose_error(ref, est, delta=1.0, unit="m")
+    assert res.pairs == 5
+    assert res.translation.mean == pytest.approx(0.1, abs=1e-9)  # 10 steps x 1 cm
+
+
+def test_rpe_pairs_along_the_estimate_path():
+    ref = _straight(31, 0.1)
+    est = _drifting(31, 0.2, 0.0)  # twice as fast: 0.5 m of its own path every 3 steps
+    from_ref = tr.relative_pose_error(ref, est, delta=0.5, unit="m")
+    from_est = tr.relative_pose_error(ref, est, delta=0.5, unit="m", pairs_from="estimate")
+    assert from_ref.pairs == 6 and from_est.pairs == 10
+    assert from_ref.translation.mean == pytest.approx(0.5)  # 1.0 m against 0.5 m
+    assert from_est.translation.mean == pytest.approx(0.3)  # 0.6 m against 0.3 m
+
+
+def test_rpe_ignores_a_rigid_offset():
+    ref = _loop()
+    est = _rigid(ref, Rotation.from_euler("zyx", [30, 10, -5], degrees=True), [5.0, 5.0, 1.0])
+    res = tr.relative_pose_error(ref, est, delta=1.0, unit="m")
+    assert res.translation.max < 1e-9
+    assert res.rotation.max < 1e-5
+
+
+def test_rpe_delta_too_large_is_explained():
+    with pytest.raises(tr.TrajectoryError, match="smaller delta"):
+        tr.relative_pose_error(_straight(10, 0.1), _straight(10, 0.1), delta=5.0, unit="m")
+
+
+# ---------------------------------------------------------------- interpolation
+
+
+def _arc(times_ns: np.ndarray, radius: float = 2.0, omega: float = 0.5) -> Trajectory:
+    """A robot on a circle at constant yaw rate, heading along the circle."""
+    th = omega * times_ns.astype(np.float64) / 1e9
+    pos = np.stack([radius * np.cos(th), radius * np.sin(th), np.zeros_like(th)], 1)
+    return Trajectory(times_ns, pos, Rotation.from_euler("z", (th + np.pi / 2)[:, None]).as_quat())
+
+
+def test_interpolated_association_removes_the_stamp_offset_error():
+    ref = _arc(np.arange(0, 10_000_000_000, 20_000_000, dtype=np.int64))  # 50 Hz for 10 s
+    est_t = np.arange(100_000_000, 9_900_000_000, 100_000_000, dtype=np.int64) + 7_000_000  # 10 Hz, 7 ms late
+    est = _arc(est_t)
+    nearest = tr.absolute_trajectory_error(ref, est, align_mode="none")
+    chord = 2 * 2.0 * np.sin(0.5 * 0.007 / 2)  # the arc travelled in 7 ms
+    assert nearest.translation.rmse == pytest.approx(chord, rel=1e-6)
+    r, e = tr.associate_interpolated(ref, est)
+    assert list(r.times_ns) == list(est_t)
+    interp = tr.absolute_trajectory_error(r, e, align_mode="none", max_diff_ns=None)
+    # linear interpolation between poses 20 ms apart on a 2 m circle: sagitta below 3e-5 m
+    assert interp.translation.max < 3e-5
+    assert interp.rotation.max < 1e-9
+
+
+def test_interpolation_drops_times_outside_and_across_gaps():
+    t = np.array([0, 100, 200, 1200, 1300], dtype=np.int64)
+    ref = Trajectory(t, np.stack([t / 100.0, np.zeros(5), np.zeros(5)], 1), np.tile([0, 0, 0, 1.0], (5, 1)))
+    at, keep = tr.interpolate(ref, np.array([-5, 0, 150, 700, 1250, 1300, 1400]), max_gap_ns=200)
+    assert list(keep) == [1, 2, 4, 5]
+    assert at.positions[:, 0].tolist() == pytest.approx([0.0, 1.5, 12.5, 13.0])
+    with pytest.raises(tr.TrajectoryError, match="time span"):
+        tr.associate_interpolated(ref, Trajectory(np.array([5000]), np.zeros((1, 3)), [[0, 0, 0, 1.0]]))

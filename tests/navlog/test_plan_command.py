@@ -1,0 +1,44 @@
+"""navlog check-config and navlog plan through the command line entry point."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from navlog.cli import main
+from navlog.replay.io.map_server import OccupancyMap, save_map
+
+DATA = Path(__file__).resolve().parents[1] / "replay" / "nav2" / "data"
+
+
+def test_check_config_exit_codes(capsys):
+    assert main(["check-config", str(DATA / "kibot_nav2_fragments.yaml")]) == 1
+    out = capsys.readouterr().out
+    assert "did you mean 'data_type'?" in out and "did you mean 'nav2_costmap_2d::ObstacleLayer'?" in out
+    assert "3 error(s)" in out
+    assert main(["check-config", str(DATA / "kibot_nav2_fixed.yaml")]) == 0
+
+
+def test_plan_command(tmp_path, capsys):
+    data = np.zeros((120, 120), dtype=np.int8)
+    data[:2, :] = data[-2:, :] = data[:, :2] = data[:, -2:] = 100
+    data[50:70, 65:75] = 100
+    yaml_path, _ = save_map(OccupancyMap(data, 0.05, (-3.0, -3.0, 0.0)), tmp_path / "room.yaml")
+    args = [
+        "plan",
+        "--map",
+        str(yaml_path),
+        "--start=-1.5,0,0",
+        "--goal",
+        "1.5,0,0",
+        "--params",
+        str(DATA / "jazzy_article_nav2_params.yaml"),
+    ]
+    assert main(args + ["-o", str(tmp_path / "plan.mcap"), "--png", str(tmp_path / "plan.png")]) == 0
+    out = capsys.readouterr().out
+    assert "planner navfn" in out and "length" in out and (tmp_path / "plan.mcap").is_file()
+    assert main(args[:4] + ["--goal", "0.5,0,0"] + args[6:] + ["--set", "GridBased.tolerance=0.0"]) == 2
+    assert "goal occupied" in capsys.readouterr().err
+    assert main(args[:4] + ["--goal", "9,0,0"] + args[6:]) == 2
+    assert "outside the costmap" in capsys.readouterr().err

@@ -1,0 +1,183 @@
+"""Nav2 parameter files: real files load unchanged; typos, types, ranges and renames are reported."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from navlog.errors import ConfigError
+from navlog.replay.nav2.params import (
+    InflationLayerParams,
+    NavfnParams,
+    ObstacleLayerParams,
+    StaticLayerParams,
+    apply_nav2_overrides,
+    load_nav2_params,
+    parse_nav2_text,
+    resolve_key,
+)
+
+DATA = Path(__file__).resolve().parent / "data"
+EXTERNAL = ("nav2_bringup_jazzy_nav2_params.yaml", "turtlebot3_humble_waffle_nav2.yaml", "turtlebot4_humble_nav2.yaml")
+
+
+def _messages(params, severity="error"):
+    return {p.path: p.message for p in params.problems if p.severity == severity}
+
+
+@pytest.mark.parametrize("name", EXTERNAL)
+def test_external_parameter_files_load_without_errors(shared_dir, name):
+    params = load_nav2_params(shared_dir / "external-data" / "params" / name)
+    assert params.errors == []
+    gc = params.global_costmap
+    assert gc is not None and gc.global_frame == "map"
+    assert isinstance(gc.layers["inflation_layer"], InflationLayerParams)
+    assert isinstance(params.planner_server.planners["GridBased"], NavfnParams)
+    assert "amcl" in params.not_implemented or "bt_navigator" in params.not_implemented
+
+
+def test_jazzy_bringup_values(shared_dir):
+    p = load_nav2_params(shared_dir / "external-data" / "params" / EXTERNAL[0])
+    gc, lc = p.global_costmap, p.local_costmap
+    assert gc.robot_radius == 0.22 and gc.resolution == 0.05 and gc.track_unknown_space is True
+    assert gc.layers["inflation_layer"].inflation_radius == 0.7
+    assert gc.layers["inflation_layer"].cost_scaling_factor == 3.0
+    scan = gc.layers["obstacle_layer"].sources["scan"]
+    assert (scan.data_type, scan.raytrace_max_range, scan.obstacle_max_range) == ("LaserScan", 3.0, 2.5)
+    assert lc.rolling_window and (lc.width, lc.height) == (3, 3)
+    assert lc.layers["voxel_layer"].is_voxel
+    assert p.controller_server.controllers["FollowPath"].batch_size == 2000
+    assert p.velocity_smoother.max_velocity == (0.5, 0.0, 2.0)
+    assert p.collision_monitor.polygon_params["FootprintApproach"].time_before_collision == 1.2
+    # the local costmap's static_layer section is not in its plugins: Nav2 ignores it
+    assert "local_costmap.local_costmap.ros__parameters.static_layer" in _messages(p, "warning")
+
+
+def test_turtlebot_humble_slash_plugin_names(shared_dir):
+    p = load_nav2_params(shared_dir / "external-data" / "params" / "turtlebot4_humble_nav2.yaml")
+    assert p.planner_server.planners["GridBased"].plugin == "nav2_navfn_planner::NavfnPlanner"
+    assert p.global_costmap.resolution == 0.06 and p.global_costmap.robot_radius == 0.175
+
+
+def test_jazzy_article_file_loads():
+    p = load_nav2_params(DATA / "jazzy_article_nav2_params.yaml")
+    assert p.errors == []
+    assert p.global_costmap.robot_base_frame == "simple_robot/base_link"
+    assert p.global_costmap.layers["obstacle_layer"].sources["scan"].topic == "/lidar"
+    assert p.local_costmap.global_frame == "simple_robot/odom"
+    assert p.collision_monitor.source_params["scan"].topic == "lidar"
+    assert isinstance(p.global_costmap.layers["static_layer"], StaticLayerParams)
+
+
+def test_kibot_typos_are_reported_with_suggestions():
+    p = load_nav2_params(DATA / "kibot_nav2_fragments.yaml")
+    errors = _messages(p)
+    base = "global_costmap.global_costmap.ros__parameters.obstacle_layer"
+    assert "did you mean 'nav2_costmap_2d::ObstacleLayer'?" in errors[base + ".plugin"]
+    assert "did you mean 'data_type'?" in errors[base + ".scan.date_type"]
+    # the missing data_type leaves Nav2's default, which it refuses
+    assert "PointCloud" in errors[base + ".scan.data_type"]
+    # and the per-source height trap is pointed out
+    assert "0.0" in _messages(p, "warning")[base + ".scan.max_obstacle_height"]
+    # all at once, with line numbers
+    lines = {q.path: q.line for q in p.errors}
+    assert lines[base + ".plugin"] == 15 and lines[base + ".scan.date_type"] == 19
+    # the rest of the file is read as written
+    assert p.planner_server.planners["GridBased"].tolerance == 0.10
+    assert p.velocity_smoother.min_velocity == (-0.20, 0.0, -1.2)
+    assert p.collision_monitor.source_params["scan"].min_height == 0.15
+    with pytest.raises(ConfigError, match="ObstcaleLayer"):
+        p.require_valid()
+
+
+def test_kibot_fixed_has_no_errors():
+    p = load_nav2_params(DATA / "kibot_nav2_fixed.yaml")
+    assert p.errors == []
+    gc = p.global_costmap
+    assert gc.rolling_window and gc.width == 20 and gc.track_unknown_space is False
+    assert isinstance(gc.layers["obstacle_layer"], ObstacleLayerParams)
+
+
+TEMPLATE = """\
+global_costmap:
+  global_costmap:
+    ros__parameters:
+      robot_radius: 0.3
+      footprint_padding: 0.0
+      plugins: ["obstacle_layer", "inflation_layer"]
+      obstacle_layer:
+        plugin: nav2_costmap_2d::ObstacleLayer
+        observation_sources: scan
+        scan:
+          topic: /scan
+          data_type: LaserScan
+          max_obstacle_height: 2.0
+          {scan_extra}
+      inflation_layer:
+        plugin: nav2_costmap_2d::InflationLayer
+        inflation_radius: {radius}
+velocity_smoother:
+  ros__parameters:
+    max_decel: {decel}
+"""
+
+
+def _text(scan_extra="marking: true", radius="0.55", decel="[-2.5, 0.0, -3.2]"):
+    return TEMPLATE.format(scan_extra=scan_extra, radius=radius, decel=decel)
+
+
+def test_renamed_parameter():
+    p = parse_nav2_text(_text(scan_extra="raytrace_range: 3.0"))
+    msg = _messages(p)["global_costmap.global_costmap.ros__parameters.obstacle_layer.scan.raytrace_range"]
+    assert "renamed to 'raytrace_max_range'" in msg
+
+
+def test_wrong_type_and_ranges():
+    p = parse_nav2_text(_text(scan_extra="clearing: 'yes'", radius="0.2", decel="[2.5, 0.0, -3.2]"))
+    errors = _messages(p)
+    assert (
+        "expected true or false" in errors["global_costmap.global_costmap.ros__parameters.obstacle_layer.scan.clearing"]
+    )
+    # inscribed radius of the 16-gon of radius 0.3 is 0.3 * cos(pi/16) = 0.2942
+    msg = errors["global_costmap.global_costmap.ros__parameters.inflation_layer.inflation_radius"]
+    assert "below the inscribed radius 0.294" in msg
+    assert "must be <= 0" in errors["velocity_smoother.ros__parameters.max_decel"]
+    neg = parse_nav2_text(_text(radius="-1.0"))
+    assert (
+        "must be >= 0.0"
+        in _messages(neg)["global_costmap.global_costmap.ros__parameters.inflation_layer.inflation_radius"]
+    )
+
+
+def test_misspelled_node_and_ros_parameters():
+    p = parse_nav2_text(
+        "planer_server:\n  ros__parameters:\n    x: 1\ncontroller_server:\n  ros_parameters:\n    a: 1\n"
+    )
+    errors = _messages(p)
+    assert "did you mean 'planner_server'?" in errors["planer_server"]
+    assert "two underscores" in errors["controller_server.ros_parameters"]
+
+
+def test_malformed_yaml_names_line(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("planner_server:\n  ros__parameters:\n    planner_plugins: [GridBased\n    x: 1\n")
+    with pytest.raises(ConfigError, match=r"bad.yaml: line \d+"):
+        load_nav2_params(bad)
+
+
+def test_overrides_full_and_short_paths():
+    doc = load_nav2_params(DATA / "jazzy_article_nav2_params.yaml").raw
+    full = "global_costmap.global_costmap.ros__parameters.inflation_layer.inflation_radius"
+    out = apply_nav2_overrides(doc, [f"{full}=0.5"])
+    assert out["global_costmap"]["global_costmap"]["ros__parameters"]["inflation_layer"]["inflation_radius"] == 0.5
+    assert doc["global_costmap"]["global_costmap"]["ros__parameters"]["inflation_layer"]["inflation_radius"] == 0.7
+    assert resolve_key(doc, "global_costmap.inflation_layer.inflation_radius") == tuple(full.split("."))
+    assert resolve_key(doc, "GridBased.tolerance") == ("planner_server", "ros__parameters", "GridBased", "tolerance")
+    with pytest.raises(ConfigError, match="ambiguous"):
+        resolve_key(doc, "inflation_layer.inflation_radius")  # global and local
+    with pytest.raises(ConfigError, match="did you mean 'inflation_radius'"):
+        resolve_key(doc, "global_costmap.inflation_layer.inflation_radios")
+    # a parameter not in the file, in an existing section
+    out = apply_nav2_overrides(doc, ["GridBased.use_final_approach_orientation=true"])
+    assert out["planner_server"]["ros__parameters"]["GridBased"]["use_final_approach_orientation"] is True

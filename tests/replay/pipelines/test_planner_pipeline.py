@@ -1,0 +1,120 @@
+"""The planner pipeline driven by hand-built messages on the executor."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navlog.errors import ConfigError
+from navlog.replay import messages as m
+from navlog.replay.io.map_server import OccupancyMap
+from navlog.replay.pipelines.planner import Params, build, load_goals
+from navlog.replay.runtime.executor import Envelope, Executor
+
+DATA = Path(__file__).resolve().parents[1] / "nav2" / "data"
+NAV2 = str(DATA / "jazzy_article_nav2_params.yaml")
+
+
+def room_map() -> OccupancyMap:
+    """A 6 x 6 m room at 0.05 m centred on the origin, walls all round and a block at (0.5, 0)."""
+    data = np.zeros((120, 120), dtype=np.int8)
+    data[:2, :] = data[-2:, :] = data[:, :2] = data[:, -2:] = 100
+    data[50:70, 65:75] = 100  # x 0.25 .. 0.75, y -0.5 .. 0.5
+    return OccupancyMap(data, 0.05, (-3.0, -3.0, 0.0))
+
+
+def goal_msg(t, x, y, frame="map"):
+    return m.msg_class(m.POSE_STAMPED)(header=m.header(t, frame), pose=m.pose((x, y, 0.0), m.quat_from_yaw(0.0)))
+
+
+def tf_msg(t, x, y):
+    prefix = "simple_robot/"
+    return m.tf_message([m.transform_stamped(t, "map", prefix + "base_link", (x, y, 0.0), m.quat_from_yaw(0.0))])
+
+
+def run(params: Params, envs: list[Envelope], until_ns: int = 3_000_000_000):
+    pipe = build(params, {e.topic for e in envs})
+    ex = Executor()
+    out: list[Envelope] = []
+
+    class Sink:
+        def write(self, env):
+            if env.topic in pipe.outputs:
+                out.append(env)
+
+    ex.add_sink(Sink())
+    for node in pipe.nodes:
+        ex.add_node(node)
+    ex.add_source(envs)
+    ex.run(until_ns)
+    ex.finish()
+    return pipe, out
+
+
+def _inputs(goal=(1.5, 0.0), frame="map"):
+    grid = room_map().to_msg(0)
+    envs = [Envelope("/map", m.OCCUPANCY_GRID, 0, grid)]
+    for k in range(31):
+        t = k * 100_000_000
+        envs.append(Envelope("/tf", m.TF_MESSAGE, t, tf_msg(t, -1.5, 0.0)))
+        if k == 5:
+            envs.append(Envelope("/goal_pose", m.POSE_STAMPED, t, goal_msg(t, *goal, frame=frame)))
+    envs.sort(key=lambda e: e.time_ns)
+    return envs
+
+
+def test_plans_around_the_block_from_goal_pose(tmp_path):
+    params = Params(nav2_params=NAV2)
+    pipe, out = run(params, _inputs())
+    plans = [e for e in out if e.topic == "/plan"]
+    costmaps = [e for e in out if e.topic == "/global_costmap/costmap"]
+    assert costmaps and costmaps[0].msg.info.width == 120
+    assert plans, pipe.skipped()
+    xy = np.array([[p.pose.position.x, p.pose.position.y] for p in plans[0].msg.poses])
+    assert xy[0] == pytest.approx((-1.5, 0.0), abs=0.06) and xy[-1] == pytest.approx((1.5, 0.0))
+    # the block plus inflation (0.7 m, robot radius 0.22) is avoided: the path leaves y = 0
+    assert np.abs(xy[:, 1]).max() > 0.6
+    written = pipe.write_artifacts(tmp_path)
+    doc = json.loads(written["plans"].read_text())
+    assert doc["plans"][0]["length_m"] > 3.0 and doc["failures"] == []
+
+
+def test_replay_is_deterministic():
+    a = [(e.topic, e.time_ns, m.serialize(e.msg, e.typename)) for e in run(Params(nav2_params=NAV2), _inputs())[1]]
+    b = [(e.topic, e.time_ns, m.serialize(e.msg, e.typename)) for e in run(Params(nav2_params=NAV2), _inputs())[1]]
+    assert a == b and len(a) > 5
+
+
+def test_goal_frame_without_transform_is_counted():
+    pipe, out = run(Params(nav2_params=NAV2), _inputs(frame="odom"))
+    assert not [e for e in out if e.topic == "/plan"]
+    assert any("no transform" in k for k in pipe.skipped())
+
+
+def test_goal_in_obstacle_reports_failure():
+    params = Params(nav2_params=NAV2, planner_server={"GridBased": {"tolerance": 0.0}})
+    pipe, out = run(params, _inputs(goal=(0.5, 0.0)))
+    events = [e.msg for e in out if e.topic == "/navlog/events"]
+    assert events and events[0].kind == "plan_failed" and "goal occupied" in events[0].detail
+    assert pipe.skipped()["planning failed"] >= 1
+
+
+def test_goals_yaml_and_override_short_path():
+    goals, frame = load_goals("indoor_room_waypoints")
+    assert frame == "map" and goals[0] == (-1.0, -1.0, 0.0) and goals[2] == (1.2, 0.8, 3.051) and goals[-1] == (0, 0, 0)
+    params = Params(
+        nav2_params=NAV2,
+        goals="indoor_room_waypoints",
+        planner="smac2d",
+        global_costmap={"inflation_layer": {"inflation_radius": 0.3}},
+    )
+    envs = [e for e in _inputs() if e.topic != "/goal_pose"]
+    pipe, out = run(params, envs)
+    assert [e for e in out if e.topic == "/plan"]
+    with pytest.raises(ConfigError, match="inflation_radios"):
+        build(Params(nav2_params=NAV2, global_costmap={"inflation_layer": {"inflation_radios": 0.3}}), set())
+    with pytest.raises(ConfigError, match="ObstcaleLayer"):
+        build(Params(nav2_params=str(DATA / "kibot_nav2_fragments.yaml")), set())
