@@ -23,7 +23,8 @@ import numpy as np
 
 from navlog.analysis.metrics.trajectory import Trajectory, absolute_trajectory_error
 from navlog.replay import messages
-from navlog.replay.io.logreader import open_log
+from navlog.replay.geometry import make_transform
+from navlog.replay.io import open_log
 from navlog.replay.nodes.lidar_mapper import LidarMapperNode
 from navlog.replay.pointcloud import read_points
 from navlog.replay.runtime.executor import Executor
@@ -42,7 +43,7 @@ def lidar_frame_ground_truth(log: Path, frame: str) -> tuple[Trajectory, np.ndar
         for env in r.messages(["/odom/ground_truth"]):
             p, q = env.msg.pose.pose.position, env.msg.pose.pose.orientation
             times.append(messages.to_ns(env.msg.header.stamp))
-            mats.append(messages.make_transform((p.x, p.y, p.z), (q.x, q.y, q.z, q.w)) @ mount)
+            mats.append(make_transform((p.x, p.y, p.z), (q.x, q.y, q.z, q.w)) @ mount)
     return Trajectory.from_matrices(np.array(times, dtype=np.int64), np.array(mats)), mount
 
 

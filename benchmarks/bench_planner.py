@@ -16,16 +16,23 @@ import numpy as np
 
 from navlog.replay import messages as m
 from navlog.replay.io.map_server import OccupancyMap
-from navlog.replay.nav2.costmap import Costmap2D, Observation, scan_points
-from navlog.replay.nav2.params import (
+from navlog.replay.nav2.costmap import (
+    Costmap2D,
     CostmapParams,
     InflationLayerParams,
-    NavfnParams,
+    Observation,
     ObservationSourceParams,
     ObstacleLayerParams,
     StaticLayerParams,
+    scan_points,
 )
-from navlog.replay.nav2.planners.navfn import NavfnPlanner, navfn_costs, potential_exact, potential_wavefront
+from navlog.replay.nav2.planners.navfn import (
+    NavfnParams,
+    NavfnPlanner,
+    navfn_costs,
+    potential_exact,
+    potential_wavefront,
+)
 
 
 def world() -> OccupancyMap:

@@ -55,7 +55,7 @@ def rss_kib():
     return 0
 
 import navlog.replay.runtime.session as runner
-import replay.pipelines.mapping, replay.nodes.lidar_mapper, replay.nodes.occupancy_mapper  # noqa: F401 (imports first)
+import navlog.replay.pipelines.mapping, navlog.replay.nodes.lidar_mapper, navlog.replay.nodes.occupancy_mapper  # noqa: F401 (imports first)
 
 span = {}
 run = runner._run

@@ -24,8 +24,8 @@ import time
 from pathlib import Path
 
 from navlog.analysis.export import BagOptions, export_rosbag2
-from navlog.analysis.view.rerun_view import save_view
-from navlog.replay.io.logreader import open_log
+from navlog.analysis.view import save_view
+from navlog.replay.io import open_log
 
 BUDGET_S = 30.0
 

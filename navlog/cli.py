@@ -1,8 +1,10 @@
 """The ``navlog`` command line: a thin layer over the functions a Python user calls.
 
 Each command lives in ``navlog/commands/<name>.py`` with ``register(subparsers)`` that adds its
-parser and sets ``func``. Errors meant for users (``NavlogError``) print one line and exit 2;
-Ctrl-C exits 130 after the command has closed its files.
+parser and sets ``func``. A command module imports only ``argparse``-level things at the top and
+the library inside its ``run``, so ``navlog --help`` and ``navlog COMMAND --help`` stay instant.
+Errors meant for users (``NavlogError``) print one line and exit 2; Ctrl-C exits 130 after the
+command has closed its files.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import importlib
 import logging
 import os
 import sys
+from typing import Any
 
 from navlog.errors import NavlogError
 from navlog.version import __version__
@@ -33,8 +36,28 @@ COMMANDS = [
 ]
 
 
+class HelpFormatter(argparse.HelpFormatter):
+    """Wraps each line of a description or epilog as a paragraph, keeps the line breaks, and prints
+    indented lines (examples) exactly as written."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        fill = super()._fill_text
+        return "\n".join(
+            indent + line if not line.strip() or line[0].isspace() else fill(line, width, indent)
+            for line in text.splitlines()
+        )
+
+
+class Parser(argparse.ArgumentParser):
+    """An argument parser whose help keeps examples' line breaks; command parsers inherit it."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="navlog",
         description="Record, replay, test and inspect mobile-robot navigation logs without ROS.",
         epilog="Run `navlog COMMAND --help` for the options of one command.",

@@ -3,12 +3,14 @@
 ``record()`` is what ``navlog record`` calls. It validates everything before simulating, runs the
 simulator and the scenario on the executor with the MCAP writer as a sink, shows progress, and
 returns a ``RecordResult``. Extra nodes (e.g. mappers) can run live in the same executor; their
-outputs are recorded too.
+outputs are recorded too. A run ends early, with a whole file of what was recorded, when its
+``stop`` event is set (the command line sets it on Ctrl-C; the library installs no signal handler).
 """
 
 from __future__ import annotations
 
-import signal
+import math
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -21,7 +23,7 @@ from navlog.recorder.world import World, load_world
 from navlog.replay.config import config_hash, to_mapping
 from navlog.replay.io.logwriter import McapLogWriter, check_output
 from navlog.replay.runtime.executor import Executor, Node
-from navlog.replay.runtime.progress import Progress
+from navlog.replay.runtime.progress import Progress, format_table
 from navlog.version import __version__
 
 
@@ -90,7 +92,13 @@ def record(
     force: bool = False,
     progress: bool = True,
     live_nodes: Sequence[Node] = (),
+    stop: threading.Event | None = None,
 ) -> RecordResult:
+    """Simulate ``setup`` and write every topic to ``out`` (MCAP); see the module docstring.
+
+    ``stop``, when set (from another thread or a signal handler), ends the run within a second of sim
+    time; the file is then closed cleanly with what was recorded and the result says ``interrupted``.
+    """
     out = Path(out)
     check_output(out, force)
     sim = SimNode(setup.world, setup.robot, SimOptions(seed=setup.seed, noise=setup.noise, start=setup.scenario.start))
@@ -102,25 +110,13 @@ def record(
         ex.add_node(node)
     meta = setup.metadata()
     max_ns = int(setup.scenario.max_duration * 1e9)
-    # the expected length, for the progress bar: path length at the tour speed, or the command list
-    expected = setup.scenario.max_duration
-    if setup.scenario.kind == "teleop":
-        expected = sum(c.duration for c in setup.scenario.commands) + setup.scenario.hold
-    bar = Progress(expected, "recording", "sim s", enabled=progress)
-    interrupted = False
-
-    def on_sigint(signum, frame):  # end cleanly with what was recorded
-        nonlocal interrupted
-        interrupted = True
-        ex.stop()
-
-    previous = signal.signal(signal.SIGINT, on_sigint)
+    stop = stop if stop is not None else threading.Event()
     start = time.perf_counter()
-    try:
+    with Progress(expected_duration(setup), "recording", "sim s", enabled=progress) as bar:
         with McapLogWriter(out, force=force, metadata={"navlog": meta}) as writer:
             ex.add_sink(writer)
             t = 0
-            while not interrupted:
+            while not stop.is_set():  # looked at after every second of sim time
                 t += 1_000_000_000
                 ex.run(until_ns=min(t, max_ns))
                 bar.update(ex.now / 1e9)
@@ -130,15 +126,39 @@ def record(
                 if ex.now >= max_ns:
                     break
             ex.finish()
-    finally:
-        signal.signal(signal.SIGINT, previous)
-        bar.close()
+        interrupted = stop.is_set()
+        if not interrupted:  # the run is complete: the estimated length becomes the real one
+            bar.update(ex.now / 1e9, total=ex.now / 1e9)
     wall = time.perf_counter() - start
     counts = {}
     types = writer.topic_types
     for topic, n in sorted(ex.stats.published.items()):
         counts[topic] = (types.get(topic, ""), n)
     return RecordResult(out, ex.now / 1e9, wall, out.stat().st_size, counts, interrupted, meta)
+
+
+def expected_duration(setup: RecordSetup) -> float:
+    """An estimate of a run's sim length in seconds, for the progress bar (never more than ``max_duration``).
+
+    A teleop scenario lasts its commands plus the hold. A tour lasts about its legs at the tour speed
+    plus its turns at the turn rate, plus the hold.
+    """
+    s = setup.scenario
+    if s.kind == "teleop":
+        total = sum(c.duration for c in s.commands)
+    else:
+        d = setup.robot.drive
+        speed, turn_rate = min(s.speed, d.max_vx), min(s.turn_rate, d.max_wz)
+        x, y, heading = s.start
+        total = 0.0
+        for gx, gy in s.waypoints:
+            dist = math.hypot(gx - x, gy - y)
+            if dist > s.tolerance:
+                bearing = math.atan2(gy - y, gx - x)
+                turn = abs(math.atan2(math.sin(bearing - heading), math.cos(bearing - heading)))
+                total += dist / speed + turn / turn_rate
+                x, y, heading = gx, gy, bearing
+    return min(total + s.hold, s.max_duration)
 
 
 def format_summary(res: RecordResult) -> str:
@@ -148,9 +168,10 @@ def format_summary(res: RecordResult) -> str:
         f"world {res.metadata.get('world')}, robot {res.metadata.get('robot')}, scenario {res.metadata.get('scenario')}, "
         f"seed {res.metadata.get('seed')}, noise {res.metadata.get('noise')}",
     ]
-    width = max(len(t) for t in res.topics) if res.topics else 5
-    twidth = max(len(v[0]) for v in res.topics.values()) if res.topics else 4
+    rows = []
     for topic, (typ, n) in res.topics.items():
         rate = (n - 1) / res.sim_s if res.sim_s > 0 and n > 1 else 0.0
-        lines.append(f"  {topic:<{width}}  {typ:<{twidth}}  {n:>7} msgs  {rate:8.2f} Hz")
+        rows.append((topic, typ, n, f"{rate:.2f} Hz"))
+    if rows:
+        lines.append(format_table(("topic", "type", "msgs", "rate"), rows, align=("left", "left", "right", "right")))
     return "\n".join(lines)

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from navlog.replay.config import load_config, named_config
-from navlog.replay.messages import quat_from_rpy
+from navlog.replay.geometry import quat_from_rpy, quat_to_wxyz
 
 Vec3 = tuple[float, float, float]
 Mount = tuple[float, float, float, float, float, float]  # x, y, z, roll, pitch, yaw (rad)
@@ -221,7 +221,9 @@ def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> No
     else:
         d = robot.drive
         r_true = d.wheel_radius * (1.0 + d.wheel_radius_error)
-        base = spec.worldbody.add_body(name="base_link", pos=[x, y, r_true], quat=list(_wxyz(0.0, 0.0, yaw)))
+        base = spec.worldbody.add_body(
+            name="base_link", pos=[x, y, r_true], quat=list(quat_to_wxyz(quat_from_rpy(0.0, 0.0, yaw)))
+        )
         base.add_freejoint(name="base_free")
         base.add_geom(
             name="chassis",
@@ -238,7 +240,7 @@ def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> No
                 name=f"wheel_{side}_geom",
                 type=G.mjGEOM_CYLINDER,
                 size=[r_true, 0.02, 0],
-                quat=list(_wxyz(math.pi / 2, 0.0, 0.0)),
+                quat=list(quat_to_wxyz(quat_from_rpy(math.pi / 2, 0.0, 0.0))),
                 mass=0.5,
                 friction=[1.0, 0.005, 0.0001],
                 group=ROBOT_GROUP,
@@ -262,9 +264,3 @@ def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> No
     spec.add_sensor(
         name="imu_accel", type=mujoco.mjtSensor.mjSENS_ACCELEROMETER, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu"
     )
-
-
-def _wxyz(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
-    """MuJoCo's (w, x, y, z) quaternion order."""
-    x, y, z, w = quat_from_rpy(roll, pitch, yaw)
-    return (w, x, y, z)

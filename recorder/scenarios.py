@@ -21,6 +21,7 @@ from navlog.recorder.robot import RobotSpec
 from navlog.recorder.world import World, clearance
 from navlog.replay import messages
 from navlog.replay.config import load_config, named_config
+from navlog.replay.geometry import rotate_planar, wrap_angle, yaw_from_quat
 from navlog.replay.runtime.executor import Node
 
 
@@ -75,8 +76,9 @@ def intended_path(scenario: ScenarioSpec, robot: RobotSpec, step: float = 0.05) 
     for c in scenario.commands:
         vx, vy, wz = np.clip(c.cmd, [-d.max_vx, -d.max_vy, -d.max_wz], [d.max_vx, d.max_vy, d.max_wz])
         for _ in range(int(round(c.duration / dt))):
-            x += (vx * math.cos(th) - vy * math.sin(th)) * dt
-            y += (vx * math.sin(th) + vy * math.cos(th)) * dt
+            dx, dy = rotate_planar(vx, vy, th)
+            x += dx * dt
+            y += dy * dt
             th += wz * dt
             out.append((x, y))
     return np.array(out)
@@ -132,7 +134,7 @@ class ScenarioNode(Node):
 
     def _on_pose(self, msg, t_ns: int) -> None:
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
-        self.pose = (p.x, p.y, messages.yaw_from_quat((q.x, q.y, q.z, q.w)))
+        self.pose = (p.x, p.y, yaw_from_quat((q.x, q.y, q.z, q.w)))
 
     def _on_timer(self, t_ns: int) -> None:
         cmd = (0.0, 0.0, 0.0)
@@ -165,7 +167,7 @@ class ScenarioNode(Node):
             self.done_ns = t_ns
             return (0.0, 0.0, 0.0)
         err = math.atan2(gy - y, gx - x) - th
-        err = math.atan2(math.sin(err), math.cos(err))
+        err = wrap_angle(err)
         wmax = min(s.turn_rate, d.max_wz)
         w = max(-wmax, min(wmax, 1.5 * err))
         if abs(err) > 0.35:

@@ -14,11 +14,12 @@ import numpy as np
 
 from navlog.recorder.robot import LaserConfig, LidarConfig, Mount
 from navlog.replay import messages
+from navlog.replay.geometry import make_transform, quat_from_rpy
 
 
 def mount_matrix(mount: Mount) -> np.ndarray:
     x, y, z, roll, pitch, yaw = mount
-    return messages.make_transform((x, y, z), messages.quat_from_rpy(roll, pitch, yaw))
+    return make_transform((x, y, z), quat_from_rpy(roll, pitch, yaw))
 
 
 class RayCaster:

@@ -29,6 +29,14 @@ from navlog.recorder import sensors
 from navlog.recorder.robot import RobotSpec, add_to_spec
 from navlog.recorder.world import World, build_spec, world_mesh
 from navlog.replay import messages
+from navlog.replay.geometry import (
+    planar_matrix,
+    quat_from_rpy,
+    quat_from_yaw,
+    rotate_planar,
+    wrap_angle,
+    yaw_from_matrix,
+)
 from navlog.replay.pointcloud import make_cloud
 from navlog.replay.runtime.executor import Node
 
@@ -44,14 +52,11 @@ class SimOptions:
 
 
 def mat_to_quat(mat: np.ndarray) -> tuple[float, float, float, float]:
-    """(x, y, z, w) quaternion (w >= 0) of a rotation matrix, via MuJoCo (fast enough for every tick)."""
-    return _mat9_to_quat(np.ascontiguousarray(mat, dtype=np.float64).ravel())
-
-
-def _mat9_to_quat(mat9: np.ndarray) -> tuple[float, float, float, float]:
-    """``mat_to_quat`` of a contiguous float64 row-major 3x3 matrix given as 9 numbers."""
+    """(x, y, z, w) quaternion (w >= 0) of a rotation matrix (3x3, or its 9 numbers row-major), by MuJoCo's
+    ``mju_mat2Quat``: fast enough for every tick, and the recorded quaternions are MuJoCo's to the last bit
+    (``navlog.replay.geometry.matrix_to_quat``, SciPy, differs there)."""
     q = np.empty(4)
-    mujoco.mju_mat2Quat(q, mat9)
+    mujoco.mju_mat2Quat(q, np.ascontiguousarray(mat, dtype=np.float64).ravel())
     w, x, y, z = q.tolist()
     if w < 0:
         return (-x, -y, -z, -w)
@@ -85,12 +90,6 @@ class _Normals:
         row = self._rows[self._i]
         self._i += 1
         return row
-
-
-def planar(x: float, y: float, yaw: float) -> np.ndarray:
-    """4x4 transform of a planar pose."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([c, -s, 0.0, x, s, c, 0.0, y, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]).reshape(4, 4)
 
 
 def _period_ns(rate: float) -> int:
@@ -257,10 +256,7 @@ class SimNode(Node):
         self._vel = (vx, vy, wz)
         ctrl = self.data.ctrl
         if self.legged:
-            yaw = self._yaw()
-            c, s = math.cos(yaw), math.sin(yaw)
-            ctrl[self._act["x"]] = c * vx - s * vy
-            ctrl[self._act["y"]] = s * vx + c * vy
+            ctrl[self._act["x"]], ctrl[self._act["y"]] = rotate_planar(vx, vy, self._yaw())
             ctrl[self._act["yaw"]] = wz
             g = d.gait
             self._phase += 2 * math.pi * dt / (2 * g.stance_duration)
@@ -312,7 +308,7 @@ class SimNode(Node):
             x, y, z, roll, pitch, yaw = cfg.mount
             tfs.append(
                 messages.transform_stamped(
-                    t_ns, r.frame(f.base), r.frame(cfg.frame), (x, y, z), messages.quat_from_rpy(roll, pitch, yaw)
+                    t_ns, r.frame(f.base), r.frame(cfg.frame), (x, y, z), quat_from_rpy(roll, pitch, yaw)
                 )
             )
         self.publish("/tf_static", messages.TF_MESSAGE, messages.tf_message(tfs))
@@ -321,12 +317,12 @@ class SimNode(Node):
         o = self.robot.odom
         names = self._frame_names
         wx, wy, wz, vx, vy, vz = self._velocity6().tolist()
-        q_base = _mat9_to_quat(self.data.xmat[self._bid])
+        q_base = mat_to_quat(self.data.xmat[self._bid])
         bx, by, bz = self.data.xpos[self._bid].tolist()
         gt = messages.odometry(t_ns, names["world"], names["base"], (bx, by, bz), q_base, (vx, vy, vz), (wx, wy, wz))
         self.publish(o.ground_truth_topic, messages.ODOMETRY, gt)
         # planar true pose of the footprint
-        yaw = math.atan2(base[1, 0], base[0, 0])
+        yaw = yaw_from_matrix(base)
         dt = self._periods["odom"] / 1e9
         if o.use_ground_truth_odom:
             self._odom = (bx, by, yaw)
@@ -347,20 +343,21 @@ class SimNode(Node):
             if t_ns > 0:
                 x, y, th = self._odom
                 mid = th + mw * dt / 2
-                x += (mx * math.cos(mid) - my * math.sin(mid)) * dt
-                y += (mx * math.sin(mid) + my * math.cos(mid)) * dt
-                th = math.atan2(math.sin(th + mw * dt), math.cos(th + mw * dt))
+                dx, dy = rotate_planar(mx, my, mid)
+                x += dx * dt
+                y += dy * dt
+                th = wrap_angle(th + mw * dt)
                 self._odom = (x, y, th)
             self._odom_twist = (mx, my, mw)
         ox, oy, oth = self._odom
         tvx, tvy, tw = self._odom_twist
         child = names["footprint"] or names["base"]
-        q_odom = messages.quat_from_yaw(oth)
+        q_odom = quat_from_yaw(oth)
         odom_msg = messages.odometry(t_ns, names["odom"], child, (ox, oy, 0.0), q_odom, (tvx, tvy, 0.0), (0.0, 0.0, tw))
         self.publish(o.topic, messages.ODOMETRY, odom_msg)
         # TF: map -> odom (correction), odom -> footprint (odometry), footprint -> base (height, tilt)
-        t_map_fp = planar(bx, by, yaw)
-        t_odom_fp = planar(ox, oy, oth)
+        t_map_fp = planar_matrix(bx, by, yaw)
+        t_odom_fp = planar_matrix(ox, oy, oth)
         t_map_odom = t_map_fp @ np.linalg.inv(t_odom_fp)
         tfs = [
             messages.transform_stamped(
@@ -401,9 +398,9 @@ class SimNode(Node):
             r = math.sqrt(1 + (dq @ dq) / 4)
             noise = self._imu_rot
             mujoco.mju_quat2Mat(noise, np.array([1.0 / r, n[6] / 2 / r, n[7] / 2 / r, n[8] / 2 / r]))
-            q = _mat9_to_quat((base[:3, :3] @ noise.reshape(3, 3)).ravel())
+            q = mat_to_quat((base[:3, :3] @ noise.reshape(3, 3)).ravel())
         else:
-            q = _mat9_to_quat(self.data.xmat[self._bid])
+            q = mat_to_quat(self.data.xmat[self._bid])
         # the builders' work without their conversions: every value here is already a Python float
         cov_o, cov_g, cov_a = self._imu_cov
         Time, Header, Quaternion, Vector3 = self._imu_types

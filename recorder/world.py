@@ -21,6 +21,7 @@ import numpy as np
 
 from navlog.errors import ConfigError
 from navlog.replay.config import load_config, named_config
+from navlog.replay.geometry import cell_to_world, se2_compose
 
 
 @dataclass(frozen=True)
@@ -97,11 +98,11 @@ class World:
         """xmin, ymin, xmax, ymax over all solids."""
         xs, ys = [], []
         for s in self.solids:
-            c, sn = math.cos(s.yaw), math.sin(s.yaw)
             for dx in (-s.size[0] / 2, s.size[0] / 2):
                 for dy in (-s.size[1] / 2, s.size[1] / 2):
-                    xs.append(s.center[0] + c * dx - sn * dy)
-                    ys.append(s.center[1] + sn * dx + c * dy)
+                    x, y, _ = se2_compose((s.center[0], s.center[1], s.yaw), (dx, dy, 0.0))
+                    xs.append(x)
+                    ys.append(y)
         return min(xs), min(ys), max(xs), max(ys)
 
 
@@ -129,8 +130,6 @@ def load_world(name: str) -> World:
         if obj.name in names:
             raise ConfigError(f"{where}: duplicate object name")
         names.add(obj.name)
-        x, y, yaw = obj.pose
-        c, s = math.cos(yaw), math.sin(yaw)
         if obj.model and obj.shape:
             raise ConfigError(f"{where}: give either 'model' or 'shape', not both")
         if obj.model:
@@ -146,7 +145,7 @@ def load_world(name: str) -> World:
             raise ConfigError(f"{where}: needs 'model: NAME' or 'shape: box|cylinder'")
         for part in parts:
             px, py, pz = part.pos
-            center = (x + c * px - s * py, y + s * px + c * py, pz)
+            x, y, yaw = se2_compose(obj.pose, (px, py, part.yaw))  # the part's pose in the world
             if part.shape == "box":
                 if min(part.size) <= 0:
                     raise ConfigError(f"{where}: part {part.name} needs a positive size")
@@ -155,7 +154,7 @@ def load_world(name: str) -> World:
                 if part.radius <= 0 or part.height <= 0:
                     raise ConfigError(f"{where}: part {part.name} needs a positive radius and height")
                 size = (2 * part.radius, 2 * part.radius, part.height)
-            solids.append(Solid(f"{obj.name}/{part.name}", part.shape, center, yaw + part.yaw, size))
+            solids.append(Solid(f"{obj.name}/{part.name}", part.shape, (x, y, pz), yaw, size))
     return World(spec, solids, path)
 
 
@@ -266,8 +265,8 @@ def occupancy(
     oy = math.floor((y0 - padding) / resolution) * resolution
     nx = int(math.ceil((x1 + padding - ox) / resolution))
     ny = int(math.ceil((y1 + padding - oy) / resolution))
-    xs = ox + (np.arange(nx) + 0.5) * resolution
-    ys = oy + (np.arange(ny) + 0.5) * resolution
+    xs = cell_to_world(np.arange(nx), ox, resolution)
+    ys = cell_to_world(np.arange(ny), oy, resolution)
     gx, gy = np.meshgrid(xs, ys)
     d = clearance(world, np.stack([gx.ravel(), gy.ravel()], axis=1), z_min, z_max).reshape(ny, nx)
     data = np.where(d <= margin + resolution / 2, 100, 0).astype(np.int8)

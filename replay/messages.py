@@ -6,7 +6,6 @@ Time is integer nanoseconds everywhere; ``stamp(ns)`` and ``to_ns(stamp)`` conve
 
 from __future__ import annotations
 
-import math
 import sys
 from functools import cache, lru_cache
 from types import SimpleNamespace
@@ -14,7 +13,14 @@ from typing import Any
 
 import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-from scipy.spatial.transform import Rotation
+
+# re-exported for the message builders' callers; the implementations live in navlog.replay.geometry
+from navlog.replay.geometry import make_transform as make_transform
+from navlog.replay.geometry import matrix_to_quat as matrix_to_quat
+from navlog.replay.geometry import quat_from_rpy as quat_from_rpy
+from navlog.replay.geometry import quat_from_yaw as quat_from_yaw
+from navlog.replay.geometry import quat_to_matrix as quat_to_matrix
+from navlog.replay.geometry import yaw_from_quat as yaw_from_quat
 
 # navlog's own message types. Their definitions travel in the MCAP schema of every log that uses them.
 EVENT_TYPE = "navlog_msgs/msg/Event"
@@ -71,13 +77,25 @@ def qos_for(topic: str) -> str:
     return QOS_TRANSIENT_LOCAL if topic in LATCHED_TOPICS else QOS_VOLATILE
 
 
-@lru_cache(maxsize=1)
-def typestore():
-    """The ROS 2 (Humble = Jazzy for the common types) type store with navlog's types registered."""
+def new_typestore():
+    """A new type store of the ROS 2 types (Humble = Jazzy for the common types) and navlog's own.
+
+    A log reader that meets types the shared store lacks registers them into one of these.
+    """
     store = get_typestore(Stores.ROS2_HUMBLE)
     for name, text in NAVLOG_TYPES.items():
         store.register(get_types_from_msg(text, name))
     return store
+
+
+@lru_cache(maxsize=1)
+def typestore():
+    """The shared base type store (``new_typestore()``, made once): never register anything into it.
+
+    Builders, writers and ``serialize``/``deserialize`` use it; a log's own types go into a reader's
+    own store (``navlog.replay.io.typestore``), so one log's definitions never reach another.
+    """
+    return new_typestore()
 
 
 def msgdef(typename: str) -> str:
@@ -237,36 +255,3 @@ def odometry(ns: int, frame: str, child: str, xyz, q_xyzw, lin, ang, pose_cov=No
 
 def event(ns: int, kind: str, source: str, detail: str = "", value: float = 0.0):
     return _types().Event(header(ns, ""), kind, source, detail, float(value))
-
-
-# ---------------------------------------------------------------- rotations (x, y, z, w order)
-
-
-def quat_from_yaw(yaw: float) -> tuple[float, float, float, float]:
-    return (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
-
-
-def quat_from_rpy(roll: float, pitch: float, yaw: float) -> tuple[float, float, float, float]:
-    return tuple(Rotation.from_euler("xyz", [roll, pitch, yaw]).as_quat())  # type: ignore[return-value]
-
-
-def yaw_from_quat(q_xyzw) -> float:
-    x, y, z, w = q_xyzw
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-
-
-def quat_to_matrix(q_xyzw) -> np.ndarray:
-    return Rotation.from_quat(np.asarray(q_xyzw, dtype=np.float64)).as_matrix()
-
-
-def matrix_to_quat(r: np.ndarray) -> tuple[float, float, float, float]:
-    """Quaternion (x, y, z, w, with w >= 0) of a rotation matrix."""
-    return tuple(Rotation.from_matrix(np.asarray(r, dtype=np.float64)).as_quat(canonical=True))  # type: ignore[return-value]
-
-
-def make_transform(xyz, q_xyzw) -> np.ndarray:
-    """4x4 homogeneous matrix from a translation and a quaternion."""
-    t = np.eye(4)
-    t[:3, :3] = quat_to_matrix(q_xyzw)
-    t[:3, 3] = np.asarray(xyz, dtype=np.float64)
-    return t

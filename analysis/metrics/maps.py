@@ -314,7 +314,7 @@ def point_to_mesh_distances(points, mesh) -> np.ndarray:
     if len(p) == 0:
         return np.zeros(0)
     scene = _raycasting_scene(mesh)
-    d = scene.compute_distance(o3d.core.Tensor(p.astype(np.float32)))
+    d = scene.compute_distance(o3d.core.Tensor(p.astype(np.float32)))  # type: ignore[call-overload]
     return d.numpy().astype(np.float64)
 
 
@@ -388,7 +388,8 @@ def visible_surface_samples(
         rays = np.concatenate([np.repeat(origins, len(dirs), axis=0), np.tile(dirs, (len(origins), 1))], axis=1).astype(
             np.float32
         )
-        t = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().astype(np.float64)
+        hit = scene.cast_rays(o3d.core.Tensor(rays))  # type: ignore[call-overload]
+        t = hit["t_hit"].numpy().astype(np.float64)
         ok = np.isfinite(t) & (t <= max_range)
         hits.append(rays[ok, :3].astype(np.float64) + t[ok, None] * rays[ok, 3:].astype(np.float64))
     pts = np.concatenate(hits) if hits else np.zeros((0, 3))

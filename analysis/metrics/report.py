@@ -22,10 +22,10 @@ import numpy as np
 
 from navlog.analysis.metrics import maps as map_metrics
 from navlog.analysis.metrics import trajectory as tr
-from navlog.analysis.tum import read_tum
+from navlog.analysis.tables import grid, indented, render, table
 from navlog.errors import NavlogError
 from navlog.replay import messages as m
-from navlog.replay.io.logreader import open_log
+from navlog.replay.io import open_log
 
 GT_TOPIC = "/odom/ground_truth"
 PCD_FRAMES = ("first-pose", "as-is", "aligned")
@@ -134,7 +134,7 @@ def read_pcd_points(path: Path) -> np.ndarray:
     import open3d as o3d
 
     with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
-        pcd = o3d.io.read_point_cloud(str(path))
+        pcd = o3d.io.read_point_cloud(path)
     return np.asarray(pcd.points, dtype=np.float64)
 
 
@@ -145,7 +145,7 @@ def read_mesh(path: str | Path):
     if not p.is_file():
         raise NavlogError(f"{p}: no such mesh file (--reference-mesh takes a .ply/.obj/.stl triangle mesh)")
     with o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error):
-        mesh = o3d.io.read_triangle_mesh(str(p))
+        mesh = o3d.io.read_triangle_mesh(p)
     if len(mesh.triangles) == 0:
         raise NavlogError(f"{p}: no triangles read; --reference-mesh needs a triangle mesh (.ply, .obj, .stl)")
     return mesh
@@ -204,7 +204,7 @@ def compute_metrics(
                 f"({m.ODOMETRY}) in the log; {reader.path} has none (choose another with --gt-topic)"
             )
     if paths["trajectory"].is_file():
-        est = read_tum(paths["trajectory"])
+        est = tr.Trajectory.from_tum(paths["trajectory"])
     else:
         skipped.append(f"ATE and RPE need the estimated trajectory {paths['trajectory']} (not found)")
 
@@ -215,7 +215,7 @@ def compute_metrics(
             ate = tr.absolute_trajectory_error(ref_a, est_a, align_mode=options.align, max_diff_ns=None)  # type: ignore[arg-type]
         except tr.TrajectoryError as exc:
             skipped.append(f"ATE and RPE of {paths['trajectory']} against {options.gt_topic}: {exc}")
-    if ate is not None:
+    if ate is not None and gt is not None and est is not None:
         section: dict[str, Any] = {
             "ground_truth_poses": len(gt),
             "ground_truth_read": gt_counts,
@@ -227,7 +227,7 @@ def compute_metrics(
                 ref_a,
                 est_a,
                 delta=options.rpe_delta,
-                unit=options.rpe_unit,
+                unit=options.rpe_unit,  # type: ignore[arg-type]
                 max_diff_ns=None,  # type: ignore[arg-type]
                 align_mode="sim3" if options.align == "sim3" else "none",
                 pairs_from=options.rpe_pairs_from,  # type: ignore[arg-type]
@@ -347,75 +347,84 @@ def _f(v: Any, unit: str = "", digits: int = 4) -> str:
     return f"{v:.{digits}f}{' ' + unit if unit else ''}"
 
 
-def _stats_row(label: str, s: dict, unit: str) -> str:
-    return (
-        f"  {label:<22} rmse {_f(s['rmse'], unit)}  mean {_f(s['mean'], unit)}  "
-        f"median {_f(s['median'], unit)}  max {_f(s['max'], unit)}"
-    )
+def _stats_row(label: str, s: dict, unit: str, note: str = "") -> tuple[str, ...]:
+    return (label, _f(s["rmse"], unit), _f(s["mean"], unit), _f(s["median"], unit), _f(s["max"], unit), note)
 
 
 def format_table(metrics: dict[str, Any]) -> str:
-    """The metrics as aligned text for people."""
-    lines = [f"Metrics of {metrics['inputs']['replay']} (log {metrics['inputs']['log']})"]
+    """The metrics as text for people: one table per section, then the skipped notes."""
+    items: list[Any] = [f"Metrics of {metrics['inputs']['replay']} (log {metrics['inputs']['log']})"]
     t = metrics.get("trajectory")
     if t:
         a = t["ate"]
-        lines.append(
+        items.append(
             f"Trajectory: {t['estimate_poses']} estimated vs {t['ground_truth_poses']} ground-truth poses, "
             f"{a['pairs']} matched ({'interpolated' if metrics['parameters']['interpolate'] else 'nearest stamp'}), "
             f"{a['align']} alignment"
         )
-        lines.append(_stats_row("ATE translation", a["translation_m"], "m"))
-        lines.append(_stats_row("ATE rotation", a["rotation_deg"], "deg"))
+        rows = [
+            _stats_row("ATE translation", a["translation_m"], "m"),
+            _stats_row("ATE rotation", a["rotation_deg"], "deg"),
+        ]
         if "rpe" in t:
             r = t["rpe"]
-            per = f"per {r['delta']:g} {r['unit']}"
-            lines.append(_stats_row("RPE translation", r["translation_m"], "m") + f"  ({per}, {r['pairs']} pairs)")
-            lines.append(_stats_row("RPE rotation", r["rotation_deg"], "deg"))
+            per = f"per {r['delta']:g} {r['unit']}, {r['pairs']} pairs"
+            rows.append(_stats_row("RPE translation", r["translation_m"], "m", per))
+            rows.append(_stats_row("RPE rotation", r["rotation_deg"], "deg"))
+        items.append(indented(table(("", "rmse", "mean", "median", "max", ""), rows, right=(1, 2, 3, 4))))
     g = metrics.get("map_2d")
     if g:
         c = g["counts"]
-        lines.append(
+        items.append(
             f"2D map: tau {g['tau_m']:g} m, {c['est_occupied']} occupied cells vs {c['ref_occupied']} in the reference"
         )
-        lines.append(
-            f"  {'precision':<22} {_f(g['precision'])}  ({c['matched_est_occupied']}/{c['est_occupied']} cells)"
-        )
-        lines.append(f"  {'recall':<22} {_f(g['recall'])}  ({c['matched_ref_occupied']}/{c['ref_occupied']} cells)")
-        lines.append(f"  {'F1':<22} {_f(g['f1'])}")
-        lines.append(
-            f"  {'recall (observable)':<22} {_f(g['recall_observable'])}  "
-            f"({c['matched_ref_occupied_observable']}/{c['ref_occupied_observable']} surface cells facing reachable free space)"
-        )
-        lines.append(f"  {'F1 (observable)':<22} {_f(g['f1_observable'])}")
-        lines.append(f"  {'IoU / IoU@tau':<22} {_f(g['iou'])} / {_f(g['iou_tau'])}")
-        lines.append(f"  {'mean dist ref->map':<22} {_f(g['mean_dist_ref_to_est_m'], 'm')}")
-        lines.append(f"  {'mean dist map->ref':<22} {_f(g['mean_dist_est_to_ref_m'], 'm')}")
-        lines.append(f"  {'Chamfer / Hausdorff':<22} {_f(g['chamfer_m'], 'm')} / {_f(g['hausdorff_m'], 'm')}")
-        lines.append(
-            f"  {'free-space coverage':<22} {_f(g['coverage'], '%')}  (of {c['ref_free_reachable']} reachable free cells)"
-        )
+        rows = [
+            ("precision", _f(g["precision"]), f"{c['matched_est_occupied']}/{c['est_occupied']} cells"),
+            ("recall", _f(g["recall"]), f"{c['matched_ref_occupied']}/{c['ref_occupied']} cells"),
+            ("F1", _f(g["f1"]), ""),
+            (
+                "recall (observable)",
+                _f(g["recall_observable"]),
+                f"{c['matched_ref_occupied_observable']}/{c['ref_occupied_observable']} surface cells facing "
+                "reachable free space",
+            ),
+            ("F1 (observable)", _f(g["f1_observable"]), ""),
+            ("IoU / IoU@tau", f"{_f(g['iou'])} / {_f(g['iou_tau'])}", ""),
+            ("mean dist ref->map", _f(g["mean_dist_ref_to_est_m"], "m"), ""),
+            ("mean dist map->ref", _f(g["mean_dist_est_to_ref_m"], "m"), ""),
+            ("Chamfer / Hausdorff", f"{_f(g['chamfer_m'], 'm')} / {_f(g['hausdorff_m'], 'm')}", ""),
+            ("free-space coverage", _f(g["coverage"], "%"), f"of {c['ref_free_reachable']} reachable free cells"),
+        ]
+        items.append(indented(grid(rows)))
         if g["origin_residual_m"] > 1e-9:
-            lines.append(
-                f"  note: origins differ by a fraction of a cell ({g['origin_residual_m']:.4f} m); compared on the nearest cells"
+            items.append(
+                f"  note: origins differ by a fraction of a cell ({g['origin_residual_m']:.4f} m); "
+                "compared on the nearest cells"
             )
     d = metrics.get("map_3d")
     if d:
-        lines.append(f"3D map: {d['points']} points, frame {d['frame']}")
-        for tau, share in d["accuracy"].items():
-            lines.append(f"  {'accuracy@' + tau + ' m':<22} {_f(share, '%')}")
+        items.append(f"3D map: {d['points']} points, frame {d['frame']}")
+        rows = [(f"accuracy@{tau} m", _f(share, "%"), "") for tau, share in d["accuracy"].items()]
         s = d["distance_m"]
-        lines.append(
-            f"  {'distance to surface':<22} mean {_f(s['mean'], 'm')}  median {_f(s['median'], 'm')}  max {_f(s['max'], 'm')}"
+        rows.append(
+            (
+                "distance to surface",
+                "",
+                f"mean {_f(s['mean'], 'm')}  median {_f(s['median'], 'm')}  max {_f(s['max'], 'm')}",
+            )
         )
         v = d.get("visible")
         if v:
-            for tau, share in v["completeness"].items():
-                lines.append(
-                    f"  {'completeness@' + tau + ' m':<22} {_f(share, '%')}  "
-                    f"(of {v['samples']} visible surface samples from {v['viewpoints']} viewpoints)"
+            rows.extend(
+                (
+                    f"completeness@{tau} m",
+                    _f(share, "%"),
+                    f"of {v['samples']} visible surface samples from {v['viewpoints']} viewpoints",
                 )
+                for tau, share in v["completeness"].items()
+            )
+        items.append(indented(grid(rows)))
     if metrics.get("skipped"):
-        lines.append("Skipped:")
-        lines.extend(f"  - {note}" for note in metrics["skipped"])
-    return "\n".join(lines)
+        items.append("Skipped:")
+        items.extend(f"  - {note}" for note in metrics["skipped"])
+    return render(*items)

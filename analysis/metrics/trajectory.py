@@ -1,6 +1,7 @@
 """Trajectories and their error metrics: timestamp association, Umeyama alignment, ATE and RPE.
 
-Pure mathematics, no I/O (files are ``analysis.tum``). The definitions are the ones evo uses:
+Pure mathematics, no I/O of its own (``Trajectory.from_tum`` reads a file through
+``navlog.replay.io.tum``). The definitions are the ones evo uses:
 
 - association: every stamp of the shorter trajectory is paired with the nearest stamp of the longer
   one, kept when the two are at most ``max_diff_ns`` apart;
@@ -18,12 +19,14 @@ Times are integer nanoseconds; positions (N, 3) metres; quaternions (N, 4) in x,
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from navlog.errors import NavlogError
+from navlog.replay.io.tum import read_tum
 
 AlignMode = Literal["se3", "sim3", "none"]
 DeltaUnit = Literal["frames", "m", "s"]
@@ -88,6 +91,11 @@ class Trajectory:
 
     def __len__(self) -> int:
         return len(self.times_ns)
+
+    @classmethod
+    def from_tum(cls, path: str | Path) -> Trajectory:
+        """The poses of a TUM file (``navlog.replay.io.tum.read_tum``; its errors name the file and line)."""
+        return cls(*read_tum(path))
 
     @classmethod
     def from_matrices(cls, times_ns, matrices) -> Trajectory:
@@ -427,11 +435,11 @@ def pair_indices(
         i = np.flatnonzero(ends < n).astype(np.int64)
         return i, ends[i].astype(np.int64)
     first, second = [], []
-    i = 0
-    while i < n and ends[i] < n:
-        first.append(i)
-        second.append(int(ends[i]))
-        i = int(ends[i])
+    k = 0
+    while k < n and ends[k] < n:
+        first.append(k)
+        second.append(int(ends[k]))
+        k = int(ends[k])
     return np.asarray(first, dtype=np.int64), np.asarray(second, dtype=np.int64)
 
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from navlog.replay.nav2.params import ERROR, NOTE, WARNING, load_nav2_params
-
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -19,6 +17,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from navlog.replay.nav2 import ERROR, IMPLEMENTED_NODES, NOTE, WARNING, load_nav2_params
+
     params = load_nav2_params(args.file)
     order = {ERROR: 0, WARNING: 1, NOTE: 2}
     problems = sorted(params.problems, key=lambda q: (order[q.severity], q.line or 0, q.path))
@@ -26,18 +26,7 @@ def run(args) -> int:
         if q.severity != NOTE or args.notes:
             print(q.format(args.file))
     notes = [q for q in problems if q.severity == NOTE]
-    implemented = [
-        n
-        for n in (
-            "global_costmap",
-            "local_costmap",
-            "planner_server",
-            "controller_server",
-            "velocity_smoother",
-            "collision_monitor",
-        )
-        if getattr(params, n) is not None
-    ]
+    implemented = [n for n in IMPLEMENTED_NODES if getattr(params, n) is not None]
     print(f"checked: {', '.join(implemented) or 'no implemented node'}")
     if params.not_implemented:
         print(f"read, not implemented: {', '.join(params.not_implemented)}")

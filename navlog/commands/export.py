@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from navlog.errors import NavlogError
-from navlog.replay.io.logreader import open_log
 
 
 def register(sub) -> None:
@@ -54,6 +53,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from navlog.analysis.export import BagOptions, export_rosbag2, export_tum
+    from navlog.replay.io import open_log
 
     if args.to == "rosbag2":
         if args.topic or args.tf:
@@ -83,7 +83,7 @@ def run(args) -> int:
             raise NavlogError(f"--tf {args.tf}: expected TARGET:SOURCE, e.g. map:base_link")
         tf = (target, source)
     with open_log(args.log, recover=args.recover) as reader:
-        summary = export_tum(
+        tum = export_tum(
             reader,
             args.output,
             topic=args.topic,
@@ -94,6 +94,6 @@ def run(args) -> int:
             frame_prefix=args.frame_prefix,
             force=args.force,
         )
-    skipped = sum(summary.skipped.values())
-    print(f"{summary.path}: {summary.poses} poses from {summary.source}" + (f"; skipped {skipped}" if skipped else ""))
+    skipped = sum(tum.skipped.values())
+    print(f"{tum.path}: {tum.poses} poses from {tum.source}" + (f"; skipped {skipped}" if skipped else ""))
     return 0

@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import json
 
-from navlog.analysis.loginfo import format_info, summarize
-from navlog.replay.io.logreader import open_log
-
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -22,6 +19,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from navlog.analysis.info import format_info, summarize
+    from navlog.replay.io import open_log
+
     with open_log(args.log, recover=args.recover) as reader:
         info = summarize(reader)
     print(json.dumps(info, indent=2) if args.json else format_info(info))

@@ -2,15 +2,11 @@
 
 from __future__ import annotations
 
-from navlog.analysis.metrics.report import (
-    PCD_FRAMES,
-    MetricsOptions,
-    compute_metrics,
-    format_table,
-    to_json,
-    write_json,
-)
-from navlog.analysis.metrics.trajectory import ALIGN_MODES, DELTA_UNITS
+# The values navlog.analysis.metrics accepts (report.PCD_FRAMES, trajectory.ALIGN_MODES and DELTA_UNITS),
+# written here so that the help needs no numpy; tests/navlog/test_cli.py checks they agree.
+PCD_FRAMES = ("first-pose", "as-is", "aligned")
+ALIGN_MODES = ("se3", "sim3", "none")
+DELTA_UNITS = ("frames", "m", "s")
 
 
 def register(sub) -> None:
@@ -82,6 +78,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from navlog.analysis.metrics.report import MetricsOptions, compute_metrics, format_table, to_json, write_json
+
     options = MetricsOptions(
         tau=args.tau,
         taus_3d=tuple(args.tau_3d),

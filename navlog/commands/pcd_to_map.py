@@ -4,12 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from navlog.errors import NavlogError
-from navlog.replay.io.logwriter import check_output
-from navlog.replay.io.map_server import save_map
-from navlog.replay.mapping.occupancy import project_points
 
 
 def register(sub) -> None:
@@ -19,7 +14,7 @@ def register(sub) -> None:
         description="Project a 3D point map (e.g. map.pcd from `navlog replay --pipeline mapping`, or FAST-LIO's "
         "scans.pcd) to a 2D occupancy grid: cells with points between --z-min and --z-max are occupied; cells "
         "where only floor points (below --z-min) were seen are free; the rest is unknown.",
-        epilog="example: navlog pcd-to-map out/map.pcd --z-min 0.1 --z-max 1.0 -o map2d.yaml",
+        epilog="example:\n  navlog pcd-to-map out/map.pcd --z-min 0.1 --z-max 1.0 -o map2d.yaml",
     )
     p.add_argument("pcd", type=Path, help="the .pcd file")
     p.add_argument("--z-min", type=float, required=True, help="lowest height that counts as an obstacle (m)")
@@ -33,14 +28,16 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import open3d as o3d
+    from navlog.replay.io.logwriter import check_output
+    from navlog.replay.io.map_server import save_map
+    from navlog.replay.io.pcd import read_pcd
+    from navlog.replay.mapping.occupancy import project_points
 
     if not args.pcd.is_file():
         raise NavlogError(f"{args.pcd}: no such file")
     check_output(args.output, args.force)
     check_output(args.output.with_suffix(".pgm"), args.force)
-    cloud = o3d.io.read_point_cloud(str(args.pcd))
-    pts = np.asarray(cloud.points)
+    pts = read_pcd(args.pcd)
     if len(pts) == 0:
         raise NavlogError(f"{args.pcd}: no points could be read (is it a PCD file?)")
     try:

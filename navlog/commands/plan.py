@@ -4,14 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from navlog.errors import ConfigError
-from navlog.replay.io.map_server import load_map
-from navlog.replay.nav2.params import load_nav2_params, parse_nav2_params
-from navlog.replay.nav2.planners.navfn import PlanningError
-from navlog.replay.nodes.planner import path_msg
-from navlog.replay.pipelines.planner import default_costmap, make_planner
 
 
 def _pose(text: str, what: str) -> tuple[float, float, float]:
@@ -46,30 +39,19 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from navlog.replay.nav2.costmap import Costmap2D
+    from navlog.replay.pipelines.planner import plan_on_map, write_plan_mcap, write_plan_png
 
     start, goal = _pose(args.start, "start"), _pose(args.goal, "goal")
-    if args.params:
-        nav2 = load_nav2_params(args.params, args.set)
-    else:
-        from navlog.replay.nav2.params import apply_nav2_overrides
-
-        nav2 = parse_nav2_params(apply_nav2_overrides({}, args.set) if args.set else {}, source="<defaults>")
-    nav2.require_valid(("global_costmap", "planner_server"))
-    occ = load_map(args.map)
-    cparams = nav2.global_costmap or default_costmap()
-    cm = Costmap2D(cparams)
-    if not cm.static_layers:
-        raise ConfigError(f"{args.params}: the global costmap has no static layer, so the map cannot be used")
-    cm.set_static_map(occ)
-    cm.update(start[0], start[1], start[2])
-    if (occ.data == -1).all():
-        raise ConfigError(f"{args.map}: the map is unknown everywhere")
-    planner = make_planner(nav2, args.planner, potential=args.potential)
-    try:
-        plan = planner.plan(cm, start, goal)
-    except PlanningError as exc:
-        raise PlanningError(f"{args.map}: {exc}") from None
+    result = plan_on_map(
+        args.map,
+        start,
+        goal,
+        nav2_params=args.params,
+        planner=args.planner,
+        potential=args.potential,
+        overrides=args.set,
+    )
+    plan, cm = result.plan, result.costmap
     print(
         f"planner {plan.planner}: {len(plan.poses)} poses, length {plan.length:.3f} m, cost {plan.cost:.3f} "
         f"(cost-weighted m), time {plan.time_s * 1000:.1f} ms on {cm.size_x} x {cm.size_y} cells"
@@ -77,22 +59,9 @@ def run(args) -> int:
     for note in plan.notes:
         print(f"note: {note}")
     if args.output:
-        from navlog.replay import messages as m
-        from navlog.replay.io.logwriter import McapLogWriter
-        from navlog.replay.runtime.executor import Envelope
-
-        with McapLogWriter(args.output, force=True) as w:
-            w.write(Envelope("/global_costmap/costmap", m.OCCUPANCY_GRID, 0, cm.to_msg(0)))
-            w.write(Envelope("/plan", m.PATH, 0, path_msg(plan, 0, cparams.global_frame)))
+        write_plan_mcap(args.output, result)
         print(f"wrote {args.output}")
     if args.png:
-        from PIL import Image
-
-        img = np.stack([255 - (cm.costs.astype(np.int32) * 255 // 255)] * 3, axis=-1).astype(np.uint8)
-        img[cm.costs == 255] = (120, 120, 160)
-        mx, my = cm.world_to_cell(plan.poses[:, 0], plan.poses[:, 1])
-        ok = (mx >= 0) & (mx < cm.size_x) & (my >= 0) & (my < cm.size_y)
-        img[my[ok], mx[ok]] = (220, 30, 30)
-        Image.fromarray(img[::-1]).save(args.png)
+        write_plan_png(args.png, result)
         print(f"wrote {args.png}")
     return 0

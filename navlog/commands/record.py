@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
+import threading
+from collections.abc import Iterator
 from pathlib import Path
-
-from navlog.recorder.record import format_summary, prepare, record
 
 
 def register(sub) -> None:
@@ -14,7 +17,7 @@ def register(sub) -> None:
         description="Run the MuJoCo simulation headless, faster than real time, and write a ROS 2 MCAP log "
         "(scan, 3D LiDAR, IMU, odometry, ground truth, TF, clock, cmd_vel). Worlds, robots and scenarios are "
         "YAML files in config/worlds, config/robots and config/scenarios (a name or a path).",
-        epilog="example: navlog record --world indoor_room --robot go2 --scenario mapping --seed 7 -o run.mcap",
+        epilog="example:\n  navlog record --world indoor_room --robot go2 --scenario mapping --seed 7 -o run.mcap",
     )
     p.add_argument("--world", default="indoor_room", help="world name or YAML path (default: indoor_room)")
     p.add_argument("--robot", default="go2", help="robot name or YAML path (default: go2)")
@@ -28,7 +31,31 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+@contextlib.contextmanager
+def stop_on_ctrl_c() -> Iterator[threading.Event]:
+    """An event that Ctrl-C (SIGINT) sets while the block runs, instead of raising KeyboardInterrupt.
+
+    ``record(..., stop=event)`` then ends the run cleanly; a second Ctrl-C raises KeyboardInterrupt
+    at once. The previous handler is restored after.
+    """
+    stop = threading.Event()
+
+    def on_sigint(signum: int, frame: object) -> None:
+        if stop.is_set():
+            raise KeyboardInterrupt
+        stop.set()
+        os.write(2, b"\nnavlog: stopping cleanly (Ctrl-C again to stop at once)\n")
+
+    previous = signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield stop
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def run(args) -> int:
+    from navlog.recorder.record import format_summary, prepare, record
+
     setup = prepare(args.world, args.robot, args.scenario, seed=args.seed, noise=not args.no_noise)
     live = []
     if args.pipeline:
@@ -36,6 +63,7 @@ def run(args) -> int:
 
         params = pipeline_params(args.pipeline, overrides=args.set)
         live = load_pipeline_module(args.pipeline).build(params, setup.topics()).nodes
-    res = record(setup, args.output, force=args.force, progress=not args.quiet, live_nodes=live)
+    with stop_on_ctrl_c() as stop:
+        res = record(setup, args.output, force=args.force, progress=not args.quiet, live_nodes=live, stop=stop)
     print(format_summary(res))
     return 130 if res.interrupted else 0

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from navlog.replay.io.recovery import recover_mcap
-
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -13,7 +11,7 @@ def register(sub) -> None:
         help="salvage a truncated MCAP file (e.g. after kill -9) into a valid one",
         description="Copy every complete chunk of a truncated MCAP file (schemas, channels, metadata, "
         "messages) into a new, finished file, and report how many messages and seconds were kept.",
-        epilog="example: navlog recover run.mcap.part -o run-fixed.mcap",
+        epilog="example:\n  navlog recover run.mcap.part -o run-fixed.mcap",
     )
     p.add_argument("broken", type=Path, help="the truncated .mcap (or .mcap.part) file")
     p.add_argument("-o", "--output", required=True, type=Path, help="the repaired .mcap file to write")
@@ -22,6 +20,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from navlog.replay.io.recovery import recover_mcap
+
     res = recover_mcap(args.broken, args.output, force=args.force)
     state = "the input was complete" if res.complete else "the input was truncated"
     print(

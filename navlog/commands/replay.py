@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import pkgutil
 from pathlib import Path
 
-from navlog.replay.runtime.session import parse_remaps, pipeline_names, pipeline_params, run_replay
+
+def _pipeline_names() -> list[str]:
+    """The modules of ``navlog.replay.pipelines``, found without importing them (the help stays instant)."""
+    import navlog.replay.pipelines
+
+    return sorted(m.name for m in pkgutil.iter_modules(navlog.replay.pipelines.__path__))
 
 
 def register(sub) -> None:
@@ -20,7 +26,7 @@ def register(sub) -> None:
         "  navlog replay bag_dir --pipeline mapping --remap /scan=/stable_scan -o out/",
     )
     p.add_argument("log", type=Path, help="the log to replay")
-    p.add_argument("--pipeline", required=True, help=f"pipeline name ({', '.join(pipeline_names())})")
+    p.add_argument("--pipeline", required=True, help=f"pipeline name ({', '.join(_pipeline_names())})")
     p.add_argument("-o", "--output", type=Path, required=True, help="output folder")
     p.add_argument("--params", type=Path, help="pipeline parameter YAML (default: config/pipelines/NAME.yaml)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a parameter (repeatable)")
@@ -37,6 +43,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from navlog.replay.runtime.session import format_summary, parse_remaps, pipeline_params, run_replay
+
     params = pipeline_params(args.pipeline, args.params, args.set)
     res = run_replay(
         args.log,
@@ -48,19 +56,5 @@ def run(args) -> int:
         force=args.force,
         progress=not args.quiet,
     )
-    m = res.manifest
-    print(f"replayed {args.log} through '{args.pipeline}' into {res.out_dir}/")
-    print(
-        f"log {res.log_s:.2f} s in {res.wall_s:.2f} s wall ({res.log_s / max(res.wall_s, 1e-9):.1f}x real time), "
-        f"{m['log']['messages_read']} messages read"
-        + (" (truncated log: readable part only)" if m["log"]["truncated"] else "")
-    )
-    for k, v in m["pipeline_info"].items():
-        print(f"  {k}: {v}")
-    for name, o in m["outputs"].items():
-        print(f"  {o['file']:<18} sha256 {o['sha256'][:16]}")
-    if m["skipped"]:
-        print("skipped inputs:")
-        for reason, n in m["skipped"].items():
-            print(f"  {n:>7}  {reason}")
+    print(format_summary(args.log, res))
     return 0

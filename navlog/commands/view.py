@@ -41,7 +41,7 @@ def register(sub) -> None:
 def run(args) -> int:
     import rerun as rr
 
-    from navlog.analysis.view.rerun_view import ViewOptions, save_view, stream_view
+    from navlog.analysis.view import ViewOptions, save_view, stream_view
 
     rr.set_strict_mode(True)
     opts = ViewOptions(fixed_frame=args.fixed_frame, frame_prefix=args.frame_prefix, cloud_stride=args.cloud_stride)

@@ -4,10 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from navlog.recorder.world import load_world, occupancy, write_mesh
-from navlog.replay.io.logwriter import check_output
-from navlog.replay.io.map_server import save_map
-
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -17,7 +13,7 @@ def register(sub) -> None:
         "Go2 setup generates its fixed Nav2 map: cells within --margin of an obstacle are occupied, all others "
         "free. --z-min/--z-max choose the heights that count (default 0..2 m: everything a robot can hit); "
         "--height H keeps what crosses one horizontal plane, e.g. a 2D laser's scan plane.",
-        epilog="example: navlog world-map indoor_room --margin 0.15 --resolution 0.05 -o gt.yaml",
+        epilog="example:\n  navlog world-map indoor_room --margin 0.15 --resolution 0.05 -o gt.yaml",
     )
     p.add_argument("world", help="world name or YAML path")
     p.add_argument("--margin", type=float, default=0.15, help="safety margin around obstacles in m (default 0.15)")
@@ -37,6 +33,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from navlog.recorder.world import load_world, occupancy, write_mesh
+    from navlog.replay.io.logwriter import check_output
+    from navlog.replay.io.map_server import save_map
+
     world = load_world(args.world)
     z_min, z_max = (args.height, args.height) if args.height is not None else (args.z_min, args.z_max)
     check_output(args.output, args.force)

@@ -98,7 +98,8 @@ class McapLogWriter:
         cid = self._known.get((topic, typename))
         if cid is None:
             cid = self._channel(topic, typename)
-        self._add(cid, log_time=time_ns, publish_time=time_ns, data=data, sequence=self.count)
+        # the mcap writer takes any bytes-like data, though its annotation says bytes
+        self._add(cid, log_time=time_ns, publish_time=time_ns, data=data, sequence=self.count)  # type: ignore[arg-type]
         self.count += 1
         if self.first_ns is None:
             self.first_ns = time_ns

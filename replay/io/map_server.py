@@ -181,9 +181,8 @@ def _read_image(path: Path) -> np.ndarray:
                 arr = np.asarray(img, dtype=np.float64)
                 maxval = 65535.0 if arr.max(initial=0) > 255 else 255.0
                 return arr / maxval
-            if img.mode not in ("L", "RGB"):
-                img = img.convert("RGBA" if "A" in img.mode else "RGB")
-            arr = np.asarray(img, dtype=np.float64)
+            shades = img if img.mode in ("L", "RGB") else img.convert("RGBA" if "A" in img.mode else "RGB")
+            arr = np.asarray(shades, dtype=np.float64)
     except (OSError, ValueError) as exc:
         raise ConfigError(f"{path}: cannot read map image: {exc}") from None
     if arr.ndim == 3:
@@ -262,7 +261,8 @@ def load_map(yaml_path: str | Path) -> OccupancyMap:
         raw = np.rint(shade * 255.0)
         ok = raw <= 100
         data[ok] = raw[ok].astype(np.int8)
-    return OccupancyMap(data=data, resolution=resolution, origin=tuple(float(v) for v in origin))
+    x, y, yaw = (float(v) for v in origin)
+    return OccupancyMap(data=data, resolution=resolution, origin=(x, y, yaw))
 
 
 def trinary_pixels(

@@ -15,8 +15,8 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 from navlog.errors import LogError
-from navlog.replay.io.logreader import MCAP_MAGIC
 from navlog.replay.io.logwriter import check_output
+from navlog.replay.io.mcap_reader import MCAP_MAGIC
 
 
 @dataclass
@@ -30,7 +30,7 @@ class RecoveryResult:
 
     @property
     def seconds(self) -> float:
-        return 0.0 if self.first_ns is None else (self.last_ns - self.first_ns) / 1e9
+        return 0.0 if self.first_ns is None or self.last_ns is None else (self.last_ns - self.first_ns) / 1e9
 
 
 def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) -> RecoveryResult:

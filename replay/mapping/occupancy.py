@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from navlog.replay.geometry import world_to_cell
 from navlog.replay.io.map_server import OccupancyMap
 
 
@@ -186,7 +187,7 @@ class OccupancyGrid2D:
         return buf[:n].reshape(shape)
 
     def _cells(self, xy: np.ndarray, nx: int) -> np.ndarray:
-        ij = np.floor((xy - self.origin) / self.res).astype(np.int64)
+        ij = world_to_cell(xy, self.origin, self.res)
         return ij[:, 1] * nx + ij[:, 0]
 
     # ------------------------------------------------------------ output
@@ -224,7 +225,7 @@ def project_points(
     if z_min > z_max:
         raise ValueError(f"z_min ({z_min}) must not exceed z_max ({z_max})")
     lo = np.floor(p[:, :2].min(axis=0) / resolution) * resolution - resolution
-    ij = np.floor((p[:, :2] - lo) / resolution).astype(np.int64)
+    ij = world_to_cell(p[:, :2], lo, resolution)
     nx, ny = ij.max(axis=0) + 2
     band = (p[:, 2] >= z_min) & (p[:, 2] <= z_max)
     counts = np.zeros((ny, nx), dtype=np.int64)

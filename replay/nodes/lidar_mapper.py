@@ -1,4 +1,4 @@
-"""The 3D LiDAR mapper node (the FAST-LIO role) around ``replay.lidar_odometry.LidarOdometry``.
+"""The 3D LiDAR mapper node (the FAST-LIO role) around ``LidarOdometry`` (``navlog.replay.mapping``).
 
 Subscribes the LiDAR cloud, the IMU (gyro for deskew and the initial guess), the wheel/leg odometry
 (optional translation prior) and /tf_static (the LiDAR and IMU mounts). A cloud is registered once
@@ -16,10 +16,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import open3d as o3d
 
-from navlog.errors import NavlogError
 from navlog.replay import messages
+from navlog.replay.geometry import make_transform, matrix_to_quat, quat_from_rpy
+from navlog.replay.io.pcd import write_pcd
 from navlog.replay.mapping.lidar_odometry import GyroTrack, LidarOdometry, LidarOdometryParams, MotionPrior, PoseTrack
 from navlog.replay.pointcloud import read_points, xyz_cloud
 from navlog.replay.runtime.executor import Node
@@ -73,7 +73,7 @@ class LidarMapperNode(Node):
         super().__init__()
         self.params = params
         x, y, z, roll, pitch, yaw = params.initial_pose
-        initial = messages.make_transform((x, y, z), messages.quat_from_rpy(roll, pitch, yaw))
+        initial = make_transform((x, y, z), quat_from_rpy(roll, pitch, yaw))
         self.odometry = LidarOdometry(params.odometry, np.eye(4), initial)
         self.tf = TFBuffer()
         self.gyro = GyroTrack()
@@ -160,7 +160,7 @@ class LidarMapperNode(Node):
                 fix = np.eye(4)
             self._odom_fix[child] = fix
         pp, q = msg.pose.pose.position, msg.pose.pose.orientation
-        pose = messages.make_transform((pp.x, pp.y, pp.z), (q.x, q.y, q.z, q.w)) @ fix
+        pose = make_transform((pp.x, pp.y, pp.z), (q.x, q.y, q.z, q.w)) @ fix
         if not np.isfinite(pose).all():
             self._skip("odom_not_finite")
             return
@@ -222,7 +222,7 @@ class LidarMapperNode(Node):
             return
         n = len(self.odometry.stamps)
         xyz = result.pose[:3, 3]
-        q = messages.matrix_to_quat(result.pose[:3, :3])
+        q = matrix_to_quat(result.pose[:3, :3])
         v = result.velocity
         odom = messages.odometry(item.stamp_ns, p.map_frame, p.base_frame, xyz, q, v[:3], v[3:])
         self.publish(p.odometry_topic, messages.ODOMETRY, odom)
@@ -239,9 +239,7 @@ class LidarMapperNode(Node):
         pose_stamped = messages.msg_class(messages.POSE_STAMPED)
         items = self._path_items  # built once per pose: a path message holds every pose so far
         items.extend(
-            pose_stamped(
-                header=messages.header(int(t), frame), pose=messages.pose(m[:3, 3], messages.matrix_to_quat(m[:3, :3]))
-            )
+            pose_stamped(header=messages.header(int(t), frame), pose=messages.pose(m[:3, 3], matrix_to_quat(m[:3, :3])))
             for t, m in zip(stamps[len(items) :], poses[len(items) :])
         )
         path = messages.msg_class(messages.PATH)(header=messages.header(int(stamps[-1]), frame), poses=list(items))
@@ -264,16 +262,9 @@ class LidarMapperNode(Node):
         chunks of ``save_every_n_frames`` frames beside it as ``<stem>_<k>.pcd``; returns what was written."""
         path = Path(path)
         written = {"map_pcd": path}
-        _write_pcd(path, self.odometry.global_map())
+        write_pcd(path, self.odometry.global_map())
         for k, chunk in enumerate(self.odometry.finish_chunks(), start=1):
             chunk_path = path.with_name(f"{path.stem}_{k:04d}{path.suffix}")
-            _write_pcd(chunk_path, chunk)
+            write_pcd(chunk_path, chunk)
             written[f"map_pcd_{k:04d}"] = chunk_path
         return written
-
-
-def _write_pcd(path: Path, points: np.ndarray) -> None:
-    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.ascontiguousarray(points, dtype=np.float64)))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    if not o3d.io.write_point_cloud(str(path), pcd, write_ascii=False):
-        raise NavlogError(f"{path}: cannot write the point cloud")

@@ -22,6 +22,7 @@ from typing import Literal
 import numpy as np
 
 from navlog.replay import messages
+from navlog.replay.geometry import yaw_from_matrix
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError
@@ -144,7 +145,7 @@ class OccupancyMapperNode(Node):
     def _insert(self, msg, stamp: int, base: np.ndarray, pose: np.ndarray) -> None:
         if self._last_pose is not None and self.p.minimum_travel_distance > 0:
             moved = np.linalg.norm(pose[:2, 3] - self._last_pose[:2, 3])
-            turned = abs(math.atan2(pose[1, 0], pose[0, 0]) - math.atan2(self._last_pose[1, 0], self._last_pose[0, 0]))
+            turned = abs(yaw_from_matrix(pose) - yaw_from_matrix(self._last_pose))
             turned = min(turned, 2 * math.pi - turned)
             if moved < self.p.minimum_travel_distance and turned < self.p.minimum_travel_heading:
                 self.skipped["scans within minimum travel (not inserted)"] += 1

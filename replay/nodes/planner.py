@@ -6,10 +6,12 @@ PointCloud2), /tf and /tf_static; it updates at ``update_frequency`` and publish
 ``PlannerNode`` holds the goals (from /goal_pose or a goal list), plans from the robot pose (TF
 global_frame <- robot_base_frame) every ``replan_period_s`` and publishes /plan (nav_msgs/Path).
 Without any robot TF (a log with only a map), it plans the goal list as a chain of legs from ``start``.
+``costmap_msg``, ``footprint_msg`` and ``path_msg`` build the messages they publish.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -17,8 +19,18 @@ import numpy as np
 
 from navlog.replay import messages as m
 from navlog.replay.io.map_server import OccupancyMap
-from navlog.replay.nav2.costmap import Costmap2D, Observation, scan_points, scan_points_inf_valid
-from navlog.replay.nav2.planners.navfn import PlanningError, PlanResult
+from navlog.replay.nav2.costmap import (
+    Costmap2D,
+    CostmapGrid,
+    CostmapParams,
+    Observation,
+    ObservationSourceParams,
+    occupancy_values,
+    scan_points,
+    scan_points_inf_valid,
+    transform_footprint,
+)
+from navlog.replay.nav2.planners import Planner, PlanningError, PlanResult, Pose2D
 from navlog.replay.pointcloud import xyz
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError
@@ -30,7 +42,11 @@ def _count(d: dict[str, int], key: str) -> None:
 
 class CostmapNode(Node):
     def __init__(
-        self, params, name: str = "global_costmap", static_map: OccupancyMap | None = None, map_topic: str = "/map"
+        self,
+        params: CostmapParams,
+        name: str = "global_costmap",
+        static_map: OccupancyMap | None = None,
+        map_topic: str = "/map",
     ) -> None:
         super().__init__()
         self.name = name
@@ -40,12 +56,12 @@ class CostmapNode(Node):
         self.skipped: dict[str, int] = {}
         self.static_map = static_map
         self.map_topic = map_topic
-        self.pending: dict[str, tuple[int, Any, Any]] = {}  # source -> (stamp, msg, source params)
+        self.pending: dict[str, tuple[int, Any, ObservationSourceParams]] = {}  # source -> (stamp, msg, params)
         self.updates = 0
-        self.robot: tuple[float, float, float] | None = None
-        self.source_topics: dict[str, list[tuple[str, Any]]] = {}
-        for layer in self.costmap.obstacle_layers:
-            for sname, sp in layer.p.sources.items():
+        self.robot: Pose2D | None = None
+        self.source_topics: dict[str, list[tuple[str, ObservationSourceParams]]] = {}
+        for layer in self.costmap.layers:
+            for sname, sp in layer.observation_sources().items():
                 topic = sp.topic if sp.topic.startswith("/") else "/" + sp.topic
                 self.source_topics.setdefault(topic, []).append((sname, sp))
 
@@ -62,18 +78,18 @@ class CostmapNode(Node):
             else:
                 self.subscribe(self.map_topic, self._on_map)
         for topic in self.source_topics:
-            self.subscribe(topic, lambda msg, t, topic=topic: self._on_source(topic, msg))
+            self.subscribe(topic, functools.partial(self._on_source, topic))
         period = int(round(1e9 / self.params.update_frequency))
         self.create_timer(period, self._update)
 
     def _on_map(self, msg: Any, t: int) -> None:
         self.costmap.set_static_map(OccupancyMap.from_msg(msg))
 
-    def _on_source(self, topic: str, msg: Any) -> None:
+    def _on_source(self, topic: str, msg: Any, t: int) -> None:
         for sname, sp in self.source_topics[topic]:
             self.pending[sname] = (m.to_ns(msg.header.stamp), msg, sp)
 
-    def robot_pose(self, t: int) -> tuple[float, float, float] | None:
+    def robot_pose(self, t: int) -> Pose2D | None:
         p = self.params
         try:
             T = self.tf.lookup(p.global_frame, p.robot_base_frame, t)
@@ -84,7 +100,7 @@ class CostmapNode(Node):
                 return None
         return float(T[0, 3]), float(T[1, 3]), math.atan2(T[1, 0], T[0, 0])
 
-    def _observation(self, sname: str, stamp: int, msg: Any, sp) -> Observation | None:
+    def _observation(self, sname: str, stamp: int, msg: Any, sp: ObservationSourceParams) -> Observation | None:
         frame = sp.sensor_frame or msg.header.frame_id
         try:
             T = self.tf.lookup(self.params.global_frame, frame, stamp)
@@ -102,7 +118,7 @@ class CostmapNode(Node):
         if (
             self.costmap.static_layers
             and self.static_map is None
-            and all(layer.map_costs is None for layer in self.costmap.static_layers)
+            and not any(layer.has_map for layer in self.costmap.static_layers)
         ):
             if not self.costmap.obstacle_layers:
                 return
@@ -127,15 +143,38 @@ class CostmapNode(Node):
         self.pending = {}
         self.costmap.update(*robot)
         self.updates += 1
-        self.publish(f"/{self.name}/costmap", m.OCCUPANCY_GRID, self.costmap.to_msg(t))
+        self.publish(f"/{self.name}/costmap", m.OCCUPANCY_GRID, costmap_msg(self.costmap, t))
         self.publish(
             f"/{self.name}/published_footprint",
             "geometry_msgs/msg/PolygonStamped",
-            self.costmap.footprint_msg(t, *robot),
+            footprint_msg(self.costmap, t, *robot),
         )
 
 
+def costmap_msg(cm: CostmapGrid, ns: int, frame_id: str | None = None) -> Any:
+    """nav_msgs/OccupancyGrid of a costmap with Nav2's value mapping (frame: the costmap's global frame)."""
+    occ = OccupancyMap(
+        data=occupancy_values(cm.costs),
+        resolution=cm.resolution,
+        origin=(cm.origin_x, cm.origin_y, 0.0),
+        frame_id=frame_id or cm.params.global_frame,
+    )
+    return occ.to_msg(ns)
+
+
+def footprint_msg(cm: CostmapGrid, ns: int, x: float, y: float, yaw: float) -> Any:
+    """geometry_msgs/PolygonStamped of a costmap's padded footprint at a pose (global frame)."""
+    poly = transform_footprint(cm.footprint, x, y, yaw)
+    Point32 = m.msg_class("geometry_msgs/msg/Point32")
+    Polygon = m.msg_class("geometry_msgs/msg/Polygon")
+    return m.msg_class("geometry_msgs/msg/PolygonStamped")(
+        header=m.header(ns, cm.params.global_frame),
+        polygon=Polygon(points=[Point32(x=float(px), y=float(py), z=0.0) for px, py in poly]),
+    )
+
+
 def path_msg(plan: PlanResult, t: int, frame: str) -> Any:
+    """nav_msgs/Path of a plan's poses stamped ``t`` in ``frame``."""
     PoseStamped = m.msg_class(m.POSE_STAMPED)
     poses = [
         PoseStamped(header=m.header(t, frame), pose=m.pose((x, y, 0.0), m.quat_from_yaw(yaw)))
@@ -150,12 +189,12 @@ class PlannerNode(Node):
     def __init__(
         self,
         costmap_node: CostmapNode,
-        planner,
-        goals: list[tuple[float, float, float]] | None = None,
+        planner: Planner,
+        goals: list[Pose2D] | None = None,
         goal_frame: str = "map",
         replan_period_s: float = 1.0,
         goal_tolerance: float = 0.25,
-        start: tuple[float, float, float] = (0.0, 0.0, 0.0),
+        start: Pose2D = (0.0, 0.0, 0.0),
         goal_topic: str = "/goal_pose",
     ) -> None:
         super().__init__()
@@ -185,7 +224,7 @@ class PlannerNode(Node):
         self.index = 0
         self._tick(t)
 
-    def _goal_in_global(self, goal, t: int):
+    def _goal_in_global(self, goal: Pose2D, t: int) -> Pose2D | None:
         frame = self.goal_frame.lstrip("/")
         gframe = self.cm_node.params.global_frame
         if frame == gframe:
@@ -199,7 +238,7 @@ class PlannerNode(Node):
         x, y = T[0, 0] * goal[0] + T[0, 1] * goal[1] + T[0, 3], T[1, 0] * goal[0] + T[1, 1] * goal[1] + T[1, 3]
         return x, y, goal[2] + math.atan2(T[1, 0], T[0, 0])
 
-    def _plan(self, start, goal, t: int) -> None:
+    def _plan(self, start: Pose2D, goal: Pose2D, t: int) -> None:
         try:
             plan = self.planner.plan(self.cm_node.costmap, start, goal)
         except PlanningError as exc:
@@ -220,8 +259,8 @@ class PlannerNode(Node):
             # no robot pose in the log: plan the goal list as a chain of legs from `start`
             self.chained = True
             prev = self.start
-            for goal in self.goals:
-                g = self._goal_in_global(goal, t)
+            for leg_goal in self.goals:
+                g = self._goal_in_global(leg_goal, t)
                 if g is None:
                     return
                 self._plan(prev, g, t)

@@ -8,32 +8,32 @@ YAML (``goals``: a name in config/goals/ or a path), planned in turn from the ro
 
 Outputs: /global_costmap/costmap, /global_costmap/published_footprint, /plan and plan events in
 replay.mcap; plans.json (length, cost, goal of every plan) as an artifact.
+
+One plan without a log: ``plan_on_map(map, start, goal, nav2_params=..., planner=...)`` builds the
+global costmap on a map and plans once (what ``navlog plan`` runs); ``write_plan_mcap`` and
+``write_plan_png`` save the result.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
+import numpy as np
+
 from navlog.errors import ConfigError
+from navlog.replay import messages as m
 from navlog.replay.config import find_config, known_configs, load_yaml, suggest
-from navlog.replay.io.map_server import load_map
-from navlog.replay.nav2.params import (
-    CostmapParams,
-    InflationLayerParams,
-    NavfnParams,
-    ObstacleLayerParams,
-    Smac2DParams,
-    StaticLayerParams,
-    apply_nav2_overrides,
-    load_nav2_params,
-    parse_nav2_params,
-)
-from navlog.replay.nav2.planners.navfn import NavfnPlanner
-from navlog.replay.nav2.planners.smac2d import Smac2DPlanner
-from navlog.replay.nodes.planner import CostmapNode, PlannerNode
+from navlog.replay.io.logwriter import McapLogWriter
+from navlog.replay.io.map_server import OccupancyMap, load_map
+from navlog.replay.nav2 import Nav2Params, default_nav2_params, load_nav2_params
+from navlog.replay.nav2.costmap import Costmap2D, default_costmap_params
+from navlog.replay.nav2.planners import PlanningError, PlanResult, Pose2D, make_planner
+from navlog.replay.nodes.planner import CostmapNode, PlannerNode, costmap_msg, path_msg
+from navlog.replay.runtime.executor import Envelope
 from navlog.replay.runtime.pipeline import Pipeline
 
 # `navlog replay --pipeline planner --params nav2_params.yaml` fills this key
@@ -95,48 +95,26 @@ def load_goals(spec: str) -> tuple[list[tuple[float, float, float]], str]:
     return goals, str(doc.get("frame_id", "map"))
 
 
-def nav2_config(params: Params):
+def planning_nav2_params(nav2_params: str | Path | None, overrides: Sequence[str] = ()) -> Nav2Params:
+    """The Nav2 parameters planning runs with: a file (none: Nav2's defaults) with ``overrides`` applied.
+
+    Errors in the global costmap or the planner server are raised at once as one ConfigError.
+    """
+    nav2 = load_nav2_params(nav2_params, overrides) if nav2_params else default_nav2_params(overrides)
+    return nav2.require_valid(("global_costmap", "planner_server"))
+
+
+def nav2_config(params: Params) -> Nav2Params:
     """The Nav2 parameters the pipeline runs with (file + overrides), errors raised at once."""
-    overrides = nav2_overrides(params)
-    if params.nav2_params:
-        nav2 = load_nav2_params(params.nav2_params, overrides)
-    else:
-        nav2 = parse_nav2_params(apply_nav2_overrides({}, overrides) if overrides else {}, source="<defaults>")
-    nav2.require_valid(("global_costmap", "planner_server"))
-    return nav2
-
-
-def make_planner(nav2, planner: str, planner_id: str = "", potential: str = "wavefront"):
-    wanted = NavfnParams if planner == "navfn" else Smac2DParams
-    found = {}
-    if nav2.planner_server is not None:
-        found = {k: v for k, v in nav2.planner_server.planners.items() if isinstance(v, wanted)}
-    if planner_id:
-        if planner_id not in found:
-            raise ConfigError(
-                f"planner '{planner_id}' of type {planner} not in planner_server{suggest(planner_id, found)}"
-            )
-        p = found[planner_id]
-    else:
-        p = next(iter(found.values()), wanted())
-    return NavfnPlanner(p, potential=potential) if planner == "navfn" else Smac2DPlanner(p)
-
-
-def default_costmap() -> CostmapParams:
-    layers = {
-        "static_layer": StaticLayerParams(),
-        "obstacle_layer": ObstacleLayerParams(),
-        "inflation_layer": InflationLayerParams(),
-    }
-    return CostmapParams(layers=layers)
+    return planning_nav2_params(params.nav2_params, nav2_overrides(params))
 
 
 def build(params: Params, log_topics: set[str]) -> Pipeline:
     nav2 = nav2_config(params)
-    cparams = nav2.global_costmap or default_costmap()
+    cparams = nav2.global_costmap or default_costmap_params()
     static_map = load_map(params.map) if params.map else None
     cm_node = CostmapNode(cparams, "global_costmap", static_map=static_map)
-    planner = make_planner(nav2, params.planner, params.planner_id, params.navfn_potential)
+    planner = make_planner(nav2.planner_server, params.planner, params.planner_id, params.navfn_potential)
     goals, frame = load_goals(params.goals) if params.goals else ([], params.goal_frame)
     pl = PlannerNode(
         cm_node,
@@ -189,3 +167,72 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         write_artifacts=write_artifacts,
         skipped=skipped,
     )
+
+
+# ---------------------------------------------------------------- one plan on a map
+
+
+@dataclass
+class MapPlan:
+    """One plan on a map: the global costmap it was planned on, and the plan."""
+
+    costmap: Costmap2D
+    plan: PlanResult
+
+
+def plan_on_map(
+    map: str | Path | OccupancyMap,
+    start: Pose2D,
+    goal: Pose2D,
+    *,
+    nav2_params: str | Path | None = None,
+    planner: Literal["navfn", "smac2d"] = "navfn",
+    planner_id: str = "",
+    potential: Literal["wavefront", "exact"] = "wavefront",
+    overrides: Sequence[str] = (),
+) -> MapPlan:
+    """Build the global costmap on a map (a map_server YAML or an OccupancyMap) and plan once.
+
+    ``nav2_params``: a Nav2 parameter file (none: Nav2's defaults) with ``overrides`` (``KEY=VALUE``,
+    full or short key paths); its global costmap needs a static layer. The costmap is updated once at
+    ``start``; ``planner`` / ``planner_id`` pick the planner as the planner pipeline does. Poses are
+    (x, y, yaw) in the map's frame. Raises ConfigError for the parameters or the map, PlanningError
+    when there is no plan (messages prefixed with the map's path when it was given one).
+    """
+    nav2 = planning_nav2_params(nav2_params, overrides)
+    where = "" if isinstance(map, OccupancyMap) else f"{map}: "
+    occ = map if isinstance(map, OccupancyMap) else load_map(map)
+    cm = Costmap2D(nav2.global_costmap or default_costmap_params())
+    if not cm.static_layers:
+        raise ConfigError(f"{nav2_params}: the global costmap has no static layer, so the map cannot be used")
+    cm.set_static_map(occ)
+    cm.update(start[0], start[1], start[2])
+    if (occ.data == -1).all():
+        raise ConfigError(f"{where}the map is unknown everywhere")
+    chosen = make_planner(nav2.planner_server, planner, planner_id, potential)
+    try:
+        plan = chosen.plan(cm, start, goal)
+    except PlanningError as exc:
+        raise PlanningError(f"{where}{exc}") from None
+    return MapPlan(cm, plan)
+
+
+def write_plan_mcap(path: str | Path, result: MapPlan) -> None:
+    """The costmap (/global_costmap/costmap) and the plan (/plan) at time 0 in an MCAP (overwritten)."""
+    cm = result.costmap
+    with McapLogWriter(path, force=True) as w:
+        w.write(Envelope("/global_costmap/costmap", m.OCCUPANCY_GRID, 0, costmap_msg(cm, 0)))
+        w.write(Envelope("/plan", m.PATH, 0, path_msg(result.plan, 0, cm.params.global_frame)))
+
+
+def write_plan_png(path: str | Path, result: MapPlan) -> None:
+    """The costmap in grey (free white, lethal black, unknown blue-grey) with the plan's cells in red."""
+    from PIL import Image
+
+    cm, plan = result.costmap, result.plan
+    img = np.stack([255 - (cm.costs.astype(np.int32) * 255 // 255)] * 3, axis=-1).astype(np.uint8)
+    img[cm.costs == 255] = (120, 120, 160)
+    mx, my = cm.world_to_cell(plan.poses[:, 0], plan.poses[:, 1])
+    ok = (mx >= 0) & (mx < cm.size_x) & (my >= 0) & (my < cm.size_y)
+    img[my[ok], mx[ok]] = (220, 30, 30)
+    Image.fromarray(img[::-1]).save(path)

@@ -24,10 +24,11 @@ from typing import Any
 import navlog.replay.pipelines
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
-from navlog.replay.io.logreader import LogReader, open_log
+from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
+from navlog.replay.io.reader import LogReader
 from navlog.replay.runtime.executor import Envelope, Executor
-from navlog.replay.runtime.progress import Progress
+from navlog.replay.runtime.progress import Progress, format_table
 from navlog.version import __version__
 
 logger = logging.getLogger("navlog")
@@ -163,6 +164,25 @@ def run_replay(
     return ReplayResult(out_dir, manifest, result["wall_s"])
 
 
+def format_summary(log: Path | str, res: ReplayResult) -> str:
+    """What a replay did: the log, the speed, the pipeline's facts, the outputs with their hashes, the skips."""
+    m = res.manifest
+    lines = [
+        f"replayed {log} through '{m['pipeline']}' into {res.out_dir}/",
+        f"log {res.log_s:.2f} s in {res.wall_s:.2f} s wall ({res.log_s / max(res.wall_s, 1e-9):.1f}x real time), "
+        f"{m['log']['messages_read']} messages read"
+        + (" (truncated log: readable part only)" if m["log"]["truncated"] else ""),
+    ]
+    tables = []
+    if m["pipeline_info"]:
+        tables.append(format_table(("pipeline", "value"), list(m["pipeline_info"].items())))
+    tables.append(format_table(("output", "sha256"), [(o["file"], o["sha256"][:16]) for o in m["outputs"].values()]))
+    if m["skipped"]:
+        rows = [(n, reason) for reason, n in m["skipped"].items()]
+        tables.append(format_table(("count", "reason"), rows, title="skipped inputs", align=("right", "left")))
+    return "\n\n".join(["\n".join(lines), *tables])
+
+
 def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp: Path, progress: bool) -> dict:
     ex = Executor(start_ns=reader.start_ns)
 
@@ -183,12 +203,14 @@ def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp
     ex.add_source(stream())
     for node in pipe.nodes:
         ex.add_node(node)
-    bar = Progress(reader.duration_ns / 1e9, f"replay {pipe.name}", "log s", enabled=progress)
     start = time.perf_counter()
     t0 = reader.start_ns
-    with McapLogWriter(
-        tmp / "replay.mcap", metadata={"navlog": {"navlog_version": __version__, "pipeline": pipe.name}}
-    ) as writer:
+    with (
+        Progress(reader.duration_ns / 1e9, f"replay {pipe.name}", "log s", enabled=progress) as bar,
+        McapLogWriter(
+            tmp / "replay.mcap", metadata={"navlog": {"navlog_version": __version__, "pipeline": pipe.name}}
+        ) as writer,
+    ):
         ex.add_sink(_OutputSink(writer, set(pipe.outputs)))
         chunk = 1_000_000_000
         t = t0
@@ -199,7 +221,6 @@ def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp
             if not ex.sources_pending:
                 break
         ex.finish()
-    bar.close()
     artifacts = pipe.write_artifacts(tmp)
     return {"wall_s": time.perf_counter() - start, "stats": ex.stats, "artifacts": artifacts, "backwards": backwards}
 

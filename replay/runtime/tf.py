@@ -17,38 +17,7 @@ import numpy as np
 
 from navlog.errors import NavlogError
 from navlog.replay import messages
-
-
-def _slerp(q0: np.ndarray, q1: np.ndarray, a: float) -> np.ndarray:
-    """Spherical interpolation of unit quaternions (x, y, z, w), the shorter way round."""
-    dot = float(q0 @ q1)
-    if dot < 0.0:
-        q1, dot = -q1, -dot
-    if dot > 0.9995:  # nearly equal: linear interpolation is exact to rounding
-        q = q0 + a * (q1 - q0)
-        return q / math.sqrt(float(q @ q))
-    theta = math.acos(dot)
-    s = math.sin(theta)
-    return (math.sin((1.0 - a) * theta) / s) * q0 + (math.sin(a * theta) / s) * q1
-
-
-def _quat_matrix(q: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a unit quaternion (x, y, z, w)."""
-    x, y, z, w = (float(v) for v in q)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
-
-
-def _matrix(xyz: np.ndarray, q: np.ndarray) -> np.ndarray:
-    m = np.eye(4)
-    m[:3, :3] = _quat_matrix(q)
-    m[:3, 3] = xyz
-    return m
+from navlog.replay.geometry import slerp, unit_quat_transform
 
 
 class TransformError(NavlogError):
@@ -138,7 +107,7 @@ class TFBuffer:
     def _edge_matrix(self, child: str, t_ns: int | None) -> np.ndarray:
         e = self._edges[child]
         if e.static or t_ns is None:
-            return _matrix(e.trans[-1], e.quats[-1])
+            return unit_quat_transform(e.trans[-1], e.quats[-1])
         times = e.times
         if t_ns < times[0] or t_ns > times[-1]:
             raise TransformError(
@@ -147,10 +116,10 @@ class TFBuffer:
             )
         i = bisect.bisect_left(times, t_ns)
         if times[i] == t_ns:
-            return _matrix(e.trans[i], e.quats[i])
+            return unit_quat_transform(e.trans[i], e.quats[i])
         t0, t1 = times[i - 1], times[i]
         a = (t_ns - t0) / (t1 - t0)
-        return _matrix((1 - a) * e.trans[i - 1] + a * e.trans[i], _slerp(e.quats[i - 1], e.quats[i], a))
+        return unit_quat_transform((1 - a) * e.trans[i - 1] + a * e.trans[i], slerp(e.quats[i - 1], e.quats[i], a))
 
     def _chain(self, frame: str) -> list[str]:
         chain = [frame]

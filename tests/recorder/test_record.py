@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from navlog.errors import ConfigError, NavlogError
-from navlog.recorder.record import prepare, record
+from navlog.recorder.record import expected_duration, format_summary, prepare, record
 from navlog.recorder.world import clearance, load_world
-from navlog.replay.io.logreader import open_log
+from navlog.replay.io import open_log
 
 NAVLOG = [sys.executable, "-m", "navlog"]
 REPO = Path(__file__).resolve().parents[2]
@@ -234,6 +234,44 @@ def _wait_for(path: Path, size: int, timeout: float = 120.0) -> None:
     raise AssertionError(f"{path} did not grow past {size} bytes")
 
 
+def test_progress_off_a_terminal_prints_every_decile_up_to_100_percent(tmp_path, capsys):
+    res = record(prepare("indoor_room", "go2", "teleop", seed=3), tmp_path / "p.mcap")
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [f"recording: {d}%" for d in range(0, 101, 10)]
+    assert not res.interrupted
+
+
+def test_expected_duration_of_a_tour_is_its_path_not_max_duration(mapping_log):
+    # the mapping tour takes 138 s of its 400 s max_duration; the bar's total must be near 138 s
+    setup = prepare("indoor_room", "go2", "mapping", seed=7)
+    with open_log(mapping_log) as r:
+        actual = r.duration_ns / 1e9
+    assert setup.scenario.max_duration == 400.0
+    assert abs(expected_duration(setup) - actual) < 0.1 * actual
+    assert expected_duration(prepare("indoor_room", "go2", "teleop")) == pytest.approx(17.0)
+
+
+def test_summary_table_lists_every_topic_with_count_and_rate(tmp_path):
+    res = record(prepare("indoor_room", "go2", "teleop", seed=3), tmp_path / "s.mcap", progress=False)
+    text = format_summary(res)
+    assert "\x1b[" not in text
+    n, typ = res.topics["/scan"][1], res.topics["/scan"][0]
+    row = next(line for line in text.splitlines() if line.split()[:1] == ["/scan"])
+    assert row.split() == ["/scan", typ, str(n), f"{(n - 1) / res.sim_s:.2f}", "Hz"]
+    assert len([line for line in text.splitlines() if line.lstrip().startswith("/")]) == len(res.topics)
+
+
+def test_a_set_stop_event_ends_the_run_with_a_whole_file(tmp_path):
+    import threading
+
+    stop = threading.Event()
+    stop.set()
+    res = record(prepare("indoor_room", "go2", "teleop", seed=3), tmp_path / "stop.mcap", progress=False, stop=stop)
+    assert res.interrupted and res.sim_s < 1.0
+    with open_log(res.path) as r:
+        assert not r.report.truncated
+
+
 def test_ctrl_c_closes_the_file_cleanly(tmp_path):
     out = tmp_path / "int.mcap"
     proc = _start_recording(out)
@@ -266,3 +304,14 @@ def test_kill_9_then_recover(tmp_path):
         assert kept > 1000 and r.duration_ns > 1e9
         assert sum(1 for _ in r.messages(["/scan"])) == r.topics["/scan"].count
     assert f"kept {kept} messages" in rec.stdout
+
+
+def test_the_package_states_its_public_api():
+    import importlib
+
+    import navlog.recorder
+
+    assert set(navlog.recorder.__all__) == set(navlog.recorder._MODULES)
+    for name in navlog.recorder.__all__:
+        module = importlib.import_module(f"navlog.recorder.{navlog.recorder._MODULES[name]}")
+        assert getattr(navlog.recorder, name) is getattr(module, name)

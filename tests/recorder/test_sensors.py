@@ -11,6 +11,7 @@ from navlog.recorder.robot import load_robot
 from navlog.recorder.sim import SimNode, SimOptions
 from navlog.recorder.world import load_world, world_mesh
 from navlog.replay import messages
+from navlog.replay.geometry import quat_to_matrix
 from navlog.replay.pointcloud import read_points
 from navlog.replay.runtime.executor import Executor, Node
 from navlog.replay.runtime.tf import TFBuffer
@@ -141,7 +142,7 @@ def test_ground_truth_equals_mujoco_body_pose_and_tf_is_consistent():
     base = sim.base_pose()
     p, q = gt.pose.pose.position, gt.pose.pose.orientation
     assert np.allclose([p.x, p.y, p.z], base[:3, 3], atol=1e-12)
-    assert np.allclose(messages.quat_to_matrix((q.x, q.y, q.z, q.w)), base[:3, :3], atol=1e-9)
+    assert np.allclose(quat_to_matrix((q.x, q.y, q.z, q.w)), base[:3, :3], atol=1e-9)
     assert gt.header.frame_id == "world" and gt.child_frame_id == "base_link"
     tf = TFBuffer()
     for _, m in got["/tf_static"]:

@@ -21,11 +21,23 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from navlog.errors import NavlogError
+from navlog.replay.nav2.planners.base import (
+    PlanningCostmap,
+    PlanningError,
+    PlanResult,
+    Pose2D,
+    costmap_extent,
+    path_cost,
+    path_length,
+    tolerance_hint,
+)
+from navlog.replay.nav2.plugins import PluginParams
+from navlog.replay.nav2.schema import param
 
 POT_HIGH = 1.0e10
 COST_OBS = 254
@@ -36,8 +48,15 @@ INVSQRT2 = 0.707106781
 PATH_STEP = 0.5
 
 
-class PlanningError(NavlogError):
-    """No plan: start or goal outside the map or occupied, or no path exists."""
+@dataclass(frozen=True)
+class NavfnParams(PluginParams):
+    """``nav2_navfn_planner::NavfnPlanner`` parameters."""
+
+    plugin: str = "nav2_navfn_planner::NavfnPlanner"
+    tolerance: float = param(0.5, ge=0.0)
+    use_astar: bool = False
+    allow_unknown: bool = True
+    use_final_approach_orientation: bool = False
 
 
 def navfn_costs(costs: np.ndarray, allow_unknown: bool = True) -> np.ndarray:
@@ -244,7 +263,7 @@ def extract_path(
     """
     ny, nx = pot.shape
     ns = nx * ny
-    p = memoryview(np.ascontiguousarray(pot).ravel())  # Python floats on access, no copy of the grid
+    p = np.ascontiguousarray(pot).ravel().data  # a memoryview: Python floats on access, no copy of the grid
     cache: dict[int, tuple[float, float]] = {}
 
     def grad(n: int) -> tuple[float, float]:
@@ -335,70 +354,10 @@ def extract_path(
     return []
 
 
-# ---------------------------------------------------------------- the planner
-
-
-@dataclass
-class PlanResult:
-    """A plan in world coordinates (robot -> goal) with what it cost to find."""
-
-    poses: np.ndarray  # (N, 3) x, y, yaw; yaw 0 except where the planner sets it
-    length: float  # metres
-    cost: float  # cost-weighted length in metres (free space: equal to the length)
-    time_s: float  # planning time (wall clock; reported, never part of the output)
-    goal_used: tuple[float, float, float]  # the goal actually planned to (tolerance may move it)
-    planner: str
-    notes: list[str] = field(default_factory=list)
-
-
-def path_length(xy: np.ndarray) -> float:
-    if len(xy) < 2:
-        return 0.0
-    return float(np.hypot(*np.diff(xy[:, :2], axis=0).T).sum())
-
-
-def path_cost(
-    xy: np.ndarray,
-    cell_cost: np.ndarray,
-    resolution: float,
-    origin: tuple[float, float],
-    neutral: float,
-    step: float = 0.25,
-) -> float:
-    """Line integral of cell_cost / neutral along a world path (sampled every ``step`` cells).
-
-    Each segment is sampled at the centres of ceil(length / (step * resolution)) equal parts and
-    contributes length * mean(sampled costs) / neutral; the sum runs in path order.
-    """
-    xy = np.asarray(xy, dtype=np.float64)
-    if len(xy) < 2:
-        return 0.0
-    ny, nx = cell_cost.shape
-    x0, y0 = xy[:-1, 0], xy[:-1, 1]
-    ddx, ddy = xy[1:, 0] - x0, xy[1:, 1] - y0
-    seg = np.array([math.hypot(a, b) for a, b in zip(ddx.tolist(), ddy.tolist())])  # math.hypot: the scalar rounding
-    keep = seg != 0.0
-    x0, y0, ddx, ddy, seg = x0[keep], y0[keep], ddx[keep], ddy[keep], seg[keep]
-    if len(seg) == 0:
-        return 0.0
-    n = np.maximum(np.ceil(seg / (step * resolution)).astype(np.int64), 1)
-    ray = np.repeat(np.arange(len(n)), n)
-    first = np.cumsum(n) - n
-    nr = n[ray]
-    t = (np.arange(len(ray)) - first[ray] + 0.5) / nr
-    mx = np.clip(np.floor((x0[ray] + t * ddx[ray] - origin[0]) / resolution).astype(int), 0, nx - 1)
-    my = np.clip(np.floor((y0[ray] + t * ddy[ray] - origin[1]) / resolution).astype(int), 0, ny - 1)
-    vals = cell_cost[my, mx].astype(np.float64)
-    means = np.add.reduceat(vals, first) / n
-    for i in np.flatnonzero(n >= 8):  # numpy sums 8 or more values pairwise: the same sums as ndarray.mean
-        means[i] = vals[first[i] : first[i] + n[i]].copy().mean()  # a fresh (aligned) array: the same rounding
-    return float(np.cumsum(seg * means / neutral)[-1])
-
-
 class NavfnPlanner:
     """Plan on a costmap (anything with ``costs``, ``resolution``, ``origin_x``, ``origin_y``)."""
 
-    def __init__(self, params, potential: str = "wavefront") -> None:
+    def __init__(self, params: NavfnParams, potential: str = "wavefront") -> None:
         if potential not in ("wavefront", "exact"):
             raise NavlogError(f"NavFn potential must be 'wavefront' or 'exact', got {potential!r}")
         self.p = params
@@ -407,7 +366,7 @@ class NavfnPlanner:
 
     # NavFn's cell convention (half a cell off the costmap's)
     @staticmethod
-    def _to_cell(cm, x: float, y: float) -> tuple[int, int] | None:
+    def _to_cell(cm: PlanningCostmap, x: float, y: float) -> tuple[int, int] | None:
         if x < cm.origin_x or y < cm.origin_y:
             return None
         mx = int(round((x - cm.origin_x) / cm.resolution))
@@ -417,17 +376,17 @@ class NavfnPlanner:
             return mx, my
         return None
 
-    def plan(self, cm, start: tuple[float, float, float], goal: tuple[float, float, float]) -> PlanResult:
+    def plan(self, cm: PlanningCostmap, start: Pose2D, goal: Pose2D) -> PlanResult:
         t0 = time.perf_counter()
         res = cm.resolution
         ny, nx = cm.costs.shape
         sx = math.floor((start[0] - cm.origin_x) / res)
         sy = math.floor((start[1] - cm.origin_y) / res)
         if not (0 <= sx < nx and 0 <= sy < ny) or self._to_cell(cm, start[0], start[1]) is None:
-            raise PlanningError(f"start ({start[0]:.2f}, {start[1]:.2f}) is outside the costmap {_extent(cm)}")
+            raise PlanningError(f"start ({start[0]:.2f}, {start[1]:.2f}) is outside the costmap {costmap_extent(cm)}")
         goal_cell = self._to_cell(cm, goal[0], goal[1])
         if goal_cell is None:
-            raise PlanningError(f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is outside the costmap {_extent(cm)}")
+            raise PlanningError(f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is outside the costmap {costmap_extent(cm)}")
         if not (cm.costs < 253).any() and not (self.p.allow_unknown and (cm.costs == 255).any()):
             raise PlanningError(
                 "the costmap has no free cell"
@@ -471,6 +430,7 @@ class NavfnPlanner:
                 f"within tolerance {tol} m{self._hint(cm, goal)}"
             )
         bcell = self._to_cell(cm, best[0], best[1])
+        assert bcell is not None  # best is a cell with a potential
         cells = extract_path(pot, bcell, robot, 4 * max(nx, ny))
         if not cells:
             raise PlanningError(
@@ -507,35 +467,5 @@ class NavfnPlanner:
         pcost = path_cost(poses, cost, res, (cm.origin_x - 0.5 * res, cm.origin_y - 0.5 * res), COST_NEUTRAL)
         return PlanResult(poses, length, pcost, time.perf_counter() - t0, (best[0], best[1], goal[2]), "navfn", notes)
 
-    def _hint(self, cm, goal) -> str:
+    def _hint(self, cm: PlanningCostmap, goal: Pose2D) -> str:
         return tolerance_hint(cm, goal, self.p.allow_unknown)
-
-
-def _extent(cm) -> str:
-    ny, nx = cm.costs.shape
-    return (
-        f"x [{cm.origin_x:.2f}, {cm.origin_x + nx * cm.resolution:.2f}), "
-        f"y [{cm.origin_y:.2f}, {cm.origin_y + ny * cm.resolution:.2f})"
-    )
-
-
-def tolerance_hint(cm, goal, allow_unknown: bool) -> str:
-    """'; the nearest free cell is 0.35 m away at (x, y): tolerance >= 0.35 would reach it' or ''."""
-    from scipy import ndimage
-
-    free = cm.costs < 253
-    if allow_unknown:
-        free |= cm.costs == 255
-    if not free.any():
-        return "; the costmap has no free cell"
-    d, (iy, ix) = ndimage.distance_transform_edt(~free, return_indices=True)
-    res = cm.resolution
-    gx = min(max(int(math.floor((goal[0] - cm.origin_x) / res)), 0), free.shape[1] - 1)
-    gy = min(max(int(math.floor((goal[1] - cm.origin_y) / res)), 0), free.shape[0] - 1)
-    fx, fy = int(ix[gy, gx]), int(iy[gy, gx])
-    wx, wy = cm.origin_x + (fx + 0.5) * res, cm.origin_y + (fy + 0.5) * res
-    dist = math.hypot(wx - goal[0], wy - goal[1])
-    return (
-        f"; the nearest free cell is at ({wx:.2f}, {wy:.2f}), {dist:.2f} m away: "
-        f"tolerance >= {dist:.2f} would plan to it (if it is reachable)"
-    )

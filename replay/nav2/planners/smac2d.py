@@ -13,13 +13,50 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 from functools import lru_cache
+from typing import ClassVar
 
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from navlog.replay.nav2.planners.navfn import PlanningError, PlanResult, _extent, path_length, tolerance_hint
+from navlog.replay.nav2.planners.base import (
+    PlanningCostmap,
+    PlanningError,
+    PlanResult,
+    Pose2D,
+    costmap_extent,
+    path_length,
+    tolerance_hint,
+)
+from navlog.replay.nav2.plugins import PluginParams
+from navlog.replay.nav2.schema import param
+
+
+@dataclass(frozen=True)
+class Smac2DParams(PluginParams):
+    """``nav2_smac_planner::SmacPlanner2D`` parameters (those Smac 2D adds beyond the search are read only)."""
+
+    plugin: str = "nav2_smac_planner::SmacPlanner2D"
+    tolerance: float = param(0.125, ge=0.0)
+    downsample_costmap: bool = False
+    downsampling_factor: int = param(1, ge=1)
+    allow_unknown: bool = True
+    max_iterations: int = 1000000
+    max_on_approach_iterations: int = 1000
+    max_planning_time: float = param(2.0, gt=0.0)
+    cost_travel_multiplier: float = param(2.0, ge=0.0)
+    use_final_approach_orientation: bool = False
+    terminal_checking_interval: int = param(5000, ge=1)
+    READ_ONLY: ClassVar[tuple[str, ...]] = (
+        "downsample_costmap",
+        "downsampling_factor",
+        "max_planning_time",
+        "terminal_checking_interval",
+        "smoother",
+    )
+
 
 _MOVES = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
 
@@ -51,7 +88,9 @@ def _structure(ny: int, nx: int):
 
 
 class Smac2DPlanner:
-    def __init__(self, params) -> None:
+    """The cheapest 8-connected path on a costmap (anything with ``costs``, ``resolution``, ``origin_x``, ``origin_y``)."""
+
+    def __init__(self, params: Smac2DParams) -> None:
         self.p = params
 
     def step_costs(self, costs: np.ndarray) -> np.ndarray:
@@ -63,16 +102,16 @@ class Smac2DPlanner:
         factor[blocked] = np.inf
         return factor
 
-    def plan(self, cm, start: tuple[float, float, float], goal: tuple[float, float, float]) -> PlanResult:
+    def plan(self, cm: PlanningCostmap, start: Pose2D, goal: Pose2D) -> PlanResult:
         t0 = time.perf_counter()
         res = cm.resolution
         ny, nx = cm.costs.shape
         sx, sy = math.floor((start[0] - cm.origin_x) / res), math.floor((start[1] - cm.origin_y) / res)
         gx, gy = math.floor((goal[0] - cm.origin_x) / res), math.floor((goal[1] - cm.origin_y) / res)
         if not (0 <= sx < nx and 0 <= sy < ny):
-            raise PlanningError(f"start ({start[0]:.2f}, {start[1]:.2f}) is outside the costmap {_extent(cm)}")
+            raise PlanningError(f"start ({start[0]:.2f}, {start[1]:.2f}) is outside the costmap {costmap_extent(cm)}")
         if not (0 <= gx < nx and 0 <= gy < ny):
-            raise PlanningError(f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is outside the costmap {_extent(cm)}")
+            raise PlanningError(f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is outside the costmap {costmap_extent(cm)}")
         costs = cm.costs.copy()
         costs[sy, sx] = 0
         factor = self.step_costs(costs).ravel()

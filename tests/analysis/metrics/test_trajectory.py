@@ -260,3 +260,17 @@ def test_interpolation_drops_times_outside_and_across_gaps():
     assert at.positions[:, 0].tolist() == pytest.approx([0.0, 1.5, 12.5, 13.0])
     with pytest.raises(tr.TrajectoryError, match="time span"):
         tr.associate_interpolated(ref, Trajectory(np.array([5000]), np.zeros((1, 3)), [[0, 0, 0, 1.0]]))
+
+
+def test_from_tum_reads_the_file_and_normalises_quaternions(tmp_path):
+    from navlog.errors import NavlogError
+
+    path = tmp_path / "t.tum"
+    path.write_text("# t x y z qx qy qz qw\n1.5 1 2 3 0 0 0 2\n2.000000001 4 5 6 0 0 3 4\n")
+    traj = Trajectory.from_tum(path)
+    assert traj.times_ns.tolist() == [1_500_000_000, 2_000_000_001]
+    assert traj.positions.tolist() == [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]
+    assert traj.quaternions.tolist() == [[0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.6, 0.8]]
+    path.write_text("1.0 1 2 3 0 0 0 1\n2.0 1 2 3 0 0 1\n")
+    with pytest.raises(NavlogError, match=r"t\.tum:2: expected 8 numbers"):
+        Trajectory.from_tum(path)

@@ -7,16 +7,9 @@ from pathlib import Path
 import pytest
 
 from navlog.errors import ConfigError
-from navlog.replay.nav2.params import (
-    InflationLayerParams,
-    NavfnParams,
-    ObstacleLayerParams,
-    StaticLayerParams,
-    apply_nav2_overrides,
-    load_nav2_params,
-    parse_nav2_text,
-    resolve_key,
-)
+from navlog.replay.nav2 import load_nav2_params, parse_nav2_text
+from navlog.replay.nav2.costmap import InflationLayerParams, ObstacleLayerParams, StaticLayerParams
+from navlog.replay.nav2.planners import NavfnParams
 
 DATA = Path(__file__).resolve().parent / "data"
 EXTERNAL = ("nav2_bringup_jazzy_nav2_params.yaml", "turtlebot3_humble_waffle_nav2.yaml", "turtlebot4_humble_nav2.yaml")
@@ -164,20 +157,3 @@ def test_malformed_yaml_names_line(tmp_path):
     bad.write_text("planner_server:\n  ros__parameters:\n    planner_plugins: [GridBased\n    x: 1\n")
     with pytest.raises(ConfigError, match=r"bad.yaml: line \d+"):
         load_nav2_params(bad)
-
-
-def test_overrides_full_and_short_paths():
-    doc = load_nav2_params(DATA / "jazzy_article_nav2_params.yaml").raw
-    full = "global_costmap.global_costmap.ros__parameters.inflation_layer.inflation_radius"
-    out = apply_nav2_overrides(doc, [f"{full}=0.5"])
-    assert out["global_costmap"]["global_costmap"]["ros__parameters"]["inflation_layer"]["inflation_radius"] == 0.5
-    assert doc["global_costmap"]["global_costmap"]["ros__parameters"]["inflation_layer"]["inflation_radius"] == 0.7
-    assert resolve_key(doc, "global_costmap.inflation_layer.inflation_radius") == tuple(full.split("."))
-    assert resolve_key(doc, "GridBased.tolerance") == ("planner_server", "ros__parameters", "GridBased", "tolerance")
-    with pytest.raises(ConfigError, match="ambiguous"):
-        resolve_key(doc, "inflation_layer.inflation_radius")  # global and local
-    with pytest.raises(ConfigError, match="did you mean 'inflation_radius'"):
-        resolve_key(doc, "global_costmap.inflation_layer.inflation_radios")
-    # a parameter not in the file, in an existing section
-    out = apply_nav2_overrides(doc, ["GridBased.use_final_approach_orientation=true"])
-    assert out["planner_server"]["ros__parameters"]["GridBased"]["use_final_approach_orientation"] is True

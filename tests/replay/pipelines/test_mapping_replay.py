@@ -13,7 +13,7 @@ import pytest
 
 from navlog.errors import NavlogError, TruncatedLogError
 from navlog.replay import messages
-from navlog.replay.io.logreader import open_log
+from navlog.replay.io import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.map_server import load_map
 from navlog.replay.runtime.executor import Envelope

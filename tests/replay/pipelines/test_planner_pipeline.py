@@ -10,8 +10,18 @@ import pytest
 
 from navlog.errors import ConfigError
 from navlog.replay import messages as m
-from navlog.replay.io.map_server import OccupancyMap
-from navlog.replay.pipelines.planner import Params, build, load_goals
+from navlog.replay.io.map_server import OccupancyMap, save_map
+from navlog.replay.nav2.costmap import Costmap2D, CostmapParams, StaticLayerParams
+from navlog.replay.nav2.planners import PlanningError
+from navlog.replay.nodes.planner import costmap_msg, footprint_msg
+from navlog.replay.pipelines.planner import (
+    Params,
+    build,
+    load_goals,
+    plan_on_map,
+    write_plan_mcap,
+    write_plan_png,
+)
 from navlog.replay.runtime.executor import Envelope, Executor
 
 DATA = Path(__file__).resolve().parents[1] / "nav2" / "data"
@@ -118,3 +128,47 @@ def test_goals_yaml_and_override_short_path():
         build(Params(nav2_params=NAV2, global_costmap={"inflation_layer": {"inflation_radios": 0.3}}), set())
     with pytest.raises(ConfigError, match="ObstcaleLayer"):
         build(Params(nav2_params=str(DATA / "kibot_nav2_fragments.yaml")), set())
+
+
+def test_plan_on_map_as_a_library_call(tmp_path):
+    room = room_map()
+    result = plan_on_map(room, (-1.5, 0.0, 0.0), (1.5, 0.0, 0.0), nav2_params=NAV2)
+    cm, plan = result.costmap, result.plan
+    assert (cm.size_x, cm.size_y) == (120, 120) and cm.params.global_frame == "map"
+    assert plan.planner == "navfn" and plan.poses[-1, :2] == pytest.approx((1.5, 0.0))
+    assert np.abs(plan.poses[:, 1]).max() > 0.6  # around the inflated block
+    # the same from a map_server file, and the same plan the pipeline would make with smac2d
+    yaml_path, _ = save_map(room, tmp_path / "room.yaml")
+    again = plan_on_map(yaml_path, (-1.5, 0.0, 0.0), (1.5, 0.0, 0.0), nav2_params=NAV2)
+    assert again.plan.poses.tobytes() == plan.poses.tobytes() and again.plan.cost == plan.cost
+    smac = plan_on_map(room, (-1.5, 0.0, 0.0), (1.5, 0.0, 0.0), nav2_params=NAV2, planner="smac2d")
+    assert smac.plan.planner == "smac2d"
+    write_plan_mcap(tmp_path / "plan.mcap", result)
+    write_plan_png(tmp_path / "plan.png", result)
+    assert (tmp_path / "plan.mcap").stat().st_size > 0 and (tmp_path / "plan.png").stat().st_size > 0
+    # errors name the map file when it was given one
+    with pytest.raises(PlanningError, match=r"room.yaml: goal \(9.00, 0.00\) is outside the costmap"):
+        plan_on_map(yaml_path, (-1.5, 0.0, 0.0), (9.0, 0.0, 0.0), nav2_params=NAV2)
+    with pytest.raises(PlanningError, match="goal occupied"):
+        plan_on_map(room, (-1.5, 0.0, 0.0), (0.5, 0.0, 0.0), nav2_params=NAV2, overrides=["GridBased.tolerance=0.0"])
+    unknown = OccupancyMap(np.full((40, 40), -1, dtype=np.int8), 0.05)
+    with pytest.raises(ConfigError, match="^the map is unknown everywhere"):
+        plan_on_map(unknown, (0.5, 0.5, 0.0), (1.5, 0.5, 0.0))
+
+
+def test_costmap_message():
+    data = np.zeros((3, 3), dtype=np.int8)
+    data[1, 1] = 100
+    cm = Costmap2D(CostmapParams(plugins=("static_layer",), layers={"static_layer": StaticLayerParams()}))
+    cm.set_static_map(OccupancyMap(data, 0.5, (-1.0, 2.0, 0.0)))
+    cm.update(0.0, 0.0)
+    msg = costmap_msg(cm, 7)
+    assert msg.header.frame_id == "map" and msg.info.width == 3
+    assert msg.data.tolist() == [0, 0, 0, 0, 100, 0, 0, 0, 0]
+    assert msg.info.origin.position.x == -1.0
+
+
+def test_published_footprint_message():
+    cm = Costmap2D(CostmapParams(plugins=(), width=4, height=4, resolution=0.1, robot_radius=0.3))
+    msg = footprint_msg(cm, 0, 2.0, 2.0, 0.0)
+    assert len(msg.polygon.points) == 16 and msg.polygon.points[0].x == pytest.approx(2.31)

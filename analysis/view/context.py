@@ -1,0 +1,117 @@
+"""What every part of a view shares: the RecordingStream, the options, the summary, names and colours.
+
+``ViewContext`` wraps the stream being drawn into. Entity paths are registered in the summary as
+they are used (``entity``); an entity is attached to a TF frame once (``set_frame``); times are sent
+on the ``sim_time`` timeline as durations from ``offset_ns`` (``time_column``, ``set_time``).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from navlog.analysis.view.options import ViewOptions, ViewSummary
+
+TIMELINE = "sim_time"
+
+# role -> RGB
+COLORS = {
+    "ground_truth": (40, 200, 80),
+    "estimate": (255, 140, 20),
+    "estimate2": (40, 120, 255),
+    "replay": (200, 60, 220),
+    "plan": (230, 30, 30),
+    "goal": (255, 215, 0),
+    "waypoint": (0, 200, 220),
+    "scan": (255, 60, 60),
+    "footprint": (30, 90, 255),
+}
+
+
+def entity_name(topic: str) -> str:
+    """An entity path segment list for a topic: '/odom/ground_truth' -> 'odom/ground_truth'."""
+    parts = [re.sub(r"[^A-Za-z0-9_\-]", "_", p) for p in topic.strip("/").split("/") if p]
+    return "/".join(parts) or "root"
+
+
+def trajectory_role(topic: str) -> str:
+    """The colour role of a pose topic: replay output, ground truth, or an estimate."""
+    if topic.startswith("replay"):
+        return "replay"
+    if "ground_truth" in topic:
+        return "ground_truth"
+    return "estimate2" if topic.endswith("/Odometry") else "estimate"
+
+
+def _ns(arr: Iterable[int]) -> np.ndarray:
+    return np.asarray(list(arr) if not isinstance(arr, np.ndarray) else arr, dtype=np.int64).astype("timedelta64[ns]")
+
+
+class ViewContext:
+    """The stream drawn into, with the bookkeeping shared by every drawer of one view."""
+
+    def __init__(self, rec: Any, options: ViewOptions) -> None:
+        import rerun as rr
+
+        self.rr = rr
+        self.rec = rec
+        self.opt = options
+        self.summary = ViewSummary()
+        self.offset_ns: int | None = None  # set by the first log read
+        self.frames_used: set[str] = set()
+        self._logged_once: set[str] = set()
+
+    def frame(self, frame: str) -> str:
+        """A frame name as drawn: leading '/' and the configured prefix stripped."""
+        f = frame.lstrip("/")
+        p = self.opt.frame_prefix
+        if p and f.startswith(p):
+            f = f[len(p) :]
+        return f
+
+    def entity(self, path: str) -> str:
+        """Register an entity path as drawn; returns it."""
+        self.summary.entities.add("/" + path.strip("/"))
+        return path
+
+    def first_time(self, key: str) -> bool:
+        """True the first time ``key`` is asked for (static items are logged once)."""
+        if key in self._logged_once:
+            return False
+        self._logged_once.add(key)
+        return True
+
+    def set_frame(self, entity: str, frame: str) -> None:
+        """Attach an entity to a named TF frame, once (static)."""
+        frame = self.frame(frame)
+        if not self.first_time(entity):
+            return
+        self.frames_used.add(frame)
+        self.rec.log(entity, self.rr.CoordinateFrame(frame), static=True)
+
+    def time_column(self, t_ns: Iterable[int]):
+        """A ``sim_time`` column of log times (ns)."""
+        off = self.offset_ns or 0
+        return self.rr.TimeColumn(TIMELINE, duration=_ns(np.asarray(list(t_ns), dtype=np.int64) - off))
+
+    def set_time(self, t_ns: int) -> None:
+        self.rec.set_time(TIMELINE, duration=np.timedelta64(int(t_ns - (self.offset_ns or 0)), "ns"))
+
+    def send_sensor_points(
+        self, topic: str, frame: str, times: list[int], xyz: np.ndarray, lengths: list[int], **style: Any
+    ) -> None:
+        """Rows of 3D points (``lengths`` points per log time) of a sensor topic under ``sensors/``, in
+        its frame; the first batch also logs the entity's static ``style`` (Points3D fields)."""
+        rr = self.rr
+        ent = self.entity(f"sensors/{entity_name(topic)}")
+        self.set_frame(ent, frame)
+        self.rec.send_columns(
+            ent, indexes=[self.time_column(times)], columns=rr.Points3D.columns(positions=xyz).partition(lengths)
+        )
+        if self.first_time(f"{ent}#style"):
+            self.rec.log(ent, rr.Points3D.from_fields(**style), static=True)
+        self.summary.points += len(xyz)
+        self.summary.drawn[topic] = ent

@@ -1,0 +1,275 @@
+"""Walking a log into a Rerun recording: ``build_view``, ``save_view`` and ``stream_view``.
+
+``ViewBuilder`` reads every message of a log once and hands it by type to the drawer of its kind
+(scans, clouds, TF, trajectories, plans, goals, grids, time series, events); bulk sensors are sent
+in batches as they are read, the rest when the log is done (``finish``), in a fixed order, followed
+by the top-down view, the orphan-frame links and the blueprint.
+
+The timeline ``sim_time`` is a duration: the log time itself for simulator logs (sim time in
+nanoseconds), the time since the first message for bags recorded with wall-clock receive times.
+Topics of other types are counted as stored but not drawn.
+
+``save_view`` writes an ``.rrd`` under a temporary name and renames it when complete.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+from pathlib import Path
+from typing import Any
+
+from navlog.analysis.view.blueprint import make_blueprint
+from navlog.analysis.view.clouds import Clouds
+from navlog.analysis.view.context import ViewContext
+from navlog.analysis.view.events import Events
+from navlog.analysis.view.goals import Goals
+from navlog.analysis.view.grids import Grids
+from navlog.analysis.view.options import ViewOptions, ViewSummary
+from navlog.analysis.view.plans import Plans
+from navlog.analysis.view.replay_outputs import add_replay_dir
+from navlog.analysis.view.scans import Scans
+from navlog.analysis.view.tf import TfTree
+from navlog.analysis.view.timeseries import TimeSeries
+from navlog.analysis.view.topdown import GO2_FOOTPRINT, robot_footprint, send_top
+from navlog.analysis.view.trajectories import Trajectories
+from navlog.errors import LogError, NavlogError
+from navlog.replay import messages
+from navlog.replay.io import LogReader, open_log
+
+log = logging.getLogger("navlog")
+
+# A log whose first message is later than this (about three years after 1970) was stamped with
+# wall-clock receive times; its timeline then starts at zero.
+WALL_CLOCK_NS = 100_000_000_000_000_000
+POSE_ARRAY = "geometry_msgs/msg/PoseArray"
+POSE_COV_STAMPED = "geometry_msgs/msg/PoseWithCovarianceStamped"
+STRING = "std_msgs/msg/String"
+ROSOUT = "rcl_interfaces/msg/Log"
+
+
+class ViewBuilder:
+    """Streams logs into a RecordingStream; call ``add_log`` (and ``add_replay_dir``), then ``finish``."""
+
+    def __init__(self, rec: Any, options: ViewOptions | None = None) -> None:
+        self.ctx = ViewContext(rec, (options or ViewOptions()).validate())
+        self.tf = TfTree(self.ctx)
+        self.scans = Scans(self.ctx)
+        self.clouds = Clouds(self.ctx)
+        self.trajectories = Trajectories(self.ctx)
+        self.plans = Plans(self.ctx)
+        self.goals = Goals(self.ctx)
+        self.grids = Grids(self.ctx)
+        self.series = TimeSeries(self.ctx)
+        self.events = Events(self.ctx)
+        self.footprint: tuple[tuple[float, float], ...] = self.ctx.opt.footprint or GO2_FOOTPRINT
+        # type -> handler(topic, log time, message)
+        self.handlers = {
+            messages.LASER_SCAN: self.scans.on_scan,
+            messages.POINT_CLOUD2: self.clouds.on_cloud,
+            messages.TF_MESSAGE: self.tf.on_tf,
+            messages.ODOMETRY: self.trajectories.on_odom,
+            messages.PATH: self._on_path,
+            messages.TWIST: self.series.on_twist,
+            messages.TWIST_STAMPED: self.series.on_twist,
+            messages.OCCUPANCY_GRID: self.grids.on_grid,
+            messages.POSE_STAMPED: self.goals.on_goal,
+            POSE_COV_STAMPED: self.goals.on_goal,
+            POSE_ARRAY: self.goals.on_waypoints,
+            messages.EVENT_TYPE: self.events.on_event,
+            messages.IMU: self.series.on_imu,
+            STRING: self.events.on_text,
+            ROSOUT: self.events.on_text,
+        }
+
+    @property
+    def summary(self) -> ViewSummary:
+        return self.ctx.summary
+
+    def _on_path(self, topic: str, t: int, msg: Any) -> None:
+        self.goals.on_path(topic, t, msg)
+        self.plans.on_path(topic, t, msg)
+
+    def _start(self, reader: LogReader) -> None:
+        """The first log sets the footprint and the time offset."""
+        ctx = self.ctx
+        self.footprint = ctx.opt.footprint or robot_footprint(reader.metadata)
+        wall = reader.start_ns >= WALL_CLOCK_NS
+        ctx.offset_ns = reader.start_ns if wall else 0
+        ctx.summary.wall_clock = wall
+        ctx.summary.time_offset_ns = ctx.offset_ns
+        if wall:
+            ctx.summary.warnings.append(
+                f"{reader.path.name}: receive times are wall-clock; sim_time counts from the first message"
+            )
+
+    def add_log(self, reader: LogReader, prefix: str = "") -> None:
+        """Read every message of a log once and collect (bulk sensors are sent in batches as read)."""
+        summary = self.ctx.summary
+        if self.ctx.offset_ns is None:
+            self._start(reader)
+        for name, typename in sorted(reader.unknown_types.items()):
+            summary.unknown_types[(prefix + name) if prefix else name] = typename
+        if reader.unknown_types:
+            log.warning(
+                "%s: skipping topics of unknown types: %s",
+                reader.path,
+                ", ".join(f"{t} ({ty})" for t, ty in sorted(reader.unknown_types.items())),
+            )
+        handlers = self.handlers
+        wanted = []
+        for t in sorted(reader.topics.values(), key=lambda t: t.name):
+            if not t.known:
+                continue
+            if t.typename in handlers:
+                wanted.append(t.name)
+            elif t.typename != messages.CLOCK:
+                summary.not_drawn[(prefix + t.name) if prefix else t.name] = t.typename
+        from navlog.replay.runtime.progress import Progress
+
+        prog = Progress(reader.duration_ns / 1e9, f"view {reader.path.name}", enabled=log.isEnabledFor(logging.WARNING))
+        n = 0
+        for env in reader.messages(wanted):
+            key = f"{prefix}{env.topic}" if prefix else env.topic
+            try:
+                handlers[env.typename](key, env.time_ns, env.msg)
+            except (AttributeError, ValueError, KeyError, IndexError, TypeError) as exc:
+                summary.skipped[f"unreadable {env.typename} on {key} ({type(exc).__name__})"] += 1
+            n += 1
+            if n % 2000 == 0:
+                prog.update((env.time_ns - reader.start_ns) / 1e9)
+        prog.update(reader.duration_ns / 1e9)
+        prog.close()
+        summary.messages += n
+        for reason, count in reader.report.skipped.items():
+            summary.skipped[reason] += count
+        self._flush_bulk()
+
+    def add_replay_dir(self, out: Path) -> None:
+        """Draw a replay output folder: replay.mcap topics, map.yaml/pgm, map.pcd, trajectory.tum."""
+        add_replay_dir(out, self.ctx, self.grids, self.trajectories, self.add_log)
+
+    def _flush_bulk(self) -> None:
+        self.scans.flush()
+        self.clouds.flush()
+
+    def finish(self) -> ViewSummary:
+        """Send everything collected, choose the fixed frame and send the blueprint."""
+        self._flush_bulk()
+        self.tf.choose_fixed_frame()
+        self.tf.send()
+        self.trajectories.send()
+        self.plans.send()
+        self.goals.send(self.events.events)
+        self.grids.send()
+        send_top(self.ctx, self.tf, self.scans, self.trajectories, self.plans, self.grids, self.footprint)
+        self.series.send(self.trajectories.topics)
+        self.events.send()
+        self.tf.link_orphan_frames()
+        self.ctx.rec.send_blueprint(make_blueprint(self.summary), make_active=True, make_default=True)
+        return self.summary
+
+
+# ---------------------------------------------------------------- entry points
+
+
+def recording_id(reader: LogReader) -> str:
+    """A recording id that depends on the log's content summary only (same log -> same id)."""
+    key = f"{reader.start_ns}:{reader.end_ns}:{reader.message_count}:" + ",".join(
+        f"{t.name}={t.typename}#{t.count}" for t in sorted(reader.topics.values(), key=lambda t: t.name)
+    )
+    return "navlog-" + hashlib.sha256(key.encode()).hexdigest()[:16]
+
+
+def build_view(
+    reader: LogReader, rec: Any, *, replay_dir: Path | None = None, options: ViewOptions | None = None
+) -> ViewSummary:
+    """Draw a log (and a replay output folder) into a RecordingStream whose sink is already set."""
+    rec.set_log_time_enabled(False) if hasattr(rec, "set_log_time_enabled") else None
+    rec.set_log_tick_enabled(False) if hasattr(rec, "set_log_tick_enabled") else None
+    b = ViewBuilder(rec, options)
+    b.add_log(reader)
+    if replay_dir is not None:
+        b.add_replay_dir(Path(replay_dir))
+    if b.summary.messages == 0 and not b.summary.entities:
+        have = ", ".join(f"{t.name} ({t.typename})" for t in reader.topics.values()) or "no topics"
+        raise LogError(f"{reader.path}: nothing to draw: the log has {have}")
+    return b.finish()
+
+
+def new_recording(reader: LogReader):
+    """A RecordingStream for a log, with the log's ``recording_id``."""
+    import rerun as rr
+
+    return rr.RecordingStream("navlog", recording_id=recording_id(reader))
+
+
+def save_view(
+    log_path: Path | str,
+    out: Path | str,
+    *,
+    replay_dir: Path | str | None = None,
+    options: ViewOptions | None = None,
+    force: bool = False,
+    recover: bool = False,
+) -> ViewSummary:
+    """Convert a log to an .rrd file; the file appears under its name only when complete."""
+    out = Path(out)
+    if out.suffix != ".rrd":
+        raise NavlogError(f"{out}: the output must end in .rrd")
+    if out.exists() and not force:
+        raise NavlogError(f"{out}: already exists; choose another name or pass --force to overwrite it")
+    if not out.parent.is_dir():
+        raise NavlogError(f"{out.parent}: output folder does not exist")
+    tmp = out.with_name(f".{out.name}.{os.getpid()}.part")
+    rec = None
+    try:
+        with open_log(log_path, recover=recover) as reader:
+            rec = new_recording(reader)
+            rec.save(str(tmp))
+            summary = build_view(reader, rec, replay_dir=Path(replay_dir) if replay_dir else None, options=options)
+        rec.flush()
+        rec.disconnect()
+        rec = None
+        if not tmp.is_file() or tmp.stat().st_size == 0:
+            raise NavlogError(f"{out}: Rerun wrote nothing")
+        os.replace(tmp, out)
+        return summary
+    finally:
+        if rec is not None:
+            try:
+                rec.disconnect()
+            except Exception:
+                pass
+        tmp.unlink(missing_ok=True)
+
+
+def stream_view(
+    log_path: Path | str,
+    *,
+    spawn: bool = False,
+    connect: str | None = None,
+    replay_dir: Path | str | None = None,
+    options: ViewOptions | None = None,
+    recover: bool = False,
+    flush_timeout_s: float = 30.0,
+) -> ViewSummary:
+    """Send a log to a viewer: a newly spawned one, or one listening at ``connect``."""
+    with open_log(log_path, recover=recover) as reader:
+        rec = new_recording(reader)
+        if spawn:
+            rec.spawn()
+        else:
+            rec.connect_grpc(connect)
+        summary = build_view(reader, rec, replay_dir=Path(replay_dir) if replay_dir else None, options=options)
+    try:
+        rec.flush(timeout_sec=flush_timeout_s)
+    except Exception as exc:
+        rec.disconnect()
+        where = "the spawned viewer" if spawn else (connect or "rerun+http://127.0.0.1:9876/proxy")
+        raise NavlogError(
+            f"no Rerun viewer took the recording at {where} within {flush_timeout_s:g} s ({exc})"
+        ) from None
+    rec.disconnect()
+    return summary

@@ -1,0 +1,68 @@
+"""What a view draws and how (``ViewOptions``), and what it drew (``ViewSummary``)."""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Any
+
+from navlog.errors import NavlogError
+
+__all__ = ["ViewOptions", "ViewSummary"]
+
+
+@dataclass(frozen=True)
+class ViewOptions:
+    """What to draw and how; validated once by ``validate``."""
+
+    fixed_frame: str = ""  # "" : "map" if the TF tree has it, else the root of the largest TF tree
+    frame_prefix: str = ""  # stripped from every frame name (e.g. "simple_robot/")
+    footprint: tuple[tuple[float, float], ...] | None = None  # None: the log's robot radius, else the Go2 outline
+    grid_period_s: float = 1.0  # grids faster than this are thinned to one per period
+    cloud_stride: int = 1  # keep every n-th point of each cloud
+    batch_rows: int = 64  # messages per send_columns batch for clouds and scans
+    max_canvas_px: int = 4000  # the top-down canvas is at most this many pixels on a side
+
+    def validate(self) -> ViewOptions:
+        if self.footprint is not None and len(self.footprint) < 3:
+            raise NavlogError(f"footprint: needs at least 3 points, got {len(self.footprint)}")
+        if self.grid_period_s < 0:
+            raise NavlogError(f"grid_period_s: must be >= 0, got {self.grid_period_s}")
+        if self.cloud_stride < 1 or self.batch_rows < 1 or self.max_canvas_px < 16:
+            raise NavlogError("cloud_stride and batch_rows must be >= 1, max_canvas_px >= 16")
+        return self
+
+
+@dataclass
+class ViewSummary:
+    """What the recording holds: entities, the topics drawn and not drawn, what was skipped."""
+
+    fixed_frame: str = ""
+    time_offset_ns: int = 0
+    wall_clock: bool = False
+    entities: set[str] = field(default_factory=set)
+    drawn: dict[str, str] = field(default_factory=dict)  # topic -> entity
+    not_drawn: dict[str, str] = field(default_factory=dict)  # topic -> type
+    unknown_types: dict[str, str] = field(default_factory=dict)
+    skipped: Counter = field(default_factory=Counter)
+    warnings: list[str] = field(default_factory=list)
+    messages: int = 0
+    points: int = 0
+    has_top: bool = False
+    grid_source: str = ""
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "fixed_frame": self.fixed_frame,
+            "time_offset_ns": self.time_offset_ns,
+            "wall_clock": self.wall_clock,
+            "messages": self.messages,
+            "points": self.points,
+            "entities": sorted(self.entities),
+            "drawn": dict(sorted(self.drawn.items())),
+            "not_drawn": dict(sorted(self.not_drawn.items())),
+            "unknown_types": dict(sorted(self.unknown_types.items())),
+            "skipped": dict(sorted(self.skipped.items())),
+            "warnings": list(self.warnings),
+            "grid_source": self.grid_source,
+        }

@@ -1,0 +1,108 @@
+"""Time series under ``plots/``: the velocity chain, speed, odometry drift against ground truth, IMU rates.
+
+The velocity chain (``/cmd_vel_nav`` -> ``/cmd_vel_smoothed`` -> ``/cmd_vel``) is plotted in that
+order, other Twist topics after it; vy only when it was ever commanded.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from typing import Any
+
+import numpy as np
+
+from navlog.analysis.view.context import COLORS, ViewContext, entity_name, trajectory_role
+from navlog.analysis.view.trajectories import PoseRows
+from navlog.replay import messages
+
+VELOCITY_CHAIN = ("/cmd_vel_nav", "/cmd_vel_smoothed", "/cmd_vel")
+CHAIN_COLORS = {"/cmd_vel_nav": (120, 120, 255), "/cmd_vel_smoothed": (255, 165, 0), "/cmd_vel": (220, 30, 30)}
+
+
+def drift_series(
+    t_est: np.ndarray, xyz_est: np.ndarray, t_true: np.ndarray, xyz_true: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Position difference (m) of an estimate from the truth, both shifted to start at their first pose.
+
+    Evaluated at the estimate's times inside the truth's time span (truth linearly interpolated).
+    Returns (times, distances).
+    """
+    if len(t_est) == 0 or len(t_true) < 2:
+        return np.zeros(0, np.int64), np.zeros(0)
+    inside = (t_est >= t_true[0]) & (t_est <= t_true[-1])
+    t = t_est[inside]
+    if len(t) == 0:
+        return np.zeros(0, np.int64), np.zeros(0)
+    tt = (t_true - t_true[0]).astype(np.float64)
+    te = (t - t_true[0]).astype(np.float64)
+    truth = np.stack([np.interp(te, tt, xyz_true[:, k]) for k in range(3)], axis=1)
+    est = xyz_est[inside]
+    d = (est - est[0]) - (truth - truth[0])
+    return t, np.linalg.norm(d, axis=1)
+
+
+class TimeSeries:
+    """Twist and IMU topics: (log time, values...) rows."""
+
+    def __init__(self, ctx: ViewContext) -> None:
+        self.ctx = ctx
+        self.twists: dict[str, list] = defaultdict(list)  # (t, vx, vy, wz)
+        self.imu: dict[str, list] = defaultdict(list)  # (t, wz, ax, ay)
+
+    def on_twist(self, topic: str, t: int, msg: Any) -> None:
+        self.twists[topic].append((t, *messages.twist_values(msg)))
+
+    def on_imu(self, topic: str, t: int, msg: Any) -> None:
+        self.imu[topic].append((t, msg.angular_velocity.z, msg.linear_acceleration.x, msg.linear_acceleration.y))
+
+    def scalars(self, ent: str, t: list[int] | np.ndarray, v: np.ndarray, name: str, color=None) -> None:
+        """One named, coloured series of scalars."""
+        ctx, rr = self.ctx, self.ctx.rr
+        ent = ctx.entity(ent)
+        ctx.rec.send_columns(
+            ent, indexes=[ctx.time_column(t)], columns=rr.Scalars.columns(scalars=np.asarray(v, dtype=np.float64))
+        )
+        ctx.rec.log(ent, rr.SeriesLines(names=name, colors=[color] if color else None), static=True)
+
+    def send(self, odometry: dict[str, PoseRows]) -> None:
+        """The twists, then speed and drift of the ``odometry`` topics, then the IMU rates."""
+        drawn = self.ctx.summary.drawn
+        chain = [t for t in VELOCITY_CHAIN if t in self.twists] + sorted(
+            t for t in self.twists if t not in VELOCITY_CHAIN
+        )
+        for topic in chain:
+            arr = np.array(self.twists[topic], dtype=np.float64)
+            t = arr[:, 0].astype(np.int64)
+            name = entity_name(topic)
+            color = CHAIN_COLORS.get(topic)
+            self.scalars(f"plots/cmd_vel/vx/{name}", t, arr[:, 1], topic, color)
+            if np.any(arr[:, 2] != 0):
+                self.scalars(f"plots/cmd_vel/vy/{name}", t, arr[:, 2], topic, color)
+            self.scalars(f"plots/cmd_vel/wz/{name}", t, arr[:, 3], topic, color)
+            drawn[topic] = f"plots/cmd_vel/*/{name}"
+        for topic, o in sorted(odometry.items()):
+            if o.speed:
+                self.scalars(
+                    f"plots/speed/{entity_name(topic)}", o.t, np.array(o.speed), topic, COLORS[trajectory_role(topic)]
+                )
+        truth = next((k for k in sorted(odometry) if "ground_truth" in k), None)
+        if truth is not None:
+            gt = odometry[truth]
+            for topic, o in sorted(odometry.items()):
+                if topic == truth or not o.t or "trajectory_tum" in topic:
+                    continue
+                t, d = drift_series(np.array(o.t), np.array(o.xyz), np.array(gt.t), np.array(gt.xyz))
+                if len(t):
+                    self.scalars(
+                        f"plots/metrics/drift/{entity_name(topic)}",
+                        t,
+                        d,
+                        f"{topic} drift (m)",
+                        COLORS[trajectory_role(topic)],
+                    )
+        for topic, rows in sorted(self.imu.items()):
+            arr = np.array(rows, dtype=np.float64)
+            t = arr[:, 0].astype(np.int64)
+            self.scalars(f"plots/imu/{entity_name(topic)}/wz", t, arr[:, 1], f"{topic} angular z")
+            self.scalars(f"plots/imu/{entity_name(topic)}/ax", t, arr[:, 2], f"{topic} accel x")
+            drawn[topic] = f"plots/imu/{entity_name(topic)}"

@@ -1,0 +1,329 @@
+"""Rotations, rigid transforms, planar poses and grid cells: the geometry every part of navlog shares.
+
+Conventions:
+
+- quaternions are ``(x, y, z, w)`` (ROS order; MuJoCo's ``(w, x, y, z)`` only through
+  ``quat_to_wxyz`` / ``quat_from_wxyz``), Hamilton products, unit norm unless a function says it
+  normalises; batched functions take ``(K, 4)`` rows;
+- angles in radians; roll, pitch, yaw are extrinsic rotations about x, then y, then z;
+- matrices are row-major numpy ``float64`` arrays acting on column vectors: ``p' = R @ p``; a 4x4
+  homogeneous transform ``T`` maps points of its child frame into its parent frame;
+- a planar pose is ``(x, y, yaw)`` in metres and radians;
+- a grid has the world position of its cell (0, 0)'s corner as ``origin`` and square cells of
+  ``resolution`` metres; cell ``(i, j)`` covers ``[origin + i * res, origin + (i + 1) * res)``.
+
+Some quantities have two implementations that differ in their floating-point steps (SciPy's
+``Rotation`` against a closed form, two slerp variants); both are kept where callers' outputs depend
+on the exact bits, and each docstring says which steps it takes.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+__all__ = [
+    "cell_to_world",
+    "make_transform",
+    "matrices_to_quats",
+    "matrix_to_quat",
+    "matrix_to_rotvec",
+    "planar_matrix",
+    "quat_exp",
+    "quat_from_rpy",
+    "quat_from_wxyz",
+    "quat_from_yaw",
+    "quat_mul",
+    "quat_to_matrix",
+    "quat_to_wxyz",
+    "quats_mul",
+    "rotate_planar",
+    "rotation_angle",
+    "rotvecs_to_matrices",
+    "se2_compose",
+    "slerp",
+    "slerp_rows",
+    "unit_quat_to_matrix",
+    "unit_quat_transform",
+    "unit_quats_to_matrices",
+    "world_to_cell",
+    "wrap_angle",
+    "yaw_from_matrix",
+    "yaw_from_quat",
+]
+
+Quat = tuple[float, float, float, float]
+
+# ------------------------------------------------------------------ quaternions from angles
+
+
+def quat_from_yaw(yaw: float) -> Quat:
+    """Quaternion of a rotation by ``yaw`` about z (closed form)."""
+    return (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
+
+
+def quat_from_rpy(roll: float, pitch: float, yaw: float) -> Quat:
+    """Quaternion of extrinsic x-y-z rotations (roll, then pitch, then yaw), through SciPy."""
+    return tuple(Rotation.from_euler("xyz", [roll, pitch, yaw]).as_quat())  # type: ignore[return-value]
+
+
+def yaw_from_quat(q_xyzw) -> float:
+    """Heading (rotation about z) of a quaternion, in (-pi, pi]."""
+    x, y, z, w = q_xyzw
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def wrap_angle(a: float) -> float:
+    """An angle wrapped into [-pi, pi], as ``atan2(sin a, cos a)``."""
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+def yaw_from_matrix(r: np.ndarray) -> float:
+    """Heading of a rotation (3x3, or the rotation part of a 4x4): ``atan2(r[1, 0], r[0, 0])``."""
+    return math.atan2(r[1, 0], r[0, 0])
+
+
+def quat_to_wxyz(q_xyzw) -> Quat:
+    """The same quaternion in MuJoCo's ``(w, x, y, z)`` order."""
+    x, y, z, w = q_xyzw
+    return (w, x, y, z)
+
+
+def quat_from_wxyz(q_wxyz) -> Quat:
+    """An ``(x, y, z, w)`` quaternion from MuJoCo's ``(w, x, y, z)`` order."""
+    w, x, y, z = q_wxyz
+    return (x, y, z, w)
+
+
+# ------------------------------------------------------------------ quaternion algebra
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product ``a * b`` of two quaternions."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return np.array(
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ]
+    )
+
+
+def quats_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise Hamilton products of (K, 4) quaternions (the same steps as ``quat_mul``)."""
+    ax, ay, az, aw = a[:, 0], a[:, 1], a[:, 2], a[:, 3]
+    bx, by, bz, bw = b[:, 0], b[:, 1], b[:, 2], b[:, 3]
+    return np.stack(
+        [
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz,
+        ],
+        axis=1,
+    )
+
+
+def quat_exp(rotvec: np.ndarray) -> np.ndarray:
+    """Unit quaternion of a rotation vector (axis times angle in radians); first order below 1e-12 rad."""
+    angle = float(np.linalg.norm(rotvec))
+    if angle < 1e-12:
+        return np.array([0.5 * rotvec[0], 0.5 * rotvec[1], 0.5 * rotvec[2], 1.0])
+    axis = rotvec / angle
+    return np.concatenate([axis * math.sin(angle / 2), [math.cos(angle / 2)]])
+
+
+def slerp(q0: np.ndarray, q1: np.ndarray, a: float) -> np.ndarray:
+    """Spherical interpolation of two unit quaternions at fraction ``a``, the shorter way round.
+
+    When the two are closer than ``dot > 0.9995`` it interpolates linearly and renormalises;
+    ``slerp_rows`` is the batched variant with a different near-equal rule.
+    """
+    dot = float(q0 @ q1)
+    if dot < 0.0:
+        q1, dot = -q1, -dot
+    if dot > 0.9995:  # nearly equal: linear interpolation is exact to rounding
+        q = q0 + a * (q1 - q0)
+        return q / math.sqrt(float(q @ q))
+    theta = math.acos(dot)
+    s = math.sin(theta)
+    return (math.sin((1.0 - a) * theta) / s) * q0 + (math.sin(a * theta) / s) * q1
+
+
+def slerp_rows(q0: np.ndarray, q1: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Row-wise shortest-path slerp of unit quaternions (K, 4) at fractions ``a`` (K,).
+
+    Unlike ``slerp`` it uses the slerp weights for all but (numerically) equal rotations
+    (``sin(theta) < 1e-9``: linear weights) and always renormalises the result.
+    """
+    dot = np.sum(q0 * q1, axis=1)
+    q1 = np.where(dot[:, None] < 0, -q1, q1)
+    dot = np.minimum(np.abs(dot), 1.0)
+    theta = np.arccos(dot)
+    s = np.sin(theta)
+    small = s < 1e-9
+    s_safe = np.where(small, 1.0, s)
+    w0 = np.where(small, 1.0 - a, np.sin((1.0 - a) * theta) / s_safe)
+    w1 = np.where(small, a, np.sin(a * theta) / s_safe)
+    q = w0[:, None] * q0 + w1[:, None] * q1
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+# ------------------------------------------------------------------ quaternions and matrices
+
+
+def quat_to_matrix(q_xyzw) -> np.ndarray:
+    """3x3 rotation matrix of a quaternion of any non-zero norm, through SciPy (which normalises it first)."""
+    return Rotation.from_quat(np.asarray(q_xyzw, dtype=np.float64)).as_matrix()
+
+
+def unit_quat_to_matrix(q: np.ndarray) -> np.ndarray:
+    """3x3 rotation matrix of a unit quaternion, closed form (no normalisation; not SciPy's steps)."""
+    x, y, z, w = (float(v) for v in q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def unit_quats_to_matrices(q: np.ndarray) -> np.ndarray:
+    """(K, 3, 3) rotation matrices of unit quaternions (K, 4), the same steps as ``unit_quat_to_matrix``."""
+    x, y, z, w = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    out = np.empty((len(q), 3, 3))
+    out[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    out[:, 0, 1] = 2 * (x * y - z * w)
+    out[:, 0, 2] = 2 * (x * z + y * w)
+    out[:, 1, 0] = 2 * (x * y + z * w)
+    out[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    out[:, 1, 2] = 2 * (y * z - x * w)
+    out[:, 2, 0] = 2 * (x * z - y * w)
+    out[:, 2, 1] = 2 * (y * z + x * w)
+    out[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return out
+
+
+def matrix_to_quat(r: np.ndarray) -> Quat:
+    """Quaternion (w >= 0) of a 3x3 rotation matrix, through SciPy."""
+    return tuple(Rotation.from_matrix(np.asarray(r, dtype=np.float64)).as_quat(canonical=True))  # type: ignore[return-value]
+
+
+def matrices_to_quats(r: np.ndarray) -> np.ndarray:
+    """(K, 4) unit quaternions of rotation matrices (K, 3, 3) by Shepperd's method (sign not canonical)."""
+    m = np.asarray(r, dtype=np.float64).reshape(-1, 3, 3)
+    tr = m[:, 0, 0] + m[:, 1, 1] + m[:, 2, 2]
+    d = np.stack([m[:, 0, 0], m[:, 1, 1], m[:, 2, 2], tr], axis=1)
+    choice = np.argmax(d, axis=1)
+    q = np.empty((len(m), 4))
+    for c in range(4):
+        sel = choice == c
+        if not sel.any():
+            continue
+        s = m[sel]
+        if c == 3:
+            w = np.sqrt(1.0 + tr[sel]) * 2
+            q[sel] = np.stack(
+                [(s[:, 2, 1] - s[:, 1, 2]) / w, (s[:, 0, 2] - s[:, 2, 0]) / w, (s[:, 1, 0] - s[:, 0, 1]) / w, 0.25 * w],
+                axis=1,
+            )
+        else:
+            i, j, k = c, (c + 1) % 3, (c + 2) % 3
+            f = np.sqrt(1.0 + s[:, i, i] - s[:, j, j] - s[:, k, k]) * 2
+            out = np.empty((len(s), 4))
+            out[:, i] = 0.25 * f
+            out[:, j] = (s[:, j, i] + s[:, i, j]) / f
+            out[:, k] = (s[:, k, i] + s[:, i, k]) / f
+            out[:, 3] = (s[:, k, j] - s[:, j, k]) / f
+            q[sel] = out
+    return q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def rotvecs_to_matrices(v: np.ndarray) -> np.ndarray:
+    """(K, 3, 3) rotation matrices of rotation vectors (K, 3), through their unit quaternions."""
+    angle = np.linalg.norm(v, axis=1)
+    half = 0.5 * angle
+    small = angle < 1e-12
+    scale = np.where(small, 0.5, np.sin(half) / np.where(small, 1.0, angle))
+    q = np.concatenate([v * scale[:, None], np.cos(half)[:, None]], axis=1)
+    return unit_quats_to_matrices(q)
+
+
+def matrix_to_rotvec(r: np.ndarray) -> np.ndarray:
+    """Rotation vector (axis times angle, radians) of a 3x3 rotation matrix, through SciPy."""
+    return Rotation.from_matrix(r).as_rotvec()
+
+
+def rotation_angle(r: np.ndarray) -> float:
+    """Angle (radians, in [0, pi]) of a 3x3 rotation matrix, from its trace."""
+    return math.acos(max(-1.0, min(1.0, (float(np.trace(r)) - 1.0) / 2.0)))
+
+
+# ------------------------------------------------------------------ homogeneous transforms
+
+
+def make_transform(xyz, q_xyzw) -> np.ndarray:
+    """4x4 homogeneous matrix from a translation and a quaternion (``quat_to_matrix``: SciPy, normalising)."""
+    t = np.eye(4)
+    t[:3, :3] = quat_to_matrix(q_xyzw)
+    t[:3, 3] = np.asarray(xyz, dtype=np.float64)
+    return t
+
+
+def unit_quat_transform(xyz, q: np.ndarray) -> np.ndarray:
+    """4x4 homogeneous matrix from a translation and a unit quaternion (``unit_quat_to_matrix``: closed form)."""
+    m = np.eye(4)
+    m[:3, :3] = unit_quat_to_matrix(q)
+    m[:3, 3] = xyz
+    return m
+
+
+# ------------------------------------------------------------------ planar poses
+
+
+def planar_matrix(x: float, y: float, yaw: float) -> np.ndarray:
+    """4x4 homogeneous matrix of the planar pose ``(x, y, yaw)``."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([c, -s, 0.0, x, s, c, 0.0, y, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]).reshape(4, 4)
+
+
+def rotate_planar(vx: float, vy: float, yaw: float) -> tuple[float, float]:
+    """The planar vector ``(vx, vy)`` rotated by ``yaw``."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return (c * vx - s * vy, s * vx + c * vy)
+
+
+def se2_compose(a, b) -> tuple[float, float, float]:
+    """Planar pose ``a ⊕ b``: the pose ``b``, given in the frame of ``a``, in ``a``'s parent frame.
+
+    Computes ``(xa + c*xb - s*yb, ya + s*xb + c*yb, yaw_a + yaw_b)`` with ``c, s`` of ``yaw_a``, in that
+    order of operations; the yaw is not wrapped.
+    """
+    xa, ya, ta = a
+    xb, yb, tb = b
+    c, s = math.cos(ta), math.sin(ta)
+    return (xa + c * xb - s * yb, ya + s * xb + c * yb, ta + tb)
+
+
+# ------------------------------------------------------------------ grids
+
+
+def world_to_cell(xy: np.ndarray, origin, resolution: float) -> np.ndarray:
+    """int64 indices of the cells holding world coordinates: ``floor((xy - origin) / resolution)``.
+
+    ``xy`` is (N, 2) points with ``origin`` (x, y), or coordinates along one axis with a scalar ``origin``.
+    """
+    return np.floor((np.asarray(xy, dtype=np.float64) - np.asarray(origin, dtype=np.float64)) / resolution).astype(
+        np.int64
+    )
+
+
+def cell_to_world(ij: np.ndarray, origin, resolution: float) -> np.ndarray:
+    """World coordinates of cell centres: ``origin + (ij + 0.5) * resolution`` (shapes as in ``world_to_cell``)."""
+    return np.asarray(origin, dtype=np.float64) + (np.asarray(ij, dtype=np.float64) + 0.5) * resolution

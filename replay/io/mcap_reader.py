@@ -1,0 +1,410 @@
+"""MCAP logs read with the ``mcap`` library: one file (``McapLogReader``), or the files of a rosbag2
+folder with MCAP storage merged by time (``SplitMcapLogReader``).
+
+Only the summary is read up front; messages are streamed chunk by chunk in log-time order, touching
+only the wanted channels. A truncated file is refused unless ``recover=True``, which reads every
+complete chunk and reports how far it got.
+"""
+
+from __future__ import annotations
+
+import heapq
+import os
+import struct
+from collections import Counter
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from navlog.errors import LogError, TruncatedLogError
+from navlog.replay.io.reader import LogReader, TopicInfo
+from navlog.replay.io.typestore import LogTypestore
+from navlog.replay.runtime.executor import Envelope
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+_RECORD_HEAD = struct.Struct("<BQ")  # opcode, record length
+_MESSAGE_HEAD = struct.Struct("<BQHIQQ")  # opcode, length, channel id, sequence, log time, publish time
+_CHUNK_HEAD = struct.Struct("<BQQQQII")  # opcode, length, start, end, uncompressed size, crc, compression length
+_OP_MESSAGE, _OP_CHUNK, _OP_MESSAGE_INDEX = 0x05, 0x06, 0x07
+READ_AHEAD = 1  # MCAP chunks read and decompressed (in a second thread) ahead of the one being replayed
+
+
+class McapLogReader(LogReader):
+    """A single MCAP file read with the ``mcap`` library (fast raw path)."""
+
+    def __init__(self, path: Path, recover: bool = False, *, types: LogTypestore | None = None) -> None:
+        super().__init__(path)
+        if types is not None:  # the parts of one split log share one type store
+            self._types = types
+        self.format = "mcap"
+        self.storage = "mcap"
+        self.size_bytes = path.stat().st_size
+        self._recover = recover
+        with open(path, "rb") as f:
+            head = f.read(8)
+            if head != MCAP_MAGIC:
+                raise LogError(f"{path}: not an MCAP file (bad magic bytes); is it a rosbag2 .db3 or a folder?")
+            f.seek(max(0, self.size_bytes - 8))
+            tail = f.read(8)
+        self.report.truncated = tail != MCAP_MAGIC
+        if self.report.truncated and not recover:
+            raise TruncatedLogError(
+                f"{path}: the file is truncated (no MCAP footer: the writer was killed before finishing). "
+                f"Use --recover to read its complete chunks, or `navlog recover {path} -o FIXED.mcap`."
+            )
+        self._file = open(path, "rb")
+        if self.report.truncated:
+            self._scan_stream()
+        else:
+            self._read_summary()
+
+    def _read_summary(self) -> None:
+        from mcap.reader import make_reader
+
+        try:
+            reader = make_reader(self._file)
+            header = reader.get_header()
+            summary = reader.get_summary()
+        except Exception as exc:
+            raise LogError(f"{self.path}: corrupt MCAP ({exc}); try `navlog recover`") from None
+        if summary is None:
+            raise LogError(f"{self.path}: MCAP has no summary section; try `navlog recover`")
+        self.profile = header.profile
+        self._summary = summary
+        self._typenames = {sid: sc.name for sid, sc in summary.schemas.items()}
+        stats = summary.statistics
+        counts = stats.channel_message_counts if stats else {}
+        if stats and stats.message_count:
+            self.start_ns, self.end_ns = stats.message_start_time, stats.message_end_time
+        comps = {ci.compression or "none" for ci in summary.chunk_indexes}
+        self.compression = ",".join(sorted(comps)) or "none"
+        for cid, ch in sorted(summary.channels.items()):
+            schema = summary.schemas.get(ch.schema_id)
+            typename = schema.name if schema else ""
+            known = (
+                schema is not None
+                and ch.message_encoding == "cdr"
+                and self._types.add_schema(typename, schema.data.decode())
+            )
+            self.topics[ch.topic] = TopicInfo(
+                ch.topic, typename, counts.get(cid, 0), known, ch.metadata.get("offered_qos_profiles", "")
+            )
+        try:
+            for name, data in sorted(((m.name, m.metadata) for m in reader.iter_metadata()), key=lambda x: x[0]):
+                self.metadata[name] = dict(data)
+        except Exception:
+            pass
+
+    def _records(self) -> Iterator[Any]:
+        """Records of a truncated file up to the first incomplete one."""
+        from mcap.records import Channel, Message, Metadata, Schema
+        from mcap.stream_reader import StreamReader
+
+        self._file.seek(0)
+        try:
+            for rec in StreamReader(self._file).records:
+                if isinstance(rec, (Schema, Channel, Message, Metadata)):
+                    yield rec
+        except Exception:
+            return
+
+    def _scan_stream(self) -> None:
+        """Summary of a truncated file, found by reading it through."""
+        from mcap.records import Channel, Message, Metadata, Schema
+
+        schemas: dict[int, Schema] = {}
+        chans: dict[int, Channel] = {}
+        counts: Counter = Counter()
+        first = last = None
+        for rec in self._records():
+            if isinstance(rec, Schema):
+                schemas[rec.id] = rec
+            elif isinstance(rec, Channel):
+                chans[rec.id] = rec
+            elif isinstance(rec, Message):
+                counts[rec.channel_id] += 1
+                first = rec.log_time if first is None else min(first, rec.log_time)
+                last = rec.log_time if last is None else max(last, rec.log_time)
+            elif isinstance(rec, Metadata):
+                self.metadata[rec.name] = dict(rec.metadata)
+        self.compression = "unknown (truncated)"
+        self.start_ns, self.end_ns = first or 0, last or 0
+        self.report.recovered_until_ns = last
+        for cid, ch in sorted(chans.items()):
+            schema = schemas.get(ch.schema_id)
+            typename = schema.name if schema else ""
+            known = schema is not None and self._types.add_schema(typename, schema.data.decode())
+            self.topics[ch.topic] = TopicInfo(
+                ch.topic, typename, counts[cid], known, ch.metadata.get("offered_qos_profiles", "")
+            )
+
+    def messages(self, topics=None, *, decode=True, start_ns=None, end_ns=None) -> Iterator[Envelope]:
+        wanted = self._wanted(topics)
+        if not wanted:
+            return
+        if self.report.truncated:
+            yield from self._messages_truncated(wanted, decode, start_ns, end_ns)
+            return
+        try:
+            for topic, typename, t, data in self._indexed(wanted, start_ns, end_ns):
+                env = self._envelope(topic, typename, t, data, decode)
+                if env is not None:
+                    yield env
+        except LogError:
+            raise
+        except Exception as exc:
+            raise LogError(
+                f"{self.path}: corrupt data after {self.report.read} messages ({exc}); try --recover"
+            ) from None
+
+    def _indexed(
+        self, wanted: set[str], start_ns: int | None, end_ns: int | None
+    ) -> Iterator[tuple[str, str, int, bytes]]:
+        """(topic, type name, log time, CDR bytes) of the wanted topics, in log-time order.
+
+        The order is the ``mcap`` library's (log time, then chunk offset, then position in the
+        chunk), but only the wanted messages are touched: chunks without a wanted channel are never
+        read, and in the others the chunk's message indexes give the wanted records' offsets, so
+        the rest of the chunk (the LiDAR clouds a 2D replay does not need) is decompressed but not
+        parsed. A chunk without message indexes is parsed whole. Chunks are loaded in the order
+        their time ranges are reached, ``READ_AHEAD`` of them ahead in a background thread
+        (decompression releases the GIL); each is read and decompressed into the same two buffers
+        and only its wanted messages are copied out, so memory does not depend on the log's length.
+        """
+        summary = self._summary
+        channels = {
+            cid: (ch.topic, self._typenames.get(ch.schema_id, ""))
+            for cid, ch in summary.channels.items()
+            if ch.topic in wanted
+        }
+        if not channels:
+            return
+        chunks = []
+        for ci in summary.chunk_indexes:
+            if start_ns is not None and ci.message_end_time < start_ns:
+                continue
+            if end_ns is not None and ci.message_start_time > end_ns:
+                continue
+            if ci.message_index_offsets and not any(cid in channels for cid in ci.message_index_offsets):
+                continue
+            chunks.append(ci)
+        chunks.sort(key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
+        # a chunk is opened when the stream reaches its first message time; sorted, the list is a heap
+        queue: list[tuple] = [(ci.message_start_time, ci.chunk_start_offset, -1, None) for ci in chunks]
+        buffers = _ChunkBuffers(
+            max((ci.chunk_length for ci in chunks), default=0), max((ci.uncompressed_size for ci in chunks), default=0)
+        )
+        loader = _ReadAhead(lambda ci: self._chunk_messages(ci, channels, buffers), chunks, READ_AHEAD)
+        try:
+            while queue:
+                t, chunk_offset, pos, item = heapq.heappop(queue)
+                if pos >= 0:
+                    cid, data = item
+                    topic, typename = channels[cid]
+                    yield topic, typename, t, data
+                    continue
+                for t, pos, cid, data in loader.next():
+                    if (start_ns is None or t >= start_ns) and (end_ns is None or t <= end_ns):
+                        heapq.heappush(queue, (t, chunk_offset, pos, (cid, data)))
+        finally:
+            loader.close()
+
+    def _chunk_messages(self, ci: Any, channels: dict, buffers: _ChunkBuffers) -> list[tuple[int, int, int, bytes]]:
+        """(log time, position, channel id, bytes) of the wanted messages in one chunk.
+
+        Reads with ``os.preadv`` (no shared file position), so it may run in another thread; one
+        call at a time per ``buffers``.
+        """
+        fd = self._file.fileno()
+        raw = buffers.read(fd, ci.chunk_start_offset, ci.chunk_length)
+        if len(raw) < _CHUNK_HEAD.size:
+            raise LogError(f"{self.path}: chunk at offset {ci.chunk_start_offset} is cut short; try --recover")
+        op, _, _, _, size, _, clen = _CHUNK_HEAD.unpack_from(raw, 0)
+        if op != _OP_CHUNK:
+            raise LogError(
+                f"{self.path}: no chunk at offset {ci.chunk_start_offset} (corrupt chunk index); try --recover"
+            )
+        at = _CHUNK_HEAD.size
+        compression = bytes(raw[at : at + clen]).decode()
+        at += clen
+        (dlen,) = struct.unpack_from("<Q", raw, at)
+        buf = buffers.decompress(raw[at + 8 : at + 8 + dlen], compression, size)
+        if len(buf) != size:
+            raise LogError(
+                f"{self.path}: chunk at offset {ci.chunk_start_offset} does not decompress to its size; try --recover"
+            )
+        out = []
+        if not ci.message_index_offsets:  # no indexes: every record of the chunk is looked at
+            pos = 0
+            while pos < len(buf):
+                op, length = _RECORD_HEAD.unpack_from(buf, pos)
+                if op == _OP_MESSAGE:
+                    cid, _, t, _ = struct.unpack_from("<HIQQ", buf, pos + 9)
+                    if cid in channels:
+                        out.append((t, pos, cid, bytes(buf[pos + 31 : pos + 9 + length])))
+                pos += 9 + length
+            return out
+        first = min(ci.message_index_offsets.values())
+        index = os.pread(fd, ci.chunk_start_offset + ci.chunk_length + ci.message_index_length - first, first)
+        for cid, offset in ci.message_index_offsets.items():
+            if cid not in channels:
+                continue
+            at = offset - first
+            op, _, icid, nbytes = struct.unpack_from("<BQHI", index, at)
+            if op != _OP_MESSAGE_INDEX or icid != cid:
+                raise LogError(f"{self.path}: bad message index for channel {cid} at offset {offset}; try --recover")
+            entries = struct.unpack_from(f"<{nbytes // 8}Q", index, at + 15)
+            for pos in entries[1::2]:
+                op, length, mcid, _, t, _ = _MESSAGE_HEAD.unpack_from(buf, pos)
+                if op != _OP_MESSAGE or mcid != cid or pos + 9 + length > len(buf):
+                    raise LogError(
+                        f"{self.path}: message index of channel {cid} points at no message of it; try --recover"
+                    )
+                out.append((t, pos, cid, bytes(buf[pos + 31 : pos + 9 + length])))
+        return out
+
+    def _messages_truncated(self, wanted, decode, start_ns, end_ns) -> Iterator[Envelope]:
+        from mcap.records import Channel, Message, Schema
+
+        schemas: dict[int, str] = {}
+        chans: dict[int, tuple[str, int]] = {}
+        batch: list[tuple[int, int, str, str, bytes]] = []
+        seq = 0
+        for rec in self._records():
+            if isinstance(rec, Schema):
+                schemas[rec.id] = rec.name
+            elif isinstance(rec, Channel):
+                chans[rec.id] = (rec.topic, rec.schema_id)
+            elif isinstance(rec, Message):
+                topic, sid = chans[rec.channel_id]
+                if (
+                    topic in wanted
+                    and (start_ns is None or rec.log_time >= start_ns)
+                    and (end_ns is None or rec.log_time <= end_ns)
+                ):
+                    seq += 1
+                    batch.append((rec.log_time, seq, topic, schemas.get(sid, ""), rec.data))
+        # a truncated file has no index: order what could be read by log time (file order breaks ties)
+        for t, _, topic, typename, data in sorted(batch, key=lambda b: (b[0], b[1])):
+            env = self._envelope(topic, typename, t, data, decode)
+            if env is not None:
+                yield env
+
+    def _envelope(self, topic: str, typename: str, t: int, data: bytes, decode: bool) -> Envelope | None:
+        self.report.read += 1
+        if not decode:
+            return Envelope(topic, typename, t, data)
+        msg = self._decode(data, typename, topic)
+        return None if msg is None else Envelope(topic, typename, t, msg)
+
+    def close(self) -> None:
+        self._file.close()
+
+
+class SplitMcapLogReader(LogReader):
+    """A rosbag2 folder with MCAP storage: its files, each read with the ``mcap`` library, merged by time."""
+
+    def __init__(self, path: Path, files: list[Path], recover: bool = False) -> None:
+        super().__init__(path)
+        self.format = "rosbag2"
+        self.storage = "mcap"
+        self.parts = [McapLogReader(f, recover=recover, types=self._types) for f in files]
+        self.size_bytes = sum(p.size_bytes for p in self.parts)
+        self.compression = ",".join(sorted({p.compression for p in self.parts}))
+        self.start_ns = min(p.start_ns for p in self.parts)
+        self.end_ns = max(p.end_ns for p in self.parts)
+        for part in self.parts:
+            self.metadata.update(part.metadata)
+            for name, info in part.topics.items():
+                prev = self.topics.get(name)
+                count = info.count + (prev.count if prev else 0)
+                self.topics[name] = TopicInfo(name, info.typename, count, info.known, info.qos)
+        self.report.truncated = any(p.report.truncated for p in self.parts)
+
+    def messages(self, topics=None, *, decode=True, start_ns=None, end_ns=None) -> Iterator[Envelope]:
+        wanted = self._wanted(topics)
+        streams = [p.messages(wanted, decode=decode, start_ns=start_ns, end_ns=end_ns) for p in self.parts]
+        for env in heapq.merge(*streams, key=lambda e: e.time_ns):
+            self.report.read += 1
+            yield env
+
+    def close(self) -> None:
+        for p in self.parts:
+            p.close()
+
+
+class _ReadAhead:
+    """``fn(item)`` of each item in order, computed ``depth`` items ahead in one background thread.
+
+    Only the timing changes, never the results or their order; an exception is raised by ``next``
+    for the item that caused it.
+    """
+
+    def __init__(self, fn, items: list, depth: int) -> None:
+        from collections import deque
+        from concurrent.futures import ThreadPoolExecutor
+
+        self._fn = fn
+        self._items = iter(items)
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="navlog-read") if depth > 0 else None
+        self._futures: deque = deque()
+        for _ in range(depth):
+            self._submit()
+
+    def _submit(self) -> None:
+        item = next(self._items, None)
+        if item is not None and self._pool is not None:
+            self._futures.append(self._pool.submit(self._fn, item))
+
+    def next(self) -> Any:
+        if not self._futures:
+            return self._fn(next(self._items))
+        future = self._futures.popleft()
+        self._submit()
+        return future.result()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            for f in self._futures:
+                f.cancel()
+            self._pool.shutdown(wait=True)
+
+
+class _ChunkBuffers:
+    """The two buffers a chunk is read and decompressed into, reused from chunk to chunk.
+
+    Allocating a few MB afresh for every chunk makes the heap grow and fragment (more so from a
+    second thread); the views returned are valid until the next call.
+    """
+
+    def __init__(self, raw_size: int, data_size: int) -> None:
+        self._raw = bytearray(raw_size)
+        self._data = bytearray(data_size)
+
+    def read(self, fd: int, offset: int, length: int) -> memoryview:
+        view = memoryview(self._raw)[:length]
+        got = os.preadv(fd, [view], offset)
+        return view[:got]
+
+    def decompress(self, data: memoryview, compression: str, size: int) -> memoryview:
+        """The uncompressed records of a chunk (MCAP allows zstd, lz4 and none)."""
+        if compression == "":
+            return data
+        if compression == "lz4":
+            import lz4.frame
+
+            return memoryview(lz4.frame.decompress(data))
+        if compression != "zstd":
+            raise LogError(f"unsupported MCAP chunk compression '{compression}'")
+        import zstandard
+
+        out = memoryview(self._data)[:size]
+        got = 0
+        with zstandard.ZstdDecompressor().stream_reader(data) as reader:
+            while got < size:
+                n = reader.readinto(out[got:])
+                if n == 0:
+                    break
+                got += n
+        return out[:got]

@@ -1,0 +1,119 @@
+"""What every log reader offers: a summary known up front and a message stream in log-time order.
+
+``LogReader`` holds the summary (topics, types, counts, times, metadata), the ``ReadReport`` of what
+streaming read and skipped, and the reader's own ``typestore`` (see ``navlog.replay.io.typestore``).
+The implementations are ``McapLogReader`` and ``SplitMcapLogReader`` (``mcap_reader``) and
+``RosbagLogReader`` (``rosbag2_reader``); ``open_log`` (``formats``) picks one for a path.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from navlog.errors import LogError
+from navlog.replay.io.typestore import LogTypestore
+from navlog.replay.runtime.executor import Envelope
+
+
+@dataclass
+class TopicInfo:
+    name: str
+    typename: str
+    count: int
+    known: bool = True
+    qos: str = ""
+
+
+@dataclass
+class ReadReport:
+    """What happened while streaming: messages read, skipped (and why), and recovery figures."""
+
+    read: int = 0
+    skipped: Counter = field(default_factory=Counter)
+    truncated: bool = False
+    recovered_until_ns: int | None = None
+
+    def note_skip(self, reason: str, n: int = 1) -> None:
+        self.skipped[reason] += n
+
+
+class LogReader:
+    """Summary and message stream of one log; see ``open_log``."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.format = ""
+        self.storage = ""
+        self.compression = ""
+        self.size_bytes = 0
+        self.start_ns = 0
+        self.end_ns = 0
+        self.topics: dict[str, TopicInfo] = {}
+        self.metadata: dict[str, dict[str, str]] = {}
+        self.report = ReadReport()
+        self._types = LogTypestore()
+
+    @property
+    def typestore(self) -> Any:
+        """The rosbags type store this reader decodes with: the shared base store, or the reader's own."""
+        return self._types.store
+
+    @property
+    def duration_ns(self) -> int:
+        return max(0, self.end_ns - self.start_ns)
+
+    @property
+    def message_count(self) -> int:
+        return sum(t.count for t in self.topics.values())
+
+    @property
+    def unknown_types(self) -> dict[str, str]:
+        """topic -> type name, for topics whose messages cannot be decoded."""
+        return {t.name: t.typename for t in self.topics.values() if not t.known}
+
+    def require(self, needed: Iterable[str], remap_hint: str = "") -> None:
+        """Fail with what is needed, what the log has, and how to remap, if a topic is missing."""
+        missing = [t for t in needed if t not in self.topics]
+        if missing:
+            have = ", ".join(f"{t.name} ({t.typename})" for t in self.topics.values()) or "nothing"
+            raise LogError(
+                f"{self.path}: missing topic(s) {', '.join(missing)}; the log has {have}."
+                + (f" {remap_hint}" if remap_hint else "")
+            )
+
+    def messages(
+        self,
+        topics: Iterable[str] | None = None,
+        *,
+        decode: bool = True,
+        start_ns: int | None = None,
+        end_ns: int | None = None,
+    ) -> Iterator[Envelope]:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self) -> LogReader:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def _wanted(self, topics: Iterable[str] | None) -> set[str]:
+        names = set(self.topics) if topics is None else {t for t in topics if t in self.topics}
+        unknown = {n for n in names if not self.topics[n].known}
+        for n in sorted(unknown):
+            self.report.note_skip(f"unknown type {self.topics[n].typename} on {n}", self.topics[n].count)
+        return names - unknown
+
+    def _decode(self, data: bytes, typename: str, topic: str) -> Any:
+        try:
+            return self._types.store.deserialize_cdr(data, typename)
+        except Exception:  # corrupt bytes: counted, never fatal
+            self.report.note_skip(f"undecodable {typename} on {topic}")
+            return None

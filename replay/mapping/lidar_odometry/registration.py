@@ -1,0 +1,56 @@
+"""Scan-to-local-map registration with Open3D's legacy ICP (point-to-plane, or generalized ICP).
+
+The scan, voxel-filtered at ``scan_voxel``, is registered against the local map from an initial
+guess, with correspondences within ``max_correspondence`` and at most ``max_iterations`` iterations;
+a result whose fitness (share of scan points with a correspondence) is below ``min_fitness`` is
+rejected and the guess kept.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import open3d as o3d
+
+from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
+
+_reg = o3d.pipelines.registration
+
+
+@dataclass(frozen=True)
+class Registration:
+    """The outcome of one registration: the pose (the guess when rejected), ICP's fitness and inlier RMSE."""
+
+    pose: np.ndarray
+    fitness: float
+    rmse: float
+    accepted: bool
+
+
+class Registrar:
+    """Runs ICP with the method, correspondence distance and stopping rule of the parameters."""
+
+    def __init__(self, params: LidarOdometryParams) -> None:
+        self.params = params
+        self.estimation = (
+            _reg.TransformationEstimationPointToPlane()
+            if params.method == "point_to_plane"
+            else _reg.TransformationEstimationForGeneralizedICP()
+        )
+        self.criteria = _reg.ICPConvergenceCriteria(params.convergence, params.convergence, params.max_iterations)
+        self.count = 0  # registrations run
+
+    def register(
+        self, source: o3d.geometry.PointCloud, target: o3d.geometry.PointCloud, guess: np.ndarray
+    ) -> Registration:
+        """Register ``source`` (the downsampled scan) onto ``target`` (the local map) from ``guess`` (4x4)."""
+        p = self.params
+        if p.method == "gicp":
+            source.estimate_covariances(o3d.geometry.KDTreeSearchParamKNN(p.normal_max_nn))
+        result = _reg.registration_icp(source, target, p.max_correspondence, guess, self.estimation, self.criteria)
+        self.count += 1
+        fitness, rmse = float(result.fitness), float(result.inlier_rmse)
+        if fitness < p.min_fitness:
+            return Registration(guess, fitness, rmse, False)
+        return Registration(np.asarray(result.transformation, dtype=np.float64).copy(), fitness, rmse, True)

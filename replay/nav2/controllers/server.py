@@ -1,0 +1,115 @@
+"""Nav2's controller server: its parameters with its controllers', goal checkers' and progress checkers'.
+
+``read_controller_server`` reads the ``controller_server`` block with each plugin listed in
+``controller_plugins``, ``goal_checker_plugins`` and ``progress_checker_plugins`` as its registered
+type (Humble's ``progress_checker_plugin`` is read and warned about).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+from navlog.replay.config import suggest
+from navlog.replay.nav2.controllers.checkers import GoalCheckerParams, ProgressCheckerParams
+from navlog.replay.nav2.controllers.registry import CONTROLLERS, GOAL_CHECKERS, PROGRESS_CHECKERS, ControllerParams
+from navlog.replay.nav2.plugins import normalize_plugin, read_plugin_list
+from navlog.replay.nav2.schema import ERROR, WARNING, SectionReader, param
+
+
+@dataclass(frozen=True)
+class ControllerServerParams:
+    """``controller_server`` node parameters with its controllers' and checkers', by name."""
+
+    controller_frequency: float = param(20.0, gt=0.0)
+    costmap_update_timeout: float = param(0.3, ge=0.0)
+    min_x_velocity_threshold: float = param(0.0001, ge=0.0)
+    min_y_velocity_threshold: float = param(0.0001, ge=0.0)
+    min_theta_velocity_threshold: float = param(0.0001, ge=0.0)
+    failure_tolerance: float = 0.0
+    progress_checker_plugins: tuple[str, ...] = ("progress_checker",)
+    goal_checker_plugins: tuple[str, ...] = ("goal_checker",)
+    controller_plugins: tuple[str, ...] = ("FollowPath",)
+    use_realtime_priority: bool = False
+    odom_topic: str = "odom"
+    speed_limit_topic: str = "speed_limit"
+    enable_stamped_cmd_vel: bool = False
+    use_sim_time: bool = False
+    controllers: dict[str, ControllerParams] = field(default_factory=dict)
+    goal_checkers: dict[str, GoalCheckerParams] = field(default_factory=dict)
+    progress_checkers: dict[str, ProgressCheckerParams] = field(default_factory=dict)
+    READ_ONLY: ClassVar[tuple[str, ...]] = (
+        "costmap_update_timeout",
+        "use_realtime_priority",
+        "speed_limit_topic",
+        "enable_stamped_cmd_vel",
+        "use_sim_time",
+        "failure_tolerance",
+        "publish_zero_velocity",
+        "introspection_mode",
+    )
+
+
+def read_controller_server(r: SectionReader, params: dict, path: tuple) -> ControllerServerParams:
+    """The node's parameters, its controllers and checkers; sections listed nowhere are warned about."""
+    sections = tuple(k for k, v in params.items() if isinstance(v, dict))
+    controllers = read_plugin_list(
+        r, params, path, "controller_plugins", CONTROLLERS, ["FollowPath"], "dwb_core::DWBLocalPlanner"
+    )
+    gc_names = params.get("goal_checker_plugins", ["goal_checker"])
+    pc_key = "progress_checker_plugins" if "progress_checker_plugins" in params else "progress_checker_plugin"
+    pc_names = params.get(pc_key, ["progress_checker"])
+    if isinstance(pc_names, str):
+        pc_names = [pc_names]
+    goal_checkers: dict[str, GoalCheckerParams] = {}
+    progress_checkers: dict[str, ProgressCheckerParams] = {}
+    for names, registry, store in (
+        (gc_names, GOAL_CHECKERS, goal_checkers),
+        (pc_names, PROGRESS_CHECKERS, progress_checkers),
+    ):
+        if not isinstance(names, list):
+            continue
+        kind = registry.kind
+        for name in names:
+            sec = params.get(name)
+            cpath = path + (name,)
+            if not isinstance(sec, dict):
+                r.add(ERROR, path, f"{kind} '{name}' is listed but has no '{name}:' section")
+                continue
+            ptype = normalize_plugin(str(sec.get("plugin", "")))
+            if ptype not in registry:
+                r.add(
+                    ERROR, cpath + ("plugin",), f"unknown {kind} plugin '{sec.get('plugin')}'{suggest(ptype, registry)}"
+                )
+                continue
+            plugin = registry[ptype]
+            assert plugin is not None
+            store[name] = plugin.params.read_loaded(r, sec, cpath, ptype)
+    known = set(controllers) | set(goal_checkers) | set(progress_checkers)
+    listed = set()
+    for key in ("controller_plugins", "goal_checker_plugins", "progress_checker_plugins", "progress_checker_plugin"):
+        v = params.get(key)
+        listed |= set([v] if isinstance(v, str) else (v or []))
+    for s in sections:
+        if s not in known and s not in listed:
+            r.add(WARNING, path + (s,), f"section '{s}' is not listed in any *_plugins: Nav2 ignores it")
+    skip = ("progress_checker_plugin",) if pc_key == "progress_checker_plugin" else ()
+    if skip:
+        r.add(
+            WARNING,
+            path + ("progress_checker_plugin",),
+            "'progress_checker_plugin' is the Humble name; Jazzy reads 'progress_checker_plugins' (a list)",
+        )
+    return r.read(
+        ControllerServerParams,
+        params,
+        path,
+        sections=sections,
+        skip=skip,
+        extra={
+            "controllers": controllers,
+            "goal_checkers": goal_checkers,
+            "progress_checkers": progress_checkers,
+            "progress_checker_plugins": tuple(pc_names) if isinstance(pc_names, list) else ("progress_checker",),
+        },
+    )

@@ -1,0 +1,136 @@
+"""Overrides of a Nav2 parameter document: ``--set KEY=VALUE`` with the key as a full or a short path.
+
+``global_costmap.inflation_layer.inflation_radius`` finds
+``global_costmap.global_costmap.ros__parameters.inflation_layer.inflation_radius``: a short key's
+parts appear in order in the full path, its last part being the parameter. A key naming no
+parameter, or more than one, is an error with a did-you-mean. A parameter the file does not have
+may be added to an existing section if navlog knows its name.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from collections.abc import Sequence
+from typing import Any
+
+import yaml
+
+from navlog.errors import ConfigError
+from navlog.replay.config import suggest
+from navlog.replay.nav2.collision_monitor import CollisionMonitorParams, CollisionPolygonParams, CollisionSourceParams
+from navlog.replay.nav2.controllers.checkers import GoalCheckerParams, ProgressCheckerParams
+from navlog.replay.nav2.controllers.mppi import MPPIParams
+from navlog.replay.nav2.controllers.regulated_pure_pursuit import RegulatedPurePursuitParams
+from navlog.replay.nav2.controllers.server import ControllerServerParams
+from navlog.replay.nav2.costmap.grid import CostmapParams
+from navlog.replay.nav2.costmap.inflation_layer import InflationLayerParams
+from navlog.replay.nav2.costmap.observation import ObservationSourceParams
+from navlog.replay.nav2.costmap.obstacle_layer import ObstacleLayerParams
+from navlog.replay.nav2.costmap.static_layer import StaticLayerParams
+from navlog.replay.nav2.planners.navfn import NavfnParams
+from navlog.replay.nav2.planners.server import PlannerServerParams
+from navlog.replay.nav2.planners.smac2d import Smac2DParams
+from navlog.replay.nav2.velocity_smoother import VelocitySmootherParams
+
+
+def _leaf_paths(doc: Any, prefix: tuple = ()) -> list[tuple]:
+    out = []
+    if isinstance(doc, dict):
+        for k, v in doc.items():
+            p = prefix + (str(k),)
+            out.append(p)
+            out.extend(_leaf_paths(v, p))
+    return out
+
+
+def _is_subsequence(short: list[str], full: tuple) -> bool:
+    it = iter(full)
+    return all(any(part == f for f in it) for part in short)
+
+
+def resolve_key(doc: dict, key: str) -> tuple:
+    """The full key path for ``key``: a full Nav2 path, or a shorter unambiguous form.
+
+    ``global_costmap.inflation_layer.inflation_radius`` finds
+    ``global_costmap.global_costmap.ros__parameters.inflation_layer.inflation_radius``; the short form's
+    parts must appear in order in the full path, the last part being the parameter itself.
+    """
+    parts = key.split(".")
+    paths = _leaf_paths(doc)
+    if tuple(parts) in paths:
+        return tuple(parts)
+    candidates = [p for p in paths if p[-1] == parts[-1] and _is_subsequence(parts, p) and p[0] == parts[0]]
+    if not candidates:
+        candidates = [p for p in paths if p[-1] == parts[-1] and _is_subsequence(parts, p)]
+    if len(candidates) == 1:
+        return candidates[0]
+    if len(candidates) > 1:
+        shown = ", ".join(".".join(c) for c in candidates[:6])
+        raise ConfigError(
+            f"--set {key}: ambiguous, it matches {len(candidates)} parameters: {shown}; give more of the path"
+        )
+    # a new parameter in an existing section
+    sections = [p for p in paths if _is_subsequence(parts[:-1], p) and p[-1] == parts[-2]] if len(parts) > 1 else []
+    sections = [s for s in sections if isinstance(_get(doc, s), dict)]
+    if len(sections) == 1 and parts[-1] in _known_names():
+        return sections[0] + (parts[-1],)
+    names = sorted({p[-1] for p in paths} | _known_names())
+    raise ConfigError(
+        f"--set {key}: no such parameter{suggest(parts[-1], names)}"
+        + (f"; sections matching: {', '.join('.'.join(s) for s in sections[:6])}" if sections else "")
+    )
+
+
+def _known_names() -> set[str]:
+    """Every parameter name navlog knows (to accept --set of a parameter the file does not have)."""
+    names: set[str] = set()
+    for cls in (
+        StaticLayerParams,
+        ObservationSourceParams,
+        ObstacleLayerParams,
+        InflationLayerParams,
+        CostmapParams,
+        NavfnParams,
+        Smac2DParams,
+        PlannerServerParams,
+        GoalCheckerParams,
+        ProgressCheckerParams,
+        RegulatedPurePursuitParams,
+        MPPIParams,
+        ControllerServerParams,
+        VelocitySmootherParams,
+        CollisionPolygonParams,
+        CollisionSourceParams,
+        CollisionMonitorParams,
+    ):
+        names |= {f.name for f in dataclasses.fields(cls)} | set(getattr(cls, "READ_ONLY", ()))
+    return names
+
+
+def _get(doc: dict, path: tuple) -> Any:
+    node: Any = doc
+    for p in path:
+        node = node[p]
+    return node
+
+
+def apply_nav2_overrides(doc: dict, overrides: Sequence[str], source: str = "") -> dict:
+    """A copy of ``doc`` with each ``KEY=VALUE`` applied (KEY full or short, VALUE parsed as YAML)."""
+    out = copy.deepcopy(doc)
+    for item in overrides:
+        if "=" not in item:
+            raise ConfigError(
+                f"--set '{item}': expected KEY=VALUE, e.g. global_costmap.inflation_layer.inflation_radius=0.5"
+            )
+        key, raw = item.split("=", 1)
+        try:
+            value = yaml.safe_load(raw)
+        except yaml.YAMLError:
+            raise ConfigError(f"--set '{item}': the value is not valid YAML") from None
+        path = resolve_key(out, key.strip())
+        node = out
+        for p in path[:-1]:
+            node = node[p]
+        node[path[-1]] = value
+    return out

@@ -1,0 +1,21 @@
+"""Occupancy grids: fast costmaps thinned to one per period; /map stays the top-down grid."""
+
+from __future__ import annotations
+
+from tests.analysis import sample_nav_log as sample
+from tests.analysis.view.rrd import column, read_rrd
+
+NS = 1_000_000_000
+
+
+def test_fast_grids_are_thinned_to_one_per_period(tmp_path):
+    from navlog.analysis.view import ViewOptions, save_view
+
+    log = sample.write_sample_log(tmp_path / "c.mcap", costmap_hz=5.0, with_events=False)
+    summary = save_view(log, tmp_path / "c.rrd", options=ViewOptions(grid_period_s=1.0))
+    data = read_rrd(tmp_path / "c.rrd")
+    times = [t for t, _ in column(data, "/grids/global_costmap/costmap", "GridMap:data")]
+    assert times == [0, NS, 2 * NS]  # 11 costmaps at 5 Hz over 0..2 s
+    assert summary.skipped == {"grid thinned to one per 1 s on /global_costmap/costmap": 8}
+    # /map stays the top-down grid; the costmap is drawn in 3D only
+    assert summary.grid_source == "/map"

@@ -1,0 +1,55 @@
+"""A replay output folder drawn beside its log: map, PCD, TUM trajectory and replay.mcap."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from navlog.cli import main
+from tests.analysis.view.rrd import column, read_rrd, verify
+
+NS = 1_000_000_000
+
+
+def test_replay_output_folder_is_drawn(sample_log, tmp_path):
+    import open3d as o3d
+
+    from navlog.analysis.metrics.trajectory import Trajectory
+    from navlog.replay import messages as m
+    from navlog.replay.io.logwriter import McapLogWriter
+    from navlog.replay.io.map_server import OccupancyMap, save_map
+    from navlog.replay.io.tum import write_tum
+
+    out = tmp_path / "OUT"
+    out.mkdir()
+    cells = np.zeros((40, 60), np.int8)
+    cells[10, :] = 100
+    save_map(OccupancyMap(cells, 0.1, (-2.0, -1.0, 0.0)), out / "map.yaml")
+    pcd = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0.5]], float)))
+    o3d.io.write_point_cloud(str(out / "map.pcd"), pcd)
+    times = np.arange(5, dtype=np.int64) * NS // 2
+    traj = Trajectory(times, np.c_[times / NS, np.zeros(5), np.zeros(5)], np.tile([0, 0, 0, 1.0], (5, 1)))
+    write_tum(out / "trajectory.tum", traj.times_ns, traj.positions, traj.quaternions)
+    with McapLogWriter(out / "replay.mcap") as w:
+        for k in range(5):
+            t = k * NS // 2
+            odo = m.odometry(t, "map", "base_link", (k * 0.1, 0, 0), (0, 0, 0, 1), (0.2, 0, 0), (0, 0, 0))
+            w.write_raw("/Odometry", m.ODOMETRY, t, m.serialize(odo, m.ODOMETRY))
+    rrd = tmp_path / "replay.rrd"
+    assert main(["-q", "view", str(sample_log), "--replay", str(out), "--save", str(rrd)]) == 0
+    assert verify(rrd).returncode == 0
+    data = read_rrd(rrd)
+    for e in (
+        "/replay/map",
+        "/replay/map_pcd",
+        "/trajectories/replay/trajectory_tum/path",
+        "/trajectories/replay/Odometry/path",
+    ):
+        assert e in data, e
+    ((_, pts),) = column(data, "/replay/map_pcd", "Points3D:positions", static=True)
+    assert np.allclose(pts, [[0, 0, 0], [1, 0, 0], [0, 1, 0.5]])
+    ((_, strips),) = column(data, "/trajectories/replay/trajectory_tum/path", "LineStrips3D:strips", static=True)
+    assert np.allclose(np.asarray(strips[0])[:, 0], [0, 0.5, 1.0, 1.5, 2.0])
+    # the 2D view now uses the replayed map: 60 x 40 cells at 0.1 m, the occupied row 10 from the bottom
+    ((_, buf),) = column(data, "/top/grid", "Image:buffer", static=True)
+    img = np.asarray(buf, np.uint8).reshape(40, 60)
+    assert (img[40 - 1 - 10] == 0).all() and (img[0] == 254).all()

@@ -1,0 +1,159 @@
+"""The 3D LiDAR mapper node on a ray-cast room with exact ground truth (see tests/replay/lidar_scene.py):
+accuracy, published topics, the saved map, determinism, and inputs it cannot use."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+from scipy.spatial.transform import Rotation
+
+from navlog.replay import messages
+from navlog.replay.io.pcd import read_pcd
+from navlog.replay.mapping.lidar_odometry import LidarOdometryParams
+from navlog.replay.nodes.lidar_mapper import LidarMapperParams
+from navlog.replay.pointcloud import make_cloud, xyz
+from navlog.replay.runtime.executor import Envelope
+from tests.replay import lidar_scene as scene
+from tests.replay.mapping.lidar_odometry.helpers import ate_rmse, initial_pose_params, run_node, share_within
+
+cloud_msg = scene.cloud_msg
+
+
+@pytest.fixture(scope="module")
+def loop_seq(room) -> scene.Sequence:
+    # 0.3 m/s on a 0.6 m circle from rest: 12 s closes the loop (plus the 1 s ramp)
+    return scene.make_sequence(scene.loop_trajectory(speed=0.3, radius=0.6), 130, scene=room)
+
+
+@pytest.fixture(scope="module")
+def loop_run(loop_seq, tmp_path_factory):
+    node, rec = run_node(loop_seq, initial_pose_params(loop_seq))
+    pcd = tmp_path_factory.mktemp("map") / "map.pcd"
+    node.save_pcd(pcd)
+    return node, rec, pcd
+
+
+def test_loop_trajectory_error_within_3cm(loop_seq, loop_run):
+    node, rec, _ = loop_run
+    stamps, poses = node.poses()
+    assert len(stamps) == len(loop_seq.frames)
+    assert ate_rmse(stamps, poses, loop_seq) <= 0.03
+    # closing the loop: the last pose is still within 3 cm of the truth
+    gt_last = loop_seq.ground_truth(stamps[-1:])[0]
+    assert np.linalg.norm(poses[-1, :3, 3] - gt_last[:3, 3]) <= 0.03
+    assert node.skipped_counts() == {}
+
+
+def test_published_outputs(loop_seq, loop_run):
+    node, rec, _ = loop_run
+    topics = [t for t, _, _ in rec.items]
+    assert topics.count("/Odometry") == len(loop_seq.frames)
+    assert topics.count("/cloud_registered") == -(-len(loop_seq.frames) // 5)  # every 5th frame, the first included
+    assert topics.count("/lidar_mapper/path") == len(loop_seq.frames) // 50 + 1
+    odo = [messages.deserialize(d, messages.ODOMETRY) for t, _, d in rec.items if t == "/Odometry"]
+    assert (odo[0].header.frame_id, odo[0].child_frame_id) == ("map", "base_link")
+    assert [messages.to_ns(o.header.stamp) for o in odo] == [f.stamp_ns for f in loop_seq.frames]
+    # the registered cloud lies on the room's surfaces
+    cloud = messages.deserialize(
+        next(d for t, _, d in reversed(rec.items) if t == "/cloud_registered"), messages.POINT_CLOUD2
+    )
+    assert cloud.header.frame_id == "map"
+    path = messages.deserialize(next(d for t, _, d in reversed(rec.items) if t == "/lidar_mapper/path"), messages.PATH)
+    assert len(path.poses) == len(loop_seq.frames)
+
+
+def test_registered_cloud_and_saved_map_lie_on_the_true_surfaces(room, loop_run):
+    node, rec, pcd_path = loop_run
+    cloud = messages.deserialize(
+        next(d for t, _, d in reversed(rec.items) if t == "/cloud_registered"), messages.POINT_CLOUD2
+    )
+    assert share_within(xyz(cloud), 0.05, room) >= 0.95
+    header = pcd_path.read_bytes()[:300]
+    assert b"SIZE 4 4 4" in header and b"TYPE F F F" in header and b"DATA binary" in header
+    pts = read_pcd(pcd_path)
+    assert len(pts) > 10_000
+    assert share_within(pts, 0.05, room) >= 0.95
+    # voxel-filtered at save_voxel: no two points closer than a small fraction of it
+    d, _ = cKDTree(pts).query(pts, k=2)
+    assert np.median(d[:, 1]) >= 0.5 * LidarOdometryParams().save_voxel
+
+
+def test_two_runs_give_identical_bytes(loop_seq, loop_run, tmp_path):
+    node1, rec1, pcd1 = loop_run
+    seq = scene.Sequence(
+        loop_seq.frames[:60], loop_seq.imu_ns, loop_seq.gyro, loop_seq.accel, loop_seq.trajectory, loop_seq.extrinsic
+    )
+    node2, rec2 = run_node(seq, initial_pose_params(seq))
+    node3, rec3 = run_node(seq, initial_pose_params(seq))
+    assert rec2.digest() == rec3.digest()
+    node2.save_pcd(tmp_path / "a.pcd")
+    node3.save_pcd(tmp_path / "b.pcd")
+    assert (tmp_path / "a.pcd").read_bytes() == (tmp_path / "b.pcd").read_bytes()
+    # a prefix of the long run gives the same /Odometry bytes as the short run
+    odo1 = [d for t, _, d in rec1.items if t == "/Odometry"][:60]
+    odo2 = [d for t, _, d in rec2.items if t == "/Odometry"]
+    assert odo1 == odo2
+
+
+def test_bad_clouds_are_counted_not_fatal(room):
+    seq = scene.make_sequence(scene.loop_trajectory(), 12, scene=room)
+    bad = []
+    # an empty cloud
+    bad.append(
+        Envelope(
+            "/livox/lidar",
+            messages.POINT_CLOUD2,
+            250_000_000,
+            make_cloud(150_000_000, "livox_frame", {"x": np.zeros(0, np.float32)}),
+        )
+    )
+    # a cloud without x/y/z
+    no_xyz = make_cloud(350_000_000, "livox_frame", {"intensity": np.ones(5, np.float32)}, (("intensity", 0, 7),), 4)
+    bad.append(Envelope("/livox/lidar", messages.POINT_CLOUD2, 450_000_000, no_xyz))
+    # a cloud in a frame with no transform to base_link
+    f = seq.frames[3]
+    bad.append(
+        Envelope(
+            "/livox/lidar",
+            messages.POINT_CLOUD2,
+            650_000_000,
+            cloud_msg(scene.Frame(f.stamp_ns + 50_000_000, f.points, f.times, f.rings), "unknown_frame"),
+        )
+    )
+    # NaN points inside an otherwise good frame
+    g = seq.frames[6]
+    pts = g.points.copy()
+    pts[:100, 0] = np.nan
+    seq.frames[6] = scene.Frame(g.stamp_ns, pts, g.times, g.rings)
+    node, rec = run_node(seq, initial_pose_params(seq), bad)
+    counts = node.skipped_counts()
+    assert counts == {"cloud_empty": 1, "cloud_without_xyz": 1, "cloud_missing_extrinsic": 1, "points_not_finite": 100}
+    stamps, poses = node.poses()
+    assert len(stamps) == 12  # every good frame was still registered
+    assert ate_rmse(stamps, poses, seq) <= 0.03
+
+
+def test_node_uses_drifting_odom_without_imu(room):
+    seq = scene.make_sequence(scene.loop_trajectory(), 30, scene=room)
+    drift = Rotation.from_euler("z", 0.1).as_matrix()
+    odom = []
+    for k in range(0, 3100_000_000 + 1, 20_000_000):
+        g = seq.ground_truth([k])[0]
+        p, r = drift @ g[:3, 3] + [0.5, -0.2, -0.32], drift @ g[:3, :3]  # odom -> base_footprint, rotated and offset
+        msg = messages.odometry(
+            k, "odom", "base_footprint", p, messages.matrix_to_quat(r), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+        )
+        odom.append(Envelope("/odom", messages.ODOMETRY, k, msg))
+    params = initial_pose_params(seq)
+    params = LidarMapperParams(initial_pose=params.initial_pose, use_imu=False)
+    node, rec = run_node(
+        scene.Sequence(seq.frames, seq.imu_ns[:0], seq.gyro[:0], seq.accel[:0], seq.trajectory, seq.extrinsic),
+        params,
+        odom,
+    )
+    assert node.skipped_counts() == {"odom_base_transform_assumed_identity": 1}
+    assert node.odom.last_ns == 3_100_000_000
+    stamps, poses = node.poses()
+    assert len(stamps) == 30
+    assert ate_rmse(stamps, poses, seq) <= 0.03

@@ -1,0 +1,102 @@
+"""Rotations, transforms, planar poses and grid cells with known numbers."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from navlog.replay import geometry as g
+
+S = math.sqrt(0.5)  # sin and cos of 45 degrees
+
+
+def test_yaw_and_quaternion_of_a_quarter_turn():
+    q = g.quat_from_yaw(math.pi / 2)
+    assert q == pytest.approx((0.0, 0.0, S, S), abs=1e-15)
+    assert g.yaw_from_quat(q) == pytest.approx(math.pi / 2, abs=1e-15)
+    assert g.yaw_from_quat((0.0, 0.0, 1.0, 0.0)) == pytest.approx(math.pi)  # half a turn
+    assert g.quat_from_rpy(0.0, 0.0, math.pi / 2) == pytest.approx(q, abs=1e-15)
+    assert g.quat_from_rpy(math.pi, 0.0, 0.0) == pytest.approx((1.0, 0.0, 0.0, 0.0), abs=1e-15)
+    assert g.quat_to_wxyz((1.0, 2.0, 3.0, 4.0)) == (4.0, 1.0, 2.0, 3.0)
+    assert g.quat_from_wxyz((4.0, 1.0, 2.0, 3.0)) == (1.0, 2.0, 3.0, 4.0)
+
+
+def test_quaternion_and_matrix_of_a_quarter_turn_about_z():
+    r = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    q = np.array(g.quat_from_yaw(math.pi / 2))
+    for m in (g.quat_to_matrix(q), g.unit_quat_to_matrix(q), g.unit_quats_to_matrices(q[None])[0]):
+        np.testing.assert_allclose(m, r, atol=1e-15)
+    np.testing.assert_allclose(g.matrix_to_quat(r), q, atol=1e-15)
+    np.testing.assert_allclose(g.matrices_to_quats(r[None])[0], q, atol=1e-15)
+    assert g.rotation_angle(r) == pytest.approx(math.pi / 2)
+    assert g.yaw_from_matrix(r) == pytest.approx(math.pi / 2)
+    # SciPy's conversion normalises its input; the closed form expects a unit quaternion
+    np.testing.assert_allclose(g.quat_to_matrix(2.0 * q), r, atol=1e-15)
+
+
+def test_matrix_quaternion_round_trips():
+    rots = Rotation.from_euler("xyz", [[0.1, -0.2, 0.3], [3.0, 0.5, -2.0], [0.0, 0.0, math.pi], [-1.2, 1.5, 0.7]])
+    mats = rots.as_matrix()
+    quats = g.matrices_to_quats(mats)
+    np.testing.assert_allclose(g.unit_quats_to_matrices(quats), mats, atol=1e-14)
+    for m, q in zip(mats, quats):
+        q1 = np.array(g.matrix_to_quat(m))
+        assert q1[3] >= 0
+        np.testing.assert_allclose(abs(q1 @ q), 1.0, atol=1e-14)  # the same rotation, up to sign
+        np.testing.assert_allclose(g.quat_to_matrix(q1), m, atol=1e-14)
+        np.testing.assert_allclose(g.unit_quat_to_matrix(q1), m, atol=1e-14)
+
+
+def test_products_and_rotation_vectors():
+    qz = np.array(g.quat_from_yaw(0.3))
+    both = g.quat_mul(qz, np.array(g.quat_from_yaw(0.4)))
+    np.testing.assert_allclose(both, g.quat_from_yaw(0.7), atol=1e-15)
+    np.testing.assert_allclose(g.quats_mul(qz[None], qz[None])[0], g.quat_from_yaw(0.6), atol=1e-15)
+    np.testing.assert_allclose(g.quat_exp(np.array([0.0, 0.0, 0.7])), g.quat_from_yaw(0.7), atol=1e-15)
+    np.testing.assert_allclose(g.quat_exp(np.zeros(3)), [0.0, 0.0, 0.0, 1.0])
+    r = g.rotvecs_to_matrices(np.array([[0.0, 0.0, math.pi / 2], [0.0, 0.0, 0.0]]))
+    np.testing.assert_allclose(r[0], [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]], atol=1e-15)
+    np.testing.assert_array_equal(r[1], np.eye(3))
+    np.testing.assert_allclose(g.matrix_to_rotvec(r[0]), [0.0, 0.0, math.pi / 2], atol=1e-15)
+
+
+def test_slerp_halfway_between_two_known_rotations():
+    q0, q1 = np.array(g.quat_from_yaw(0.0)), np.array(g.quat_from_yaw(math.pi / 2))
+    np.testing.assert_allclose(g.slerp(q0, q1, 0.5), g.quat_from_yaw(math.pi / 4), atol=1e-15)
+    np.testing.assert_allclose(g.slerp_rows(q0[None], q1[None], np.array([0.5]))[0], g.quat_from_yaw(math.pi / 4))
+    # the shorter way round: -q1 is the same rotation
+    np.testing.assert_allclose(g.slerp(q0, -q1, 0.5), g.quat_from_yaw(math.pi / 4), atol=1e-15)
+    # the ends, and nearly equal rotations
+    np.testing.assert_allclose(g.slerp(q0, q1, 1.0), q1, atol=1e-15)
+    near = np.array(g.quat_from_yaw(1e-3))
+    np.testing.assert_allclose(g.slerp(q0, near, 0.5), g.quat_from_yaw(5e-4), atol=1e-12)
+    np.testing.assert_allclose(g.slerp_rows(q0[None], q0[None], np.array([0.3]))[0], q0)
+
+
+def test_transforms_and_planar_poses():
+    t = g.make_transform((1.0, 2.0, 3.0), g.quat_from_yaw(math.pi / 2))
+    np.testing.assert_allclose(t @ [1.0, 0.0, 0.0, 1.0], [1.0, 3.0, 3.0, 1.0], atol=1e-15)
+    np.testing.assert_allclose(g.unit_quat_transform((1.0, 2.0, 3.0), np.array(g.quat_from_yaw(math.pi / 2))), t)
+    p = g.planar_matrix(1.0, 2.0, math.pi / 2)
+    np.testing.assert_allclose(p, [[0, -1, 0, 1], [1, 0, 0, 2], [0, 0, 1, 0], [0, 0, 0, 1]], atol=1e-15)
+    assert g.rotate_planar(1.0, 0.0, math.pi / 2) == pytest.approx((0.0, 1.0), abs=1e-15)
+    # a part 1 m ahead and turned by 0.1, on a body at (1, 2) facing +y
+    x, y, yaw = g.se2_compose((1.0, 2.0, math.pi / 2), (1.0, 0.0, 0.1))
+    assert (x, y, yaw) == pytest.approx((1.0, 3.0, math.pi / 2 + 0.1), abs=1e-15)
+    m = g.planar_matrix(1.0, 2.0, math.pi / 2) @ g.planar_matrix(1.0, 0.0, 0.1)
+    assert (m[0, 3], m[1, 3], g.yaw_from_matrix(m)) == pytest.approx((x, y, yaw), abs=1e-15)
+    assert g.wrap_angle(3 * math.pi / 2) == pytest.approx(-math.pi / 2)
+    assert g.wrap_angle(-0.5) == -0.5
+
+
+def test_world_to_cell_and_back_on_a_known_grid():
+    origin, res = (-1.0, 2.0), 0.5
+    xy = np.array([[-1.0, 2.0], [-0.76, 2.49], [0.26, 2.5], [-1.01, 1.99]])
+    np.testing.assert_array_equal(g.world_to_cell(xy, origin, res), [[0, 0], [0, 0], [2, 1], [-1, -1]])
+    np.testing.assert_allclose(g.cell_to_world(np.array([[0, 0], [2, 1]]), origin, res), [[-0.75, 2.25], [0.25, 2.75]])
+    # one axis with a scalar origin
+    np.testing.assert_allclose(g.cell_to_world(np.arange(3), -1.0, res), [-0.75, -0.25, 0.25])
+    np.testing.assert_array_equal(g.world_to_cell(np.array([-0.75, -0.25, 0.25]), -1.0, res), [0, 1, 2])
