@@ -28,8 +28,8 @@ from navlog.replay.io import open_log
 from navlog.replay.nodes.lidar_mapper import LidarMapperNode
 from navlog.replay.pointcloud import read_points
 from navlog.replay.runtime.executor import Executor
-from navlog.replay.runtime.session import pipeline_params
 from navlog.replay.runtime.tf import TFBuffer
+from navlog.replay.session import pipeline_params
 
 
 def lidar_frame_ground_truth(log: Path, frame: str) -> tuple[Trajectory, np.ndarray]:

@@ -15,7 +15,6 @@ import time
 import numpy as np
 
 from navlog.replay import messages as m
-from navlog.replay.io.map_server import OccupancyMap
 from navlog.replay.nav2.costmap import (
     Costmap2D,
     CostmapParams,
@@ -33,6 +32,7 @@ from navlog.replay.nav2.planners.navfn import (
     potential_exact,
     potential_wavefront,
 )
+from navlog.replay.occupancy_map import OccupancyMap
 
 
 def world() -> OccupancyMap:

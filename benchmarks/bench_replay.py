@@ -54,7 +54,7 @@ def rss_kib():
                 return int(line.split()[1])
     return 0
 
-import navlog.replay.runtime.session as runner
+import navlog.replay.session as runner
 import navlog.replay.pipelines.mapping, navlog.replay.nodes.lidar_mapper, navlog.replay.nodes.occupancy_mapper  # noqa: F401 (imports first)
 
 span = {}

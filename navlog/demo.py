@@ -93,8 +93,8 @@ def run_demo(
     from navlog.analysis.metrics import MetricsOptions, compute_metrics, format_table, write_json
     from navlog.analysis.view import save_view
     from navlog.recorder.record import format_summary, prepare, record
-    from navlog.recorder.world import occupancy, write_mesh
-    from navlog.replay import run_replay, save_map
+    from navlog.recorder.world import write_world_map
+    from navlog.replay import run_replay
 
     def say(text: str) -> None:
         if echo is not None:
@@ -129,11 +129,18 @@ def run_demo(
     if scan is None:
         raise NavlogError(f"robot {setup.robot.name}: the demo needs a 2D laser (scan)")
     scan_height = setup.robot.body.height + scan.mount[2]
-    map_yaml, _ = save_map(
-        occupancy(setup.world, RESOLUTION, 0.0, scan_height, scan_height), ref / "world_scan_plane.yaml"
+    map_yaml = write_world_map(
+        setup.world,
+        ref / "world_scan_plane.yaml",
+        margin=0.0,
+        resolution=RESOLUTION,
+        z_min=scan_height,
+        z_max=scan_height,
+    ).yaml_path
+    nav2_map = write_world_map(
+        setup.world, ref / "world_nav2.yaml", margin=NAV2_MARGIN, resolution=RESOLUTION, mesh=ref / "world.ply"
     )
-    save_map(occupancy(setup.world, RESOLUTION, NAV2_MARGIN), ref / "world_nav2.yaml")
-    mesh = write_mesh(setup.world, ref / "world.ply")
+    mesh = nav2_map.mesh_path
     metrics = compute_metrics(
         rec.path, rep.out_dir, reference_map=map_yaml, reference_mesh=mesh, options=MetricsOptions()
     )

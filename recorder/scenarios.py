@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -64,7 +64,7 @@ def intended_path(scenario: ScenarioSpec, robot: RobotSpec, step: float = 0.05) 
     """Points (N, 2) along the path the scenario means to drive, for the clearance check."""
     if scenario.kind == "tour":
         pts = [np.array(scenario.start[:2])] + [np.array(w) for w in scenario.waypoints]
-        out = [pts[0]]
+        out: list[Any] = [pts[0]]
         for a, b in zip(pts[:-1], pts[1:]):
             n = max(1, int(math.ceil(np.linalg.norm(b - a) / step)))
             out += [a + (b - a) * (i / n) for i in range(1, n + 1)]

@@ -139,10 +139,10 @@ def _lidar_pattern(cfg: LidarConfig, frame_index: int) -> tuple[np.ndarray, np.n
         elev = np.linspace(lo, hi, cfg.lines) if cfg.lines > 1 else np.array([(lo + hi) / 2])
         col = np.arange(cfg.columns)
         azim = -math.pi + 2 * math.pi * col / cfg.columns
-        az, el = np.meshgrid(azim, elev, indexing="ij")  # column-major: all rings of a column together
-        ring = np.broadcast_to(np.arange(cfg.lines), az.shape).ravel()
-        frac = np.broadcast_to((col / cfg.columns)[:, None], az.shape).ravel()
-        az, el = az.ravel(), el.ravel()
+        az_grid, el_grid = np.meshgrid(azim, elev, indexing="ij")  # column-major: all rings of a column together
+        ring = np.broadcast_to(np.arange(cfg.lines), az_grid.shape).ravel()
+        frac = np.broadcast_to((col / cfg.columns)[:, None], az_grid.shape).ravel()
+        az, el = az_grid.ravel(), el_grid.ravel()
     else:
         k = np.arange(cfg.points, dtype=np.float64) + frame_index * cfg.points
         golden = math.pi * (3.0 - math.sqrt(5.0))

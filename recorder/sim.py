@@ -384,6 +384,7 @@ class SimNode(Node):
 
     def _publish_imu(self, t_ns: int, base: np.ndarray) -> None:
         cfg = self.robot.imu
+        assert cfg is not None  # scheduled only for a configured sensor
         sd = self.data.sensordata.tolist()
         g, a = self._imu_adr
         gx, gy, gz = sd[g : g + 3]
@@ -421,6 +422,7 @@ class SimNode(Node):
 
     def _publish_scan(self, t_ns: int, base: np.ndarray) -> None:
         cfg = self.robot.scan
+        assert cfg is not None  # scheduled only for a configured sensor
         pose = self.sensor_pose(base, cfg.frame)
         ranges = sensors.laser_ranges(self.caster, cfg, pose, self.rng_scan if self.options.noise else None)
         self.publish(
@@ -429,6 +431,7 @@ class SimNode(Node):
 
     def _publish_lidar(self, t_ns: int) -> None:
         cfg = self.robot.lidar
+        assert cfg is not None  # scheduled only for a configured sensor
         window = [((tp - t_ns) / 1e9, self.sensor_pose(b, cfg.frame)) for tp, b in self._pose_history]
         cols = sensors.lidar_sweep(
             self.caster, cfg, self._lidar_frames, window, self.rng_lidar if self.options.noise else None

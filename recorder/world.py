@@ -254,7 +254,7 @@ def occupancy(
     A cell counts as touched when the solid comes within half a cell of its centre, so thin panels
     (2 cm shelf sides) always occupy at least one cell.
     """
-    from navlog.replay.io.map_server import OccupancyMap
+    from navlog.replay.occupancy_map import OccupancyMap
 
     if resolution <= 0:
         raise ConfigError(f"resolution must be positive, got {resolution}")
@@ -280,6 +280,53 @@ def write_mesh(world: World, path: Path | str) -> Path:
     path = Path(path)
     mesh = world_mesh(world)
     mesh.compute_triangle_normals()
-    if not o3d.io.write_triangle_mesh(str(path), mesh):
+    if not o3d.io.write_triangle_mesh(path, mesh):
         raise ConfigError(f"{path}: cannot write the mesh (use .ply, .obj or .stl)")
     return path
+
+
+@dataclass(frozen=True)
+class WorldMapFiles:
+    """What ``write_world_map`` wrote and what the map holds."""
+
+    world: str
+    yaml_path: Path
+    pgm_path: Path
+    mesh_path: Path | None
+    width: int
+    height: int
+    resolution: float
+    occupied: int
+
+
+def write_world_map(
+    world: World | str,
+    output: Path | str,
+    *,
+    margin: float = 0.15,
+    resolution: float = 0.05,
+    z_min: float = 0.0,
+    z_max: float = 2.0,
+    mesh: Path | str | None = None,
+    force: bool = False,
+) -> WorldMapFiles:
+    """The map_server map (YAML + PGM beside it) of a world's obstacles, and optionally its mesh.
+
+    ``world`` is a World or a world name / YAML path. Every output is checked before anything is
+    written, so an existing file (without ``force``) leaves nothing half-done.
+    """
+    from navlog.replay.io.logwriter import check_output
+    from navlog.replay.io.map_server import save_map
+
+    w = load_world(world) if isinstance(world, str) else world
+    output = Path(output)
+    check_output(output, force)
+    check_output(output.with_suffix(".pgm"), force)
+    if mesh is not None:
+        check_output(Path(mesh), force)
+    grid = occupancy(w, resolution, margin, z_min, z_max)
+    yaml_path, pgm_path = save_map(grid, output)
+    mesh_path = write_mesh(w, mesh) if mesh is not None else None
+    return WorldMapFiles(
+        w.name, yaml_path, pgm_path, mesh_path, grid.width, grid.height, grid.resolution, int((grid.data == 100).sum())
+    )

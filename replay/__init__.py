@@ -5,7 +5,7 @@ This package imports neither ``navlog.recorder`` nor ``navlog.analysis``; both o
 Its public API, imported on first use so that importing the package stays cheap:
 
 - logs (``navlog.replay.io``): ``open_log``, ``LogReader``, ``McapLogWriter``, ``recover_mcap``;
-- maps (``navlog.replay.io``): ``OccupancyMap``, ``load_map``, ``save_map``;
+- maps: ``OccupancyMap`` (``navlog.replay.occupancy_map``), ``load_map``, ``save_map`` (``navlog.replay.io``);
 - running nodes (``navlog.replay.runtime``): ``Executor``, ``Node``, ``Envelope``, ``TFBuffer``,
   ``Pipeline``;
 - replaying a log through a pipeline (``navlog.replay.runtime``): ``run_replay``, ``ReplayResult``,
@@ -22,13 +22,15 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from navlog.replay.io.formats import open_log
     from navlog.replay.io.logwriter import McapLogWriter
-    from navlog.replay.io.map_server import OccupancyMap, load_map, save_map
+    from navlog.replay.io.map_server import load_map, save_map
     from navlog.replay.io.reader import LogReader
     from navlog.replay.io.recovery import recover_mcap
+    from navlog.replay.occupancy_map import OccupancyMap
+    from navlog.replay.pipelines import pipeline_names
     from navlog.replay.runtime.executor import Envelope, Executor, Node
     from navlog.replay.runtime.pipeline import Pipeline
-    from navlog.replay.runtime.session import ReplayResult, pipeline_names, pipeline_params, run_replay
     from navlog.replay.runtime.tf import TFBuffer
+    from navlog.replay.session import ReplayResult, pipeline_params, run_replay
 
 
 def lazy_exports(package: str, modules: dict[str, str]) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
@@ -75,7 +77,7 @@ _MODULES = {
     "LogReader": "io.reader",
     "McapLogWriter": "io.logwriter",
     "recover_mcap": "io.recovery",
-    "OccupancyMap": "io.map_server",
+    "OccupancyMap": "occupancy_map",
     "load_map": "io.map_server",
     "save_map": "io.map_server",
     "Envelope": "runtime.executor",
@@ -83,9 +85,9 @@ _MODULES = {
     "Node": "runtime.executor",
     "TFBuffer": "runtime.tf",
     "Pipeline": "runtime.pipeline",
-    "ReplayResult": "runtime.session",
-    "pipeline_names": "runtime.session",
-    "pipeline_params": "runtime.session",
-    "run_replay": "runtime.session",
+    "ReplayResult": "session",
+    "pipeline_names": "pipelines",
+    "pipeline_params": "session",
+    "run_replay": "session",
 }
 __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -34,7 +34,7 @@ from scipy.spatial import cKDTree
 
 from navlog.analysis.metrics.trajectory import ErrorStats
 from navlog.errors import NavlogError
-from navlog.replay.io.map_server import OccupancyMap
+from navlog.replay.occupancy_map import OccupancyMap
 
 #: map_server's thresholds as navlog saves maps (see replay.mapio.SAVE_FREE_THRESH).
 OCCUPIED_THRESH = 0.65

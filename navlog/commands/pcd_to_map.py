@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from navlog.errors import NavlogError
-
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -28,27 +26,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from navlog.replay.io.logwriter import check_output
-    from navlog.replay.io.map_server import save_map
-    from navlog.replay.io.pcd import read_pcd
-    from navlog.replay.mapping.occupancy import project_points
+    from navlog.analysis.export import pcd_to_map
 
-    if not args.pcd.is_file():
-        raise NavlogError(f"{args.pcd}: no such file")
-    check_output(args.output, args.force)
-    check_output(args.output.with_suffix(".pgm"), args.force)
-    pts = read_pcd(args.pcd)
-    if len(pts) == 0:
-        raise NavlogError(f"{args.pcd}: no points could be read (is it a PCD file?)")
-    try:
-        grid = project_points(
-            pts, args.z_min, args.z_max, args.resolution, args.min_points, None if args.all_free else args.z_min
-        )
-    except ValueError as exc:
-        raise NavlogError(f"{args.pcd}: {exc}") from None
-    yaml_path, pgm_path = save_map(grid, args.output)
+    res = pcd_to_map(
+        args.pcd,
+        args.output,
+        z_min=args.z_min,
+        z_max=args.z_max,
+        resolution=args.resolution,
+        min_points=args.min_points,
+        all_free=args.all_free,
+        force=args.force,
+    )
     print(
-        f"wrote {yaml_path} and {pgm_path}: {grid.width} x {grid.height} cells, {int((grid.data == 100).sum())} occupied, "
-        f"{int((grid.data == 0).sum())} free, from {len(pts)} points between {args.z_min} and {args.z_max} m"
+        f"wrote {res.yaml_path} and {res.pgm_path}: {res.width} x {res.height} cells, {res.occupied} occupied, "
+        f"{res.free} free, from {res.points} points between {args.z_min} and {args.z_max} m"
     )
     return 0

@@ -59,7 +59,7 @@ def run(args) -> int:
     setup = prepare(args.world, args.robot, args.scenario, seed=args.seed, noise=not args.no_noise)
     live = []
     if args.pipeline:
-        from navlog.replay.runtime.session import load_pipeline_module, pipeline_params
+        from navlog.replay.session import load_pipeline_module, pipeline_params
 
         params = pipeline_params(args.pipeline, overrides=args.set)
         live = load_pipeline_module(args.pipeline).build(params, setup.topics()).nodes

@@ -2,15 +2,9 @@
 
 from __future__ import annotations
 
-import pkgutil
 from pathlib import Path
 
-
-def _pipeline_names() -> list[str]:
-    """The modules of ``navlog.replay.pipelines``, found without importing them (the help stays instant)."""
-    import navlog.replay.pipelines
-
-    return sorted(m.name for m in pkgutil.iter_modules(navlog.replay.pipelines.__path__))
+from navlog.replay.pipelines import pipeline_names
 
 
 def register(sub) -> None:
@@ -26,7 +20,7 @@ def register(sub) -> None:
         "  navlog replay bag_dir --pipeline mapping --remap /scan=/stable_scan -o out/",
     )
     p.add_argument("log", type=Path, help="the log to replay")
-    p.add_argument("--pipeline", required=True, help=f"pipeline name ({', '.join(_pipeline_names())})")
+    p.add_argument("--pipeline", required=True, help=f"pipeline name ({', '.join(pipeline_names())})")
     p.add_argument("-o", "--output", type=Path, required=True, help="output folder")
     p.add_argument("--params", type=Path, help="pipeline parameter YAML (default: config/pipelines/NAME.yaml)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a parameter (repeatable)")
@@ -43,7 +37,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from navlog.replay.runtime.session import format_summary, parse_remaps, pipeline_params, run_replay
+    from navlog.replay.session import format_summary, parse_remaps, pipeline_params, run_replay
 
     params = pipeline_params(args.pipeline, args.params, args.set)
     res = run_replay(

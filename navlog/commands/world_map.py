@@ -33,24 +33,23 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from navlog.recorder.world import load_world, occupancy, write_mesh
-    from navlog.replay.io.logwriter import check_output
-    from navlog.replay.io.map_server import save_map
+    from navlog.recorder.world import write_world_map
 
-    world = load_world(args.world)
     z_min, z_max = (args.height, args.height) if args.height is not None else (args.z_min, args.z_max)
-    check_output(args.output, args.force)
-    check_output(args.output.with_suffix(".pgm"), args.force)
-    if args.mesh is not None:
-        check_output(args.mesh, args.force)
-    grid = occupancy(world, args.resolution, args.margin, z_min, z_max)
-    yaml_path, pgm_path = save_map(grid, args.output)
-    occ = int((grid.data == 100).sum())
-    print(
-        f"wrote {yaml_path} and {pgm_path}: {grid.width} x {grid.height} cells at {grid.resolution} m, "
-        f"{occ} occupied ({args.margin} m margin, heights {z_min}..{z_max} m)"
+    res = write_world_map(
+        args.world,
+        args.output,
+        margin=args.margin,
+        resolution=args.resolution,
+        z_min=z_min,
+        z_max=z_max,
+        mesh=args.mesh,
+        force=args.force,
     )
-    if args.mesh is not None:
-        write_mesh(world, args.mesh)
-        print(f"wrote {args.mesh}: the surfaces of {world.name}")
+    print(
+        f"wrote {res.yaml_path} and {res.pgm_path}: {res.width} x {res.height} cells at {res.resolution} m, "
+        f"{res.occupied} occupied ({args.margin} m margin, heights {z_min}..{z_max} m)"
+    )
+    if res.mesh_path is not None:
+        print(f"wrote {res.mesh_path}: the surfaces of {res.world}")
     return 0

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from navlog.replay.geometry import world_to_cell
-from navlog.replay.io.map_server import OccupancyMap
+from navlog.replay.occupancy_map import OccupancyMap
 
 
 def logit(p: float) -> float:

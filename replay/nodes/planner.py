@@ -18,7 +18,6 @@ from typing import Any
 import numpy as np
 
 from navlog.replay import messages as m
-from navlog.replay.io.map_server import OccupancyMap
 from navlog.replay.nav2.costmap import (
     Costmap2D,
     CostmapGrid,
@@ -31,6 +30,7 @@ from navlog.replay.nav2.costmap import (
     transform_footprint,
 )
 from navlog.replay.nav2.planners import Planner, PlanningError, PlanResult, Pose2D
+from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.pointcloud import xyz
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError

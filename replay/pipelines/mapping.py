@@ -15,6 +15,7 @@ from navlog.replay.io.map_server import save_map
 from navlog.replay.io.tum import write_poses
 from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
 from navlog.replay.nodes.occupancy_mapper import DEFAULT_POSE_TOPICS, OccupancyMapperNode, OccupancyMapperParams
+from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.pipeline import Pipeline
 
 
@@ -41,7 +42,7 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
             "pose_source lidar_mapper needs the 3D mapper: set lidar_mapper=on (the log needs a LiDAR topic)"
         )
     occ = OccupancyMapperNode(replace(params.occupancy, pose_source=source))
-    nodes = []
+    nodes: list[Node] = []
     inputs = [params.occupancy.scan_topic]
     optional = ["/tf", "/tf_static"]
     if source in ("ground_truth", "odom"):
@@ -71,10 +72,11 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         if lidar is not None:
             written.update(lidar.save_pcd(out / "map.pcd"))
             stamps, poses = lidar.poses()
+            written["trajectory_tum"] = write_poses(out / "trajectory.tum", stamps, poses)
         else:
-            stamps = [t for t, _ in occ.trajectory]
-            poses = [p for _, p in occ.trajectory]
-        written["trajectory_tum"] = write_poses(out / "trajectory.tum", stamps, poses)
+            written["trajectory_tum"] = write_poses(
+                out / "trajectory.tum", [t for t, _ in occ.trajectory], [p for _, p in occ.trajectory]
+            )
         return written
 
     def skipped() -> dict[str, int]:

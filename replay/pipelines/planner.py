@@ -28,11 +28,12 @@ from navlog.errors import ConfigError
 from navlog.replay import messages as m
 from navlog.replay.config import find_config, known_configs, load_yaml, suggest
 from navlog.replay.io.logwriter import McapLogWriter
-from navlog.replay.io.map_server import OccupancyMap, load_map
+from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import Nav2Params, default_nav2_params, load_nav2_params
 from navlog.replay.nav2.costmap import Costmap2D, default_costmap_params
 from navlog.replay.nav2.planners import PlanningError, PlanResult, Pose2D, make_planner
 from navlog.replay.nodes.planner import CostmapNode, PlannerNode, costmap_msg, path_msg
+from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.executor import Envelope
 from navlog.replay.runtime.pipeline import Pipeline
 

@@ -1,13 +1,11 @@
-"""Running nodes over message streams: the executor, the TF buffer, pipelines, the replay session, progress.
+"""Running nodes over message streams: the executor, the TF buffer, the pipeline protocol, progress.
 
 - ``Executor`` delivers ``Envelope``\\ s to ``Node``\\ s in one deterministic order and fires their timers;
 - ``TFBuffer`` looks transforms up by sim time;
-- ``Pipeline`` is what a replay pipeline module builds; ``run_replay`` replays a log through one into
-  a ``ReplayResult`` (``pipeline_names``, ``pipeline_params``, ``load_pipeline_module``, ``parse_remaps``);
+- ``Pipeline`` is what a replay pipeline module builds (``navlog.replay.session`` runs one over a log);
 - ``Progress`` shows progress on stderr; ``format_table`` renders summary tables.
 
-Names are imported on first use, so importing the package stays cheap (and ``navlog.replay.io``,
-which the session uses, can import the executor without a cycle).
+Names are imported on first use, so importing the package stays cheap.
 """
 
 from __future__ import annotations
@@ -20,14 +18,6 @@ if TYPE_CHECKING:
     from navlog.replay.runtime.executor import Envelope, Executor, Node, Sink, Stats
     from navlog.replay.runtime.pipeline import Pipeline
     from navlog.replay.runtime.progress import Progress, format_table
-    from navlog.replay.runtime.session import (
-        ReplayResult,
-        load_pipeline_module,
-        parse_remaps,
-        pipeline_names,
-        pipeline_params,
-        run_replay,
-    )
     from navlog.replay.runtime.tf import TFBuffer, TransformError
 
 __all__ = [
@@ -36,17 +26,11 @@ __all__ = [
     "Node",
     "Pipeline",
     "Progress",
-    "ReplayResult",
     "Sink",
     "Stats",
     "TFBuffer",
     "TransformError",
     "format_table",
-    "load_pipeline_module",
-    "parse_remaps",
-    "pipeline_names",
-    "pipeline_params",
-    "run_replay",
 ]
 
 # the module, below this package, that defines each public name
@@ -59,12 +43,6 @@ _MODULES = {
     "TFBuffer": "tf",
     "TransformError": "tf",
     "Pipeline": "pipeline",
-    "ReplayResult": "session",
-    "load_pipeline_module": "session",
-    "parse_remaps": "session",
-    "pipeline_names": "session",
-    "pipeline_params": "session",
-    "run_replay": "session",
     "Progress": "progress",
     "format_table": "progress",
 }

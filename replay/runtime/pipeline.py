@@ -2,7 +2,7 @@
 
 A pipeline module in ``replay/pipelines/<name>.py`` defines a ``Params`` dataclass (its YAML in
 ``config/pipelines/<name>.yaml``) and ``build(params, log_topics) -> Pipeline``. The replay runner
-(``navlog.replay.runtime.session``) opens the log, checks ``inputs``, streams exactly those topics through the
+(``navlog.replay.session``) opens the log, checks ``inputs``, streams exactly those topics through the
 executor into ``nodes``, records ``outputs`` to ``OUT/replay.mcap``, then calls ``write_artifacts``
 and writes a manifest with every hash and count.
 """

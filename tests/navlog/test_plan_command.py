@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 
 from navlog.cli import main
-from navlog.replay.io.map_server import OccupancyMap, save_map
+from navlog.replay.io.map_server import save_map
+from navlog.replay.occupancy_map import OccupancyMap
 
 DATA = Path(__file__).resolve().parents[1] / "replay" / "nav2" / "data"
 

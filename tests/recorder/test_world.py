@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from navlog.recorder.world import clearance, load_world, occupancy, world_mesh
+from navlog.recorder.world import clearance, load_world, occupancy, world_mesh, write_world_map
 
 
 def test_indoor_room_solids_at_the_article_poses():
@@ -64,3 +64,19 @@ def test_mesh_covers_every_solid_and_the_floor():
     assert len(mesh.triangles) == 35 * 12 + 12
     lo, hi = mesh.get_min_bound(), mesh.get_max_bound()
     assert lo[2] == pytest.approx(-0.01) and hi[2] == pytest.approx(2.5)
+
+
+def test_write_world_map_writes_what_it_reports_and_refuses_to_overwrite(tmp_path):
+    from navlog.errors import NavlogError
+    from navlog.replay.io.map_server import load_map
+
+    res = write_world_map("walled_room", tmp_path / "m.yaml", margin=0.15, mesh=tmp_path / "w.ply")
+    loaded = load_map(res.yaml_path)
+    assert res.world == "walled_room" and res.pgm_path == tmp_path / "m.pgm" and res.mesh_path.stat().st_size > 0
+    assert loaded == occupancy(load_world("walled_room"), 0.05, 0.15)
+    assert (res.width, res.height, res.occupied) == (loaded.width, loaded.height, int((loaded.data == 100).sum()))
+    assert loaded.value_at(2.6, 2.0) == 100 and loaded.value_at(2.7, 2.0) == 0
+    # an existing PGM is found before anything is written: the new YAML does not appear
+    with pytest.raises(NavlogError, match="already exists"):
+        write_world_map("walled_room", tmp_path / "m2.yaml", mesh=tmp_path / "w.ply")
+    assert not (tmp_path / "m2.yaml").exists() and not (tmp_path / "m2.pgm").exists()

@@ -17,7 +17,7 @@ from navlog.analysis.metrics.report import MetricsOptions, compute_metrics
 from navlog.recorder.robot import load_robot
 from navlog.recorder.world import load_world, occupancy, write_mesh
 from navlog.replay.io.map_server import save_map
-from navlog.replay.runtime.session import run_replay
+from navlog.replay.session import run_replay
 
 
 @pytest.fixture(scope="module")

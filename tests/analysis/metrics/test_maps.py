@@ -7,7 +7,7 @@ import open3d as o3d
 import pytest
 
 from navlog.analysis.metrics import maps as mm
-from navlog.replay.io.map_server import OccupancyMap
+from navlog.replay.occupancy_map import OccupancyMap
 
 RES = 0.05
 
@@ -230,7 +230,7 @@ def test_band_directions_are_unit_rays_in_the_band():
 
 def test_observable_recall_counts_only_surfaces_facing_reachable_space():
     from navlog.analysis.metrics.maps import grid_metrics
-    from navlog.replay.io.map_server import OccupancyMap
+    from navlog.replay.occupancy_map import OccupancyMap
 
     ref = np.zeros((20, 20), dtype=np.int8)
     ref[:3, :] = ref[-3:, :] = ref[:, :3] = ref[:, -3:] = 100  # walls three cells thick

@@ -15,8 +15,9 @@ from navlog.cli import main
 from navlog.errors import NavlogError
 from navlog.replay import messages as m
 from navlog.replay.io.logwriter import McapLogWriter
-from navlog.replay.io.map_server import OccupancyMap, save_map
+from navlog.replay.io.map_server import save_map
 from navlog.replay.io.tum import write_tum
+from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.executor import Envelope
 
 RES = 0.05

@@ -16,8 +16,9 @@ def test_replay_output_folder_is_drawn(sample_log, tmp_path):
     from navlog.analysis.metrics.trajectory import Trajectory
     from navlog.replay import messages as m
     from navlog.replay.io.logwriter import McapLogWriter
-    from navlog.replay.io.map_server import OccupancyMap, save_map
+    from navlog.replay.io.map_server import save_map
     from navlog.replay.io.tum import write_tum
+    from navlog.replay.occupancy_map import OccupancyMap
 
     out = tmp_path / "OUT"
     out.mkdir()

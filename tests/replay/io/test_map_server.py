@@ -7,7 +7,8 @@ import pytest
 
 from navlog.errors import ConfigError
 from navlog.replay import messages as m
-from navlog.replay.io.map_server import OccupancyMap, load_map, save_map
+from navlog.replay.io.map_server import load_map, save_map
+from navlog.replay.occupancy_map import OccupancyMap
 
 
 def _grid() -> OccupancyMap:

@@ -17,7 +17,7 @@ from navlog.replay.io import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.map_server import load_map
 from navlog.replay.runtime.executor import Envelope
-from navlog.replay.runtime.session import pipeline_params, run_replay
+from navlog.replay.session import pipeline_params, run_replay
 
 REPO = Path(__file__).resolve().parents[3]
 NAVLOG = [sys.executable, "-m", "navlog"]
@@ -199,7 +199,7 @@ def test_double_replay_in_fresh_processes_is_byte_identical(teleop_log, tmp_path
 
 def test_live_mapping_during_record_equals_replay(tmp_path):
     from navlog.recorder.record import prepare, record
-    from navlog.replay.runtime.session import load_pipeline_module
+    from navlog.replay.session import load_pipeline_module
 
     setup = prepare("indoor_room", "go2", "teleop", seed=5)
     params = pipeline_params("mapping")

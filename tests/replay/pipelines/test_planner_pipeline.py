@@ -10,10 +10,11 @@ import pytest
 
 from navlog.errors import ConfigError
 from navlog.replay import messages as m
-from navlog.replay.io.map_server import OccupancyMap, save_map
+from navlog.replay.io.map_server import save_map
 from navlog.replay.nav2.costmap import Costmap2D, CostmapParams, StaticLayerParams
 from navlog.replay.nav2.planners import PlanningError
 from navlog.replay.nodes.planner import costmap_msg, footprint_msg
+from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.pipelines.planner import (
     Params,
     build,

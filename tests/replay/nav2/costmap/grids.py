@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from navlog.replay.io.map_server import OccupancyMap
 from navlog.replay.nav2.costmap import (
     Costmap2D,
     CostmapParams,
@@ -12,6 +11,7 @@ from navlog.replay.nav2.costmap import (
     ObservationSourceParams,
     ObstacleLayerParams,
 )
+from navlog.replay.occupancy_map import OccupancyMap
 
 SQUARE_02 = "[[0.2, 0.2], [0.2, -0.2], [-0.2, -0.2], [-0.2, 0.2]]"  # inscribed radius 0.2
 

@@ -13,7 +13,6 @@ import hashlib
 import importlib
 import json
 import logging
-import pkgutil
 import shutil
 import time
 from collections.abc import Iterator, Sequence
@@ -21,21 +20,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import navlog.replay.pipelines
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import LogReader
+from navlog.replay.pipelines import pipeline_names
 from navlog.replay.runtime.executor import Envelope, Executor
 from navlog.replay.runtime.progress import Progress, format_table
 from navlog.version import __version__
 
 logger = logging.getLogger("navlog")
-
-
-def pipeline_names() -> list[str]:
-    return sorted(m.name for m in pkgutil.iter_modules(navlog.replay.pipelines.__path__))
 
 
 def load_pipeline_module(name: str):

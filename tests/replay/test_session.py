@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from navlog.replay.runtime.session import ReplayResult, format_summary
+from navlog.replay.session import ReplayResult, format_summary
 
 
 def test_summary_shows_speed_info_outputs_and_skips_from_the_manifest():
