@@ -5,7 +5,7 @@
 - ``navlog.analysis.view``: Rerun recordings of a log and its replay outputs (``ViewOptions``,
   ``build_view``, ``save_view``, ``stream_view``);
 - ``navlog.analysis.export``: ROS 2 bags and TUM trajectories (``export_rosbag2``, ``BagOptions``,
-  ``export_tum``);
+  ``export_tum``; a PCD map as a map_server map: ``pcd_to_map``);
 - ``navlog.analysis.info``: a log's summary (``summarize``, ``format_info``).
 
 Names are imported on first use, so importing the package loads neither Rerun, Open3D nor scipy.
@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 from navlog.replay import lazy_exports
 
 if TYPE_CHECKING:
-    from navlog.analysis.export import BagOptions, export_rosbag2, export_tum
+    from navlog.analysis.export import BagOptions, export_rosbag2, export_tum, pcd_to_map
     from navlog.analysis.info import format_info, summarize
     from navlog.analysis.metrics import MetricsOptions, Trajectory, compute_metrics
     from navlog.analysis.view import ViewOptions, build_view, save_view, stream_view
@@ -33,6 +33,7 @@ __all__ = [
     "export_rosbag2",
     "export_tum",
     "format_info",
+    "pcd_to_map",
     "save_view",
     "stream_view",
     "summarize",
@@ -50,6 +51,7 @@ _MODULES = {
     "BagOptions": "export",
     "export_rosbag2": "export",
     "export_tum": "export",
+    "pcd_to_map": "export",
     "format_info": "info",
     "summarize": "info",
 }

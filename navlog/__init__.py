@@ -12,6 +12,8 @@ functions the commands call, with the same arguments:
 - metrics (``navlog metrics``): ``compute_metrics`` (``MetricsOptions``);
 - Rerun (``navlog view``): ``save_view`` (``ViewOptions``, ``ViewSummary``);
 - export (``navlog export``): ``export_rosbag2`` (``BagOptions``), ``export_tum``;
+- maps: ``write_world_map`` (``navlog world-map``), ``pcd_to_map`` (``navlog pcd-to-map``);
+- planning (``navlog plan``): ``plan_on_map`` (``MapPlan``);
 - the main job end to end (``navlog demo``): ``run_demo`` (``DemoResult``);
 - errors meant for users: ``NavlogError`` and its kinds ``ConfigError``, ``LogError``,
   ``TruncatedLogError``; and ``__version__``.
@@ -37,10 +39,13 @@ if TYPE_CHECKING:
         export_tum,
         save_view,
     )
+    from navlog.analysis.export import pcd_to_map
     from navlog.analysis.view import ViewSummary
     from navlog.demo import DemoResult, run_demo
     from navlog.recorder.record import RecordResult, RecordSetup, prepare, record
+    from navlog.recorder.world import write_world_map
     from navlog.replay import ReplayResult, open_log, pipeline_params, recover_mcap, run_replay
+    from navlog.replay.pipelines.planner import MapPlan, plan_on_map
 
 # public name -> the package or module, below this package, that defines or re-exports it
 _MODULES = {
@@ -61,6 +66,10 @@ _MODULES = {
     "export_rosbag2": "analysis",
     "export_tum": "analysis",
     "BagOptions": "analysis",
+    "write_world_map": "recorder.world",
+    "pcd_to_map": "analysis.export",
+    "plan_on_map": "replay.pipelines.planner",
+    "MapPlan": "replay.pipelines.planner",
     "run_demo": "demo",
     "DemoResult": "demo",
 }
@@ -70,6 +79,7 @@ __all__ = [
     "ConfigError",
     "DemoResult",
     "LogError",
+    "MapPlan",
     "MetricsOptions",
     "NavlogError",
     "RecordResult",
@@ -83,13 +93,16 @@ __all__ = [
     "export_rosbag2",
     "export_tum",
     "open_log",
+    "pcd_to_map",
     "pipeline_params",
+    "plan_on_map",
     "prepare",
     "record",
     "recover_mcap",
     "run_demo",
     "run_replay",
     "save_view",
+    "write_world_map",
 ]
 
 __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from navlog.commands import skipped_note
 from navlog.errors import NavlogError
 
 
@@ -63,15 +64,10 @@ def run(args) -> int:
         ).validate()
         with open_log(args.log, recover=args.recover) as reader:
             summary = export_rosbag2(reader, args.output, opts, force=args.force)
-        skipped = sum(summary.skipped.values())
         print(
             f"{summary.path}: rosbag2 {args.storage} for {args.distro}, {summary.messages} messages on "
             f"{len(summary.topics)} topics, {(summary.end_ns - summary.start_ns) / 1e9:.3f} s"
-            + (
-                f"; skipped {skipped}: " + "; ".join(f"{k} x{v}" for k, v in sorted(summary.skipped.items()))
-                if skipped
-                else ""
-            )
+            + skipped_note(summary.skipped)
         )
         return 0
     if args.topics:

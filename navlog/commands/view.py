@@ -7,6 +7,7 @@ import logging
 import sys
 import time
 
+from navlog.commands import skipped_note
 from navlog.errors import NavlogError
 
 log = logging.getLogger("navlog")
@@ -64,15 +65,10 @@ def run(args) -> int:
         return 0
     for w in summary.warnings:
         log.warning("%s", w)
-    skipped = sum(summary.skipped.values())
     print(
         f"{where}: {summary.messages} messages, {summary.points} points, {len(summary.entities)} entities "
         f"in frame {summary.fixed_frame} ({dt:.1f} s)"
-        + (
-            f"; skipped {skipped}: " + "; ".join(f"{k} x{v}" for k, v in sorted(summary.skipped.items()))
-            if skipped
-            else ""
-        )
+        + skipped_note(summary.skipped)
         + (f"; stored but not drawn: {', '.join(sorted(summary.not_drawn))}" if summary.not_drawn else ""),
         file=sys.stdout,
     )

@@ -86,3 +86,10 @@ def test_demo_refuses_a_full_output_folder(tmp_path, capsys: pytest.CaptureFixtu
     assert main(["demo", "-o", str(tmp_path)]) == 2
     assert "pass --force to replace it" in capsys.readouterr().err
     assert (tmp_path / "keep.txt").read_text() == "mine"
+
+
+def test_skipped_note_sums_and_sorts_the_reasons() -> None:
+    from navlog.commands import skipped_note
+
+    assert skipped_note({}) == "" and skipped_note({"x": 0}) == ""
+    assert skipped_note({"undecodable": 1, "cloud_empty": 2}) == "; skipped 3: cloud_empty x2; undecodable x1"

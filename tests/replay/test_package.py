@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-PACKAGES = ["navlog.replay", "navlog.replay.io", "navlog.replay.runtime"]
+PACKAGES = ["navlog.replay", "navlog.replay.io", "navlog.replay.runtime", "navlog.replay.nodes"]
 
 
 @pytest.mark.parametrize("package", PACKAGES)
@@ -34,5 +34,5 @@ def test_importing_the_packages_imports_no_submodule():
 
 
 def test_the_io_package_imports_without_a_cycle_through_the_runtime():
-    code = "from navlog.replay.io import open_log; from navlog.replay.runtime import run_replay, Progress"
+    code = "from navlog.replay.io import open_log; from navlog.replay.runtime import Progress; from navlog.replay import run_replay"
     subprocess.run([sys.executable, "-c", code], check=True)
