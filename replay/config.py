@@ -65,10 +65,13 @@ def suggest(word: str, choices: typing.Iterable[str]) -> str:
 
 def load_yaml(path: Path) -> Any:
     """Parse a YAML file; a syntax error names the file and line."""
+    path = Path(path)
     try:
-        text = Path(path).read_text()
+        text = path.read_text()
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a YAML text file (binary content){_yaml_hint(path)}") from None
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -76,6 +79,15 @@ def load_yaml(path: Path) -> Any:
         where = f" line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(exc, "problem", None) or str(exc)
         raise ConfigError(f"{path}:{where}: malformed YAML: {problem}") from None
+
+
+def _yaml_hint(path: Path) -> str:
+    """What to give instead of a binary file where YAML was expected (a map image, most often)."""
+    if path.suffix.lower() in (".pgm", ".png", ".bmp", ".jpg", ".jpeg", ".tif", ".tiff"):
+        yamls = sorted(p.name for p in path.parent.glob("*.yaml") if path.name in p.read_text(errors="replace"))
+        named = f"; {path.parent / yamls[0]} names this image" if yamls else ""
+        return f": this is a map image; give the map's YAML (map_server's map.yaml, which names the image){named}"
+    return ""
 
 
 def named_config(kind: str, name: str) -> Path:

@@ -27,6 +27,7 @@ from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import LogReader
 from navlog.replay.pipelines import pipeline_names
 from navlog.replay.runtime.executor import Envelope, Executor
+from navlog.replay.runtime.pipeline import Pipeline
 from navlog.replay.runtime.progress import Progress, format_table
 from navlog.version import __version__
 
@@ -136,6 +137,7 @@ def run_replay(
                 f"The log has: {have}. Map a topic with --remap PIPELINE_TOPIC=LOG_TOPIC "
                 f"(e.g. --remap {missing[0]}=/other_topic), or change the pipeline parameters with --set."
             )
+        _check_remaps(log, pipeline, pipe, reader, remap)
         wanted = [to_log.get(t, t) for t in pipe.inputs + pipe.optional_inputs if to_log.get(t, t) in reader.topics]
         if reader.unknown_types:
             logger.warning(
@@ -148,6 +150,15 @@ def run_replay(
         tmp.mkdir(parents=True)
         try:
             result = _run(reader, pipe, wanted, log_to, tmp, progress)
+            empty = pipe.nothing_produced()
+            if empty is not None:
+                skipped = pipe.skipped()
+                why = "; ".join(f"{reason} x{n}" for reason, n in sorted(skipped.items())) or "no input was skipped"
+                raise NavlogError(
+                    f"{log}: pipeline '{pipeline}' produced nothing: {empty}. Skipped inputs: {why}. "
+                    f"Check the topics it reads ({', '.join(pipe.inputs + pipe.optional_inputs)}) with "
+                    f"`navlog info {log}`: a missing /tf_static or a remapped TF topic leaves every input without a pose."
+                )
             manifest = _manifest(log, reader, pipeline, params, pipe, result, tmp, remap)
             (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
         except BaseException:
@@ -178,7 +189,42 @@ def format_summary(log: Path | str, res: ReplayResult) -> str:
     return "\n\n".join(["\n".join(lines), *tables])
 
 
-def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp: Path, progress: bool) -> dict:
+def _check_remaps(log: Path, name: str, pipe: Pipeline, reader: LogReader, remap: dict[str, str]) -> None:
+    """Every ``--remap PIPELINE_TOPIC=LOG_TOPIC`` names a topic the pipeline reads and one the log has."""
+    reads = pipe.inputs + pipe.optional_inputs
+    for ours, theirs in sorted(remap.items()):
+        if ours not in reads:
+            raise ConfigError(
+                f"--remap {ours}={theirs}: pipeline '{name}' reads no topic {ours}{suggest(ours, reads)}; "
+                f"it reads {', '.join(reads)}"
+            )
+        if theirs not in reader.topics:
+            raise ConfigError(
+                f"--remap {ours}={theirs}: {log} has no topic {theirs}{suggest(theirs, reader.topics)}; "
+                f"its topics: {', '.join(sorted(reader.topics))}"
+            )
+
+
+def _check_types(log: Path, ex: Executor, reader: LogReader, wanted: list[str], log_to: dict[str, str]) -> None:
+    """The log's topics carry the message types the pipeline's nodes read (after remapping)."""
+    expected = ex.subscribed_types()
+    for log_topic in wanted:
+        ours = log_to.get(log_topic, log_topic)
+        types = expected.get(ours)
+        have = reader.topics[log_topic].typename
+        if not types or have in types:
+            continue
+        same = sorted(t.name for t in reader.topics.values() if t.typename in types)
+        where = f"--remap {ours}={log_topic}: {log_topic}" if ours != log_topic else f"{log}: {log_topic}"
+        raise ConfigError(
+            f"{where} carries {have}, but the pipeline reads {ours} as {' or '.join(types)}; "
+            + (f"topics of that type in the log: {', '.join(same)}" if same else "the log has no topic of that type")
+        )
+
+
+def _run(
+    reader: LogReader, pipe: Pipeline, wanted: list[str], log_to: dict[str, str], tmp: Path, progress: bool
+) -> dict:
     ex = Executor(start_ns=reader.start_ns)
 
     last_stamp: dict[str, int] = {}
@@ -198,6 +244,7 @@ def _run(reader: LogReader, pipe, wanted: list[str], log_to: dict[str, str], tmp
     ex.add_source(stream())
     for node in pipe.nodes:
         ex.add_node(node)
+    _check_types(reader.path, ex, reader, wanted, log_to)
     start = time.perf_counter()
     t0 = reader.start_ns
     with (

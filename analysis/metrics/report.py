@@ -161,8 +161,12 @@ def compute_metrics(
     reference_map: str | Path | None = None,
     reference_mesh: str | Path | None = None,
     options: MetricsOptions = MetricsOptions(),
+    recover: bool = False,
 ) -> dict[str, Any]:
-    """Every metric whose inputs exist, plus ``skipped`` notes for the others (see module doc)."""
+    """Every metric whose inputs exist, plus ``skipped`` notes for the others (see module doc).
+
+    ``recover`` reads the complete chunks of a truncated MCAP log instead of refusing it.
+    """
     from navlog.replay.io.map_server import load_map
 
     out_dir = Path(replay_dir)
@@ -194,7 +198,7 @@ def compute_metrics(
     # -- trajectory
     gt: tr.Trajectory | None = None
     est: tr.Trajectory | None = None
-    with open_log(log) as reader:
+    with open_log(log, recover=recover) as reader:
         if options.gt_topic in reader.topics:
             gt, gt_counts = ground_truth_trajectory(reader, options.gt_topic)
         else:

@@ -72,6 +72,7 @@ def register(sub) -> None:
     p.add_argument(
         "--view-spacing", type=float, default=0.5, help="one viewpoint per this many metres of path (default 0.5)"
     )
+    p.add_argument("--recover", action="store_true", help="read the complete chunks of a truncated MCAP log")
     p.add_argument("-o", "--output", metavar="metrics.json", help="write the metrics as JSON")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
     p.set_defaults(func=run)
@@ -97,7 +98,12 @@ def run(args) -> int:
         view_spacing_m=args.view_spacing,
     )
     metrics = compute_metrics(
-        args.log, args.replay, reference_map=args.reference_map, reference_mesh=args.reference_mesh, options=options
+        args.log,
+        args.replay,
+        reference_map=args.reference_map,
+        reference_mesh=args.reference_mesh,
+        options=options,
+        recover=args.recover,
     )
     print(to_json(metrics), end="") if args.json else print(format_table(metrics))
     if args.output:

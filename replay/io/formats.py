@@ -34,7 +34,14 @@ def open_log(path: Path | str, *, recover: bool = False) -> LogReader:
                 reader.metadata.update(RosbagLogReader.bag_metadata(p))
                 return reader
             return RosbagLogReader(p)
-        raise LogError(f"{p}: folder without metadata.yaml; pass the .mcap or .db3 file inside it instead")
+        logs = sorted(f.name for f in p.iterdir() if f.is_file() and f.suffix in (".mcap", ".db3"))
+        if not logs:
+            raise LogError(f"{p}: not a log: no metadata.yaml and no .mcap or .db3 file in this folder")
+        raise LogError(
+            f"{p}: folder without metadata.yaml (not a rosbag2 folder); pass a log file inside it instead: "
+            + ", ".join(str(p / name) for name in logs[:5])
+            + (f" (and {len(logs) - 5} more)" if len(logs) > 5 else "")
+        )
     if p.is_file():
         with open(p, "rb") as f:
             if f.read(8) == MCAP_MAGIC:

@@ -88,12 +88,12 @@ class LidarMapperNode(Node):
     # ------------------------------------------------------------ wiring
     def setup(self) -> None:
         p = self.params
-        self.subscribe(p.tf_static_topic, self._on_tf_static)
-        self.subscribe(p.lidar_topic, self._on_cloud)
+        self.subscribe(p.tf_static_topic, self._on_tf_static, (messages.TF_MESSAGE,))
+        self.subscribe(p.lidar_topic, self._on_cloud, (messages.POINT_CLOUD2,))
         if p.use_imu:
-            self.subscribe(p.imu_topic, self._on_imu)
+            self.subscribe(p.imu_topic, self._on_imu, (messages.IMU,))
         if p.use_odom:
-            self.subscribe(p.odom_topic, self._on_odom)
+            self.subscribe(p.odom_topic, self._on_odom, (messages.ODOMETRY,))
 
     def _skip(self, reason: str) -> None:
         self.skipped[reason] = self.skipped.get(reason, 0) + 1

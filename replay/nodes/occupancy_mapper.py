@@ -77,11 +77,11 @@ class OccupancyMapperNode(Node):
         return topics
 
     def setup(self) -> None:
-        self.subscribe("/tf", lambda m, t: self.tf.add_message(m))
-        self.subscribe("/tf_static", lambda m, t: self.tf.add_message(m, static=True))
+        self.subscribe("/tf", lambda m, t: self.tf.add_message(m), (messages.TF_MESSAGE,))
+        self.subscribe("/tf_static", lambda m, t: self.tf.add_message(m, static=True), (messages.TF_MESSAGE,))
         if self.p.pose_source != "tf":
-            self.subscribe(self.pose_topic, self._on_pose)
-        self.subscribe(self.p.scan_topic, self._on_scan)
+            self.subscribe(self.pose_topic, self._on_pose, (messages.ODOMETRY,))
+        self.subscribe(self.p.scan_topic, self._on_scan, (messages.LASER_SCAN,))
         self.create_timer(int(self.p.publish_period * 1e9), self._publish)
 
     def _on_pose(self, msg, t_ns: int) -> None:

@@ -70,15 +70,18 @@ class CostmapNode(Node):
         return sorted(self.source_topics)
 
     def setup(self) -> None:
-        self.subscribe("/tf", lambda msg, t: self.tf.add_message(msg, static=False))
-        self.subscribe("/tf_static", lambda msg, t: self.tf.add_message(msg, static=True))
+        self.subscribe("/tf", lambda msg, t: self.tf.add_message(msg, static=False), (m.TF_MESSAGE,))
+        self.subscribe("/tf_static", lambda msg, t: self.tf.add_message(msg, static=True), (m.TF_MESSAGE,))
         if self.costmap.static_layers:
             if self.static_map is not None:
                 self.costmap.set_static_map(self.static_map)
             else:
-                self.subscribe(self.map_topic, self._on_map)
-        for topic in self.source_topics:
-            self.subscribe(topic, functools.partial(self._on_source, topic))
+                self.subscribe(self.map_topic, self._on_map, (m.OCCUPANCY_GRID,))
+        for topic, sources in self.source_topics.items():
+            types = tuple(
+                sorted({m.LASER_SCAN if sp.data_type == "LaserScan" else m.POINT_CLOUD2 for _, sp in sources})
+            )
+            self.subscribe(topic, functools.partial(self._on_source, topic), types)
         period = int(round(1e9 / self.params.update_frequency))
         self.create_timer(period, self._update)
 
@@ -213,7 +216,7 @@ class PlannerNode(Node):
         self.chained = False
 
     def setup(self) -> None:
-        self.subscribe(self.goal_topic, self._on_goal)
+        self.subscribe(self.goal_topic, self._on_goal, (m.POSE_STAMPED,))
         self.create_timer(self.period, self._tick)
 
     def _on_goal(self, msg: Any, t: int) -> None:

@@ -90,4 +90,10 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         "lidar_mapper": "on" if lidar_on else "off",
         "trajectory": "3D mapper base_link poses" if lidar_on else f"robot poses from {source} (scans inserted)",
     }
-    return Pipeline("mapping", nodes, inputs, optional, outputs, write_artifacts, skipped, info)
+
+    def nothing_produced() -> str | None:
+        if occ.grid.logodds.size:
+            return None
+        return f"no map: no scan on {params.occupancy.scan_topic} could be placed (pose source {source})"
+
+    return Pipeline("mapping", nodes, inputs, optional, outputs, write_artifacts, skipped, info, nothing_produced)

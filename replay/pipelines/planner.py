@@ -167,6 +167,7 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         outputs=["/global_costmap/costmap", "/global_costmap/published_footprint", "/plan", "/navlog/events"],
         write_artifacts=write_artifacts,
         skipped=skipped,
+        nothing_produced=lambda: None if pl.plans or pl.failures else "no plan: no goal was planned for",
     )
 
 

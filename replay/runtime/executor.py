@@ -72,8 +72,10 @@ class Node:
     def now(self) -> int:
         return self.executor.now
 
-    def subscribe(self, topic: str, callback: Callback) -> None:
-        self.executor.subscribe(topic, callback)
+    def subscribe(self, topic: str, callback: Callback, types: tuple[str, ...] = ()) -> None:
+        """Call ``callback(msg, time_ns)`` for every message on ``topic``; ``types`` names the message types
+        the callback reads (checked against a log's topics before a replay starts)."""
+        self.executor.subscribe(topic, callback, types)
 
     def publish(self, topic: str, typename: str, msg: Any) -> None:
         self.executor.publish(Envelope(topic, typename, self.executor.now, msg), self.rank)
@@ -109,6 +111,7 @@ class Executor:
         self._seq = 0
         self._queue: list[tuple[int, int, int, str, Any]] = []
         self._subs: dict[str, list[Callback]] = {}
+        self._sub_types: dict[str, set[str]] = {}
         self._timers: list[_Timer] = []
         self._nodes: list[Node] = []
         self._sinks: list[Sink] = []
@@ -134,8 +137,14 @@ class Executor:
     def add_sink(self, sink: Sink) -> None:
         self._sinks.append(sink)
 
-    def subscribe(self, topic: str, callback: Callback) -> None:
+    def subscribe(self, topic: str, callback: Callback, types: tuple[str, ...] = ()) -> None:
         self._subs.setdefault(topic, []).append(callback)
+        if types:
+            self._sub_types.setdefault(topic, set()).update(types)
+
+    def subscribed_types(self) -> dict[str, tuple[str, ...]]:
+        """Topic -> the message types its subscribers read, for the topics whose subscribers declared them."""
+        return {topic: tuple(sorted(types)) for topic, types in sorted(self._sub_types.items())}
 
     def add_timer(self, period_ns: int, callback: Callable[[int], None], rank: int, start_ns: int | None) -> None:
         if period_ns <= 0:

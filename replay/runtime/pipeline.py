@@ -29,3 +29,5 @@ class Pipeline:
     skipped: Callable[[], dict[str, int]] = dict
     # facts the pipeline decided from the log (e.g. the pose source it chose), for the manifest
     info: dict[str, str] = field(default_factory=dict)
+    # after the run: why nothing came of the main input (no map, no plan), or None when it produced its result
+    nothing_produced: Callable[[], str | None] = lambda: None

@@ -65,3 +65,16 @@ def test_overrides_copy_and_hash_is_stable():
     out = apply_overrides(base, ["a.b=2", "a.c=[1, 2]"])
     assert base == {"a": {"b": 1}} and out == {"a": {"b": 2, "c": [1, 2]}}
     assert config_hash(Outer("x")) == config_hash(Outer("x")) != config_hash(Outer("y"))
+
+
+def test_a_map_image_where_yaml_is_expected_names_the_yaml_that_holds_it(tmp_path):
+    from navlog.replay.config import load_yaml
+
+    (tmp_path / "room.pgm").write_bytes(b"P5\n2 2\n255\n\xfe\x00\xcd\xfe")
+    (tmp_path / "room.yaml").write_text("image: room.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    with pytest.raises(ConfigError) as err:
+        load_yaml(tmp_path / "room.pgm")
+    assert str(err.value) == (
+        f"{tmp_path / 'room.pgm'}: not a YAML text file (binary content): this is a map image; give the map's "
+        f"YAML (map_server's map.yaml, which names the image); {tmp_path / 'room.yaml'} names this image"
+    )

@@ -281,3 +281,24 @@ def test_table_rows_carry_the_json_numbers(world):
     # the numeric columns of the trajectory table are right-aligned: the rows end together
     ate_rows = [ln for ln in lines if ln.strip().startswith(("ATE", "RPE rotation"))]
     assert len({len(ln) for ln in ate_rows}) == 1
+
+
+def test_metrics_of_a_truncated_log_point_to_an_option_metrics_takes(teleop_log, tmp_path):
+    """The truncation error says --recover, and `navlog metrics --recover` reads the complete chunks."""
+    import pytest
+
+    from navlog.analysis.metrics.report import compute_metrics
+    from navlog.cli import main
+    from navlog.errors import TruncatedLogError
+    from navlog.replay.session import run_replay
+
+    out = run_replay(teleop_log, "mapping", tmp_path / "out", overrides=["lidar_mapper=off"], progress=False).out_dir
+    cut = tmp_path / "cut.mcap"
+    data = teleop_log.read_bytes()
+    cut.write_bytes(data[: len(data) // 2])
+    with pytest.raises(TruncatedLogError, match="--recover"):
+        compute_metrics(cut, out)
+    recovered = compute_metrics(cut, out, recover=True)["trajectory"]["ate"]["pairs"]
+    whole = compute_metrics(teleop_log, out)["trajectory"]["ate"]["pairs"]
+    assert 0 < recovered < whole  # only the poses within the readable half have ground truth
+    assert main(["metrics", str(cut), "--replay", str(out), "--recover", "--json"]) == 0

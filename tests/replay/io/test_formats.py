@@ -80,7 +80,10 @@ def test_bad_inputs(tmp_path):
     with pytest.raises(LogError, match="not an MCAP file"):
         open_log(junk)
     (tmp_path / "dir").mkdir()
-    with pytest.raises(LogError, match="without metadata.yaml"):
+    with pytest.raises(LogError, match="dir: not a log: no metadata.yaml and no .mcap or .db3 file in this folder"):
+        open_log(tmp_path / "dir")
+    (tmp_path / "dir" / "run.mcap").write_bytes(b"")
+    with pytest.raises(LogError, match=r"without metadata.yaml \(not a rosbag2 folder\); pass a log file inside it"):
         open_log(tmp_path / "dir")
 
 

@@ -117,3 +117,25 @@ def test_two_sources_merge_by_time_then_source_order():
     ex.add_node(Recorder(["/a", "/b"], log, "r"))
     ex.run()
     assert [m for *_, m in log] == ["a1", "b1", "b2", "a3"]
+
+
+def test_subscriptions_declare_the_types_they_read():
+    from navlog.replay.runtime.executor import Executor, Node
+
+    class Reader(Node):
+        def setup(self) -> None:
+            self.subscribe("/scan", lambda m, t: None, ("sensor_msgs/msg/LaserScan",))
+            self.subscribe("/tf", lambda m, t: None)  # no declaration: any type
+            self.subscribe("/cloud", lambda m, t: None, ("sensor_msgs/msg/PointCloud2",))
+
+    class Other(Node):
+        def setup(self) -> None:
+            self.subscribe("/cloud", lambda m, t: None, ("sensor_msgs/msg/LaserScan",))
+
+    ex = Executor()
+    ex.add_node(Reader())
+    ex.add_node(Other())
+    assert ex.subscribed_types() == {
+        "/cloud": ("sensor_msgs/msg/LaserScan", "sensor_msgs/msg/PointCloud2"),
+        "/scan": ("sensor_msgs/msg/LaserScan",),
+    }
