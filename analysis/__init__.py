@@ -6,7 +6,10 @@
   ``build_view``, ``save_view``, ``stream_view``);
 - ``navlog.analysis.export``: ROS 2 bags and TUM trajectories (``export_rosbag2``, ``BagOptions``,
   ``export_tum``; a PCD map as a map_server map: ``pcd_to_map``);
-- ``navlog.analysis.info``: a log's summary (``summarize``, ``format_info``).
+- ``navlog.analysis.info``: a log's summary (``summarize``, ``format_info``);
+- ``navlog.analysis.check``: is a log fit to replay (``check_log``, ``LogCheck``, ``format_check``);
+- ``navlog.analysis.diff``: what moved between two replays or two logs (``DiffTolerances``,
+  ``DiffReport``; the function is ``navlog.analysis.diff.diff``).
 
 Names are imported on first use, so importing the package loads neither Rerun, Open3D nor scipy.
 """
@@ -18,6 +21,8 @@ from typing import TYPE_CHECKING
 from navlog.replay import lazy_exports
 
 if TYPE_CHECKING:
+    from navlog.analysis.check import LogCheck, check_log, format_check
+    from navlog.analysis.diff import DiffReport, DiffTolerances
     from navlog.analysis.export import BagOptions, export_rosbag2, export_tum, pcd_to_map
     from navlog.analysis.info import format_info, summarize
     from navlog.analysis.metrics import MetricsOptions, Trajectory, compute_metrics
@@ -25,13 +30,18 @@ if TYPE_CHECKING:
 
 __all__ = [
     "BagOptions",
+    "DiffReport",
+    "DiffTolerances",
+    "LogCheck",
     "MetricsOptions",
     "Trajectory",
     "ViewOptions",
     "build_view",
+    "check_log",
     "compute_metrics",
     "export_rosbag2",
     "export_tum",
+    "format_check",
     "format_info",
     "pcd_to_map",
     "save_view",
@@ -54,6 +64,11 @@ _MODULES = {
     "pcd_to_map": "export",
     "format_info": "info",
     "summarize": "info",
+    "LogCheck": "check",
+    "check_log": "check",
+    "format_check": "check",
+    "DiffReport": "diff",
+    "DiffTolerances": "diff",
 }
 
 __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -4,7 +4,9 @@ Its public API, imported on first use so that importing the package stays cheap:
 
 - ``prepare(world, robot, scenario, seed, noise)`` loads and checks a ``RecordSetup``;
   ``navlog.recorder.record.record(setup, out, ...)`` simulates it into an MCAP log and returns a
-  ``RecordResult`` (``format_summary`` prints it; ``expected_duration`` estimates a run's length).
+  ``RecordResult`` (``format_summary`` prints it; ``expected_duration`` estimates a run's length);
+  ``record(..., pipeline=...)`` runs a replay pipeline live (the safety filters between the
+  scenario's commands and the robot).
   The function is not re-exported here: its name is that of its module, ``navlog.recorder.record``;
 - ``load_world`` / ``load_robot`` / ``load_scenario`` read the YAML descriptions (``World``,
   ``RobotSpec``, ``ScenarioSpec``).

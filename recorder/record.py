@@ -2,8 +2,11 @@
 
 ``record()`` is what ``navlog record`` calls. It validates everything before simulating, runs the
 simulator and the scenario on the executor with the MCAP writer as a sink, shows progress, and
-returns a ``RecordResult``. Extra nodes (e.g. mappers) can run live in the same executor; their
-outputs are recorded too. A run ends early, with a whole file of what was recorded, when its
+returns a ``RecordResult``. A replay pipeline (``pipeline=``, e.g. the mapper) or extra nodes
+(``live_nodes=``) can run live in the same executor; their outputs are recorded too. A pipeline
+that filters velocity commands (``Pipeline.commands``: the safety filters take /cmd_vel_nav and give
+/cmd_vel) sits between the scenario and the robot: the scenario publishes on the topic it takes.
+A run ends early, with a whole file of what was recorded, when its
 ``stop`` event is set (the command line sets it on Ctrl-C; the library installs no signal handler).
 """
 
@@ -16,13 +19,15 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from navlog.recorder.robot import RobotSpec, load_robot
+from navlog.errors import ConfigError
+from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, load_robot
 from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
 from navlog.recorder.sim import SimNode, SimOptions
 from navlog.recorder.world import World, load_world
 from navlog.replay.config import config_hash, to_mapping
 from navlog.replay.io.logwriter import McapLogWriter, check_output
 from navlog.replay.runtime.executor import Executor, Node
+from navlog.replay.runtime.pipeline import Pipeline
 from navlog.replay.runtime.progress import Progress, format_table
 from navlog.version import __version__
 
@@ -92,21 +97,26 @@ def record(
     force: bool = False,
     progress: bool = True,
     live_nodes: Sequence[Node] = (),
+    pipeline: Pipeline | None = None,
     stop: threading.Event | None = None,
 ) -> RecordResult:
     """Simulate ``setup`` and write every topic to ``out`` (MCAP); see the module docstring.
+
+    ``pipeline``: a replay pipeline (``build(params, setup.topics())``) whose nodes run live after
+    ``live_nodes``; when it filters commands, the scenario publishes on the topic it takes.
 
     ``stop``, when set (from another thread or a signal handler), ends the run within a second of sim
     time; the file is then closed cleanly with what was recorded and the result says ``interrupted``.
     """
     out = Path(out)
     check_output(out, force)
+    command_topic = scenario_command_topic(pipeline)
     sim = SimNode(setup.world, setup.robot, SimOptions(seed=setup.seed, noise=setup.noise, start=setup.scenario.start))
-    driver = ScenarioNode(setup.scenario, setup.robot)
+    driver = ScenarioNode(setup.scenario, setup.robot, command_topic=command_topic)
     ex = Executor()
     ex.add_node(sim, source=True)
     ex.add_node(driver)
-    for node in live_nodes:
+    for node in [*live_nodes, *(pipeline.nodes if pipeline is not None else [])]:
         ex.add_node(node)
     meta = setup.metadata()
     max_ns = int(setup.scenario.max_duration * 1e9)
@@ -135,6 +145,20 @@ def record(
     for topic, n in sorted(ex.stats.published.items()):
         counts[topic] = (types.get(topic, ""), n)
     return RecordResult(out, ex.now / 1e9, wall, out.stat().st_size, counts, interrupted, meta)
+
+
+def scenario_command_topic(pipeline: Pipeline | None) -> str:
+    """Where the scenario publishes its commands: the robot's /cmd_vel, or the topic a live pipeline
+    filters into it (ConfigError when that pipeline's commands would not reach the robot)."""
+    if pipeline is None or pipeline.commands is None:
+        return CMD_VEL_TOPIC
+    takes, gives = pipeline.commands
+    if gives != CMD_VEL_TOPIC:
+        raise ConfigError(
+            f"pipeline '{pipeline.name}' gives its commands on {gives}, but the robot drives on {CMD_VEL_TOPIC}; "
+            f"run it live with its output on {CMD_VEL_TOPIC} (e.g. --set output_topic={CMD_VEL_TOPIC})"
+        )
+    return takes
 
 
 def expected_duration(setup: RecordSetup) -> float:

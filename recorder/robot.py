@@ -5,9 +5,11 @@ Two drives:
   (x, y, yaw) driven by velocity actuators, plus height, roll and pitch joints on position actuators
   that follow the body sway of a trotting gait (stride frequency 1 / (2 * stance_duration)), scaled
   with speed. Commands pass through a first-order response (``response_time``) within the limits.
-- ``diff_drive``: a real differential drive: a free chassis on two velocity-driven wheel joints and a
-  frictionless caster, in contact with the floor; wheel odometry is integrated from the wheel joint
-  speeds with the nominal wheel radius and separation, so wheel slip makes it drift.
+- ``diff_drive``: a real differential drive: a free chassis on two velocity-driven wheel joints and
+  two frictionless casters, the rear one on the floor and the front one 5 mm above it (the chassis'
+  mass sits over the axle: without it the robot would tip onto its nose when braking); wheel
+  odometry is integrated from the wheel joint speeds with the nominal wheel radius and separation,
+  so wheel slip makes it drift.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from navlog.replay.geometry import quat_from_rpy, quat_to_wxyz
 Vec3 = tuple[float, float, float]
 Mount = tuple[float, float, float, float, float, float]  # x, y, z, roll, pitch, yaw (rad)
 ZERO_MOUNT: Mount = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+CMD_VEL_TOPIC = "/cmd_vel"  # every robot drives on the velocity commands of this topic
 
 
 @dataclass(frozen=True)
@@ -249,16 +252,18 @@ def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> No
                 name=f"act_wheel_{side}", target=f"wheel_{side}_joint", trntype=mujoco.mjtTrn.mjTRN_JOINT
             ).set_to_velocity(kv=8.0)
         caster_r = r_true / 2
-        base.add_geom(
-            name="caster",
-            type=G.mjGEOM_SPHERE,
-            size=[caster_r, 0, 0],
-            pos=[-bx / 2 + caster_r, 0, caster_r - r_true],
-            friction=[0.0, 0.0, 0.0],
-            condim=1,
-            mass=0.1,
-            group=ROBOT_GROUP,
-        )
+        # the front caster rides 5 mm above the floor: it catches the chassis when it pitches forward
+        for name, cx, lift in (("caster", -bx / 2 + caster_r, 0.0), ("caster_front", bx / 2 - caster_r, 0.005)):
+            base.add_geom(
+                name=name,
+                type=G.mjGEOM_SPHERE,
+                size=[caster_r, 0, 0],
+                pos=[cx, 0, caster_r - r_true + lift],
+                friction=[0.0, 0.0, 0.0],
+                condim=1,
+                mass=0.1,
+                group=ROBOT_GROUP,
+            )
         base.add_site(name="imu", pos=list(robot.imu.mount[:3]) if robot.imu else [0, 0, 0])
     spec.add_sensor(name="imu_gyro", type=mujoco.mjtSensor.mjSENS_GYRO, objtype=mujoco.mjtObj.mjOBJ_SITE, objname="imu")
     spec.add_sensor(

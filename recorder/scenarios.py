@@ -5,7 +5,12 @@
 - ``teleop``: play a list of timed velocity commands, then stand still for ``hold`` seconds.
 
 Both are checked before anything is simulated: the start pose and the whole intended path must stay
-at least the robot's radius away from every obstacle (``check_scenario``).
+at least the robot's radius away from every obstacle (``check_scenario``). A scenario made to test
+what stops a robot before an obstacle (``teleop_wall``) opts in with ``expect_contact: true``: its
+path must then reach an obstacle, and only its start pose must be clear.
+
+The scenario publishes its commands on /cmd_vel, or, when a live pipeline filters them (the safety
+pipeline reads /cmd_vel_nav), on the topic that pipeline takes (``ScenarioNode(command_topic=...)``).
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ from typing import Any, Literal
 import numpy as np
 
 from navlog.errors import ConfigError
-from navlog.recorder.robot import RobotSpec
+from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec
 from navlog.recorder.world import World, clearance
 from navlog.replay import messages
 from navlog.replay.config import load_config, named_config
@@ -46,6 +51,7 @@ class ScenarioSpec:
     hold: float = 1.0
     max_duration: float = 600.0
     rate: float = 20.0
+    expect_contact: bool = False  # the path is meant to reach an obstacle (a test of the safety filters)
 
     def __post_init__(self) -> None:
         if self.kind == "tour" and not self.waypoints:
@@ -102,22 +108,31 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World) -> No
     path = intended_path(scenario, robot)
     c = clearance(world, path)
     i = int(np.argmin(c))
+    if scenario.expect_contact:
+        if c[i] >= robot.radius:
+            raise ConfigError(
+                f"scenario '{scenario.name}' sets expect_contact: true, but its path stays {c[i]:.2f} m from every "
+                f"obstacle of world '{world.name}' (robot radius {robot.radius} m); remove expect_contact"
+            )
+        return
     if c[i] < robot.radius:
         raise ConfigError(
             f"scenario '{scenario.name}' would collide: its path passes ({path[i, 0]:.2f}, {path[i, 1]:.2f}), "
-            f"{c[i]:.2f} m from an obstacle of world '{world.name}' (robot radius {robot.radius} m)"
+            f"{c[i]:.2f} m from an obstacle of world '{world.name}' (robot radius {robot.radius} m); "
+            "a scenario meant to reach an obstacle sets expect_contact: true"
         )
 
 
 class ScenarioNode(Node):
-    """Publishes /cmd_vel at ``rate`` from the true pose, until the scenario is done."""
+    """Publishes commands on ``command_topic`` at ``rate`` from the true pose, until the scenario is done."""
 
     name = "scenario"
 
-    def __init__(self, scenario: ScenarioSpec, robot: RobotSpec) -> None:
+    def __init__(self, scenario: ScenarioSpec, robot: RobotSpec, *, command_topic: str = CMD_VEL_TOPIC) -> None:
         super().__init__()
         self.scenario = scenario
         self.robot = robot
+        self.command_topic = command_topic
         self.pose: tuple[float, float, float] | None = None
         self.index = 0
         self.done_ns: int | None = None
@@ -140,7 +155,7 @@ class ScenarioNode(Node):
         cmd = (0.0, 0.0, 0.0)
         if self.done_ns is None:
             cmd = self._tour(t_ns) if self.scenario.kind == "tour" else self._teleop(t_ns)
-        self.publish("/cmd_vel", messages.TWIST, messages.twist(*cmd))
+        self.publish(self.command_topic, messages.TWIST, messages.twist(*cmd))
 
     def _teleop(self, t_ns: int) -> tuple[float, float, float]:
         t = t_ns / 1e9

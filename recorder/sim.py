@@ -6,6 +6,13 @@ due: ``/clock``, ``/tf_static`` (once, at t = 0), ``/tf``, ``/odom``, ``/odom/gr
 ``/imu/data``, the 2D scan and the 3D LiDAR. All randomness comes from one seed, one stream per
 purpose (odometry, IMU, laser, LiDAR), so changing one sensor never changes another's noise.
 
+Contacts: after every tick the simulator looks at MuJoCo's contacts between the robot's geoms and
+the world's (the floor excepted). When the robot starts touching a world geom it publishes a navlog
+event ``collision`` (source ``sim``, detail the geom's name, value the deepest penetration in metres)
+on ``/navlog/events``, and ``collision_end`` once it has not touched it for 0.1 s: once per contact
+episode (a robot pressing on a wall touches it on most ticks, not all).
+A legged robot's trunk does not collide (its geoms have no contact type), so only wheeled robots report.
+
 Odometry model (documented in the README):
 - legged: the true body-frame velocity, scaled by ``1 + linear_scale_error``, plus ``yaw_rate_bias``
   and white noise, integrated at the odometry rate: it drifts like CHAMP's leg odometry.
@@ -26,7 +33,7 @@ import mujoco
 import numpy as np
 
 from navlog.recorder import sensors
-from navlog.recorder.robot import RobotSpec, add_to_spec
+from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, add_to_spec
 from navlog.recorder.world import World, build_spec, world_mesh
 from navlog.replay import messages
 from navlog.replay.geometry import (
@@ -41,6 +48,8 @@ from navlog.replay.pointcloud import make_cloud
 from navlog.replay.runtime.executor import Node
 
 TICK_NS = 5_000_000  # 200 Hz
+EVENTS_TOPIC = "/navlog/events"
+CONTACT_GAP_NS = 100_000_000  # a contact episode ends after this long without touching (pressing on a wall flickers)
 CLOCK_PERIOD_NS = 10_000_000  # /clock at 100 Hz
 
 
@@ -114,6 +123,11 @@ class SimNode(Node):
         self.rng_odom, self.rng_imu, self.rng_scan, self.rng_lidar = (np.random.default_rng(s) for s in streams)
         self.legged = robot.drive.type == "legged"
         self._bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "base_link")
+        # contacts: which geoms are the robot's, which are world obstacles (static, not the floor)
+        world_geom = self.model.geom_bodyid == 0
+        self._robot_geom = ~world_geom
+        self._obstacle_geom = world_geom & (self.model.geom_type != mujoco.mjtGeom.mjGEOM_PLANE)
+        self._touching: dict[str, int] = {}  # world geom the robot touches -> last tick it touched it
         self._init_state()
         # command state
         self._cmd = (0.0, 0.0, 0.0)
@@ -233,7 +247,7 @@ class SimNode(Node):
 
     # ------------------------------------------------------------ node
     def setup(self) -> None:
-        self.subscribe("/cmd_vel", self._on_cmd)
+        self.subscribe(CMD_VEL_TOPIC, self._on_cmd)
         self.create_timer(TICK_NS, self._tick, start_ns=0)
 
     def _on_cmd(self, msg, t_ns: int) -> None:
@@ -281,6 +295,7 @@ class SimNode(Node):
             for _ in range(self.substeps):
                 mujoco.mj_step(self.model, self.data)
             mujoco.mj_kinematics(self.model, self.data)
+            self._publish_contacts(t_ns)
         else:
             self._publish_static(t_ns)
         base = self.base_pose()
@@ -296,6 +311,37 @@ class SimNode(Node):
             self._publish_scan(t_ns, base)
         if p["lidar"] and t_ns % p["lidar"] == 0 and t_ns > 0:
             self._publish_lidar(t_ns)
+
+    # ------------------------------------------------------------ contacts
+    def contacts(self) -> dict[str, float]:
+        """World geoms the robot touches now, with the deepest penetration (m, >= 0) of each."""
+        n = self.data.ncon
+        if n == 0:
+            return {}
+        c = self.data.contact
+        g1, g2 = c.geom1[:n], c.geom2[:n]
+        robot, obstacle = self._robot_geom, self._obstacle_geom
+        hit = (robot[g1] & obstacle[g2]) | (obstacle[g1] & robot[g2])
+        out: dict[str, float] = {}
+        for a, b, dist in zip(g1[hit].tolist(), g2[hit].tolist(), c.dist[:n][hit].tolist()):
+            geom = b if obstacle[b] else a
+            name = mujoco.mj_id2name(self.model, mujoco.mjtObj.mjOBJ_GEOM, geom) or f"geom {geom}"
+            out[name] = max(out.get(name, 0.0), -dist)  # dist < 0: penetration
+        return out
+
+    def _publish_contacts(self, t_ns: int) -> None:
+        now = self.contacts()
+        if not now and not self._touching:
+            return
+        for name in sorted(n for n, last in self._touching.items() if n not in now and t_ns - last > CONTACT_GAP_NS):
+            del self._touching[name]
+            self.publish(EVENTS_TOPIC, messages.EVENT_TYPE, messages.event(t_ns, "collision_end", self.name, name))
+        for name in sorted(now.keys() - self._touching.keys()):
+            self.publish(
+                EVENTS_TOPIC, messages.EVENT_TYPE, messages.event(t_ns, "collision", self.name, name, now[name])
+            )
+        for name in now:
+            self._touching[name] = t_ns
 
     # ------------------------------------------------------------ publishers
     def _publish_static(self, t_ns: int) -> None:

@@ -36,7 +36,7 @@ from navlog.analysis.metrics.trajectory import ErrorStats
 from navlog.errors import NavlogError
 from navlog.replay.occupancy_map import OccupancyMap
 
-#: map_server's thresholds as navlog saves maps (see replay.mapio.SAVE_FREE_THRESH).
+#: map_server's thresholds as navlog saves maps (see navlog.replay.io.map_server.SAVE_FREE_THRESH).
 OCCUPIED_THRESH = 0.65
 FREE_THRESH = 0.196
 DEFAULT_TAUS_3D = (0.02, 0.05)

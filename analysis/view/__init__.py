@@ -4,7 +4,8 @@
 
 - a 3D view in the fixed frame (``map`` when the TF tree has it): LiDAR clouds and laser scans in
   their sensor frames, the TF tree, true and estimated trajectories, plans, occupancy grids,
-  goals and waypoints as labelled arrows, and the replay outputs (PCD map, trajectory) when given;
+  goals and waypoints as labelled arrows, the collision monitor's polygons coloured by their action
+  and its approach prediction, and the replay outputs (PCD map, trajectory) when given;
 - a top-down 2D view: the occupancy grid (or costmap), scan points and the robot footprint, all
   drawn in the pixel space of one fixed canvas in the fixed frame;
 - time series: the velocity chain (``/cmd_vel_nav`` -> ``/cmd_vel_smoothed`` -> ``/cmd_vel``),
@@ -16,7 +17,8 @@ and static items. Rerun itself is imported only when a view is built.
 
 Modules: ``log_view`` (walking a log, the entry points), ``options``, ``context`` (the stream and
 what every drawer shares), one module per kind of thing drawn (``scans``, ``clouds``, ``tf``,
-``trajectories``, ``plans``, ``goals``, ``grids``, ``topdown``, ``timeseries``, ``events``),
+``trajectories``, ``plans``, ``goals``, ``grids``, ``polygons``, ``topdown``, ``timeseries``,
+``events``),
 ``replay_outputs`` (a replay folder's map, PCD and TUM files) and ``blueprint``.
 """
 

@@ -20,7 +20,7 @@ TIMELINE = "sim_time"
 # role -> RGB
 COLORS = {
     "ground_truth": (40, 200, 80),
-    "estimate": (255, 140, 20),
+    "estimate": (86, 180, 233),  # sky blue: orange, amber and red are the collision monitor's states
     "estimate2": (40, 120, 255),
     "replay": (200, 60, 220),
     "plan": (230, 30, 30),

@@ -1,5 +1,8 @@
 """Events and text topics as text logs: navlog's navigation events under ``events``, std_msgs/String
-and rcl_interfaces/Log (``/rosout``) topics under ``text/``."""
+and rcl_interfaces/Log (``/rosout``) topics under ``text/``.
+
+A collision-monitor event reads "<polygon>: <action> started" or "... ended"; a stop starting is a
+warning (so is any other event whose kind speaks of failure, abort, collision, stop or error)."""
 
 from __future__ import annotations
 
@@ -9,6 +12,17 @@ from typing import Any
 from navlog.analysis.view.context import ViewContext, entity_name
 
 ROSOUT_LEVELS = {10: "DEBUG", 20: "INFO", 30: "WARN", 40: "ERROR", 50: "CRITICAL"}
+MONITOR_PREFIX = "collision_monitor_"
+
+
+def monitor_event_text(kind: str, polygon: str) -> tuple[str, str]:
+    """A collision-monitor event as (text, level): the polygon first, then its action; a stop is a
+    warning, its end and the other actions information."""
+    action = kind[len(MONITOR_PREFIX) :]
+    ended = action.endswith("_end")
+    action = action.removesuffix("_end")
+    text = f"{polygon or '?'}: {action} {'ended' if ended else 'started'} (collision monitor)"
+    return text, "WARN" if action == "stop" and not ended else "INFO"
 
 
 class Events:
@@ -20,13 +34,16 @@ class Events:
         self.texts: dict[str, list[tuple[int, str, str]]] = defaultdict(list)
 
     def on_event(self, topic: str, t: int, msg: Any) -> None:
-        text = f"{msg.kind} [{msg.source}]"
-        if msg.detail:
-            text += f": {msg.detail}"
-        if msg.value:
-            text += f" ({msg.value:g})"
-        bad = any(w in msg.kind.lower() for w in ("fail", "abort", "collision", "stop", "error"))
-        self.events.append((t, text, "WARN" if bad else "INFO"))
+        if msg.kind.startswith(MONITOR_PREFIX):
+            self.events.append((t, *monitor_event_text(msg.kind, msg.detail)))
+        else:
+            text = f"{msg.kind} [{msg.source}]"
+            if msg.detail:
+                text += f": {msg.detail}"
+            if msg.value:
+                text += f" ({msg.value:g})"
+            bad = any(w in msg.kind.lower() for w in ("fail", "abort", "collision", "stop", "error"))
+            self.events.append((t, text, "WARN" if bad else "INFO"))
         self.ctx.summary.drawn[topic] = self.ctx.entity("events")
 
     def on_text(self, topic: str, t: int, msg: Any) -> None:

@@ -1,9 +1,10 @@
 """Walking a log into a Rerun recording: ``build_view``, ``save_view`` and ``stream_view``.
 
 ``ViewBuilder`` reads every message of a log once and hands it by type to the drawer of its kind
-(scans, clouds, TF, trajectories, plans, goals, grids, time series, events); bulk sensors are sent
-in batches as they are read, the rest when the log is done (``finish``), in a fixed order, followed
-by the top-down view, the orphan-frame links and the blueprint.
+(scans, clouds, TF, trajectories, plans, goals, grids, collision-monitor polygons, time series,
+events); bulk sensors are sent in batches as they are read, the rest when the log is done
+(``finish``), in a fixed order, followed by the top-down view, the orphan-frame links and the
+blueprint.
 
 The timeline ``sim_time`` is a duration: the log time itself for simulator logs (sim time in
 nanoseconds), the time since the first message for bags recorded with wall-clock receive times.
@@ -28,6 +29,7 @@ from navlog.analysis.view.goals import Goals
 from navlog.analysis.view.grids import Grids
 from navlog.analysis.view.options import ViewOptions, ViewSummary
 from navlog.analysis.view.plans import Plans
+from navlog.analysis.view.polygons import Polygons
 from navlog.analysis.view.replay_outputs import add_replay_dir
 from navlog.analysis.view.scans import Scans
 from navlog.analysis.view.tf import TfTree
@@ -47,6 +49,7 @@ POSE_ARRAY = "geometry_msgs/msg/PoseArray"
 POSE_COV_STAMPED = "geometry_msgs/msg/PoseWithCovarianceStamped"
 STRING = "std_msgs/msg/String"
 ROSOUT = "rcl_interfaces/msg/Log"
+POLYGON_STAMPED = "geometry_msgs/msg/PolygonStamped"
 
 
 class ViewBuilder:
@@ -59,6 +62,7 @@ class ViewBuilder:
         self.clouds = Clouds(self.ctx)
         self.trajectories = Trajectories(self.ctx)
         self.plans = Plans(self.ctx)
+        self.polygons = Polygons(self.ctx)
         self.goals = Goals(self.ctx)
         self.grids = Grids(self.ctx)
         self.series = TimeSeries(self.ctx)
@@ -77,7 +81,8 @@ class ViewBuilder:
             messages.POSE_STAMPED: self.goals.on_goal,
             POSE_COV_STAMPED: self.goals.on_goal,
             POSE_ARRAY: self.goals.on_waypoints,
-            messages.EVENT_TYPE: self.events.on_event,
+            messages.EVENT_TYPE: self._on_event,
+            POLYGON_STAMPED: self.polygons.on_polygon,
             messages.IMU: self.series.on_imu,
             STRING: self.events.on_text,
             ROSOUT: self.events.on_text,
@@ -90,6 +95,10 @@ class ViewBuilder:
     def _on_path(self, topic: str, t: int, msg: Any) -> None:
         self.goals.on_path(topic, t, msg)
         self.plans.on_path(topic, t, msg)
+
+    def _on_event(self, topic: str, t: int, msg: Any) -> None:
+        self.events.on_event(topic, t, msg)
+        self.polygons.on_event(topic, t, msg)
 
     def _start(self, reader: LogReader) -> None:
         """The first log sets the footprint and the time offset."""
@@ -161,6 +170,7 @@ class ViewBuilder:
         self.tf.send()
         self.trajectories.send()
         self.plans.send()
+        self.polygons.send()
         self.goals.send(self.events.events)
         self.grids.send()
         send_top(self.ctx, self.tf, self.scans, self.trajectories, self.plans, self.grids, self.footprint)

@@ -17,6 +17,8 @@ from navlog.replay import messages
 
 VELOCITY_CHAIN = ("/cmd_vel_nav", "/cmd_vel_smoothed", "/cmd_vel")
 CHAIN_COLORS = {"/cmd_vel_nav": (120, 120, 255), "/cmd_vel_smoothed": (255, 165, 0), "/cmd_vel": (220, 30, 30)}
+# px: each stage of the chain thinner than the one before, so equal values show as nested lines
+CHAIN_WIDTHS = {"/cmd_vel_nav": 5.0, "/cmd_vel_smoothed": 3.0, "/cmd_vel": 1.5}
 
 
 def drift_series(
@@ -55,14 +57,16 @@ class TimeSeries:
     def on_imu(self, topic: str, t: int, msg: Any) -> None:
         self.imu[topic].append((t, msg.angular_velocity.z, msg.linear_acceleration.x, msg.linear_acceleration.y))
 
-    def scalars(self, ent: str, t: list[int] | np.ndarray, v: np.ndarray, name: str, color=None) -> None:
-        """One named, coloured series of scalars."""
+    def scalars(
+        self, ent: str, t: list[int] | np.ndarray, v: np.ndarray, name: str, color=None, width: float | None = None
+    ) -> None:
+        """One named, coloured series of scalars (``width``: line width in px, else Rerun's)."""
         ctx, rr = self.ctx, self.ctx.rr
         ent = ctx.entity(ent)
         ctx.rec.send_columns(
             ent, indexes=[ctx.time_column(t)], columns=rr.Scalars.columns(scalars=np.asarray(v, dtype=np.float64))
         )
-        ctx.rec.log(ent, rr.SeriesLines(names=name, colors=[color] if color else None), static=True)
+        ctx.rec.log(ent, rr.SeriesLines(names=name, colors=[color] if color else None, widths=width), static=True)
 
     def send(self, odometry: dict[str, PoseRows]) -> None:
         """The twists, then speed and drift of the ``odometry`` topics, then the IMU rates."""
@@ -74,11 +78,11 @@ class TimeSeries:
             arr = np.array(self.twists[topic], dtype=np.float64)
             t = arr[:, 0].astype(np.int64)
             name = entity_name(topic)
-            color = CHAIN_COLORS.get(topic)
-            self.scalars(f"plots/cmd_vel/vx/{name}", t, arr[:, 1], topic, color)
+            color, width = CHAIN_COLORS.get(topic), CHAIN_WIDTHS.get(topic)
+            self.scalars(f"plots/cmd_vel/vx/{name}", t, arr[:, 1], topic, color, width)
             if np.any(arr[:, 2] != 0):
-                self.scalars(f"plots/cmd_vel/vy/{name}", t, arr[:, 2], topic, color)
-            self.scalars(f"plots/cmd_vel/wz/{name}", t, arr[:, 3], topic, color)
+                self.scalars(f"plots/cmd_vel/vy/{name}", t, arr[:, 2], topic, color, width)
+            self.scalars(f"plots/cmd_vel/wz/{name}", t, arr[:, 3], topic, color, width)
             drawn[topic] = f"plots/cmd_vel/*/{name}"
         for topic, o in sorted(odometry.items()):
             if o.speed:

@@ -26,7 +26,16 @@ def register(sub) -> None:
     p.add_argument("--no-noise", action="store_true", help="switch every sensor and odometry noise off")
     p.add_argument("-o", "--output", required=True, type=Path, help="output .mcap file")
     p.add_argument("--force", action="store_true", help="overwrite the output if it exists")
-    p.add_argument("--pipeline", help="also run a replay pipeline's nodes live (e.g. mapping) and record their outputs")
+    p.add_argument(
+        "--pipeline",
+        help="also run a replay pipeline's nodes live (e.g. mapping) and record their outputs; the safety "
+        "filters sit between the scenario and the robot (the scenario then publishes /cmd_vel_nav)",
+    )
+    p.add_argument(
+        "--params",
+        type=Path,
+        help="the pipeline's parameter YAML, or the Nav2 file of a pipeline that takes one (planner, safety)",
+    )
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a pipeline parameter")
     p.set_defaults(func=run)
 
@@ -57,13 +66,17 @@ def run(args) -> int:
     from navlog.recorder.record import format_summary, prepare, record
 
     setup = prepare(args.world, args.robot, args.scenario, seed=args.seed, noise=not args.no_noise)
-    live = []
+    pipe = None
     if args.pipeline:
         from navlog.replay.session import load_pipeline_module, pipeline_params
 
-        params = pipeline_params(args.pipeline, overrides=args.set)
-        live = load_pipeline_module(args.pipeline).build(params, setup.topics()).nodes
+        params = pipeline_params(args.pipeline, args.params, overrides=args.set)
+        pipe = load_pipeline_module(args.pipeline).build(params, setup.topics())
+    elif args.params is not None:
+        from navlog.errors import ConfigError
+
+        raise ConfigError("--params needs --pipeline: the parameters of which pipeline?")
     with stop_on_ctrl_c() as stop:
-        res = record(setup, args.output, force=args.force, progress=not args.quiet, live_nodes=live, stop=stop)
+        res = record(setup, args.output, force=args.force, progress=not args.quiet, pipeline=pipe, stop=stop)
     print(format_summary(res))
     return 130 if res.interrupted else 0

@@ -1,5 +1,5 @@
-"""Nav2 without ROS: parameter files read and checked, costmap layers, planners; room for controllers,
-the velocity smoother, the collision monitor and the navigator.
+"""Nav2 without ROS: parameter files read and checked, costmap layers, planners, the velocity smoother
+and the collision monitor; room for controllers and the navigator.
 
 Parameters: ``load_nav2_params(path)`` reads a ``nav2_params.yaml`` as Nav2 would into typed
 dataclasses and lists every ``Problem`` (``ERROR``, ``WARNING``, ``NOTE``) with its YAML path and
@@ -11,7 +11,8 @@ its code, and a registry per plugin kind maps Nav2 plugin type names to both, as
 - ``costmap``: the layered costmap and its layers (``costmap.LAYERS``);
 - ``planners``: NavFn and a Smac-2D-like planner (``planners.PLANNERS``, ``planners.make_planner``);
 - ``controllers``: the controller server's controllers and checkers (parameters only, so far);
-- ``velocity_smoother``, ``collision_monitor``: their parameters (not run, so far);
+- ``velocity_smoother`` (``VelocitySmoother``) and ``collision_monitor`` (``CollisionMonitor``:
+  polygons, sources, actions), each with its parameters;
 - ``params`` (the file), ``overrides``, ``schema`` (typed sections and problems), ``plugins``
   (the registry type).
 

@@ -3,7 +3,9 @@
 - ``OccupancyMapperNode`` (``OccupancyMapperParams``): scans and poses into the 2D log-odds grid, ``/map``;
 - ``LidarMapperNode`` (``LidarMapperParams``): LiDAR sweeps, IMU and odometry into the 3D mapper's
   ``/Odometry``, ``/cloud_registered`` and a PCD;
-- ``CostmapNode`` and ``PlannerNode``: the global costmap and the planner server, ``/plan``.
+- ``CostmapNode`` and ``PlannerNode``: the global costmap and the planner server, ``/plan``;
+- ``VelocitySmootherNode``: Nav2's velocity smoother, ``/cmd_vel_nav`` -> ``/cmd_vel_smoothed``;
+- ``CollisionMonitorNode``: Nav2's collision monitor, ``/cmd_vel_smoothed`` -> ``/cmd_vel``, its state as events.
 
 Names are imported on first use (the 3D mapper needs Open3D, the others do not).
 """
@@ -15,25 +17,31 @@ from typing import TYPE_CHECKING
 from navlog.replay import lazy_exports
 
 if TYPE_CHECKING:
+    from navlog.replay.nodes.collision_monitor import CollisionMonitorNode
     from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
     from navlog.replay.nodes.occupancy_mapper import OccupancyMapperNode, OccupancyMapperParams
     from navlog.replay.nodes.planner import CostmapNode, PlannerNode
+    from navlog.replay.nodes.velocity_smoother import VelocitySmootherNode
 
 __all__ = [
+    "CollisionMonitorNode",
     "CostmapNode",
     "LidarMapperNode",
     "LidarMapperParams",
     "OccupancyMapperNode",
     "OccupancyMapperParams",
     "PlannerNode",
+    "VelocitySmootherNode",
 ]
 
 _MODULES = {
+    "CollisionMonitorNode": "collision_monitor",
     "LidarMapperNode": "lidar_mapper",
     "LidarMapperParams": "lidar_mapper",
     "OccupancyMapperNode": "occupancy_mapper",
     "OccupancyMapperParams": "occupancy_mapper",
     "CostmapNode": "planner",
     "PlannerNode": "planner",
+    "VelocitySmootherNode": "velocity_smoother",
 }
 __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -31,3 +31,6 @@ class Pipeline:
     info: dict[str, str] = field(default_factory=dict)
     # after the run: why nothing came of the main input (no map, no plan), or None when it produced its result
     nothing_produced: Callable[[], str | None] = lambda: None
+    # a pipeline that filters velocity commands: (the topic it takes them on, the topic it gives them on);
+    # run live, the scenario publishes its commands on the first and the robot drives on the second
+    commands: tuple[str, str] | None = None

@@ -1,0 +1,163 @@
+"""The CI cache: golden logs recorded from recipes, world maps, and replays keyed by what made them.
+
+Layout under the cache folder (default ``$NAVLOG_CACHE``, else ``$XDG_CACHE_HOME/navlog/ci``, else
+``~/.cache/navlog/ci``):
+- ``logs/WORLD-ROBOT-SCENARIO-sSEED-KEY.mcap``: a recipe recorded once per navlog version;
+- ``maps/WORLD-mMARGIN-rRESOLUTION.yaml`` (+ .pgm): a world's obstacles as a map_server map;
+- ``replays/KEY/``: a replay output folder; KEY hashes (log sha256, parameter hash, remap, pipeline,
+  navlog version), so any change of code release, log or parameter replays again.
+
+Recording and world maps run the ``navlog`` command (``record``, ``world-map``) in a child process:
+the analysis packages do not import the recorder. Everything is written under a temporary name and
+moved into place, so parallel workers asking for the same entry never see half a file.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+from navlog.analysis.ci.suite import Recipe, WorldMap
+from navlog.errors import NavlogError
+from navlog.replay.config import to_mapping
+from navlog.version import __version__
+
+__all__ = [
+    "cached_log",
+    "cached_replay",
+    "cached_world_map",
+    "default_cache_dir",
+    "log_sha256",
+    "parameter_hash",
+    "recipe_log_name",
+    "replay_key",
+]
+
+
+def default_cache_dir() -> Path:
+    if os.environ.get("NAVLOG_CACHE"):
+        return Path(os.environ["NAVLOG_CACHE"]) / "ci"
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "navlog" / "ci"
+
+
+def _digest(data: Any) -> str:
+    return hashlib.sha256(json.dumps(data, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def log_sha256(path: Path) -> str:
+    """sha256 of a log file; of a rosbag2 folder, of its files' names and hashes."""
+    from navlog.replay.session import sha256_file
+
+    if path.is_file():
+        return sha256_file(path)
+    if path.is_dir():
+        return _digest([[p.name, sha256_file(p)] for p in sorted(path.iterdir()) if p.is_file()])
+    raise NavlogError(f"{path}: no such log file or folder")
+
+
+def parameter_hash(params: Any) -> str:
+    """sha256 of a pipeline's parameters (canonical JSON). A parameter naming an existing file counts by
+    the file's content, not its path, so the hash does not depend on where the cache or checkout is."""
+    from navlog.replay.session import sha256_file
+
+    def plain(v: Any) -> Any:
+        if isinstance(v, dict):
+            return {k: plain(x) for k, x in v.items()}
+        if isinstance(v, list):
+            return [plain(x) for x in v]
+        if isinstance(v, str) and os.sep in v and Path(v).is_file():
+            return f"file:sha256:{sha256_file(Path(v))}"
+        return v
+
+    return _digest(plain(to_mapping(params)))
+
+
+def recipe_log_name(recipe: Recipe) -> str:
+    key = _digest({"recipe": recipe.to_dict(), "navlog_version": __version__})[:12]
+    noise = "" if recipe.noise else "-nonoise"
+    return f"{recipe.world}-{recipe.robot}-{recipe.scenario}-s{recipe.seed}{noise}-{key}.mcap"
+
+
+def _navlog(args: list[str], what: str) -> None:
+    """Run the ``navlog`` command line in a child process; its error becomes a ``NavlogError``."""
+    proc = subprocess.run([sys.executable, "-m", "navlog.cli", "-q", *args], capture_output=True, text=True)
+    if proc.returncode != 0:
+        lines = [ln for ln in (proc.stderr or proc.stdout).splitlines() if ln.strip()]
+        raise NavlogError(f"{what}: {lines[-1] if lines else f'navlog exited with {proc.returncode}'}")
+
+
+def _partial(path: Path) -> Path:
+    return path.with_name(f".{path.name}.{os.getpid()}.partial")
+
+
+def cached_log(recipe: Recipe, cache_dir: Path) -> tuple[Path, bool]:
+    """The recipe's log in the cache (recorded when missing) and whether it was there already."""
+    out = cache_dir / "logs" / recipe_log_name(recipe)
+    if out.is_file():
+        return out, True
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = _partial(out).with_suffix(".mcap")
+    args = ["record", "--world", recipe.world, "--robot", recipe.robot, "--scenario", recipe.scenario]
+    args += ["--seed", str(recipe.seed), *([] if recipe.noise else ["--no-noise"]), "-o", str(tmp), "--force"]
+    try:
+        _navlog(args, f"recording {recipe.world}/{recipe.robot}/{recipe.scenario}")
+        os.replace(tmp, out)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return out, False
+
+
+def cached_world_map(spec: WorldMap, cache_dir: Path) -> Path:
+    """The world's map_server map in the cache (written when missing)."""
+    resolution = 0.05 if spec.resolution is None else spec.resolution
+    out = cache_dir / "maps" / f"{spec.world}-m{spec.margin:g}-r{resolution:g}.yaml"
+    if out.is_file() and out.with_suffix(".pgm").is_file():
+        return out
+    tmp_dir = cache_dir / "maps" / f".{out.stem}.{os.getpid()}.partial"
+    shutil.rmtree(tmp_dir, ignore_errors=True)
+    tmp_dir.mkdir(parents=True)
+    try:
+        args = ["world-map", spec.world, "--margin", str(spec.margin), "--resolution", str(resolution)]
+        _navlog([*args, "-o", str(tmp_dir / out.name)], f"world map of {spec.world}")
+        os.replace(tmp_dir / out.with_suffix(".pgm").name, out.with_suffix(".pgm"))
+        os.replace(tmp_dir / out.name, out)
+    finally:
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+    return out
+
+
+def replay_key(pipeline: str, log_sha: str, param_hash: str, remap: dict[str, str]) -> str:
+    return _digest(
+        {"pipeline": pipeline, "log": log_sha, "parameters": param_hash, "remap": remap, "navlog_version": __version__}
+    )
+
+
+def cached_replay(
+    log: Path, pipeline: str, params: Any, remap: dict[str, str], key: str, cache_dir: Path, *, fresh: bool = False
+) -> tuple[Path, bool]:
+    """The replay folder for ``key`` (replayed when missing, or always with ``fresh``) and whether it was
+    cached. A fresh replay replaces the cached one."""
+    from navlog.replay.session import run_replay
+
+    out = cache_dir / "replays" / key
+    if not fresh and (out / "manifest.json").is_file():
+        return out, True
+    tmp = _partial(out)
+    shutil.rmtree(tmp, ignore_errors=True)
+    try:
+        run_replay(log, pipeline, tmp, params=params, remap=remap, progress=False)
+        shutil.rmtree(out, ignore_errors=True)
+        try:
+            os.replace(tmp, out)
+        except OSError:  # another worker put the same replay there first
+            pass
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return out, False

@@ -1,0 +1,134 @@
+"""The facts a case's invariants read, gathered from its replay: metrics, plans, safety, events.
+
+Only the groups an invariant asks for are gathered (reading the input log's events streams one topic).
+Every fact is a number or a flag; ``numbers`` keeps the numbers for the reports (JUnit properties).
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from navlog.analysis.diff.metric_values import flatten
+from navlog.errors import NavlogError
+
+__all__ = ["EVENTS_TOPIC", "case_facts", "min_clearance", "numbers"]
+
+EVENTS_TOPIC = "/navlog/events"
+PLAN_TOPIC = "/plan"
+# short names of the metrics users ask for most
+METRIC_ALIASES = {
+    "metrics.ate.rmse": "metrics.trajectory.ate.translation_m.rmse",
+    "metrics.rpe.rmse": "metrics.trajectory.rpe.translation_m.rmse",
+}
+Facts = dict[str, float | bool]
+
+
+def case_facts(
+    roots: Iterable[str],
+    *,
+    log: Path,
+    replay_dir: Path,
+    metrics: Mapping[str, Any] | None = None,
+    static_map: Path | None = None,
+    goals: int | None = None,
+) -> Facts:
+    """The facts of the groups in ``roots`` (``metrics``, ``plans``, ``goals``, ``min_clearance``,
+    ``safety``, ``events`` and the flags that derive from them)."""
+    roots = set(roots)
+    facts: Facts = {}
+    if "metrics" in roots and metrics is not None:
+        facts.update(_numbers(flatten(dict(metrics)), "metrics."))
+        facts.update({short: facts[full] for short, full in METRIC_ALIASES.items() if full in facts})
+    if roots & {"plans", "no_plan_failures"}:
+        facts.update(_plans(replay_dir / "plans.json"))
+    if roots & {"events", "no_collision", "goals", "all_goals_reached"}:
+        kinds = _event_kinds(log) + _event_kinds(replay_dir / "replay.mcap")
+        facts.update({f"events.{k}": float(n) for k, n in sorted(kinds.items())})
+        facts["no_collision"] = kinds.get("collision", 0) == 0
+        facts["goals.reached"] = float(kinds.get("goal_reached", 0))
+        if goals is not None:
+            facts["goals.total"] = float(goals)
+            facts["all_goals_reached"] = goals > 0 and kinds.get("goal_reached", 0) >= goals
+    if "min_clearance" in roots and static_map is not None:
+        clearance = min_clearance(replay_dir / "replay.mcap", static_map)
+        if clearance is not None:
+            facts["min_clearance"] = clearance
+    if "safety" in roots and (replay_dir / "safety.json").is_file():
+        facts.update(_numbers(flatten(_read_json(replay_dir / "safety.json")), "safety."))
+    return facts
+
+
+def numbers(facts: Mapping[str, float | bool]) -> dict[str, float]:
+    """The numeric facts (flags left out)."""
+    return {k: float(v) for k, v in sorted(facts.items()) if not isinstance(v, bool)}
+
+
+def _numbers(flat: Mapping[str, Any], prefix: str) -> Facts:
+    return {prefix + k: v if isinstance(v, bool) else float(v) for k, v in flat.items() if isinstance(v, int | float)}
+
+
+def _read_json(path: Path) -> Any:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise NavlogError(f"{path}: cannot read the replay's JSON: {exc}") from None
+
+
+def _plans(path: Path) -> Facts:
+    if not path.is_file():
+        return {}
+    data = _read_json(path)
+    plans = data.get("plans", []) if isinstance(data, dict) else []
+    failures = data.get("failures", []) if isinstance(data, dict) else []
+    lengths = [float(p["length_m"]) for p in plans]
+    costs = [float(p["cost"]) for p in plans]
+    facts: Facts = {"plans.count": float(len(plans)), "plans.failures": float(len(failures))}
+    facts["no_plan_failures"] = not failures
+    if lengths:
+        facts["plans.length_m.max"] = max(lengths)
+        facts["plans.length_m.min"] = min(lengths)
+        facts["plans.length_m.mean"] = sum(lengths) / len(lengths)
+        facts["plans.cost.max"] = max(costs)
+    return facts
+
+
+def _event_kinds(log: Path) -> Counter[str]:
+    from navlog.replay.io.formats import open_log
+
+    kinds: Counter[str] = Counter()
+    with open_log(log) as reader:
+        if EVENTS_TOPIC in reader.topics:
+            for env in reader.messages([EVENTS_TOPIC]):
+                kinds[str(env.msg.kind)] += 1
+    return kinds
+
+
+def min_clearance(replay_log: Path, static_map: Path) -> float | None:
+    """The smallest distance (m) from a /plan pose to the nearest occupied cell (> 65) of the map, cell
+    centre to cell centre; None when there is no plan pose on the map."""
+    import numpy as np
+    from scipy.ndimage import distance_transform_edt
+
+    from navlog.replay.io.formats import open_log
+    from navlog.replay.io.map_server import load_map
+
+    grid = load_map(static_map)
+    free = np.asarray(grid.data) <= 65
+    dist = distance_transform_edt(free) * grid.resolution
+    ox, oy = grid.origin[0], grid.origin[1]
+    best: float | None = None
+    with open_log(replay_log) as reader:
+        if PLAN_TOPIC not in reader.topics:
+            return None
+        for env in reader.messages([PLAN_TOPIC]):
+            for ps in env.msg.poses:
+                col = int((ps.pose.position.x - ox) // grid.resolution)
+                row = int((ps.pose.position.y - oy) // grid.resolution)
+                if 0 <= row < dist.shape[0] and 0 <= col < dist.shape[1]:
+                    d = float(dist[row, col])
+                    best = d if best is None else min(best, d)
+    return best

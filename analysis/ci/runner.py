@@ -1,0 +1,421 @@
+"""``run_suite``: every case of a suite, replayed and judged against its baseline and invariants.
+
+Per case: get the log (a recipe is recorded once into the cache and its sha256 checked against the
+baseline's provenance), check it for what the pipeline reads (a failure is INVALID_INPUT and the case
+stops there), replay it (cached by log sha256, parameter hash and navlog version; ``determinism``
+replays twice afresh and compares every output's bytes), compute the mapping metrics, diff the
+outputs against the baseline, and evaluate the invariants. A case that raises is an ERROR with its
+message; the other cases still run. ``workers > 1`` runs recipes, then cases, in a process pool; the
+results are the same as serially (each case's result depends only on its inputs).
+
+``overrides`` (``--set KEY=VALUE``) apply to every case whose pipeline has KEY; a key no case's
+pipeline has is refused (``ConfigError``) before anything runs.
+
+Baselines: ``update`` rewrites every case's baseline, ``update_new`` writes those that are missing or
+from another navlog version (a baseline from another version is NEW: compared, then a failure until
+rewritten). The diff checks of a rewritten case compare against the new baseline (PASS); a note names
+what moved against the old one.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, TypeVar
+
+from navlog.analysis.ci.baselines import Baseline, compare_to_baseline, read_baseline, unused_baselines, write_baseline
+from navlog.analysis.ci.cache import (
+    cached_log,
+    cached_replay,
+    cached_world_map,
+    default_cache_dir,
+    log_sha256,
+    parameter_hash,
+    replay_key,
+)
+from navlog.analysis.ci.facts import case_facts, numbers
+from navlog.analysis.ci.invariants import evaluate
+from navlog.analysis.ci.result import CaseResult, CheckResult, Status, SuiteResult
+from navlog.analysis.ci.suite import Case, Recipe, Suite, WorldMap, load_suite
+from navlog.errors import ConfigError, NavlogError
+from navlog.replay.config import suggest
+from navlog.version import __version__
+
+__all__ = ["DEFAULT_BASELINES", "applicable_overrides", "run_case", "run_suite"]
+
+DEFAULT_BASELINES = Path("data/baselines")
+METRICS_FILE = "metrics.json"
+DEFAULT_MAP_RESOLUTION = 0.05  # m, a world map's cells when the case does not say
+# the facts every case of a pipeline reports, asked for or not (numbers for the reports)
+ALWAYS = {"mapping": ("metrics",), "planner": ("plans",), "safety": ("safety",)}
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+
+@dataclass(frozen=True)
+class CaseJob:
+    """Everything one case needs, picklable for a worker process."""
+
+    case: Case
+    overrides: tuple[str, ...]
+    baseline: Path
+    cache: Path
+    update: bool = False
+    update_new: bool = False
+    determinism: bool = False
+    log: Path | None = None  # the recorded log of a recipe
+    log_error: str = ""  # why the recipe could not be recorded
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def _map(fn: Callable[[T], R], items: Sequence[T], workers: int) -> list[R]:
+    if workers <= 1 or len(items) <= 1:
+        return [fn(i) for i in items]
+    with ProcessPoolExecutor(max_workers=min(workers, len(items))) as pool:
+        return list(pool.map(fn, items))
+
+
+def _has_key(tree: Any, key: str) -> bool:
+    """Whether a parameter tree has the dotted ``key``; below a free-form mapping (an empty one in the
+    defaults, such as the planner's Nav2 overrides) any key counts."""
+    node = tree
+    parts = key.split(".")
+    for depth, part in enumerate(parts):
+        if not isinstance(node, dict):
+            return False
+        if part not in node:
+            return depth > 0 and not node
+        node = node[part]
+    return not isinstance(node, dict) or not node
+
+
+def applicable_overrides(suite: Suite, overrides: Sequence[str]) -> dict[str, tuple[str, ...]]:
+    """Case name -> the ``--set`` items its pipeline has; a key no case has raises ``ConfigError``."""
+    from navlog.replay.config import to_mapping
+    from navlog.replay.session import pipeline_params
+
+    trees = {p: to_mapping(pipeline_params(p)) for p in sorted({c.pipeline for c in suite.cases})}
+    out: dict[str, list[str]] = {c.name: [] for c in suite.cases}
+    for item in overrides:
+        key, sep, _ = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"--set '{item}': expected KEY=VALUE, e.g. occupancy.grid.resolution=0.1")
+        takers = [p for p, tree in trees.items() if _has_key(tree, key.strip())]
+        if not takers:
+            from navlog.analysis.diff.metric_values import flatten
+
+            keys = sorted({k for tree in trees.values() for k in flatten(tree)})
+            raise ConfigError(
+                f"--set '{item}': no case's pipeline ({', '.join(trees)}) has the parameter '{key.strip()}'"
+                f"{suggest(key.strip(), keys)}"
+            )
+        for c in suite.cases:
+            if c.pipeline in takers:
+                out[c.name].append(item)
+    return {k: tuple(v) for k, v in out.items()}
+
+
+def _record(job: tuple[Recipe, Path]) -> tuple[Path | None, str, float]:
+    recipe, cache = job
+    start = time.perf_counter()
+    try:
+        path, _ = cached_log(recipe, cache)
+        return path, "", time.perf_counter() - start
+    except NavlogError as exc:
+        return None, str(exc), time.perf_counter() - start
+
+
+def run_suite(
+    suite_path: Path | str,
+    *,
+    update: bool = False,
+    update_new: bool = False,
+    determinism: bool = False,
+    overrides: Sequence[str] = (),
+    workers: int = 1,
+    cache_dir: Path | str | None = None,
+    baseline_dir: Path | str | None = None,
+    cases: Sequence[str] = (),
+) -> SuiteResult:
+    """Run every case of the suite file (or only those named in ``cases``); see the module docstring. A
+    bad suite or ``--set`` raises ``ConfigError`` before anything runs; a bad case is an ERROR in the result."""
+    suite = load_suite(suite_path)
+    if cases:
+        suite = replace(suite, cases=tuple(suite.case(n) for n in cases))
+    cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    root = Path(baseline_dir) if baseline_dir is not None else suite.baselines or DEFAULT_BASELINES
+    folder = root / suite.name
+    extra = applicable_overrides(suite, overrides)
+    recipes = sorted({c.recipe for c in suite.cases if c.recipe is not None}, key=lambda r: repr(r))
+    recorded = dict(zip(recipes, _map(_record, [(r, cache) for r in recipes], workers), strict=True))
+    jobs = []
+    for c in suite.cases:
+        log, error, seconds = recorded[c.recipe] if c.recipe is not None else (c.log, "", 0.0)
+        jobs.append(
+            CaseJob(
+                c, extra[c.name], folder / c.name, cache, update, update_new, determinism, log, error, {"log": seconds}
+            )
+        )
+    results = _map(run_case, jobs, workers)
+    unused = [] if cases else unused_baselines(folder, [c.name for c in suite.cases])
+    notes = [f"--set {o}" for o in overrides]
+    return SuiteResult(suite.name, str(suite.path), __version__, tuple(results), tuple(unused), tuple(notes))
+
+
+def run_case(job: CaseJob) -> CaseResult:
+    """One case; never raises: a failure to run is an ERROR check with its message."""
+    case = job.case
+    timings = dict(job.timings)
+    try:
+        return _run_case(job, timings)
+    except NavlogError as exc:
+        message = str(exc)
+    except Exception as exc:  # a defect: reported with the case, the other cases still run
+        message = f"{type(exc).__name__}: {exc}"
+    return CaseResult(
+        case.name,
+        case.pipeline,
+        case.source,
+        (CheckResult("run", "error", Status.ERROR, message),),
+        timings=timings,
+    )
+
+
+def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
+    from navlog.replay.session import pipeline_params
+
+    case = job.case
+    if job.log_error:
+        raise NavlogError(job.log_error)
+    log = job.log
+    if log is None or not log.exists():
+        raise NavlogError(f"case '{case.name}': log: {log}: no such file or folder")
+    checks: list[CheckResult] = []
+    notes: list[str] = []
+    user_overrides = [*case.overrides, *job.overrides]
+    overrides = list(user_overrides)
+    params = pipeline_params(case.pipeline, case.params, overrides)
+    spec = case.world_map
+    if spec is not None and spec.resolution is None:
+        grid = getattr(getattr(params, "occupancy", None), "grid", None)
+        spec = replace(spec, resolution=float(getattr(grid, "resolution", DEFAULT_MAP_RESOLUTION)))
+    world_map = cached_world_map(spec, job.cache) if spec is not None else None
+    if world_map is not None and case.pipeline == "planner" and not any(o.startswith("map=") for o in overrides):
+        overrides.insert(0, f"map={world_map}")  # the static map (its content counts in the parameter hash)
+        params = pipeline_params(case.pipeline, case.params, overrides)
+    remap = dict(case.remap)
+
+    start = time.perf_counter()
+    log_sha = log_sha256(log)
+    checked = _input_check(log, case.pipeline, params, remap)
+    timings["check"] = time.perf_counter() - start
+    checks.append(checked)
+    if checked.status is Status.INVALID_INPUT:
+        return CaseResult(case.name, case.pipeline, case.source, tuple(checks), timings=timings)
+
+    base = read_baseline(job.baseline)
+    provenance = _provenance(case, spec, log_sha, parameter_hash(params), user_overrides)
+    found = _provenance_checks(case, base, provenance, notes)
+    if case.diff is not None and (job.update or (job.update_new and _stale(base))):
+        notes += [f"{c.name}: {c.message}" for c in found if c.status.failed]  # the rewrite settles them
+        found = [c for c in found if not c.status.failed]
+    checks += found
+
+    start = time.perf_counter()
+    key = replay_key(case.pipeline, log_sha, provenance["parameter_hash"], remap)
+    replay_dir, cached = cached_replay(log, case.pipeline, params, remap, key, job.cache, fresh=job.determinism)
+    if job.determinism:
+        checks.append(_determinism(log, case.pipeline, params, remap, replay_dir))
+    timings["replay"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    manifest = json.loads((replay_dir / "manifest.json").read_text(encoding="utf-8"))
+    metrics = _metrics(log, replay_dir, world_map) if case.pipeline == "mapping" else None
+    written = False
+    with tempfile.TemporaryDirectory(prefix="navlog-ci-") as work:
+        outputs = {o["file"]: replay_dir / o["file"] for o in manifest["outputs"].values()}
+        if metrics is not None:
+            (Path(work) / METRICS_FILE).write_text(json.dumps(metrics, indent=2, sort_keys=True) + "\n")
+            outputs[METRICS_FILE] = Path(work) / METRICS_FILE
+        if case.diff is not None:
+            diff_checks, written = _diff(job, base, outputs, provenance, notes)
+            checks += diff_checks
+    roots = {inv.roots() for inv in case.invariants} | set(ALWAYS.get(case.pipeline, ()))
+    facts = case_facts(
+        roots, log=log, replay_dir=replay_dir, metrics=metrics, static_map=_static_map(params), goals=_goals(params)
+    )
+    checks += [evaluate(inv, facts) for inv in case.invariants]
+    timings["compare"] = time.perf_counter() - start
+    return CaseResult(
+        case.name,
+        case.pipeline,
+        case.source,
+        tuple(checks),
+        numbers(facts),
+        tuple(notes),
+        written,
+        timings,
+        cached,
+    )
+
+
+def _input_check(log: Path, pipeline: str, params: Any, remap: dict[str, str]) -> CheckResult:
+    """``check_log`` for the topics this case's pipeline reads (after remapping): INVALID_INPUT on failure."""
+    from navlog.analysis.check import check_log
+    from navlog.replay.io.formats import open_log
+    from navlog.replay.session import load_pipeline_module
+
+    with open_log(log, recover=True) as reader:
+        to_log = {v: k for k, v in remap.items()}
+        topics = {to_log.get(t, t) for t in reader.topics}
+        inputs = load_pipeline_module(pipeline).build(params, topics).inputs
+        result = check_log(reader, require=[remap.get(t, t) for t in inputs])
+    counts = {str(s): n for s, n in result.to_dict()["counts"].items()}
+    if result.failed:
+        why = "; ".join(f"{c.subject}: {c.message}" for c in result.failed)
+        return CheckResult("input", "input", Status.INVALID_INPUT, f"the log fails its checks: {why}", counts)
+    return CheckResult("input", "input", Status.PASS, f"{len(result.checks)} checks, none failed", counts)
+
+
+def _provenance(
+    case: Case, world_map: WorldMap | None, log_sha: str, param_hash: str, overrides: list[str]
+) -> dict[str, Any]:
+    log: dict[str, Any] = {"sha256": log_sha}
+    if case.recipe is not None:
+        log["recipe"] = case.recipe.to_dict()
+    else:
+        log["file"] = Path(str(case.log)).name
+    return {
+        "navlog_version": __version__,
+        "pipeline": case.pipeline,
+        "parameter_hash": param_hash,
+        "params_file": case.params.name if case.params is not None else None,
+        "overrides": list(overrides),
+        "remap": dict(case.remap),
+        "world_map": None
+        if world_map is None
+        else {"world": world_map.world, "margin": world_map.margin, "resolution": world_map.resolution},
+        "log": log,
+    }
+
+
+def _stale(base: Baseline | None) -> bool:
+    return base is None or base.navlog_version != __version__
+
+
+def _provenance_checks(
+    case: Case, base: Baseline | None, provenance: dict[str, Any], notes: list[str]
+) -> list[CheckResult]:
+    if base is None:
+        return []
+    out: list[CheckResult] = []
+    old = base.provenance
+    if case.recipe is not None:
+        want, have = old.get("log", {}).get("sha256"), provenance["log"]["sha256"]
+        if want == have:
+            out.append(
+                CheckResult("recipe", "recipe", Status.PASS, f"recorded log sha256 {have[:16]} as in the baseline")
+            )
+        else:
+            out.append(
+                CheckResult(
+                    "recipe",
+                    "recipe",
+                    Status.FAIL,
+                    f"the recipe recorded a log with sha256 {have[:16]}, the baseline's was {str(want)[:16]}: "
+                    "the recorder, the world, robot or scenario changed",
+                    {"sha256": have, "baseline_sha256": want},
+                )
+            )
+    if base.navlog_version != __version__:
+        out.append(
+            CheckResult(
+                "baseline",
+                "baseline",
+                Status.NEW,
+                f"the baseline was written by navlog {base.navlog_version}, this is navlog {__version__}: outputs "
+                "are compared, but the baseline stays NEW until rewritten (--update-new or --update)",
+            )
+        )
+    if old.get("parameter_hash") != provenance["parameter_hash"]:
+        notes.append(
+            f"parameters differ from the baseline's (hash {str(old.get('parameter_hash'))[:12]} -> "
+            f"{provenance['parameter_hash'][:12]})"
+        )
+    return out
+
+
+def _determinism(log: Path, pipeline: str, params: Any, remap: dict[str, str], first: Path) -> CheckResult:
+    from navlog.replay.session import run_replay
+
+    with tempfile.TemporaryDirectory(prefix="navlog-ci-again-") as tmp:
+        second = run_replay(log, pipeline, Path(tmp) / "out", params=params, remap=remap, progress=False).manifest
+    a = json.loads((first / "manifest.json").read_text(encoding="utf-8"))["outputs"]
+    b = second["outputs"]
+    differ = sorted(v["file"] for k, v in a.items() if b.get(k, {}).get("sha256") != v["sha256"]) + sorted(
+        v["file"] for k, v in b.items() if k not in a
+    )
+    if differ:
+        return CheckResult(
+            "determinism",
+            "determinism",
+            Status.NONDETERMINISTIC,
+            f"two replays of the same log with the same parameters differ in {', '.join(differ)}",
+            {"differ": differ},
+        )
+    return CheckResult("determinism", "determinism", Status.PASS, f"two replays: {len(a)} outputs, same bytes")
+
+
+def _metrics(log: Path, replay_dir: Path, world_map: Path | None) -> dict[str, Any]:
+    """The metrics of a mapping replay, without the paths they were read from (those vary by machine)."""
+    from navlog.analysis.metrics import compute_metrics
+
+    metrics = compute_metrics(log, replay_dir, reference_map=world_map)
+    metrics.pop("inputs", None)
+    return metrics
+
+
+def _diff(
+    job: CaseJob, base: Baseline | None, outputs: dict[str, Path], provenance: dict[str, Any], notes: list[str]
+) -> tuple[list[CheckResult], bool]:
+    diff = job.case.diff
+    assert diff is not None
+    if job.update or (job.update_new and _stale(base)):
+        if base is not None:
+            moved = [
+                c.name for c in compare_to_baseline(base, outputs, diff.tolerances, diff.ignore) if c.status.failed
+            ]
+            notes.append(
+                "baseline rewritten"
+                + (f"; moved against the old one: {', '.join(moved)}" if moved else "; nothing moved")
+            )
+        else:
+            notes.append("baseline written")
+        write_baseline(job.baseline, outputs, provenance, label=job.case.name)
+        base = read_baseline(job.baseline)
+        assert base is not None
+        return compare_to_baseline(base, outputs, diff.tolerances, diff.ignore), True
+    if base is None:
+        message = f"no baseline in {job.baseline}: write it with --update-new (then review and commit it)"
+        return [CheckResult("baseline", "baseline", Status.NEW, message)], False
+    return compare_to_baseline(base, outputs, diff.tolerances, diff.ignore), False
+
+
+def _static_map(params: Any) -> Path | None:
+    path = getattr(params, "map", "")
+    return Path(path) if isinstance(path, str) and path and Path(path).is_file() else None
+
+
+def _goals(params: Any) -> int | None:
+    spec = getattr(params, "goals", "")
+    if not isinstance(spec, str) or not spec:
+        return None
+    from navlog.replay.pipelines.planner import load_goals
+
+    return len(load_goals(spec)[0])

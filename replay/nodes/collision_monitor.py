@@ -1,0 +1,475 @@
+"""The collision monitor node: /cmd_vel_smoothed -> /cmd_vel, Nav2's ``collision_monitor`` on the executor.
+
+``CollisionMonitorNode(params)`` subscribes to the input command (Twist or TwistStamped), to each
+enabled source's topic (``scan``: LaserScan, ``pointcloud``: PointCloud2, ``range``: Range), to
+/tf and /tf_static, and, for polygons without ``points`` when no ``footprint`` is given, to their
+footprint (approach) or polygon topic (PolygonStamped). Each command gets one decision of
+``navlog.replay.nav2.collision_monitor.CollisionMonitor`` at the command's arrival time, and the
+node publishes:
+
+- the command it lets through on ``output_topic`` (a Twist; a TwistStamped carrying the input's
+  header when ``enable_stamped_cmd_vel``), except zeros once ``stop_pub_timeout`` has passed;
+- its state on ``/navlog/events`` (``navlog_msgs/Event``) whenever the polygon in charge changes:
+  ``collision_monitor_<action>`` when an action starts and ``collision_monitor_<action>_end`` when
+  it ends, with the polygon's name as detail and Nav2's action code as value;
+- for each enabled polygon with ``visualize: true``, after every decision as Nav2's
+  ``publishPolygons`` does, its current shape as ``geometry_msgs/PolygonStamped`` in
+  ``base_frame_id`` on ``polygon_pub_topic`` (default: the polygon's name, a relative topic: the
+  polygon ``FootprintApproach`` goes out on ``/FootprintApproach``; ``~/x`` is
+  ``/collision_monitor/x``); a circle as Nav2 draws it, 16 vertices; a shape not known yet (no
+  footprint, no velocity sub-polygon matched) has no vertices;
+- for each such approach polygon, navlog's view of its prediction on
+  ``/navlog/collision_monitor/<polygon>/collision_footprint``: the shape at the pose where the
+  simulation met ``min_points`` points (the current pose when they are inside already), or no
+  vertices when it predicts no collision within ``time_before_collision``.
+
+Each source's points are its latest message's, in ``base_frame_id`` at the command's time: with
+``base_shift_correction`` through ``odom_frame_id`` (sensor at its stamp -> odom -> base now),
+otherwise the latest transform. Where Nav2 would wait up to ``transform_tolerance`` for a
+transform, a replay cannot: the node uses the newest time within that tolerance at which the
+transform exists. A message's points in its own frame, and its transform into ``odom_frame_id``
+at its stamp, are computed once and kept while the TF received since leaves them unchanged
+(``TFHistory``); a command's transform out of ``odom_frame_id`` is looked up once for all
+sources. A source with no message yet, older than its ``source_timeout``, without a transform or
+with a range reading out of bounds is unusable: Nav2's "invalid source" stop; each such case is
+counted in ``skipped_counts()``. ``summary()`` gives commands acted on per polygon,
+the minimum predicted time to collision and the time spent stopped.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections import Counter
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from navlog.errors import ConfigError
+from navlog.replay import messages as m
+from navlog.replay.nav2.collision_monitor import (
+    ACTION_CODES,
+    Circle,
+    CollisionMonitor,
+    CollisionMonitorParams,
+    CollisionSourceParams,
+    Decision,
+    Polygon,
+    Velocity,
+    cloud_points,
+    project_state,
+    range_points,
+    scan_points,
+    source_fresh,
+    to_base,
+)
+from navlog.replay.pointcloud import xyz
+from navlog.replay.runtime.executor import Node
+from navlog.replay.runtime.tf import TFBuffer, TransformError
+
+RANGE = "sensor_msgs/msg/Range"
+POLYGON_STAMPED = "geometry_msgs/msg/PolygonStamped"
+EVENTS_TOPIC = "/navlog/events"
+SOURCE_TYPES = {"scan": m.LASER_SCAN, "pointcloud": m.POINT_CLOUD2, "range": RANGE}
+COLLISION_FOOTPRINT_TOPIC = "/navlog/collision_monitor/{polygon}/collision_footprint"
+CIRCLE_EDGES = 16  # Nav2's Circle::getPolygon
+
+
+def _absolute(topic: str) -> str:
+    return topic if topic.startswith("/") else "/" + topic
+
+
+def polygon_pub_topic(node_name: str, polygon: str, topic: str) -> str:
+    """Where Nav2 publishes a polygon: ``topic`` (default the polygon's name) resolved as a ROS 2 name
+    of a node named ``node_name`` in the root namespace (``~/x`` is private to the node)."""
+    topic = topic or polygon
+    return f"/{node_name}/{topic[2:]}" if topic.startswith("~/") else _absolute(topic)
+
+
+def circle_outline(radius: float) -> np.ndarray:
+    """A circle as Nav2 publishes it: vertices from angle 0 in steps of 2*pi/16 while the angle is under 2*pi."""
+    step = 2.0 * math.pi / CIRCLE_EDGES
+    angles = []
+    a = 0.0
+    while a < 2.0 * math.pi:  # accumulated as Nav2 does, so the vertex count is Nav2's
+        angles.append(a)
+        a += step
+    return radius * np.column_stack([np.cos(angles), np.sin(angles)])
+
+
+def shape_outline(shape: Any) -> np.ndarray:
+    """A shape's current vertices, (N, 2) in the base frame; (0, 2) while it is not known."""
+    if isinstance(shape, Circle):
+        return circle_outline(shape.params.radius) if shape.is_set() else np.zeros((0, 2))
+    vertices = shape.vertices if isinstance(shape, Polygon) else None
+    return np.zeros((0, 2)) if vertices is None else vertices
+
+
+def collision_pose(shape: Any, cmd: Velocity, ttc: float, inside_now: bool) -> tuple[float, float, float]:
+    """The base-frame pose (x, y, yaw) at which an approach shape met its points: the step of Nav2's
+    simulation whose loop time is ``ttc`` (stepped as ``Shape.collision_time`` steps), or the current
+    pose when the points are ``inside_now``."""
+    pose = (0.0, 0.0, 0.0)
+    if inside_now:
+        return pose
+    dt, horizon = shape.params.simulation_time_step, shape.params.time_before_collision
+    vel, t = cmd, 0.0
+    while t <= horizon:
+        pose, vel = project_state(dt, pose, vel)
+        if t == ttc:
+            break
+        t += dt
+    return pose
+
+
+def polygon_stamped(ns: int, frame: str, xy: np.ndarray) -> Any:
+    """A ``geometry_msgs/PolygonStamped`` of (N, 2) vertices (float32, z = 0)."""
+    p32 = m.msg_class("geometry_msgs/msg/Point32")
+    points = [p32(x=m.f32(x), y=m.f32(y), z=0.0) for x, y in np.asarray(xy, dtype=np.float64).reshape(-1, 2)]
+    polygon = m.msg_class("geometry_msgs/msg/Polygon")(points=points)
+    return m.msg_class(POLYGON_STAMPED)(header=m.header(ns, frame), polygon=polygon)
+
+
+class TFHistory:
+    """Which transforms a ``TFBuffer`` can still give as before, so a lookup made earlier can be reused.
+
+    Every /tf and /tf_static message goes through ``add_message``, which adds it to the buffer and
+    notes, per child frame, its parent and its newest stamp. A lookup at time ``t`` that succeeded
+    interpolated between samples around ``t`` on each dynamic edge of its chain; appending a sample
+    newer than an edge's newest changes none of those, so the result holds while ``epoch`` is the
+    same and ``t`` is not older than the buffer's cache window before ``newest``. Anything else, a
+    static transform, a new or re-parented edge, a sample at or before an edge's newest stamp, starts a
+    new ``epoch``. ``added`` counts the messages (a lookup of the latest transforms holds while it is
+    the same)."""
+
+    def __init__(self, tf: TFBuffer) -> None:
+        self.tf = tf
+        self.epoch = 0
+        self.added = 0
+        self.newest: int | None = None
+        self._edges: dict[str, tuple[str, bool, int]] = {}  # child -> (parent, static, newest stamp)
+        self._names: dict[str, str] = {}  # frame id as sent -> as the buffer stores it
+
+    def _name(self, frame_id: str) -> str:
+        name = self._names.get(frame_id)
+        if name is None:
+            name = self._names[frame_id] = self.tf.name(frame_id)
+        return name
+
+    def add_message(self, msg: Any, static: bool) -> None:
+        """Add a tf2_msgs/TFMessage to the buffer, noting whether it rewrites what the buffer held."""
+        for ts in msg.transforms:
+            parent, child, t = self._name(ts.header.frame_id), self._name(ts.child_frame_id), m.to_ns(ts.header.stamp)
+            prev = self._edges.get(child)
+            if static or prev is None or prev[0] != parent or prev[1]:
+                self.epoch += 1  # a new edge (the buffer starts it again) or a static one
+                self._edges[child] = (parent, static, t)
+            elif t <= prev[2]:
+                self.epoch += 1  # a sample inside the edge's history: interpolations may change
+            else:
+                self._edges[child] = (parent, False, t)
+            if not static and (self.newest is None or t > self.newest):
+                self.newest = t
+        self.tf.add_message(msg, static=static)
+        self.added += 1
+
+    def holds(self, epoch: int, t_ns: int) -> bool:
+        """Whether a lookup at ``t_ns`` that succeeded at ``epoch`` gives the same transform now."""
+        return epoch == self.epoch and (self.newest is None or t_ns >= self.newest - self.tf.cache_ns)
+
+
+class CollisionMonitorNode(Node):
+    """Nav2's collision monitor on the executor (see the module docstring)."""
+
+    name = "collision_monitor"
+
+    def __init__(
+        self,
+        params: CollisionMonitorParams,
+        *,
+        input_topic: str = "/cmd_vel_smoothed",
+        output_topic: str = "/cmd_vel",
+        footprint: Sequence[tuple[float, float]] | None = None,
+    ) -> None:
+        """``footprint``: the robot footprint in the base frame for polygons without ``points`` (else
+        they follow their footprint or polygon topic)."""
+        super().__init__()
+        for name in params.observation_sources:
+            sp = params.source_params.get(name)
+            if sp is not None and sp.enabled and sp.type not in SOURCE_TYPES:
+                raise ConfigError(
+                    f"collision_monitor source '{name}': type '{sp.type}' is not run by navlog "
+                    f"(it runs {', '.join(SOURCE_TYPES)}); set '{name}.enabled: false' to replay without it"
+                )
+        self.params = params
+        self.monitor = CollisionMonitor(params, footprint)
+        self.input_topic = input_topic
+        self.output_topic = output_topic
+        self.tf = TFBuffer()
+        self.tf_history = TFHistory(self.tf)
+        # per source: (message, its sensor-frame points) and (message, TF epoch, odom <- sensor at its stamp)
+        self._sensor_points: dict[str, tuple[Any, Any]] = {}
+        self._sensor_tf: dict[str, tuple[Any, int, np.ndarray]] = {}
+        self._latest_tf: dict[str, tuple[int, np.ndarray]] = {}  # frame -> (TF messages added, base <- frame)
+        self._base_now: tuple[int, int, np.ndarray | None] | None = None  # (now, added, base <- odom at now)
+        self.sources: dict[str, CollisionSourceParams] = {
+            n: params.source_params[n]
+            for n in params.observation_sources
+            if n in params.source_params and params.source_params[n].enabled
+        }
+        self.latest: dict[str, Any] = {}  # source -> its latest message
+        self.shape_topics: dict[str, list[Polygon]] = {}
+        if footprint is None:
+            for shape in self.monitor.footprint_shapes():
+                p = shape.params
+                topic = p.footprint_topic if p.action_type == "approach" else p.polygon_sub_topic
+                if topic:
+                    self.shape_topics.setdefault(_absolute(topic), []).append(shape)
+        # polygons with visualize: true -> the topic of their shape
+        self.visualized: list[tuple[Polygon | Circle, str]] = [
+            (shape, polygon_pub_topic(self.name, shape.name, shape.params.polygon_pub_topic))
+            for shape in self.monitor.shapes
+            if shape.params.visualize and isinstance(shape, Polygon | Circle)
+        ]
+        self.skipped: Counter[str] = Counter()
+        self.last_decision: Decision | None = None
+        self._commands = 0
+        self._published = 0
+        self._actions: dict[str, Counter[str]] = {}
+        self._min_ttc: float | None = None
+        self._stopped_ns = 0
+        self._stopped_since: int | None = None
+        self._last_t = 0
+
+    # ------------------------------------------------------------------ wiring
+    def setup(self) -> None:
+        self.subscribe("/tf", lambda msg, t: self.tf_history.add_message(msg, static=False), (m.TF_MESSAGE,))
+        self.subscribe("/tf_static", lambda msg, t: self.tf_history.add_message(msg, static=True), (m.TF_MESSAGE,))
+        topics: dict[str, list[str]] = {}
+        for name, sp in self.sources.items():
+            topics.setdefault(_absolute(sp.topic), []).append(name)
+        for topic, names in topics.items():
+            types = tuple(sorted({SOURCE_TYPES[self.sources[n].type] for n in names}))
+            self.subscribe(topic, functools.partial(self._on_source, names), types)
+        for topic in self.shape_topics:
+            self.subscribe(topic, functools.partial(self._on_shape, topic), (POLYGON_STAMPED,))
+        self.subscribe(self.input_topic, self._on_command, (m.TWIST, m.TWIST_STAMPED))
+
+    def _on_source(self, names: list[str], msg: Any, t: int) -> None:
+        for name in names:
+            self.latest[name] = msg
+
+    def _on_shape(self, topic: str, msg: Any, t: int) -> None:
+        try:
+            T = self._lookup_recent(self.params.base_frame_id, msg.header.frame_id, t)
+        except TransformError:
+            self.skipped[f"{topic}: no transform {self.params.base_frame_id} <- {msg.header.frame_id}"] += 1
+            return
+        pts = np.array([[p.x, p.y, p.z] for p in msg.polygon.points], dtype=np.float64).reshape(-1, 3)
+        for shape in self.shape_topics[topic]:
+            try:
+                shape.set_vertices(to_base(pts, T)[:, :2])
+            except ValueError:
+                self.skipped[f"{topic}: polygon with fewer than 3 points (ignored)"] += 1
+
+    # ------------------------------------------------------------------ transforms and points
+    def _lookup_at(self, target: str, source: str, t: int) -> tuple[np.ndarray, bool]:
+        """The transform at ``t`` (and True), else at the newest time within ``transform_tolerance``
+        before it (and False)."""
+        try:
+            return self.tf.lookup(target, source, t), True
+        except TransformError:
+            tolerance = round(self.params.transform_tolerance * 1e9)
+            ends = {r[1] for f in self.tf.frames() if (r := self.tf.time_range(f)) is not None}
+            for c in sorted((e for e in ends if t - tolerance <= e < t), reverse=True):
+                try:
+                    return self.tf.lookup(target, source, c), False
+                except TransformError:
+                    continue
+            raise
+
+    def _lookup_recent(self, target: str, source: str, t: int) -> np.ndarray:
+        """The transform at ``t``, else at the newest time within ``transform_tolerance`` before it."""
+        return self._lookup_at(target, source, t)[0]
+
+    def _odom_to_base(self, now: int) -> np.ndarray:
+        """base <- odom at ``now``: looked up once per decision, whichever sources need it."""
+        added = self.tf_history.added
+        if self._base_now is None or self._base_now[:2] != (now, added):
+            try:
+                T: np.ndarray | None = self._lookup_recent(self.params.base_frame_id, self.params.odom_frame_id, now)
+            except TransformError:
+                T = None
+            self._base_now = (now, added, T)
+        if self._base_now[2] is None:
+            raise TransformError(f"no transform {self.params.base_frame_id} <- {self.params.odom_frame_id}")
+        return self._base_now[2]
+
+    def _sensor_to_odom(self, name: str, msg: Any, frame: str, stamp: int) -> np.ndarray:
+        """odom <- sensor at the message's stamp, kept per message while the TF history gives it unchanged
+        (a transform found only at an earlier time within the tolerance is looked up again)."""
+        hit = self._sensor_tf.get(name)
+        if hit is not None and hit[0] is msg and self.tf_history.holds(hit[1], stamp):
+            return hit[2]
+        epoch = self.tf_history.epoch
+        T, exact = self._lookup_at(self.params.odom_frame_id, frame, stamp)
+        if exact:
+            self._sensor_tf[name] = (msg, epoch, T)
+        return T
+
+    def _to_base(self, name: str, msg: Any, frame: str, stamp: int, now: int) -> np.ndarray:
+        p = self.params
+        if p.base_shift_correction:
+            return self._odom_to_base(now) @ self._sensor_to_odom(name, msg, frame, stamp)
+        added = self.tf_history.added
+        hit = self._latest_tf.get(frame)
+        if hit is None or hit[0] != added:
+            hit = (added, self.tf.lookup(p.base_frame_id, frame, None))
+            self._latest_tf[frame] = hit
+        return hit[1]
+
+    def _sensor_frame_points(self, name: str, msg: Any) -> Any:
+        """A source message's points in its own frame (an (N, 3) array; a cloud's raw xyz; None for a
+        range reading out of bounds), computed once per message."""
+        hit = self._sensor_points.get(name)
+        if hit is not None and hit[0] is msg:
+            return hit[1]
+        sp = self.sources[name]
+        pts: Any
+        if sp.type == "scan":
+            pts = scan_points(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
+        elif sp.type == "pointcloud":
+            pts = xyz(msg)
+        else:
+            pts = range_points(msg.range, msg.min_range, msg.max_range, msg.field_of_view, sp.obstacles_angle)
+        self._sensor_points[name] = (msg, pts)
+        return pts
+
+    def source_points(self, name: str, now: int) -> np.ndarray | None:
+        """A source's (N, 2) base-frame points at ``now``, or None (counted) when it cannot be used."""
+        sp = self.sources[name]
+        msg = self.latest.get(name)
+        if msg is None:
+            self.skipped[f"{name}: no message on {_absolute(sp.topic)} yet"] += 1
+            return None
+        stamp = m.to_ns(msg.header.stamp)
+        if not source_fresh(stamp, now, self.params.source_timeout_of(name)):
+            self.skipped[f"{name}: data older than source_timeout {self.params.source_timeout_of(name)} s"] += 1
+            return None
+        frame = msg.header.frame_id
+        try:
+            T = self._to_base(name, msg, frame, stamp, now)
+        except TransformError:
+            self.skipped[f"{name}: no transform {self.params.base_frame_id} <- {frame}"] += 1
+            return None
+        pts = self._sensor_frame_points(name, msg)
+        if sp.type == "pointcloud":
+            return cloud_points(pts, T, sp.min_height, sp.max_height, sp.min_range)
+        if pts is None:
+            self.skipped[f"{name}: range reading outside [min_range, max_range]"] += 1
+            return None
+        return to_base(pts, T)[:, :2]
+
+    # ------------------------------------------------------------------ one command
+    def _on_command(self, msg: Any, t: int) -> None:
+        twist = msg.twist if hasattr(msg, "twist") else msg
+        lin, ang = twist.linear, twist.angular
+        if not all(math.isfinite(v) for v in (lin.x, lin.y, lin.z, ang.x, ang.y, ang.z)):
+            self.skipped["command with NaN or infinity (ignored, as Nav2 does)"] += 1
+            return
+        for topic, shapes in self.shape_topics.items():
+            for shape in shapes:
+                if not shape.is_set():
+                    self.skipped[f"{shape.name}: no shape on {topic} yet (the polygon cannot act)"] += 1
+        points = {name: self.source_points(name, t) for name in self.sources}
+        cmd = Velocity(*m.twist_values(msg))
+        decision = self.monitor.process(cmd, t, points)
+        self._record(decision, t)
+        if decision.changed:
+            self._publish_state(decision, t)
+        if decision.publish:
+            self._published += 1
+            v = decision.action.velocity
+            out = m.twist(v.vx, v.vy, v.wz)
+            if self.params.enable_stamped_cmd_vel:
+                # an unstamped input gives an empty header, as Nav2's TwistSubscriber does
+                header = msg.header if hasattr(msg, "twist") else m.header(0, "")
+                self.publish(self.output_topic, m.TWIST_STAMPED, m.msg_class(m.TWIST_STAMPED)(header, out))
+            else:
+                self.publish(self.output_topic, m.TWIST, out)
+        if self.visualized:
+            self._publish_polygons(decision, cmd, points, t)
+
+    def _publish_polygons(self, d: Decision, cmd: Velocity, points: dict[str, np.ndarray | None], t: int) -> None:
+        """Each visualized polygon's shape, and each approach polygon's predicted collision footprint."""
+        frame = self.params.base_frame_id
+        usable = {name: pts for name, pts in points.items() if pts is not None}
+        for shape, topic in self.visualized:
+            if not shape.params.enabled:
+                continue
+            outline = shape_outline(shape)
+            self.publish(topic, POLYGON_STAMPED, polygon_stamped(t, frame, outline))
+            if shape.action_type != "approach":
+                continue
+            ttc = d.collision_times.get(shape.name, -1.0)
+            predicted = np.zeros((0, 2))
+            if ttc >= 0.0 and len(outline):
+                inside_now = ttc == 0.0 and shape.count_inside(shape.gather(usable)) >= shape.min_points
+                x, y, yaw = collision_pose(shape, cmd, ttc, inside_now)
+                c, s = math.cos(yaw), math.sin(yaw)
+                predicted = outline @ np.array([[c, s], [-s, c]]) + (x, y)
+            self.publish(
+                COLLISION_FOOTPRINT_TOPIC.format(polygon=shape.name),
+                POLYGON_STAMPED,
+                polygon_stamped(t, frame, predicted),
+            )
+
+    def _publish_state(self, d: Decision, t: int) -> None:
+        prev, now = d.previous, d.action
+        if prev.polygon:
+            kind = f"collision_monitor_{prev.action_type}_end"
+            self.publish(
+                EVENTS_TOPIC, m.EVENT_TYPE, m.event(t, kind, self.name, prev.polygon, ACTION_CODES[prev.action_type])
+            )
+        if now.polygon:
+            kind = f"collision_monitor_{now.action_type}"
+            self.publish(
+                EVENTS_TOPIC, m.EVENT_TYPE, m.event(t, kind, self.name, now.polygon, ACTION_CODES[now.action_type])
+            )
+
+    def _record(self, d: Decision, t: int) -> None:
+        self._commands += 1
+        self._last_t = t
+        a = d.action
+        if a.polygon:
+            self._actions.setdefault(a.polygon, Counter())[a.action_type] += 1
+        for ttc in d.collision_times.values():
+            if ttc >= 0.0 and (self._min_ttc is None or ttc < self._min_ttc):
+                self._min_ttc = ttc
+        held = bool(a.polygon) and a.velocity.is_zero()
+        if held and self._stopped_since is None:
+            self._stopped_since = t
+        elif not held and self._stopped_since is not None:
+            self._stopped_ns += t - self._stopped_since
+            self._stopped_since = None
+        self.last_decision = d
+
+    # ------------------------------------------------------------------ reports
+    def skipped_counts(self) -> dict[str, int]:
+        """Why sources, shapes or commands could not be used, with how often (sorted by reason)."""
+        return dict(sorted(self.skipped.items()))
+
+    def summary(self) -> dict[str, Any]:
+        """Plain data: commands seen and published, actions per polygon, minimum predicted time to
+        collision (s, None when no approach polygon predicted one), time held at zero by an action (s)."""
+        stopped = self._stopped_ns + (self._last_t - self._stopped_since if self._stopped_since is not None else 0)
+        return {
+            "commands": self._commands,
+            "published": self._published,
+            "not_published": self._commands - self._published,
+            "actions": {poly: dict(sorted(c.items())) for poly, c in sorted(self._actions.items())},
+            "min_time_to_collision_s": self._min_ttc,
+            "stopped_s": stopped / 1e9,
+            "skipped": self.skipped_counts(),
+        }

@@ -1,0 +1,54 @@
+"""The pytest plugin: a *.navlog-suite.yaml file's cases as tests, failures listing every check."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+pytest_plugins = ["pytester"]
+
+
+def plugin_opts() -> list[str]:
+    """Load the plugin by name only where the installed entry point (pytest11 "navlog") does not."""
+    from importlib.metadata import entry_points
+
+    installed = any(ep.value == "navlog.analysis.ci.pytest_plugin" for ep in entry_points(group="pytest11"))
+    return [] if installed else ["-p", "navlog.analysis.ci.pytest_plugin"]
+
+
+SUITE = """\
+cases:
+  - name: wall
+    pipeline: safety
+    recipe: {world: walled_room, robot: kibot, scenario: teleop_wall}
+    remap: {/cmd_vel_nav: /cmd_vel}
+    checks: [{diff: {}}, safety.commands_in == 301]
+  - name: wall_no_collision
+    pipeline: safety
+    recipe: {world: walled_room, robot: kibot, scenario: teleop_wall}
+    remap: {/cmd_vel_nav: /cmd_vel}
+    checks: [no_collision]
+"""
+
+
+def test_suite_file_cases_are_tests(pytester: pytest.Pytester, ci_cache: Path):
+    pytester.makefile(".navlog-suite.yaml", wall=SUITE)
+    cache = str(ci_cache)
+    opts = [*plugin_opts(), "--navlog-cache", cache, "--navlog-baselines", "b"]
+    result = pytester.runpytest_subprocess(*opts)
+    # no baseline yet: NEW fails; the recorded run hit the wall, so no_collision fails
+    result.assert_outcomes(failed=2)
+    result.stdout.fnmatch_lines(["*NEW: case wall (safety*", "*FAIL*invariant no_collision: no_collision is False*"])
+    result = pytester.runpytest_subprocess(
+        *opts, "--navlog-update-new", "-k", "wall and not no_collision", "--junitxml", "r.xml"
+    )
+    result.assert_outcomes(passed=1)
+    assert 'name="safety.commands_in" value="301.0"' in (pytester.path / "r.xml").read_text()
+
+
+def test_bad_suite_is_a_collection_error(pytester: pytest.Pytester):
+    pytester.makefile(".navlog-suite.yaml", bad="cases:\n  - {name: a, pipline: mapping, log: x.mcap}\n")
+    result = pytester.runpytest_subprocess(*plugin_opts())
+    result.assert_outcomes(errors=1)
+    result.stdout.fnmatch_lines(["*pipline: unknown key (did you mean 'pipeline'?)*"])
