@@ -52,3 +52,16 @@ def test_bad_suite_is_a_collection_error(pytester: pytest.Pytester):
     result = pytester.runpytest_subprocess(*plugin_opts())
     result.assert_outcomes(errors=1)
     result.stdout.fnmatch_lines(["*pipline: unknown key (did you mean 'pipeline'?)*"])
+
+
+def test_cases_run_the_same_under_pytest_xdist(pytester: pytest.Pytester, ci_cache: Path):
+    """`pytest -n 2`: each worker runs its cases alone; the outcomes are those of a serial run."""
+    pytest.importorskip("xdist")
+    pytester.makefile(".navlog-suite.yaml", wall=SUITE)
+    result = pytester.runpytest_subprocess(
+        *plugin_opts(), "-n", "2", "--navlog-cache", str(ci_cache), "--navlog-baselines", "b"
+    )
+    result.assert_outcomes(failed=2)
+    result.stdout.fnmatch_lines(["*created: 2/2 workers*"])
+    for line in ("*NEW: case wall (safety*", "*FAIL*invariant no_collision: no_collision is False*"):
+        result.stdout.fnmatch_lines([line])  # the workers finish in either order
