@@ -60,6 +60,12 @@ class ScenarioSpec:
             raise ValueError("a teleop scenario needs commands")
         if self.speed <= 0 or self.turn_rate <= 0 or self.rate <= 0 or self.max_duration <= 0:
             raise ValueError("speed, turn_rate, rate and max_duration must be positive")
+        numbers = [*self.start, *(v for w in self.waypoints for v in w)]
+        numbers += [v for c in self.commands for v in (c.duration, *c.cmd)]
+        if not all(abs(v) <= 1e5 for v in numbers):  # also refuses NaN
+            raise ValueError("start, waypoints and commands must be numbers within 100 km (no NaN or inf)")
+        if not all(0 <= c.duration <= self.max_duration for c in self.commands):
+            raise ValueError(f"command durations must be between 0 and max_duration ({self.max_duration} s)")
 
 
 def load_scenario(name: str) -> ScenarioSpec:

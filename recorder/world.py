@@ -20,7 +20,7 @@ from typing import Literal
 import numpy as np
 
 from navlog.errors import ConfigError
-from navlog.replay.config import load_config, named_config
+from navlog.replay.config import load_config, named_config, to_mapping
 from navlog.replay.geometry import cell_to_world, se2_compose
 
 
@@ -110,10 +110,20 @@ def load_model(name: str) -> ModelSpec:
     return load_config(ModelSpec, named_config("models", name))
 
 
+def _numbers(node: object) -> list[float]:
+    if isinstance(node, dict):
+        node = list(node.values())
+    if isinstance(node, list):
+        return [v for item in node for v in _numbers(item)]
+    return [node] if isinstance(node, (int, float)) and not isinstance(node, bool) else []
+
+
 def load_world(name: str) -> World:
     """Load ``config/worlds/NAME.yaml`` (or a path) and resolve it into solids."""
     path = named_config("worlds", name)
     spec = load_config(WorldSpec, path)
+    if not np.isfinite(np.array(_numbers(to_mapping(spec)), dtype=float)).all():
+        raise ConfigError(f"{path}: sizes, poses and heights must be finite numbers (found NaN or inf)")
     solids: list[Solid] = []
     if spec.walls is not None:
         w = spec.walls
@@ -240,6 +250,9 @@ def build_spec(world: World):
     return spec
 
 
+MAX_GRID_CELLS = 200_000_000  # 200 M cells (a 700 m square at 5 cm): beyond it, a resolution typo
+
+
 def occupancy(
     world: World,
     resolution: float = 0.05,
@@ -256,8 +269,10 @@ def occupancy(
     """
     from navlog.replay.occupancy_map import OccupancyMap
 
-    if resolution <= 0:
+    if not 0 < resolution < math.inf:
         raise ConfigError(f"resolution must be positive, got {resolution}")
+    if not all(math.isfinite(v) for v in (margin, z_min, z_max, padding)):
+        raise ConfigError(f"margin, z_min, z_max must be finite numbers, got {margin}, {z_min}, {z_max}")
     if z_min > z_max:
         raise ConfigError(f"z_min ({z_min}) must not exceed z_max ({z_max})")
     x0, y0, x1, y1 = world.bounds()
@@ -265,6 +280,11 @@ def occupancy(
     oy = math.floor((y0 - padding) / resolution) * resolution
     nx = int(math.ceil((x1 + padding - ox) / resolution))
     ny = int(math.ceil((y1 + padding - oy) / resolution))
+    if nx * ny > MAX_GRID_CELLS:
+        raise ConfigError(
+            f"a {nx} x {ny} grid at resolution {resolution} m is too large (over {MAX_GRID_CELLS:,} cells); "
+            "choose a coarser --resolution, e.g. 0.05"
+        )
     xs = cell_to_world(np.arange(nx), ox, resolution)
     ys = cell_to_world(np.arange(ny), oy, resolution)
     gx, gy = np.meshgrid(xs, ys)

@@ -59,7 +59,8 @@ def known_configs(kind: str) -> list[str]:
 
 def suggest(word: str, choices: typing.Iterable[str]) -> str:
     """' (did you mean X?)' for the closest choice, or '' when nothing is close."""
-    match = difflib.get_close_matches(word, list(choices), n=1, cutoff=0.6)
+    # keys read from YAML may be numbers or booleans; compare them as the text they were written as
+    match = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
     return f" (did you mean '{match[0]}'?)" if match else ""
 
 
@@ -72,13 +73,32 @@ def load_yaml(path: Path) -> Any:
         raise ConfigError(f"{path}: cannot read: {exc.strerror}") from None
     except UnicodeDecodeError:
         raise ConfigError(f"{path}: not a YAML text file (binary content){_yaml_hint(path)}") from None
+    return parse_yaml(text, str(path))
+
+
+def parse_yaml(text: str, source: str) -> Any:
+    """Parse YAML text; a syntax error or a self-referencing alias raises ConfigError naming ``source``."""
     try:
-        return yaml.safe_load(text)
+        doc = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(exc, "problem", None) or str(exc)
-        raise ConfigError(f"{path}:{where}: malformed YAML: {problem}") from None
+        raise ConfigError(f"{source}:{where}: malformed YAML: {problem}") from None
+    _refuse_cycles(doc, source, [])
+    return doc
+
+
+def _refuse_cycles(node: Any, source: str, inside: list[int]) -> None:
+    """An alias inside its own anchor (``a: &x [*x]``) makes a structure that contains itself."""
+    if not isinstance(node, (dict, list)):
+        return
+    if id(node) in inside:
+        raise ConfigError(f"{source}: malformed YAML: an alias refers to a node that contains it; expand it")
+    inside.append(id(node))
+    for child in node.values() if isinstance(node, dict) else node:
+        _refuse_cycles(child, source, inside)
+    inside.pop()
 
 
 def _yaml_hint(path: Path) -> str:
@@ -213,11 +233,13 @@ def load_config(cls: type[T], path: Path, overrides: typing.Sequence[str] = ()) 
 def apply_overrides(data: dict, overrides: typing.Sequence[str]) -> dict:
     """Return a copy of ``data`` with each ``a.b.c=value`` applied (value parsed as YAML)."""
     out = json.loads(json.dumps(data))
+    if overrides and not isinstance(out, dict):
+        raise ConfigError(f"override '{overrides[0]}': the parameters are not a mapping of keys to values")
     for item in overrides:
         if "=" not in item:
             raise ConfigError(f"override '{item}': expected KEY=VALUE, e.g. resolution=0.1")
         key, raw = item.split("=", 1)
-        value = yaml.safe_load(raw)
+        value = parse_yaml(raw, f"override '{item}'")
         node = out
         parts = key.strip().split(".")
         for part in parts[:-1]:

@@ -22,6 +22,7 @@ from typing import Any
 
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
+from navlog.replay.io.atomic import replace_output
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import LogReader
@@ -164,9 +165,7 @@ def run_replay(
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
-    if out_dir.exists():
-        shutil.rmtree(out_dir)
-    tmp.rename(out_dir)
+    replace_output(tmp, out_dir)
     return ReplayResult(out_dir, manifest, result["wall_s"])
 
 

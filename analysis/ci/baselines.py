@@ -28,6 +28,7 @@ from navlog.analysis.diff.artifacts import compare_files, file_kind
 from navlog.analysis.diff.result import Check, Verdict
 from navlog.analysis.diff.tolerances import DiffTolerances
 from navlog.errors import NavlogError
+from navlog.replay.io.atomic import replace_output
 from navlog.replay.session import sha256_file
 
 __all__ = [
@@ -96,6 +97,14 @@ def read_baseline(folder: Path) -> Baseline | None:
         raise NavlogError(f"{path}: not a readable baseline ({exc}); rewrite it with --update") from None
     if not isinstance(data, dict) or data.get("schema") != SCHEMA or not isinstance(data.get("outputs"), dict):
         raise NavlogError(f"{path}: not a {SCHEMA} baseline; rewrite it with --update")
+    for name, entry in data["outputs"].items():
+        kept = entry.get("stored") if isinstance(entry, dict) else None
+        for file_name in (name, kept) if kept else (name,):
+            if not isinstance(file_name, str) or Path(file_name).name != file_name or file_name in ("", ".", ".."):
+                raise NavlogError(
+                    f"{path}: output name {file_name!r} is not a plain file name (it would be read or written "
+                    "outside the baseline folder); rewrite the baseline with --update"
+                )
     return Baseline(folder, data)
 
 
@@ -126,8 +135,7 @@ def write_baseline(folder: Path, outputs: Mapping[str, Path], provenance: Mappin
             entries[name] = {"sha256": sha256_file(src), "bytes": src.stat().st_size, "stored": _keep(name, src, tmp)}
         doc = {"schema": SCHEMA, "case": label, "provenance": dict(provenance), "outputs": entries}
         (tmp / BASELINE_FILE).write_text(json.dumps(doc, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-        shutil.rmtree(folder, ignore_errors=True)
-        os.replace(tmp, folder)
+        replace_output(tmp, folder)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 

@@ -184,6 +184,8 @@ def load_suite(path: Path | str) -> Suite:
     if not isinstance(cases_data, list) or not cases_data:
         raise root.error("cases", "expected a non-empty list of cases")
     name = root.text(data["name"], "name") if "name" in data else suite_name(path)
+    if not CASE_NAME.match(name):
+        raise root.error("name", f"'{name}' must be letters, digits, '_', '-' or '.' (it names the baselines folder)")
     baselines = path.parent / root.text(data["baselines"], "baselines") if "baselines" in data else None
     pipelines = pipeline_names()
     cases: list[Case] = []

@@ -9,7 +9,6 @@ folder next to the output and moved into place only when complete.
 from __future__ import annotations
 
 import logging
-import os
 import shutil
 import tempfile
 from collections import Counter
@@ -22,6 +21,7 @@ from navlog.errors import NavlogError
 from navlog.replay import messages
 from navlog.replay.config import suggest
 from navlog.replay.io import LogReader
+from navlog.replay.io.atomic import replace_output
 from navlog.version import __version__
 
 __all__ = ["DISTRO_VERSIONS", "STORAGES", "BagOptions", "ExportSummary", "export_rosbag2"]
@@ -112,17 +112,6 @@ def _temp_dir_beside(out: Path) -> Path:
     return Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
 
 
-def _replace(tmp: Path, out: Path) -> None:
-    """Move a finished output into place (replacing an old one only now)."""
-    if out.exists():
-        old = out.with_name(f".{out.name}.old-{os.getpid()}")
-        os.replace(out, old)
-        os.replace(tmp, out)
-        shutil.rmtree(old) if old.is_dir() else old.unlink()
-    else:
-        os.replace(tmp, out)
-
-
 def export_rosbag2(
     reader: LogReader, out: Path | str, options: BagOptions | None = None, *, force: bool = False
 ) -> ExportSummary:
@@ -201,7 +190,7 @@ def export_rosbag2(
             summary.skipped[reason] += n
         _fix_metadata_distro(bag / "metadata.yaml", opt.distro)
         summary.start_ns, summary.end_ns = first or 0, last or 0
-        _replace(bag, out)
+        replace_output(bag, out)
     finally:
         shutil.rmtree(tmpdir, ignore_errors=True)
     return summary

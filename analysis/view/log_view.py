@@ -42,6 +42,9 @@ from navlog.replay.io import LogReader, open_log
 
 log = logging.getLogger("navlog")
 
+VIEWER_BIND = "127.0.0.1"  # the address a spawned viewer listens on: this machine only
+VIEWER_PORT = 9876  # Rerun's default port
+
 # A log whose first message is later than this (about three years after 1970) was stamped with
 # wall-clock receive times; its timeline then starts at zero.
 WALL_CLOCK_NS = 100_000_000_000_000_000
@@ -255,6 +258,17 @@ def save_view(
         tmp.unlink(missing_ok=True)
 
 
+def spawn_viewer(rec: Any, *, bind: str = VIEWER_BIND, port: int = VIEWER_PORT) -> None:
+    """Start a Rerun viewer whose server listens on ``bind`` (this machine only by default; Rerun's own
+    ``spawn`` listens on every interface) and stream ``rec`` to it."""
+    import rerun_bindings
+
+    # Rerun's spawn (waits until the viewer listens), with the listening address it does not pass itself
+    rerun_bindings.spawn(port=port, extra_args=[f"--bind={bind}"])
+    host = f"[{bind}]" if ":" in bind else bind
+    rec.connect_grpc(f"rerun+http://{'127.0.0.1' if bind in ('0.0.0.0', '::') else host}:{port}/proxy")
+
+
 def stream_view(
     log_path: Path | str,
     *,
@@ -264,12 +278,13 @@ def stream_view(
     options: ViewOptions | None = None,
     recover: bool = False,
     flush_timeout_s: float = 30.0,
+    bind: str = VIEWER_BIND,
 ) -> ViewSummary:
-    """Send a log to a viewer: a newly spawned one, or one listening at ``connect``."""
+    """Send a log to a viewer: a newly spawned one (listening on ``bind`` only), or one listening at ``connect``."""
     with open_log(log_path, recover=recover) as reader:
         rec = new_recording(reader)
         if spawn:
-            rec.spawn()
+            spawn_viewer(rec, bind=bind)
         else:
             rec.connect_grpc(connect)
         summary = build_view(reader, rec, replay_dir=Path(replay_dir) if replay_dir else None, options=options)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from navlog.errors import ConfigError
@@ -12,7 +13,7 @@ def _pose(text: str, what: str) -> tuple[float, float, float]:
         vals = [float(v) for v in text.split(",")]
     except ValueError:
         vals = []
-    if len(vals) not in (2, 3):
+    if len(vals) not in (2, 3) or not all(math.isfinite(v) for v in vals):
         raise ConfigError(f"--{what} {text!r}: expected x,y[,yaw] in metres and radians, e.g. 1.0,2.0,0.0")
     return (vals[0], vals[1], vals[2] if len(vals) == 3 else 0.0)
 

@@ -14,12 +14,15 @@ from mcap.writer import CompressionType, Writer
 
 from navlog.errors import NavlogError
 from navlog.replay import messages
+from navlog.replay.io.atomic import open_new, write_error
 from navlog.replay.runtime.executor import Envelope
 from navlog.version import __version__
 
 
 def check_output(path: Path, force: bool) -> None:
-    """Refuse to overwrite an existing output unless forced."""
+    """Refuse to overwrite an existing output unless forced, and never put a file where a folder is."""
+    if path.is_dir():
+        raise NavlogError(f"{path}: is a folder; give the output a file name, e.g. {path / 'out.mcap'}")
     if path.exists() and not force:
         raise NavlogError(f"{path}: already exists; choose another name or pass --force to overwrite it")
     if not path.parent.exists():
@@ -45,7 +48,7 @@ class McapLogWriter:
         self.path = Path(path)
         check_output(self.path, force)
         self.tmp_path = self.path.with_name(self.path.name + ".part")
-        self._file = open(self.tmp_path, "wb")
+        self._file = open_new(self.tmp_path)
         comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}[compression]
         self._writer = Writer(self._file, compression=comp, chunk_size=chunk_size)
         self._writer.start(profile="ros2", library=f"navlog {__version__}")
@@ -98,8 +101,11 @@ class McapLogWriter:
         cid = self._known.get((topic, typename))
         if cid is None:
             cid = self._channel(topic, typename)
-        # the mcap writer takes any bytes-like data, though its annotation says bytes
-        self._add(cid, log_time=time_ns, publish_time=time_ns, data=data, sequence=self.count)  # type: ignore[arg-type]
+        try:
+            # the mcap writer takes any bytes-like data, though its annotation says bytes
+            self._add(cid, log_time=time_ns, publish_time=time_ns, data=data, sequence=self.count)  # type: ignore[arg-type]
+        except OSError as exc:
+            raise write_error(self.path, exc) from None
         self.count += 1
         if self.first_ns is None:
             self.first_ns = time_ns
@@ -109,20 +115,27 @@ class McapLogWriter:
         """Finish the file (summary, metadata) and move it to its final name."""
         if self._closed:
             return self.path
-        for name in sorted(self._metadata):
-            self._writer.add_metadata(name, {k: str(v) for k, v in self._metadata[name].items()})
-        self._writer.finish()
-        self._file.flush()
-        os.fsync(self._file.fileno())
-        self._file.close()
-        os.replace(self.tmp_path, self.path)
+        try:
+            for name in sorted(self._metadata):
+                self._writer.add_metadata(name, {k: str(v) for k, v in self._metadata[name].items()})
+            self._writer.finish()
+            self._file.flush()
+            os.fsync(self._file.fileno())
+            self._file.close()
+            os.replace(self.tmp_path, self.path)
+        except OSError as exc:
+            self.abort()
+            raise write_error(self.path, exc) from None
         self._closed = True
         return self.path
 
     def abort(self) -> None:
         """Drop the partial file."""
         if not self._closed:
-            self._file.close()
+            try:
+                self._file.close()
+            except OSError:  # the buffered tail cannot be written either (a full disk): drop it
+                pass
             self.tmp_path.unlink(missing_ok=True)
             self._closed = True
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import load_yaml, suggest
+from navlog.replay.io.atomic import write_file
 from navlog.replay.occupancy_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 
 # Pixel values written by the trinary saver.
@@ -167,9 +168,9 @@ def save_map(occ_map: OccupancyMap, yaml_path: str | Path) -> tuple[Path, Path]:
         f"free_thresh: {SAVE_FREE_THRESH}\n"
     )
     path.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        image_path.write_bytes(header.encode("ascii") + np.ascontiguousarray(pixels).tobytes())
-        path.write_text(doc)
+    try:  # the image first: a YAML that appears names a whole image
+        write_file(image_path, header.encode("ascii") + np.ascontiguousarray(pixels).tobytes())
+        write_file(path, doc.encode())
     except OSError as exc:
         raise NavlogError(f"{path}: cannot write map: {exc.strerror}") from None
     return path, image_path

@@ -85,7 +85,7 @@ class McapLogReader(LogReader):
             known = (
                 schema is not None
                 and ch.message_encoding == "cdr"
-                and self._types.add_schema(typename, schema.data.decode())
+                and self._types.add_schema(typename, schema.data.decode(errors="replace"))
             )
             self.topics[ch.topic] = TopicInfo(
                 ch.topic, typename, counts.get(cid, 0), known, ch.metadata.get("offered_qos_profiles", "")

@@ -15,6 +15,7 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 from navlog.errors import LogError
+from navlog.replay.io.atomic import open_new
 from navlog.replay.io.logwriter import check_output
 from navlog.replay.io.mcap_reader import MCAP_MAGIC
 
@@ -44,7 +45,7 @@ def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) ->
             raise LogError(f"{src}: not an MCAP file (bad magic bytes)")
     tmp = dst.with_name(dst.name + ".part")
     n, first, last, ok = 0, None, None, True
-    with open(src, "rb") as f, open(tmp, "wb") as o:
+    with open(src, "rb") as f, open_new(tmp) as o:
         w = Writer(o, compression=CompressionType.ZSTD)
         w.start(profile="ros2", library="navlog recover")
         schema_ids: dict[int, int] = {}

@@ -36,17 +36,24 @@ class RosbagLogReader(LogReader):
         )
         self.metadata.update(self.bag_metadata(path))
         self.compression = self.metadata.get("rosbag2", {}).get("compression_format") or "none"
-        self.start_ns, self.end_ns = self._reader.start_time, self._reader.end_time
-        self._types = LogTypestore(self._reader.typestore)
-        types = self.typestore.types
-        for conn in sorted(self._reader.connections, key=lambda c: c.id):
-            prev = self.topics.get(conn.topic)
-            count = conn.msgcount + (prev.count if prev else 0)
-            qos = ""
-            ext = getattr(conn, "ext", None)
-            if ext is not None:
-                qos = str(getattr(ext, "offered_qos_profiles", "") or "")
-            self.topics[conn.topic] = TopicInfo(conn.topic, conn.msgtype, count, conn.msgtype in types, qos)
+        try:
+            self.start_ns, self.end_ns = self._reader.start_time, self._reader.end_time
+            self._types = LogTypestore(self._reader.typestore)
+            types = self.typestore.types
+            for conn in sorted(self._reader.connections, key=lambda c: c.id):
+                if not (isinstance(conn.topic, str) and isinstance(conn.msgtype, str)):
+                    raise TypeError(f"topic {conn.topic!r} of type {conn.msgtype!r}")
+                prev = self.topics.get(conn.topic)
+                count = conn.msgcount + (prev.count if prev else 0)
+                qos = ""
+                ext = getattr(conn, "ext", None)
+                if ext is not None:
+                    qos = str(getattr(ext, "offered_qos_profiles", "") or "")
+                self.topics[conn.topic] = TopicInfo(conn.topic, conn.msgtype, count, conn.msgtype in types, qos)
+        except (TypeError, ValueError, AttributeError) as exc:  # topics, counts or times of the wrong kind
+            raise LogError(
+                f"{path}: malformed rosbag2 metadata ({exc}); repair metadata.yaml, or open a .db3/.mcap inside"
+            ) from None
 
     @staticmethod
     def bag_metadata(path: Path) -> dict[str, dict[str, str]]:
@@ -54,9 +61,7 @@ class RosbagLogReader(LogReader):
         meta = path / "metadata.yaml"
         if not (path.is_dir() and meta.is_file()):
             return {}
-        import yaml
-
-        info = (yaml.safe_load(meta.read_text()) or {}).get("rosbag2_bagfile_information", {})
+        info = bag_info(path)
         keys = ("version", "storage_identifier", "ros_distro", "compression_format", "compression_mode")
         return {"rosbag2": {k: str(info.get(k, "") or "") for k in keys}}
 
@@ -89,8 +94,24 @@ class RosbagLogReader(LogReader):
 
 def bag_files(path: Path) -> list[Path]:
     """The storage files a rosbag2 folder lists in its metadata.yaml, in order."""
-    import yaml
+    names = bag_info(path).get("relative_file_paths") or sorted(p.name for p in path.iterdir())
+    if not isinstance(names, list):
+        names = [names]
+    return [path / n for n in names if isinstance(n, str) and (path / n).is_file()]
 
-    info = (yaml.safe_load((path / "metadata.yaml").read_text()) or {}).get("rosbag2_bagfile_information", {})
-    names = info.get("relative_file_paths") or sorted(p.name for p in path.iterdir())
-    return [path / n for n in names if (path / n).is_file()]
+
+def bag_info(path: Path) -> dict:
+    """The ``rosbag2_bagfile_information`` mapping of a folder's metadata.yaml, checked to be one."""
+    from navlog.errors import ConfigError
+    from navlog.replay.config import load_yaml
+
+    meta = path / "metadata.yaml"
+    hint = f"repair {meta} (rosbag2 writes it when a recording ends), or open a .db3/.mcap in {path} directly"
+    try:
+        doc = load_yaml(meta) or {}
+    except ConfigError as exc:
+        raise LogError(f"{exc}; {hint}") from None
+    info = doc.get("rosbag2_bagfile_information", {}) if isinstance(doc, dict) else None
+    if not isinstance(info, dict):
+        raise LogError(f"{meta}: expected a 'rosbag2_bagfile_information' mapping; {hint}")
+    return info

@@ -36,7 +36,7 @@ from typing import Any
 import yaml
 
 from navlog.errors import ConfigError
-from navlog.replay.config import load_yaml, suggest
+from navlog.replay.config import load_yaml, parse_yaml, suggest
 from navlog.replay.nav2.collision_monitor import CollisionMonitorParams, read_collision_monitor
 from navlog.replay.nav2.controllers.server import ControllerServerParams, read_controller_server
 from navlog.replay.nav2.costmap.costmap_2d import read_costmap
@@ -168,12 +168,7 @@ def default_nav2_params(overrides: Sequence[str] = ()) -> Nav2Params:
 
 def parse_nav2_text(text: str, source: str = "<string>") -> Nav2Params:
     """Read a Nav2 parameter file's text (YAML syntax errors raise ConfigError with the line)."""
-    try:
-        doc = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        raise ConfigError(f"{source}:{where}: malformed YAML: {getattr(exc, 'problem', exc)}") from None
+    doc = parse_yaml(text, source)
     return parse_nav2_params(doc, source=source, lines=_line_map(text))
 
 

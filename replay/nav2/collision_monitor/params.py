@@ -244,7 +244,7 @@ def read_collision_monitor(r: SectionReader, params: dict, path: tuple) -> Colli
         if not isinstance(names, list):
             continue
         for name in names:
-            sec = params.get(name)
+            sec = params.get(name) if isinstance(name, str) else None
             if not isinstance(sec, dict):
                 r.add(
                     ERROR,
@@ -256,7 +256,7 @@ def read_collision_monitor(r: SectionReader, params: dict, path: tuple) -> Colli
                 polygons[name] = _read_polygon(r, sec, path + (name,), src_names)
             else:
                 sources[name] = _read_source(r, sec, path + (name,))
-    listed = set(poly_names if isinstance(poly_names, list) else []) | set(src_names)
+    listed = {n for names in (poly_names, src_names) if isinstance(names, list) for n in names if isinstance(n, str)}
     for s in sections:
         if s not in listed:
             r.add(

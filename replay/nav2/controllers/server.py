@@ -71,6 +71,9 @@ def read_controller_server(r: SectionReader, params: dict, path: tuple) -> Contr
             continue
         kind = registry.kind
         for name in names:
+            if not isinstance(name, str):
+                r.add(ERROR, path, f"{registry.kind} names must be strings, got {name!r}")
+                continue
             sec = params.get(name)
             cpath = path + (name,)
             if not isinstance(sec, dict):
@@ -89,7 +92,7 @@ def read_controller_server(r: SectionReader, params: dict, path: tuple) -> Contr
     listed = set()
     for key in ("controller_plugins", "goal_checker_plugins", "progress_checker_plugins", "progress_checker_plugin"):
         v = params.get(key)
-        listed |= set([v] if isinstance(v, str) else (v or []))
+        listed |= {v} if isinstance(v, str) else {x for x in v if isinstance(x, str)} if isinstance(v, list) else set()
     for s in sections:
         if s not in known and s not in listed:
             r.add(WARNING, path + (s,), f"section '{s}' is not listed in any *_plugins: Nav2 ignores it")

@@ -1,0 +1,307 @@
+"""Outputs survive ``kill -9`` at any instant and a full disk.
+
+``navlog record``, ``replay``, ``export --to rosbag2`` and ``view --save`` run as subprocesses and are
+killed with SIGKILL at seeded random instants spread over the run time measured first. After every kill:
+a file under the final name is complete (the MCAP opens untruncated with every message, the map loads
+and matches its manifest, the bag and the .rrd read back whole), an output that ``--force`` was replacing
+is still there byte for byte, and ``navlog recover`` salvages every complete chunk of the killed
+recording's ``.part`` file. A file-size limit during ``record`` gives one clear error and leaves nothing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import random
+import resource
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+NAVLOG = Path(sys.executable).with_name("navlog")
+QUICK_KILLS = 3  # per command, unmarked
+FULL_KILLS = 20  # per command, marked slow
+SEED = 20240614
+
+
+def _run(argv: list[str], **kw) -> subprocess.CompletedProcess:
+    return subprocess.run([str(NAVLOG), "-q", *argv], capture_output=True, text=True, timeout=300, **kw)
+
+
+def _digest(path: Path) -> str:
+    """sha256 of a file, or of every file of a folder with its name."""
+    h = hashlib.sha256()
+    for p in sorted(path.rglob("*")) if path.is_dir() else [path]:
+        if p.is_file():
+            h.update(p.relative_to(path).as_posix().encode() if path.is_dir() else b"")
+            h.update(p.read_bytes())
+    return h.hexdigest()
+
+
+# --- what a complete output is, per command ------------------------------------------------------------------
+
+
+def _mcap_complete(path: Path, counts: dict[str, int]) -> None:
+    from navlog.replay.io import open_log
+
+    with open_log(path) as reader:
+        assert not reader.report.truncated
+        assert {t: i.count for t, i in reader.topics.items()} == counts
+        assert sum(1 for _ in reader.messages(sorted(counts), decode=False)) == sum(counts.values())
+
+
+def _replay_complete(path: Path) -> None:
+    from navlog.replay.io.map_server import load_map
+
+    manifest = json.loads((path / "manifest.json").read_text())
+    files = {o["file"]: o["sha256"] for o in manifest["outputs"].values()}
+    assert {p.name for p in path.iterdir()} == {*files, "manifest.json"}
+    assert {f: _digest(path / f) for f in files} == files
+    assert load_map(path / "map.yaml").data.shape[0] > 50
+
+
+def _bag_complete(path: Path, total: int) -> None:
+    from rosbags.rosbag2 import Reader
+
+    with Reader(path) as r:
+        assert r.message_count == total
+        assert sum(1 for _ in r.messages()) == total
+
+
+def _rrd_chunks(path: Path) -> dict[str, int]:
+    from rerun.chunk import RrdReader
+
+    out: dict[str, int] = {}
+    for ch in RrdReader(path).stream().collect().stream():
+        out[ch.entity_path] = out.get(ch.entity_path, 0) + ch.num_rows
+    return out
+
+
+@dataclass
+class Command:
+    """One command under test: its arguments for an output, and the check that an output is whole."""
+
+    name: str
+    argv: Callable[[Path], list[str]]
+    output: str
+    complete: Callable[[Path], None] = field(repr=False)
+    run_s: float = 0.0
+    reference: str = ""  # digest of the output of an uninterrupted run
+
+
+@dataclass
+class Tally:
+    kills: int = 0
+    final_absent: int = 0  # killed before the output appeared
+    final_complete: int = 0  # a complete new output under the final name
+    previous_intact: int = 0  # --force was replacing an output: the old one is still there, byte for byte
+    recovered: int = 0  # killed recordings whose .part `navlog recover` salvaged (every complete chunk)
+    salvaged_messages: int = 0
+
+
+@pytest.fixture(scope="module")
+def workbench(tmp_path_factory) -> tuple[Path, dict[str, Command]]:
+    """A teleop recording and, for each command, its measured run time and a reference output."""
+    base = tmp_path_factory.mktemp("kills")
+    log = base / "teleop.mcap"
+    record = ["record", "--world", "indoor_room", "--scenario", "teleop", "--seed", "3"]
+    t0 = time.perf_counter()
+    assert _run([*record, "-o", str(log)]).returncode == 0
+    record_s = time.perf_counter() - t0
+    from navlog.replay.io import open_log
+
+    with open_log(log) as reader:
+        counts = {t: i.count for t, i in reader.topics.items()}
+    commands = {
+        "record": Command("record", lambda o: [*record, "-o", str(o)], "run.mcap", lambda p: _mcap_complete(p, counts)),
+        "replay": Command(
+            "replay",
+            lambda o: ["replay", str(log), "--pipeline", "mapping", "--set", "lidar_mapper=off", "-o", str(o)],
+            "rep",
+            _replay_complete,
+        ),
+        "export": Command(
+            "export",
+            lambda o: ["export", str(log), "--to", "rosbag2", "-o", str(o)],
+            "bag",
+            lambda p: _bag_complete(p, sum(counts.values())),
+        ),
+        "view": Command("view", lambda o: ["view", str(log), "--save", str(o)], "v.rrd", lambda p: None),
+    }
+    ref_dir = base / "reference"
+    ref_dir.mkdir()
+    for cmd in commands.values():
+        out = ref_dir / cmd.output
+        t0 = time.perf_counter()
+        done = _run(cmd.argv(out))
+        cmd.run_s = record_s if cmd.name == "record" else time.perf_counter() - t0
+        assert done.returncode == 0, done.stderr
+        cmd.complete(out)
+        cmd.reference = _digest(out)
+    view_ref = _rrd_chunks(ref_dir / "v.rrd")
+    assert len(view_ref) > 10
+
+    def view_complete(p: Path) -> None:
+        assert _rrd_chunks(p) == view_ref
+
+    commands["view"].complete = view_complete
+    assert _digest(log) == commands["record"].reference  # the recording is deterministic: a .part is its prefix
+    return base, commands
+
+
+def _complete_chunk_messages(reference: Path, size: int) -> int:
+    """Messages in the chunks of ``reference`` that end within its first ``size`` bytes."""
+    from mcap.exceptions import EndOfFile
+    from mcap.reader import make_reader
+    from mcap.records import Message
+    from mcap.stream_reader import StreamReader
+
+    data = reference.read_bytes()
+    with open(reference, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    n = 0
+    for ci in summary.chunk_indexes:
+        if ci.chunk_start_offset + ci.chunk_length <= size:
+            chunk = io.BytesIO(data[ci.chunk_start_offset : ci.chunk_start_offset + ci.chunk_length])
+            records = StreamReader(chunk, skip_magic=True).records
+            try:
+                for r in records:
+                    n += isinstance(r, Message)
+            except EndOfFile:  # the chunk alone, without the records after it
+                pass
+    return n
+
+
+def _kill_at(argv: list[str], delay_s: float) -> int | None:
+    """Start a command, SIGKILL it after ``delay_s``; its exit code when it finished first, else None."""
+    proc = subprocess.Popen([str(NAVLOG), "-q", *argv], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        code = proc.wait(timeout=delay_s)
+    except subprocess.TimeoutExpired:
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        return None
+    assert code == 0, proc.stderr.read().decode() if proc.stderr else ""
+    return code
+
+
+def _sweep(base: Path, cmd: Command, kills: int, seed: int) -> Tally:
+    rng = random.Random(f"{seed}-{cmd.name}")
+    work = base / f"{cmd.name}-{kills}-{seed}"
+    work.mkdir()
+    reference = base / "reference" / cmd.output
+    tally = Tally()
+    for i in range(kills):
+        delay = rng.uniform(0.05, 0.9 * cmd.run_s)
+        replacing = i % 2 == 1  # every other kill lands on a run that replaces a finished output with --force
+        out = work / f"{i}-{cmd.output}"
+        if replacing:
+            _copy(reference, out)
+        finished = _kill_at([*cmd.argv(out), *(["--force"] if replacing else [])], delay)
+        tally.kills += finished is None
+        if not out.exists():
+            assert not replacing, f"{cmd.name}: killed at {delay:.2f} s, the output it was replacing is gone"
+            tally.final_absent += 1
+        elif replacing and _digest(out) == cmd.reference and finished is None:
+            tally.previous_intact += 1  # (a new output has the same bytes; both are whole)
+            cmd.complete(out)
+        else:
+            cmd.complete(out)
+            tally.final_complete += 1
+        part = out.with_name(out.name + ".part")
+        if cmd.name == "record" and part.exists():
+            _check_recover(part, reference, tally)
+    return tally
+
+
+def _copy(src: Path, dst: Path) -> None:
+    import shutil
+
+    if src.is_dir():
+        shutil.copytree(src, dst)
+    else:
+        shutil.copyfile(src, dst)
+
+
+def _check_recover(part: Path, reference: Path, tally: Tally) -> None:
+    size = part.stat().st_size
+    assert part.read_bytes() == reference.read_bytes()[:size]  # the killed file is a prefix of a whole one
+    fixed = part.with_name(part.name + ".recovered.mcap")
+    done = _run(["recover", str(part), "-o", str(fixed)])
+    if size < 8:  # killed before the magic bytes were written
+        assert done.returncode == 2 and "not an MCAP file" in done.stderr and "Traceback" not in done.stderr
+        return
+    assert done.returncode == 0, done.stderr
+    expected = _complete_chunk_messages(reference, size)
+    from navlog.replay.io import open_log
+
+    with open_log(fixed) as reader:
+        assert not reader.report.truncated
+        assert sum(i.count for i in reader.topics.values()) == expected
+    assert f"kept {expected} messages" in done.stdout or expected == 0
+    tally.recovered += 1
+    tally.salvaged_messages += expected
+
+
+COMMANDS = ("record", "replay", "export", "view")
+
+
+@pytest.mark.parametrize("name", COMMANDS)
+def test_kill_9_at_random_instants_quick(workbench, name):
+    base, commands = workbench
+    tally = _sweep(base, commands[name], QUICK_KILLS, SEED)
+    assert tally.final_absent + tally.final_complete + tally.previous_intact == QUICK_KILLS
+    print(f"{name}: {tally}")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", COMMANDS)
+def test_kill_9_at_random_instants_full(workbench, name):
+    base, commands = workbench
+    tally = _sweep(base, commands[name], FULL_KILLS, SEED + 1)
+    assert tally.final_absent + tally.final_complete + tally.previous_intact == FULL_KILLS
+    assert tally.kills >= FULL_KILLS // 2  # most instants fall inside the run, not after it
+    print(f"{name}: {tally}")
+
+
+# --- a full disk ----------------------------------------------------------------------------------------------
+
+
+def _file_size_limit(limit: int) -> Callable[[], None]:
+    def apply() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG instead
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+
+    return apply
+
+
+@pytest.mark.parametrize("limit", [0, 3_000_000, 20_000_000])
+def test_record_on_a_full_disk_fails_clearly_and_leaves_nothing(tmp_path, limit):
+    out = tmp_path / "run.mcap"
+    argv = ["record", "--world", "indoor_room", "--scenario", "teleop", "--seed", "3", "-o", str(out)]
+    done = _run(argv, preexec_fn=_file_size_limit(limit), cwd=tmp_path)
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr
+    assert f"navlog: error: {out}: cannot write: File too large" in done.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_record_over_an_existing_output_on_a_full_disk_keeps_it(tmp_path, workbench):
+    base, commands = workbench
+    out = tmp_path / "run.mcap"
+    _copy(base / "reference" / "run.mcap", out)
+    argv = ["record", "--world", "indoor_room", "--scenario", "teleop", "--seed", "3", "-o", str(out), "--force"]
+    done = _run(argv, preexec_fn=_file_size_limit(5_000_000))
+    assert done.returncode == 2 and "cannot write" in done.stderr and "Traceback" not in done.stderr
+    assert _digest(out) == commands["record"].reference
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap"]
+    assert os.path.getsize(out) > 20_000_000
