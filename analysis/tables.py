@@ -7,16 +7,15 @@ table is made, not when this module is.
 
 from __future__ import annotations
 
-import io
 from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Any
+
+from navlog.replay.runtime.progress import render_plain
 
 if TYPE_CHECKING:
     from rich.table import Table
 
 __all__ = ["grid", "indented", "render", "table"]
-
-WIDTH = 10_000  # characters: wider than any table, so no cell is wrapped or cut
 
 
 def table(headers: Sequence[str], rows: Iterable[Sequence[str]], *, right: Iterable[int] = ()) -> Table:
@@ -52,12 +51,4 @@ def indented(item: Any, spaces: int = 2) -> Any:
 
 def render(*items: Any) -> str:
     """Tables and lines of text (printed as they are: no markup, no highlighting) one after the other."""
-    from rich.console import Console
-
-    buf = io.StringIO()
-    console = Console(
-        file=buf, width=WIDTH, color_system=None, force_terminal=False, markup=False, highlight=False, emoji=False
-    )
-    for item in items:
-        console.print(item)
-    return "\n".join(line.rstrip() for line in buf.getvalue().splitlines())
+    return render_plain(*items)

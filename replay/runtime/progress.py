@@ -115,7 +115,6 @@ def format_table(
     ``align`` gives one of "left", "center", "right" per column (default: left).
     """
     from rich import box
-    from rich.console import Console
     from rich.table import Table
     from rich.text import Text
 
@@ -130,6 +129,19 @@ def format_table(
         if len(row) != len(headers):
             raise ValueError(f"row {list(row)!r} has {len(row)} cells for {len(headers)} columns")
         table.add_row(*(Text(str(c)) for c in row))
+    return render_plain(table).strip("\n")
+
+
+def render_plain(*items: Any) -> str:
+    """``rich`` renderables (tables, text: printed as they are, no markup or highlighting) one after the
+    other as plain text: no colour, no trailing spaces, never wrapped or cut (the console is wider than
+    any table), so it reads the same in a terminal, a file or a CI log."""
+    from rich.console import Console
+
     buf = io.StringIO()
-    Console(file=buf, width=10_000, color_system=None, force_terminal=False, highlight=False).print(table)
-    return "\n".join(line.rstrip() for line in buf.getvalue().splitlines()).strip("\n")
+    console = Console(
+        file=buf, width=10_000, color_system=None, force_terminal=False, markup=False, highlight=False, emoji=False
+    )
+    for item in items:
+        console.print(item)
+    return "\n".join(line.rstrip() for line in buf.getvalue().splitlines())
