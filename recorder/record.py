@@ -8,6 +8,10 @@ that filters velocity commands (``Pipeline.commands``: the safety filters take /
 /cmd_vel) sits between the scenario and the robot: the scenario publishes on the topic it takes.
 A run ends early, with a whole file of what was recorded, when its
 ``stop`` event is set (the command line sets it on Ctrl-C; the library installs no signal handler).
+
+Both cores work: the simulation runs in the caller's thread, and the MCAP writer's thread compresses
+and writes beside it (``McapLogWriter(background=True)``: a bounded queue, the same bytes). Open3D
+is imported in a thread while MuJoCo loads and the model compiles, so the first step comes sooner.
 """
 
 from __future__ import annotations
@@ -22,8 +26,7 @@ from pathlib import Path
 from navlog.errors import ConfigError
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, load_robot
 from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
-from navlog.recorder.sim import SimNode, SimOptions
-from navlog.recorder.world import World, load_world
+from navlog.recorder.world import World, load_world, preload_open3d
 from navlog.replay.config import config_hash, to_mapping
 from navlog.replay.io.logwriter import McapLogWriter, check_output
 from navlog.replay.runtime.executor import Executor, Node
@@ -111,6 +114,10 @@ def record(
     out = Path(out)
     check_output(out, force)
     command_topic = scenario_command_topic(pipeline)
+    # start-up: Open3D (the ray caster) loads in a thread while MuJoCo loads and the model compiles here
+    preload_open3d()
+    from navlog.recorder.sim import SimNode, SimOptions
+
     sim = SimNode(setup.world, setup.robot, SimOptions(seed=setup.seed, noise=setup.noise, start=setup.scenario.start))
     driver = ScenarioNode(setup.scenario, setup.robot, command_topic=command_topic)
     ex = Executor()
@@ -123,7 +130,7 @@ def record(
     stop = stop if stop is not None else threading.Event()
     start = time.perf_counter()
     with Progress(expected_duration(setup), "recording", "sim s", enabled=progress) as bar:
-        with McapLogWriter(out, force=force, metadata={"navlog": meta}) as writer:
+        with McapLogWriter(out, force=force, metadata={"navlog": meta}, background=True) as writer:
             ex.add_sink(writer)
             t = 0
             while not stop.is_set():  # looked at after every second of sim time

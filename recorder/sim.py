@@ -13,6 +13,10 @@ on ``/navlog/events``, and ``collision_end`` once it has not touched it for 0.1 
 episode (a robot pressing on a wall touches it on most ticks, not all).
 A legged robot's trunk does not collide (its geoms have no contact type), so only wheeled robots report.
 
+The high-rate messages (clock, IMU, odometry, TF) of a topic no node subscribes to are published as
+their CDR bytes, encoded directly from the values (``navlog.replay.io.cdr``): the recorder writes
+the same bytes the message objects would serialize to, without building them.
+
 Odometry model (documented in the README):
 - legged: the true body-frame velocity, scaled by ``1 + linear_scale_error``, plus ``yaw_rate_bias``
   and white noise, integrated at the odometry rate: it drifts like CHAMP's leg odometry.
@@ -29,12 +33,11 @@ import math
 from collections import deque
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from navlog.recorder import sensors
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, add_to_spec
-from navlog.recorder.world import World, build_spec, world_mesh
+from navlog.recorder.world import World, build_spec, import_mujoco, world_mesh
 from navlog.replay import messages
 from navlog.replay.geometry import (
     planar_matrix,
@@ -44,13 +47,17 @@ from navlog.replay.geometry import (
     wrap_angle,
     yaw_from_matrix,
 )
+from navlog.replay.io.cdr import layout
 from navlog.replay.pointcloud import make_cloud
 from navlog.replay.runtime.executor import Node
+
+mujoco = import_mujoco()
 
 TICK_NS = 5_000_000  # 200 Hz
 EVENTS_TOPIC = "/navlog/events"
 CONTACT_GAP_NS = 100_000_000  # a contact episode ends after this long without touching (pressing on a wall flickers)
 CLOCK_PERIOD_NS = 10_000_000  # /clock at 100 Hz
+_ZEROS36 = (0.0,) * 36  # the covariances of the simulator's odometry
 
 
 @dataclass(frozen=True)
@@ -161,6 +168,9 @@ class SimNode(Node):
                 np.diag([v**2] * 3).ravel()
                 for v in (robot.imu.orientation_noise, robot.imu.gyro_noise, robot.imu.accel_noise)
             )
+            self._imu_cov_values = tuple(tuple(c.tolist()) for c in self._imu_cov)
+        self._cdr_clock, self._cdr_imu = layout(messages.CLOCK), layout(messages.IMU)
+        self._cdr_odometry, self._cdr_tf = layout(messages.ODOMETRY), layout(messages.TF_MESSAGE)
         # per-tick constants and noise streams (the same draws, in the same order, as one call per sample)
         keep = self._periods["lidar"] // TICK_NS + 2 if self._periods["lidar"] else 1
         self._pose_history: deque[tuple[int, np.ndarray]] = deque(maxlen=keep)
@@ -302,7 +312,10 @@ class SimNode(Node):
         self._pose_history.append((t_ns, base))
         p = self._periods
         if t_ns % CLOCK_PERIOD_NS == 0:
-            self.publish("/clock", messages.CLOCK, messages.clock(t_ns))
+            if self._raw("/clock"):
+                self.publish("/clock", messages.CLOCK, self._cdr_clock.encode(divmod(t_ns, 1_000_000_000)))
+            else:
+                self.publish("/clock", messages.CLOCK, messages.clock(t_ns))
         if t_ns % p["odom"] == 0:
             self._publish_odometry(t_ns, base)
         if p["imu"] and t_ns % p["imu"] == 0:
@@ -311,6 +324,28 @@ class SimNode(Node):
             self._publish_scan(t_ns, base)
         if p["lidar"] and t_ns % p["lidar"] == 0 and t_ns > 0:
             self._publish_lidar(t_ns)
+
+    def _raw(self, topic: str) -> bool:
+        """Publish ``topic`` as CDR bytes: only sinks (the recorder) see it."""
+        return not self.executor.has_subscribers(topic)
+
+    def _publish_odometry_msg(self, topic: str, t_ns: int, frame: str, child: str, xyz, q, lin, ang) -> None:
+        if self._raw(topic):
+            sec, nsec = divmod(t_ns, 1_000_000_000)
+            data = self._cdr_odometry.encode((sec, nsec, frame, child, *xyz, *q, *_ZEROS36, *lin, *ang, *_ZEROS36))
+            self.publish(topic, messages.ODOMETRY, data)
+        else:
+            self.publish(topic, messages.ODOMETRY, messages.odometry(t_ns, frame, child, xyz, q, lin, ang))
+
+    def _publish_tf(self, t_ns: int, transforms: list[tuple[str, str, tuple, tuple]]) -> None:
+        """/tf of (parent, child, xyz, q_xyzw) transforms at ``t_ns``."""
+        if self._raw("/tf"):
+            sec, nsec = divmod(t_ns, 1_000_000_000)
+            items = [(sec, nsec, parent, child, *xyz, *q) for parent, child, xyz, q in transforms]
+            self.publish("/tf", messages.TF_MESSAGE, self._cdr_tf.encode((items,)))
+        else:
+            tfs = [messages.transform_stamped(t_ns, parent, child, xyz, q) for parent, child, xyz, q in transforms]
+            self.publish("/tf", messages.TF_MESSAGE, messages.tf_message(tfs))
 
     # ------------------------------------------------------------ contacts
     def contacts(self) -> dict[str, float]:
@@ -365,8 +400,9 @@ class SimNode(Node):
         wx, wy, wz, vx, vy, vz = self._velocity6().tolist()
         q_base = mat_to_quat(self.data.xmat[self._bid])
         bx, by, bz = self.data.xpos[self._bid].tolist()
-        gt = messages.odometry(t_ns, names["world"], names["base"], (bx, by, bz), q_base, (vx, vy, vz), (wx, wy, wz))
-        self.publish(o.ground_truth_topic, messages.ODOMETRY, gt)
+        self._publish_odometry_msg(
+            o.ground_truth_topic, t_ns, names["world"], names["base"], (bx, by, bz), q_base, (vx, vy, vz), (wx, wy, wz)
+        )
         # planar true pose of the footprint
         yaw = yaw_from_matrix(base)
         dt = self._periods["odom"] / 1e9
@@ -399,34 +435,23 @@ class SimNode(Node):
         tvx, tvy, tw = self._odom_twist
         child = names["footprint"] or names["base"]
         q_odom = quat_from_yaw(oth)
-        odom_msg = messages.odometry(t_ns, names["odom"], child, (ox, oy, 0.0), q_odom, (tvx, tvy, 0.0), (0.0, 0.0, tw))
-        self.publish(o.topic, messages.ODOMETRY, odom_msg)
+        self._publish_odometry_msg(
+            o.topic, t_ns, names["odom"], child, (ox, oy, 0.0), q_odom, (tvx, tvy, 0.0), (0.0, 0.0, tw)
+        )
         # TF: map -> odom (correction), odom -> footprint (odometry), footprint -> base (height, tilt)
         t_map_fp = planar_matrix(bx, by, yaw)
         t_odom_fp = planar_matrix(ox, oy, oth)
         t_map_odom = t_map_fp @ np.linalg.inv(t_odom_fp)
-        tfs = [
-            messages.transform_stamped(
-                t_ns, names["map"], names["odom"], t_map_odom[:3, 3].tolist(), mat_to_quat(t_map_odom[:3, :3])
-            )
-        ]
+        tfs = [(names["map"], names["odom"], t_map_odom[:3, 3].tolist(), mat_to_quat(t_map_odom[:3, :3]))]
         if names["footprint"]:
-            tfs.append(messages.transform_stamped(t_ns, names["odom"], names["footprint"], (ox, oy, 0.0), q_odom))
+            tfs.append((names["odom"], names["footprint"], (ox, oy, 0.0), q_odom))
             t_fp_base = np.linalg.inv(t_map_fp) @ base
-            tfs.append(
-                messages.transform_stamped(
-                    t_ns, names["footprint"], names["base"], t_fp_base[:3, 3].tolist(), mat_to_quat(t_fp_base[:3, :3])
-                )
-            )
+            tfs.append((names["footprint"], names["base"], t_fp_base[:3, 3].tolist(), mat_to_quat(t_fp_base[:3, :3])))
         else:
             # no footprint frame: odom -> base carries the odometry pose with the true height and tilt
             t_odom_base = t_odom_fp @ np.linalg.inv(t_map_fp) @ base
-            tfs.append(
-                messages.transform_stamped(
-                    t_ns, names["odom"], names["base"], t_odom_base[:3, 3].tolist(), mat_to_quat(t_odom_base[:3, :3])
-                )
-            )
-        self.publish("/tf", messages.TF_MESSAGE, messages.tf_message(tfs))
+            tfs.append((names["odom"], names["base"], t_odom_base[:3, 3].tolist(), mat_to_quat(t_odom_base[:3, :3])))
+        self._publish_tf(t_ns, tfs)
 
     def _publish_imu(self, t_ns: int, base: np.ndarray) -> None:
         cfg = self.robot.imu
@@ -448,10 +473,15 @@ class SimNode(Node):
             q = mat_to_quat((base[:3, :3] @ noise.reshape(3, 3)).ravel())
         else:
             q = mat_to_quat(self.data.xmat[self._bid])
+        sec, nsec = divmod(t_ns, 1_000_000_000)
+        if self._raw(cfg.topic):
+            co, cg, ca = self._imu_cov_values
+            data = self._cdr_imu.encode((sec, nsec, self._imu_frame, *q, *co, gx, gy, gz, *cg, ax, ay, az, *ca))
+            self.publish(cfg.topic, messages.IMU, data)
+            return
         # the builders' work without their conversions: every value here is already a Python float
         cov_o, cov_g, cov_a = self._imu_cov
         Time, Header, Quaternion, Vector3 = self._imu_types
-        sec, nsec = divmod(t_ns, 1_000_000_000)
         msg = self._Imu(
             Header(Time(sec, nsec), self._imu_frame),
             Quaternion(*q),

@@ -13,6 +13,10 @@ the ground-truth grid (``occupancy``) and clearance checks (``clearance``) are c
 from __future__ import annotations
 
 import math
+import os
+import sys
+import threading
+import types
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -196,9 +200,63 @@ def clearance(world: World, xy: np.ndarray, z_min: float = 0.0, z_max: float = 2
     return best
 
 
+_OPEN3D_LOCK = threading.Lock()
+
+
+def import_mujoco():
+    """The ``mujoco`` module, imported headless unless the environment chooses a GL backend.
+
+    Importing MuJoCo loads an OpenGL context library (GLFW: about 0.5 s of searching) for its
+    renderer, which the simulator never uses; with ``MUJOCO_GL`` unset it is imported with
+    ``MUJOCO_GL=disable`` (the variable is restored after). Set ``MUJOCO_GL`` (e.g. ``egl``), or
+    import MuJoCo first, to render in the same process.
+    """
+    if "mujoco" in sys.modules or "MUJOCO_GL" in os.environ:
+        import mujoco
+
+        return mujoco
+    os.environ["MUJOCO_GL"] = "disable"
+    try:
+        import mujoco
+    finally:
+        del os.environ["MUJOCO_GL"]
+    return mujoco
+
+
+def import_open3d():
+    """The ``open3d`` module, imported without its viewer package on first use.
+
+    ``import open3d`` also imports ``open3d.visualization``, which pulls in Dash and Plotly (about
+    1 s, half of Open3D's import) that ray casting and meshes never use. A placeholder stands in for
+    that package while Open3D is imported and is removed after, so that a later
+    ``import open3d.visualization`` imports the real package.
+    """
+    with _OPEN3D_LOCK:  # one import at a time: ``preload_open3d``'s thread and the caller's
+        if "open3d" in sys.modules:
+            return sys.modules["open3d"]
+        name = "open3d.visualization"
+        placeholder = types.ModuleType(name)
+        sys.modules[name] = placeholder
+        try:
+            import open3d
+        finally:
+            if sys.modules.get(name) is placeholder:
+                del sys.modules[name]
+        if getattr(open3d, "visualization", None) is placeholder:
+            del open3d.visualization
+        return open3d
+
+
+def preload_open3d() -> None:
+    """Start ``import_open3d`` in a thread, so that Open3D loads while the caller builds the rest
+    (a later ``import_open3d`` waits for it). Nothing happens when Open3D is already imported."""
+    if "open3d" not in sys.modules:
+        threading.Thread(target=import_open3d, name="navlog-import-open3d").start()
+
+
 def world_mesh(world: World, with_floor: bool | None = None):
     """One Open3D triangle mesh of every solid (and the floor), for ray casting and distances."""
-    import open3d as o3d
+    o3d = import_open3d()
 
     mesh = o3d.geometry.TriangleMesh()
     for s in world.solids:
@@ -224,7 +282,7 @@ def world_mesh(world: World, with_floor: bool | None = None):
 
 def build_spec(world: World):
     """The world as a MuJoCo MjSpec: a floor plane and every solid as a static geom."""
-    import mujoco
+    mujoco = import_mujoco()
 
     spec = mujoco.MjSpec()
     spec.modelname = world.name
@@ -295,7 +353,7 @@ def occupancy(
 
 def write_mesh(world: World, path: Path | str) -> Path:
     """Write the world's surfaces (floor included) as a triangle mesh file (.ply, .obj, .stl)."""
-    import open3d as o3d
+    o3d = import_open3d()
 
     path = Path(path)
     mesh = world_mesh(world)

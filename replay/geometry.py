@@ -22,7 +22,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 __all__ = [
     "cell_to_world",
@@ -66,6 +65,8 @@ def quat_from_yaw(yaw: float) -> Quat:
 
 def quat_from_rpy(roll: float, pitch: float, yaw: float) -> Quat:
     """Quaternion of extrinsic x-y-z rotations (roll, then pitch, then yaw), through SciPy."""
+    from scipy.spatial.transform import Rotation  # imported when first needed: SciPy takes 0.3-1 s to load
+
     return tuple(Rotation.from_euler("xyz", [roll, pitch, yaw]).as_quat())  # type: ignore[return-value]
 
 
@@ -179,6 +180,8 @@ def slerp_rows(q0: np.ndarray, q1: np.ndarray, a: np.ndarray) -> np.ndarray:
 
 def quat_to_matrix(q_xyzw) -> np.ndarray:
     """3x3 rotation matrix of a quaternion of any non-zero norm, through SciPy (which normalises it first)."""
+    from scipy.spatial.transform import Rotation
+
     return Rotation.from_quat(np.asarray(q_xyzw, dtype=np.float64)).as_matrix()
 
 
@@ -212,6 +215,8 @@ def unit_quats_to_matrices(q: np.ndarray) -> np.ndarray:
 
 def matrix_to_quat(r: np.ndarray) -> Quat:
     """Quaternion (w >= 0) of a 3x3 rotation matrix, through SciPy."""
+    from scipy.spatial.transform import Rotation
+
     return tuple(Rotation.from_matrix(np.asarray(r, dtype=np.float64)).as_quat(canonical=True))  # type: ignore[return-value]
 
 
@@ -257,6 +262,8 @@ def rotvecs_to_matrices(v: np.ndarray) -> np.ndarray:
 
 def matrix_to_rotvec(r: np.ndarray) -> np.ndarray:
     """Rotation vector (axis times angle, radians) of a 3x3 rotation matrix, through SciPy."""
+    from scipy.spatial.transform import Rotation
+
     return Rotation.from_matrix(r).as_rotvec()
 
 
@@ -276,12 +283,19 @@ def make_transform(xyz, q_xyzw) -> np.ndarray:
     return t
 
 
-def unit_quat_transform(xyz, q: np.ndarray) -> np.ndarray:
-    """4x4 homogeneous matrix from a translation and a unit quaternion (``unit_quat_to_matrix``: closed form)."""
-    m = np.eye(4)
-    m[:3, :3] = unit_quat_to_matrix(q)
-    m[:3, 3] = xyz
-    return m
+def unit_quat_transform(xyz, q) -> np.ndarray:
+    """4x4 homogeneous matrix from a translation and a unit quaternion (``unit_quat_to_matrix``: closed form,
+    the same values)."""
+    x, y, z, w = (float(v) for v in q)
+    tx, ty, tz = (float(v) for v in xyz)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w), tx],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w), ty],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y), tz],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
 
 
 # ------------------------------------------------------------------ planar poses

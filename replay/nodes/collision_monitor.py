@@ -280,14 +280,11 @@ class CollisionMonitorNode(Node):
         try:
             return self.tf.lookup(target, source, t), True
         except TransformError:
-            tolerance = round(self.params.transform_tolerance * 1e9)
-            ends = {r[1] for f in self.tf.frames() if (r := self.tf.time_range(f)) is not None}
-            for c in sorted((e for e in ends if t - tolerance <= e < t), reverse=True):
-                try:
-                    return self.tf.lookup(target, source, c), False
-                except TransformError:
-                    continue
-            raise
+            # the newest time every edge of the chain reaches, if it is before ``t`` within the tolerance
+            latest = self.tf.latest_common_time(target, source)
+            if latest is None or not t - round(self.params.transform_tolerance * 1e9) <= latest < t:
+                raise
+            return self.tf.lookup(target, source, latest), False
 
     def _lookup_recent(self, target: str, source: str, t: int) -> np.ndarray:
         """The transform at ``t``, else at the newest time within ``transform_tolerance`` before it."""

@@ -142,6 +142,10 @@ class Executor:
         if types:
             self._sub_types.setdefault(topic, set()).update(types)
 
+    def has_subscribers(self, topic: str) -> bool:
+        """True when a node subscribes to ``topic`` (else only sinks see it: raw CDR bytes will do)."""
+        return topic in self._subs
+
     def subscribed_types(self) -> dict[str, tuple[str, ...]]:
         """Topic -> the message types its subscribers read, for the topics whose subscribers declared them."""
         return {topic: tuple(sorted(types)) for topic, types in sorted(self._sub_types.items())}

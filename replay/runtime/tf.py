@@ -29,8 +29,8 @@ class _Edge:
     parent: str
     static: bool
     times: list[int] = field(default_factory=list)
-    trans: list[np.ndarray] = field(default_factory=list)
-    quats: list[np.ndarray] = field(default_factory=list)
+    trans: list[tuple[float, float, float]] = field(default_factory=list)
+    quats: list[tuple[float, float, float, float]] = field(default_factory=list)  # unit, x y z w
 
 
 class TFBuffer:
@@ -38,12 +38,17 @@ class TFBuffer:
         self.cache_ns = cache_ns
         self.frame_prefix = frame_prefix
         self._edges: dict[str, _Edge] = {}  # keyed by child frame
+        self._names: dict[str, str] = {}  # frame id as given -> as stored
+        self._chains: dict[str, list[str]] = {}  # frame -> it and its ancestors, while the tree is unchanged
 
     def _name(self, frame: str) -> str:
-        f = frame.lstrip("/")
-        if self.frame_prefix and f.startswith(self.frame_prefix):
-            f = f[len(self.frame_prefix) :]
-        return f
+        name = self._names.get(frame)
+        if name is None:
+            f = frame.lstrip("/")
+            if self.frame_prefix and f.startswith(self.frame_prefix):
+                f = f[len(self.frame_prefix) :]
+            name = self._names[frame] = f
+        return name
 
     def add_message(self, msg: Any, static: bool = False) -> None:
         """Add every transform of a tf2_msgs/TFMessage."""
@@ -63,19 +68,27 @@ class TFBuffer:
         if edge is None or edge.parent != parent or edge.static != static:
             edge = _Edge(parent, static)
             self._edges[child] = edge
+            self._chains.clear()
         x, y, z, w = (float(v) for v in q_xyzw)
         n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
-        q = np.array((x / n, y / n, z / n, w / n))
+        q = (x / n, y / n, z / n, w / n)
+        p = (float(xyz[0]), float(xyz[1]), float(xyz[2]))
         if static:
-            edge.times, edge.trans, edge.quats = [0], [np.asarray(xyz, float)], [q]
+            edge.times, edge.trans, edge.quats = [0], [p], [q]
             return
-        i = bisect.bisect_right(edge.times, t_ns)
-        if i > 0 and edge.times[i - 1] == t_ns:
-            edge.trans[i - 1], edge.quats[i - 1] = np.asarray(xyz, float), q
-            return
-        edge.times.insert(i, t_ns)
-        edge.trans.insert(i, np.asarray(xyz, float))
-        edge.quats.insert(i, q)
+        times = edge.times
+        if not times or t_ns > times[-1]:  # the usual case: a newer sample
+            times.append(t_ns)
+            edge.trans.append(p)
+            edge.quats.append(q)
+        else:
+            i = bisect.bisect_right(times, t_ns)
+            if i > 0 and times[i - 1] == t_ns:
+                edge.trans[i - 1], edge.quats[i - 1] = p, q
+                return
+            times.insert(i, t_ns)
+            edge.trans.insert(i, p)
+            edge.quats.insert(i, q)
         cutoff = edge.times[-1] - self.cache_ns
         drop = bisect.bisect_left(edge.times, cutoff)
         if drop > 1:
@@ -119,9 +132,17 @@ class TFBuffer:
             return unit_quat_transform(e.trans[i], e.quats[i])
         t0, t1 = times[i - 1], times[i]
         a = (t_ns - t0) / (t1 - t0)
-        return unit_quat_transform((1 - a) * e.trans[i - 1] + a * e.trans[i], slerp(e.quats[i - 1], e.quats[i], a))
+        p0, p1 = e.trans[i - 1], e.trans[i]
+        xyz = ((1 - a) * p0[0] + a * p1[0], (1 - a) * p0[1] + a * p1[1], (1 - a) * p0[2] + a * p1[2])
+        return unit_quat_transform(xyz, slerp(np.array(e.quats[i - 1]), np.array(e.quats[i]), a))
 
     def _chain(self, frame: str) -> list[str]:
+        chain = self._chains.get(frame)
+        if chain is None:
+            chain = self._chains[frame] = self._walk_up(frame)
+        return chain
+
+    def _walk_up(self, frame: str) -> list[str]:
         chain = [frame]
         seen = {frame}
         while frame in self._edges:
@@ -143,13 +164,37 @@ class TFBuffer:
             raise TransformError(
                 f"frames {source} and {target} are not connected (known frames: {', '.join(self.frames()) or 'none'})"
             )
-        m_s = np.eye(4)  # source -> common
-        for f in up_s[: up_s.index(common)]:
-            m_s = self._edge_matrix(f, t_ns) @ m_s
-        m_t = np.eye(4)  # target -> common
-        for f in up_t[: up_t.index(common)]:
-            m_t = self._edge_matrix(f, t_ns) @ m_t
-        return np.linalg.inv(m_t) @ m_s
+        m_s = self._to_ancestor(up_s[: up_s.index(common)], t_ns)  # source -> common
+        m_t = self._to_ancestor(up_t[: up_t.index(common)], t_ns)  # target -> common
+        if m_t is None:
+            return np.eye(4) if m_s is None else m_s
+        m_t = np.linalg.inv(m_t)
+        return m_t if m_s is None else m_t @ m_s
+
+    def _to_ancestor(self, frames: list[str], t_ns: int | None) -> np.ndarray | None:
+        """The product of the edge matrices from the first of ``frames`` up to the last one's parent;
+        None for no edge (the identity, so that no product with it is computed)."""
+        out = None
+        for f in frames:
+            m = self._edge_matrix(f, t_ns)
+            out = m if out is None else m @ out
+        return out
+
+    def latest_common_time(self, target: str, source: str) -> int | None:
+        """The newest time at which every dynamic edge between the two frames has a sample at or after
+        it (the latest time ``lookup`` can interpolate at, given its start); None when the frames are
+        not connected or only static edges join them."""
+        target, source = self._name(target), self._name(source)
+        up_s, up_t = self._chain(source), self._chain(target)
+        common = next((f for f in up_s if f in set(up_t)), None)
+        if common is None:
+            return None
+        ends = [
+            self._edges[f].times[-1]
+            for f in up_s[: up_s.index(common)] + up_t[: up_t.index(common)]
+            if not self._edges[f].static
+        ]
+        return min(ends) if ends else None
 
     def can_transform(self, target: str, source: str, t_ns: int | None) -> bool:
         try:
