@@ -30,7 +30,9 @@ def register(sub) -> None:
     p.add_argument("--goal", required=True, help="x,y,yaw")
     p.add_argument("--params", type=Path, help="Nav2 parameter file (default: Nav2's defaults)")
     p.add_argument("--planner", choices=("navfn", "smac2d"), default="navfn")
-    p.add_argument("--potential", choices=("wavefront", "exact"), default="wavefront", help="NavFn potential")
+    p.add_argument(
+        "--potential", choices=("exact", "python"), default="exact", help="NavFn kernels: compiled, or plain Python"
+    )
     p.add_argument(
         "--set", action="append", default=[], metavar="KEY=VALUE", help="Nav2 override (full or short key path)"
     )

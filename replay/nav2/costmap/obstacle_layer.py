@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -13,9 +14,10 @@ from navlog.replay.config import suggest
 from navlog.replay.nav2.costmap.cost_values import FREE_SPACE, LETHAL, NO_INFORMATION
 from navlog.replay.nav2.costmap.footprint import transform_footprint
 from navlog.replay.nav2.costmap.grid import CostmapGrid
+from navlog.replay.nav2.costmap.kernels import kernels
 from navlog.replay.nav2.costmap.layer import Bounds, Layer, Robot, shift_grid, union_bounds, update_with_max
 from navlog.replay.nav2.costmap.observation import Observation, ObservationSourceParams
-from navlog.replay.nav2.costmap.raytrace import bresenham_rays, polygon_cells
+from navlog.replay.nav2.costmap.raytrace import clear_rays, polygon_cells, ray_steps
 from navlog.replay.nav2.plugins import PluginParams
 from navlog.replay.nav2.schema import ERROR, NOTE, WARNING, SectionReader, param
 
@@ -246,30 +248,12 @@ class ObstacleLayer(Layer[ObstacleLayerParams]):
         ok = (x1 >= 0) & (x1 < cm.size_x) & (y1 >= 0) & (y1 < cm.size_y)
         max_cells = math.ceil(sp.raytrace_max_range / cm.resolution)
         min_cells = math.ceil(sp.raytrace_min_range / cm.resolution)
-        sx, sy, (ax, ay), (bx, by), counts, i, minor = bresenham_rays(x0, y0, x1[ok], y1[ok], max_cells, min_cells)
-        if len(i) == 0:
+        steps = ray_steps(x0, y0, x1[ok], y1[ok], max_cells, min_cells)
+        compiled = kernels()
+        clear: Callable[..., tuple[int, int, int, int, int]] = clear_rays if compiled is None else compiled.clear_rays
+        n, xmin, ymin, xmax, ymax = clear(self.grid, *steps, FREE_SPACE)
+        if n == 0:
             return x0, y0, x0 + 1, y0 + 1
-        # a ray's cells run from its start to its last cell, so those bound them
-        end = np.cumsum(counts) - 1
-        lx = sx + i[end] * ax + minor[end] * bx
-        ly = sy + i[end] * ay + minor[end] * by
-        xmin, xmax = min(int(sx.min()), int(lx.min())), max(int(sx.max()), int(lx.max()))
-        ymin, ymax = min(int(sy.min()), int(ly.min())), max(int(sy.max()), int(ly.max()))
-        w = cm.size_x
-        if xmin >= 0 and ymin >= 0 and xmax < w and ymax < cm.size_y:  # always, the rays being clipped: flat indices
-            flat = (
-                (sy * w + sx).repeat(counts) + i * (ay * w + ax).repeat(counts) + minor * (by * w + bx).repeat(counts)
-            )
-            self.grid.put(flat, FREE_SPACE)
-        else:
-            mx = sx.repeat(counts) + i * ax.repeat(counts) + minor * bx.repeat(counts)
-            my = sy.repeat(counts) + i * ay.repeat(counts) + minor * by.repeat(counts)
-            inside = (mx >= 0) & (mx < cm.size_x) & (my >= 0) & (my < cm.size_y)
-            mx, my = mx[inside], my[inside]
-            self.grid[my, mx] = FREE_SPACE
-            if len(mx) == 0:
-                return x0, y0, x0 + 1, y0 + 1
-            xmin, xmax, ymin, ymax = int(mx.min()), int(mx.max()), int(my.min()), int(my.max())
         return min(xmin, x0), min(ymin, y0), max(xmax, x0) + 1, max(ymax, y0) + 1
 
     def update_costs(self, master: np.ndarray, b: Bounds) -> None:

@@ -64,9 +64,9 @@ def test_make_planner_picks_the_configured_entry():
     server = parse_nav2_text(SERVER).planner_server
     assert isinstance(server, PlannerServerParams) and list(server.planners) == ["Fast", "Careful", "Smac"]
     first = make_planner(server, "navfn")
-    assert isinstance(first, NavfnPlanner) and first.p.tolerance == 0.3 and first.potential == "wavefront"
-    careful = make_planner(server, "navfn", "Careful", potential="exact")
-    assert careful.p.use_astar and careful.potential == "exact"
+    assert isinstance(first, NavfnPlanner) and first.p.tolerance == 0.3 and first.potential == "exact"
+    careful = make_planner(server, "navfn", "Careful", potential="python")
+    assert careful.p.use_astar and careful.potential == "python"
     smac = make_planner(server, "smac2d")
     assert isinstance(smac, Smac2DPlanner) and smac.p.cost_travel_multiplier == 1.5
     with pytest.raises(ConfigError, match="did you mean 'Careful'"):

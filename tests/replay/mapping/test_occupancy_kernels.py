@@ -1,0 +1,121 @@
+"""The compiled ray update of the occupancy grid against its NumPy path: the same bits on random and edge scans."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import navlog.replay.mapping.occupancy as occupancy_module
+from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
+from navlog.replay.mapping.occupancy_kernels import kernels, scan_update
+
+needs_numba = pytest.mark.skipif(kernels() is None, reason="numba is not installed: the NumPy path runs alone")
+
+
+def pose(x: float, y: float, yaw: float, roll: float = 0.0) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    rz = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])
+    cr, sr = math.cos(roll), math.sin(roll)
+    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    p = np.eye(4)
+    p[:3, :3] = rz @ rx
+    p[:2, 3] = x, y
+    return p
+
+
+def random_scans(seed: int, count: int):
+    """720-beam (and tiny) scans with inf, -inf, NaN, readings at range_min/range_max, poses far apart."""
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        n = int(rng.choice([1, 3, 720]))
+        ang = -math.pi + 2 * math.pi * np.arange(n) / n
+        r = rng.uniform(0.0, 12.0, n)
+        kind = rng.random(n)
+        r[kind < 0.05] = np.inf
+        r[(kind >= 0.05) & (kind < 0.08)] = np.nan
+        r[(kind >= 0.08) & (kind < 0.1)] = -np.inf
+        r[(kind >= 0.1) & (kind < 0.12)] = 10.0  # range_max: no return
+        r[(kind >= 0.12) & (kind < 0.13)] = 0.1  # range_min: too close
+        x, y = rng.uniform(-8, 8, 2)
+        yield pose(float(x), float(y), float(rng.uniform(-3, 3)), float(rng.choice([0.0, 0.3]))), ang, r
+
+
+def grids_after(monkeypatch, params: OccupancyParams, seed: int, count: int) -> list[OccupancyGrid2D]:
+    grids = [OccupancyGrid2D(params), OccupancyGrid2D(params)]
+    for p, ang, r in random_scans(seed, count):
+        monkeypatch.setattr(occupancy_module, "kernels", kernels)
+        grids[0].insert_scan(p, ang, r, 0.1, 10.0)
+        monkeypatch.setattr(occupancy_module, "kernels", lambda: None)
+        grids[1].insert_scan(p, ang, r, 0.1, 10.0)
+    return grids
+
+
+@needs_numba
+@pytest.mark.parametrize(
+    "params",
+    [
+        OccupancyParams(),
+        OccupancyParams(resolution=0.1, max_laser_range=6.0, no_return_ray_length=2.5),
+        OccupancyParams(resolution=0.03, grow_block=2.0, no_return_ray_length=12.0),
+    ],
+)
+def test_compiled_update_equals_numpy_on_random_scans(monkeypatch, params):
+    a, b = grids_after(monkeypatch, params, seed=int(params.resolution * 100), count=12)
+    assert a.logodds.tobytes() == b.logodds.tobytes()
+    assert a.seen.tobytes() == b.seen.tobytes()
+    assert (a.origin == b.origin).all() and a.stats == b.stats
+    assert a.seen.sum() > 1000 and (a.logodds > 0).any() and (a.logodds < 0).any()
+
+
+@needs_numba
+def test_the_mask_is_left_clear_between_scans_and_beams_at_the_grid_edge(monkeypatch):
+    # beams ending exactly on block borders (the grid's last cells) and a grid grown between scans
+    params = OccupancyParams(grow_block=1.0)
+    grids = [OccupancyGrid2D(params), OccupancyGrid2D(params)]
+    ang = np.array([0.0, math.pi / 2, math.pi, -math.pi / 2])
+    for p, r in ((pose(0.5, 0.5, 0.0), np.full(4, 0.49)), (pose(0.5, 0.5, 0.0), np.full(4, 3.0))):
+        for grid, use in zip(grids, (kernels, lambda: None)):
+            monkeypatch.setattr(occupancy_module, "kernels", use)
+            grid.insert_scan(p, ang, r, 0.01, 10.0)
+    assert grids[0].logodds.tobytes() == grids[1].logodds.tobytes()
+    assert not grids[0]._buffers["scan_mask"].any()
+
+
+def test_the_plain_python_update_is_the_same_function():
+    g = OccupancyGrid2D(OccupancyParams(resolution=0.1))
+    ang = np.array([0.0, 0.5, math.pi])
+    g.insert_scan(np.eye(4), ang, np.array([1.0, 1.0, 1.0]), 0.1, 10.0)  # grows the grid
+    ny, nx = g.logodds.shape
+    logodds, seen = np.zeros(nx * ny, np.float32), np.zeros(nx * ny, bool)
+    want = OccupancyGrid2D(OccupancyParams(resolution=0.1))
+    want.insert_scan(np.eye(4), ang, np.array([1.0, 1.0, 1.0]), 0.1, 10.0)
+    g0 = ((np.zeros(2) - g.origin) / 0.1).astype(np.float32)
+    d = np.column_stack([np.cos(ang), np.sin(ang)]).astype(np.float32)
+    t = np.arange(21, dtype=np.float32) * np.float32(0.5)
+    last = np.full(3, (1.0 - 0.05) / 0.1, dtype=np.float32)
+    ends = g._cells(np.column_stack([np.cos(ang), np.sin(ang)]), nx)
+    f32 = np.float32
+    scan_update(
+        logodds, seen, np.zeros(nx * ny, np.int8), nx, g0, d, t, last, ends,
+        f32(g.l_miss), f32(g.l_min), f32(g.l_hit), f32(g.l_max),
+    )  # fmt: skip
+    assert logodds.tobytes() == want.logodds.reshape(-1).tobytes()
+    # one scan: each seen cell updated once, the three end cells as hits, the sensor's cell as a miss
+    assert np.isclose(logodds[ends], g.l_hit).all()
+    sensor = int(g0[1]) * nx + int(g0[0])
+    assert np.isclose(logodds[sensor], g.l_miss)
+    assert np.isclose(logodds[seen], g.l_miss).sum() == seen.sum() - 3 > 3 * 9
+
+
+def test_a_beam_leaving_the_grid_is_an_error_and_leaves_the_mask_clear():
+    mask = np.zeros(16, np.int8)
+    f32 = np.float32
+    with pytest.raises(IndexError, match="leaves the occupancy grid"):
+        scan_update(
+            np.zeros(16, np.float32), np.zeros(16, bool), mask, 4, np.array([1.0, 1.0], np.float32),
+            np.array([[0.0, 1.0]], np.float32), np.arange(10, dtype=np.float32), np.array([9.0], np.float32),
+            np.zeros(0, np.int64), f32(-0.4), f32(-2.0), f32(0.8), f32(3.5),
+        )  # fmt: skip
+    assert not mask.any()
