@@ -49,7 +49,10 @@ def _size(n: int) -> str:
 
 
 def _time(ns: int) -> str:
-    return f"{ns / 1e9:.9f} s"
+    """Integer nanoseconds as exact seconds (no float: 1.7e18 ns has more digits than a double holds)."""
+    sign = "-" if ns < 0 else ""
+    sec, frac = divmod(abs(int(ns)), 1_000_000_000)
+    return f"{sign}{sec}.{frac:09d} s"
 
 
 def format_info(info: dict[str, Any]) -> str:

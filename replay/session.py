@@ -14,15 +14,17 @@ import importlib
 import json
 import logging
 import shutil
+import threading
 import time
 from collections.abc import Iterator, Sequence
+from concurrent.futures import Future
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
-from navlog.replay.io.atomic import replace_output
+from navlog.replay.io.atomic import remove_stale, replace_output
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import LogReader
@@ -83,6 +85,24 @@ def _input_files(path: Path) -> list[Path]:
     return sorted(p for p in path.iterdir() if p.is_file()) if path.is_dir() else [path]
 
 
+def _hash_inputs(log: Path) -> Future:
+    """The manifest's input entries, computed in a background thread while the log replays (hashing
+    releases the GIL, so the input's digest costs no replay time on a second core). The thread is a
+    daemon: an interrupted replay does not wait for it."""
+    future: Future = Future()
+
+    def work() -> None:
+        try:
+            future.set_result(
+                [{"file": p.name, "bytes": p.stat().st_size, "sha256": sha256_file(p)} for p in _input_files(log)]
+            )
+        except BaseException as exc:  # raised by ``result()`` in the replaying thread
+            future.set_exception(exc)
+
+    threading.Thread(target=work, name="navlog-hash", daemon=True).start()
+    return future
+
+
 class _OutputSink:
     """Writes the pipeline's output topics (only) to the replay log."""
 
@@ -123,6 +143,8 @@ def run_replay(
     if params is None:
         params = pipeline_params(pipeline, overrides=overrides)
     remap = dict(remap or {})
+    if out_dir.exists() and not out_dir.is_dir():
+        raise NavlogError(f"{out_dir}: output is a file, not a folder; choose a folder name for -o")
     if out_dir.exists() and any(out_dir.iterdir()) and not force:
         raise NavlogError(f"{out_dir}: output folder exists and is not empty; choose another or pass --force")
     with open_log(log, recover=recover) as reader:
@@ -146,10 +168,12 @@ def run_replay(
                 reader.path,
                 ", ".join(f"{t} ({ty})" for t, ty in sorted(reader.unknown_types.items())),
             )
+        remove_stale(out_dir)  # an old output a killed run had moved aside comes back
         tmp = out_dir.parent / f".{out_dir.name}.partial"
         shutil.rmtree(tmp, ignore_errors=True)
         tmp.mkdir(parents=True)
         try:
+            inputs = _hash_inputs(log)
             result = _run(reader, pipe, wanted, log_to, tmp, progress)
             empty = pipe.nothing_produced()
             if empty is not None:
@@ -160,7 +184,7 @@ def run_replay(
                     f"Check the topics it reads ({', '.join(pipe.inputs + pipe.optional_inputs)}) with "
                     f"`navlog info {log}`: a missing /tf_static or a remapped TF topic leaves every input without a pose."
                 )
-            manifest = _manifest(log, reader, pipeline, params, pipe, result, tmp, remap)
+            manifest = _manifest(inputs.result(), reader, pipeline, params, pipe, result, tmp, remap)
             (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
@@ -266,7 +290,21 @@ def _run(
     return {"wall_s": time.perf_counter() - start, "stats": ex.stats, "artifacts": artifacts, "backwards": backwards}
 
 
-def _manifest(log: Path, reader: LogReader, name: str, params: Any, pipe, result: dict, tmp: Path, remap: dict) -> dict:
+def _as_decided(params: dict, info: dict[str, str]) -> dict:
+    """The parameters as the nodes ran with them: a top-level parameter the pipeline decides and hands
+    down (``pose_source: auto`` -> the mapper's ``occupancy.pose_source``) shows, where nested, the
+    value decided (``pipe.info``); the top level keeps what was asked for."""
+    decided = {k: v for k, v in info.items() if k in params}
+
+    def walk(d: dict) -> dict:
+        return {k: walk(v) if isinstance(v, dict) else decided.get(k, v) for k, v in d.items()}
+
+    return {k: walk(v) if isinstance(v, dict) else v for k, v in params.items()}
+
+
+def _manifest(
+    inputs: list[dict], reader: LogReader, name: str, params: Any, pipe, result: dict, tmp: Path, remap: dict
+) -> dict:
     stats = result["stats"]
     files = {"replay_mcap": tmp / "replay.mcap", **result["artifacts"]}
     skipped = {f"log: {k}": v for k, v in sorted(reader.report.skipped.items())}
@@ -278,10 +316,10 @@ def _manifest(log: Path, reader: LogReader, name: str, params: Any, pipe, result
     return {
         "navlog_version": __version__,
         "pipeline": name,
-        "parameters": to_mapping(params),
+        "parameters": _as_decided(to_mapping(params), pipe.info),
         "pipeline_info": dict(sorted(pipe.info.items())),
         "remap": dict(sorted(remap.items())),
-        "inputs": [{"file": p.name, "bytes": p.stat().st_size, "sha256": sha256_file(p)} for p in _input_files(log)],
+        "inputs": inputs,
         "log": {
             "start_ns": reader.start_ns,
             "end_ns": reader.end_ns,

@@ -2,17 +2,24 @@
 
 ``export_rosbag2`` copies every selected message's CDR bytes unchanged into a rosbag2 folder written
 with ``rosbags.rosbag2.Writer``: metadata version 8 for Humble, 9 for Jazzy, transient-local QoS for
-``/tf_static`` and ``/map``, receive times kept. The folder is written inside a hidden temporary
-folder next to the output and moved into place only when complete.
+``/tf_static`` and ``/map``, every other topic with the QoS it was recorded with, receive times kept.
+
+A window (``start_s``) keeps what a subscriber joining at its start would still receive: the
+transient-local topics' messages published before it (``/tf_static``: the latest transform of every
+child frame; ``/map`` and any topic recorded transient-local: the latest message), written at the
+window's start, so that a trimmed bag still has its static transforms and its map.
+
+The folder is written inside a hidden temporary folder next to the output and moved into place only
+when complete.
 """
 
 from __future__ import annotations
 
+import itertools
 import logging
 import shutil
-import tempfile
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +28,7 @@ from navlog.errors import NavlogError
 from navlog.replay import messages
 from navlog.replay.config import suggest
 from navlog.replay.io import LogReader
-from navlog.replay.io.atomic import replace_output
+from navlog.replay.io.atomic import replace_output, temp_path
 from navlog.version import __version__
 
 __all__ = ["DISTRO_VERSIONS", "STORAGES", "BagOptions", "ExportSummary", "export_rosbag2"]
@@ -60,10 +67,60 @@ class ExportSummary:
     skipped: Counter = field(default_factory=Counter)
     start_ns: int = 0
     end_ns: int = 0
+    carried: dict[str, int] = field(default_factory=dict)  # latched topic -> messages kept from before the window
 
     @property
     def messages(self) -> int:
         return sum(c for _, c in self.topics.values())
+
+
+def _recorded_qos(source_qos: str) -> list:
+    """The QoS profiles a topic was recorded with (rosbag2's YAML form), [] when there are none or unreadable."""
+    if not source_qos:
+        return []
+    from rosbags.rosbag2.metadata import parse_qos
+
+    try:
+        return parse_qos(source_qos)
+    except Exception:
+        return []
+
+
+def _transient_local(topic: str, source_qos: str) -> bool:
+    """A latched topic: /tf_static, /map, or one recorded with transient-local durability."""
+    from rosbags.interfaces import QosDurability
+
+    return topic in messages.LATCHED_TOPICS or any(
+        q.durability == QosDurability.TRANSIENT_LOCAL for q in _recorded_qos(source_qos)
+    )
+
+
+def _latched_before(reader: LogReader, topics: list[str], start_ns: int) -> list[Any]:
+    """Envelopes (bytes) of the transient-local ``topics`` a subscriber at ``start_ns`` would receive.
+
+    ``/tf_static``: each message holding the latest transform of some child frame (in log order);
+    other topics: their latest message.
+    """
+    kept: dict[str, list[Any]] = {}
+    latest_child: dict[str, int] = {}  # /tf_static child frame -> index of its latest message
+    statics: list[Any] = []
+    for env in reader.messages(topics, decode=False, end_ns=start_ns - 1):
+        if env.time_ns >= start_ns:
+            break
+        if env.topic != "/tf_static":
+            kept[env.topic] = [env]
+            continue
+        statics.append(env)
+        try:
+            transforms = messages.deserialize(bytes(env.msg), reader.topics[env.topic].typename).transforms
+        except Exception:  # not a TFMessage as navlog knows it: keep the latest message only
+            latest_child = {"": len(statics) - 1}
+            continue
+        for tf in transforms:
+            latest_child[tf.child_frame_id] = len(statics) - 1
+    if statics:
+        kept["/tf_static"] = [statics[i] for i in sorted(set(latest_child.values()))]
+    return [env for topic in sorted(kept) for env in kept[topic]]
 
 
 def _qos_profiles(topic: str, source_qos: str, distro: str) -> list:
@@ -85,16 +142,8 @@ def _qos_profiles(topic: str, source_qos: str, distro: str) -> list:
     )
     if topic in messages.LATCHED_TOPICS:
         return [default._replace(depth=1, durability=QosDurability.TRANSIENT_LOCAL)]
-    if source_qos:
-        from rosbags.rosbag2.metadata import parse_qos
-
-        try:
-            parsed = parse_qos(source_qos)
-        except Exception:
-            parsed = []
-        if parsed:
-            return parsed[:1]
-    return [default]
+    recorded = _recorded_qos(source_qos)
+    return recorded[:1] if recorded else [default]
 
 
 def _type_source(reader: LogReader, typename: str):
@@ -109,7 +158,9 @@ def _type_source(reader: LogReader, typename: str):
 
 
 def _temp_dir_beside(out: Path) -> Path:
-    return Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".part", dir=out.parent))
+    tmp = temp_path(out)  # .NAME.PID.part; what killed exports left beside ``out`` is removed first
+    tmp.mkdir()
+    return tmp
 
 
 def export_rosbag2(
@@ -161,7 +212,13 @@ def export_rosbag2(
         conns: dict[str, Any] = {}
         first = last = None
         try:
-            for env in reader.messages(topics, decode=False, start_ns=start_ns, end_ns=end_ns):
+            carried: list[Any] = []
+            if start_ns is not None:
+                latched = [t for t in topics if _transient_local(t, reader.topics[t].qos)]
+                carried = _latched_before(reader, latched, start_ns) if latched else []
+                summary.carried = dict(sorted(Counter(e.topic for e in carried).items()))
+            window = reader.messages(topics, decode=False, start_ns=start_ns, end_ns=end_ns)
+            for env in itertools.chain((replace(e, time_ns=start_ns) for e in carried), window):
                 conn = conns.get(env.topic)
                 if conn is None:
                     info = reader.topics[env.topic]

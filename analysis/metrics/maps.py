@@ -1,8 +1,12 @@
 """Map quality against ground truth: 2D occupancy grids and 3D point maps.
 
-2D (``grid_metrics``): an estimated ``OccupancyMap`` against a reference grid of the same
-resolution. The two are laid on one canvas by their world origins (the origin offset is rounded to
-whole cells, the sub-cell remainder is reported; origin yaw is ignored, as Nav2 does). Cells are
+2D (``grid_metrics``): an estimated ``OccupancyMap`` against a reference grid. The two are laid on
+one canvas by their world origins (the origin offset is rounded to whole cells, the sub-cell
+remainder is reported; origin yaw is ignored, as Nav2 does). A map of another resolution, or in
+another frame (``est_to_ref``: the estimate's frame in the reference's, x, y, yaw — e.g. a SLAM
+map against a saved map), is first resampled onto the reference's cell lattice (``resample_map``:
+every cell takes the class of the estimate's cell under its centre, and every occupied cell of
+the estimate stays occupied, so thin walls survive a coarser grid). Cells are
 classified with map_server's thresholds (occupied > 0.65 -> value > 65, free < 0.196 -> value < 19.6,
 anything else, -1 included, unknown). With ``d_X`` the Euclidean distance from a cell centre to the
 nearest occupied cell centre of X (a distance transform):
@@ -94,6 +98,51 @@ def grid_frame(ref: OccupancyMap, est: OccupancyMap, *, rel_tol: float = 1e-6) -
     return GridFrame((dr, dc), float(residual), shape, ref_sl, est_sl)
 
 
+def resample_map(
+    est: OccupancyMap, ref: OccupancyMap, *, est_to_ref: Sequence[float] = (0.0, 0.0, 0.0)
+) -> OccupancyMap:
+    """``est`` on ``ref``'s cell lattice (its resolution, cells aligned with its cells, yaw 0).
+
+    ``est_to_ref`` = (x, y, yaw) places the estimate's frame in the reference's. Each output cell
+    takes the value of the estimate's cell under its centre (unknown outside the estimate); each
+    occupied estimate cell, sampled at sub-cells no larger than half an output cell, marks the
+    output cells it covers occupied. Origin yaws are ignored, as in ``grid_frame``.
+    """
+    res = ref.resolution
+    tx, ty, yaw = (float(v) for v in est_to_ref)
+    c, s = np.cos(yaw), np.sin(yaw)
+    rot = np.array([[c, -s], [s, c]])
+    w, h = est.width * est.resolution, est.height * est.resolution
+    corners = np.array([[0, 0], [w, 0], [0, h], [w, h]]) + np.asarray(est.origin[:2])
+    world = corners @ rot.T + (tx, ty)
+    lo = np.floor((world.min(axis=0) - ref.origin[:2]) / res)  # in reference cells
+    hi = np.ceil((world.max(axis=0) - ref.origin[:2]) / res)
+    nx, ny = (hi - lo).astype(int)
+    if nx * ny > MAX_CANVAS_CELLS:
+        raise MapMetricError(f"resampling the map onto {res:g} m cells needs {nx} x {ny} cells; is est_to_ref right?")
+    origin = np.asarray(ref.origin[:2]) + lo * res
+    # every output cell centre, back into the estimate's cells
+    gx, gy = np.meshgrid(origin[0] + (np.arange(nx) + 0.5) * res, origin[1] + (np.arange(ny) + 0.5) * res)
+    local = (np.stack([gx.ravel() - tx, gy.ravel() - ty], axis=1) @ rot) - est.origin[:2]
+    ij = np.floor(local / est.resolution).astype(np.int64)
+    inside = (ij[:, 0] >= 0) & (ij[:, 0] < est.width) & (ij[:, 1] >= 0) & (ij[:, 1] < est.height)
+    out = np.full(nx * ny, -1, dtype=np.int8)
+    out[inside] = est.data[ij[inside, 1], ij[inside, 0]]
+    out = out.reshape(ny, nx)
+    # occupied cells forward, at sub-cells of at most half an output cell: no wall is lost
+    occ_r, occ_c = np.nonzero(classify(est.data)[0])
+    k = max(1, int(np.ceil(2.0 * est.resolution / res)))
+    sub = (np.arange(k) + 0.5) / k
+    su, sv = np.meshgrid(sub, sub)
+    px = (occ_c[:, None] + su.ravel()[None, :]) * est.resolution + est.origin[0]
+    py = (occ_r[:, None] + sv.ravel()[None, :]) * est.resolution + est.origin[1]
+    pts = np.stack([px.ravel(), py.ravel()], axis=1) @ rot.T + (tx, ty)
+    cells = np.floor((pts - origin) / res).astype(np.int64)
+    ok = (cells[:, 0] >= 0) & (cells[:, 0] < nx) & (cells[:, 1] >= 0) & (cells[:, 1] < ny)
+    out[cells[ok, 1], cells[ok, 0]] = 100
+    return OccupancyMap(out, res, (float(origin[0]), float(origin[1]), 0.0), frame_id=ref.frame_id)
+
+
 def _on_canvas(frame: GridFrame, sl: tuple[slice, slice], mask: np.ndarray) -> np.ndarray:
     out = np.zeros(frame.canvas_shape, dtype=bool)
     out[sl] = mask
@@ -138,6 +187,7 @@ class GridMetrics:
     counts: dict[str, int] = field(default_factory=dict)
     offset_cells: tuple[int, int] = (0, 0)
     origin_residual_m: float = 0.0
+    resampled_from: str = ""  # what the estimate was resampled from ('' when compared as it was)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
@@ -161,6 +211,8 @@ class GridMetrics:
         out["counts"] = dict(self.counts)
         out["offset_cells"] = [int(v) for v in self.offset_cells]
         out["origin_residual_m"] = float(self.origin_residual_m)
+        if self.resampled_from:
+            out["resampled_from"] = self.resampled_from
         return out
 
 
@@ -189,13 +241,20 @@ def grid_metrics(
     seed_xy: Sequence[float] | None = None,
     occupied_thresh: float = OCCUPIED_THRESH,
     free_thresh: float = FREE_THRESH,
+    est_to_ref: Sequence[float] | None = None,
 ) -> GridMetrics:
     """Compare an estimated map with a reference grid; see the module docstring for definitions.
 
     ``tau`` in metres (0 = exact cells). ``seed_xy``: a world point in the reachable free space
-    (e.g. the robot's start) for coverage."""
+    (e.g. the robot's start) for coverage. ``est_to_ref``: the estimate's frame in the reference's
+    (x, y, yaw); given, or when the resolutions differ, the estimate is resampled (``resample_map``)."""
     if not tau >= 0:
         raise MapMetricError(f"tolerance tau must be >= 0 m, got {tau}")
+    resampled = est_to_ref is not None or abs(est.resolution - ref.resolution) > 1e-6 * ref.resolution
+    source = ""
+    if resampled:
+        source = f"{est.resolution:g} m cells, est_to_ref {tuple(float(v) for v in (est_to_ref or (0, 0, 0)))}"
+        est = resample_map(est, ref, est_to_ref=est_to_ref if est_to_ref is not None else (0.0, 0.0, 0.0))
     frame = grid_frame(ref, est)
     res = ref.resolution
     r_occ, r_free = classify(ref.data, occupied_thresh=occupied_thresh, free_thresh=free_thresh)
@@ -267,6 +326,7 @@ def grid_metrics(
         counts=counts,
         offset_cells=frame.offset_cells,
         origin_residual_m=frame.residual_m,
+        resampled_from=source,
     )
 
 

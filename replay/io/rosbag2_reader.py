@@ -22,6 +22,7 @@ class RosbagLogReader(LogReader):
     def __init__(self, path: Path) -> None:
         super().__init__(path)
         from rosbags.highlevel import AnyReader
+        from rosbags.rosbag2.metadata import dump_qos_v8
 
         self.format = "rosbag2"
         files = [p for p in path.iterdir() if p.is_file()] if path.is_dir() else [path]
@@ -48,7 +49,9 @@ class RosbagLogReader(LogReader):
                 qos = ""
                 ext = getattr(conn, "ext", None)
                 if ext is not None:
-                    qos = str(getattr(ext, "offered_qos_profiles", "") or "")
+                    profiles = getattr(ext, "offered_qos_profiles", "") or ""
+                    # rosbags parses them into Qos tuples: keep rosbag2's own YAML form
+                    qos = dump_qos_v8(profiles) if isinstance(profiles, list) else str(profiles)
                 self.topics[conn.topic] = TopicInfo(conn.topic, conn.msgtype, count, conn.msgtype in types, qos)
         except (TypeError, ValueError, AttributeError) as exc:  # topics, counts or times of the wrong kind
             raise LogError(

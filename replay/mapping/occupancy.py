@@ -1,10 +1,16 @@
 """A log-odds occupancy grid updated from 2D laser scans (the slam_toolbox role, for known poses).
 
 Per scan, each cell is updated at most once: cells crossed by a beam become more likely free, the
-cell holding a beam's end point more likely occupied (occupied wins within one scan). Beams with no
-return (``inf``) or beyond ``range_max`` clear up to ``range_max`` without marking; ``-inf`` (too
-close) marks nothing; NaN is skipped and counted. The grid grows as the robot explores, in whole
-blocks, so results do not depend on where the log starts.
+cell holding a beam's end point more likely occupied (occupied wins within one scan).
+
+Invalid readings are treated as Karto and slam_toolbox treat them: a reading that is NaN, ``inf``,
+``-inf``, ``>= range_max`` or ``<= range_min`` marks nothing and clears nothing (counted in
+``ScanStats``). A real laser reports ``inf`` for glass, black surfaces and open doors as well as for
+open space, so clearing along it would carve free space through walls. Clearing along no-return
+rays is an explicit option with its own length, ``no_return_ray_length`` (Cartographer's
+``missing_data_ray_length``), off by default. ``max_laser_range`` (slam_toolbox's parameter) clips
+longer valid readings: the beam clears up to it and marks no end point. The grid grows as the robot
+explores, in whole blocks, so results do not depend on where the log starts.
 """
 
 from __future__ import annotations
@@ -15,7 +21,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from navlog.replay.geometry import world_to_cell
+from navlog.replay.mapping.occupancy_kernels import kernels
 from navlog.replay.occupancy_map import OccupancyMap
+
+MAX_CELLS = 1_000_000_000  # a grid larger than this (4 GB of log-odds) comes from a pose or range far off
+MAX_COORDINATE = 1e6  # m; a grid reaching farther from the map origin comes from a pose or range far off
+
+
+class GridTooLarge(ValueError):
+    """A scan would grow the grid beyond ``MAX_CELLS`` or ``MAX_COORDINATE``: its pose or its ranges are far off."""
 
 
 def logit(p: float) -> float:
@@ -30,7 +44,8 @@ class OccupancyParams:
     clamp: tuple[float, float] = (0.12, 0.97)  # probability limits of a cell
     occupied_threshold: float = 0.65  # map_server's occupied_thresh
     free_threshold: float = 0.196  # map_server's free_thresh
-    max_range: float = 0.0  # use only this much of each beam (0: the scan's range_max)
+    max_laser_range: float = 0.0  # longer readings clear up to here and mark nothing (0: no clipping)
+    no_return_ray_length: float = 0.0  # clear this far along beams with no return (0: they clear nothing)
     grow_block: float = 5.0  # the grid grows in blocks of this many metres
 
     def __post_init__(self) -> None:
@@ -40,6 +55,10 @@ class OccupancyParams:
             raise ValueError("hit_probability must be in (0.5, 1) and miss_probability in (0, 0.5)")
         if not (0.0 < self.free_threshold < self.occupied_threshold < 1.0):
             raise ValueError("need 0 < free_threshold < occupied_threshold < 1")
+        for name in ("max_laser_range", "no_return_ray_length"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite length >= 0 (0 turns it off), got {value}")
 
 
 @dataclass
@@ -47,9 +66,10 @@ class ScanStats:
     scans: int = 0
     beams: int = 0
     hits: int = 0
-    no_return: int = 0  # inf or beyond range_max: cleared to range_max
-    too_close: int = 0  # -inf or below range_min
-    nan: int = 0
+    no_return: int = 0  # inf or >= range_max: cleared only along no_return_ray_length
+    too_close: int = 0  # -inf or <= range_min: not used
+    nan: int = 0  # not used
+    clipped: int = 0  # beyond max_laser_range: cleared up to it, end not marked
 
 
 class OccupancyGrid2D:
@@ -72,6 +92,14 @@ class OccupancyGrid2D:
         block = self.p.grow_block
         lo = np.floor(np.array([xmin, ymin]) / block) * block
         hi = (np.floor(np.array([xmax, ymax]) / block) + 1) * block  # strictly beyond the max, never empty
+        if self.logodds.size:  # the grid after growing spans both what it has and the new bounds
+            cur_hi = self.origin + np.array(self.logodds.shape[::-1]) * self.res
+            span = np.maximum(hi, cur_hi) - np.minimum(lo, self.origin)
+        else:
+            span = hi - lo
+        far = max(abs(xmin), abs(ymin), abs(xmax), abs(ymax)) > MAX_COORDINATE  # (and blocks lose precision)
+        if far or not np.all(np.isfinite(span)) or float(np.prod(span / self.res)) > MAX_CELLS:
+            raise GridTooLarge(f"the grid would span {span[0]:.4g} x {span[1]:.4g} m to reach ({xmax:.4g}, {ymax:.4g})")
         if self.logodds.size == 0:
             self.origin = lo
             nx, ny = (np.round((hi - lo) / self.res)).astype(int)
@@ -109,17 +137,21 @@ class OccupancyGrid2D:
         st.beams += len(r)
         nan = np.isnan(r)
         st.nan += int(nan.sum())
-        rmax = min(range_max, self.p.max_range) if self.p.max_range > 0 else range_max
-        close = ~nan & (r < range_min)
-        far = ~nan & ~close & (r > rmax)  # includes +inf
-        hit = ~nan & ~close & ~far
+        close = ~nan & (r <= range_min)  # includes -inf
+        far = ~nan & ~close & (r >= range_max)  # includes +inf: no return
+        clip = self.p.max_laser_range
+        clipped = ~nan & ~close & ~far & (r > clip) if clip > 0 else np.zeros_like(far)
+        hit = ~nan & ~close & ~far & ~clipped
         st.too_close += int(close.sum())
         st.no_return += int(far.sum())
+        st.clipped += int(clipped.sum())
         st.hits += int(hit.sum())
-        use = hit | far
+        use = hit | clipped
+        if self.p.no_return_ray_length > 0:
+            use |= far
         if not use.any():
             return
-        length = np.where(hit, r, rmax)[use]
+        length = np.where(hit, r, np.where(clipped, clip, self.p.no_return_ray_length))[use]
         a = a[use]
         ishit = hit[use]
         rot, pos = sensor_pose[:3, :3], sensor_pose[:3, 3]
@@ -137,15 +169,43 @@ class OccupancyGrid2D:
         )
         ny, nx = self.logodds.shape
         ncell = ny * nx
-        # free space: sample every half cell along each beam, stopping short of the end cell. The
-        # (beams x samples) arrays live in reused work buffers: allocating them afresh for every
-        # scan costs more (page faults) than the arithmetic.
+        # free space: sample every half cell along each beam, stopping short of the end cell
         step = self.res * 0.5
         t = np.arange(int(np.ceil(length.max() / step)) + 1, dtype=np.float32) * np.float32(step / self.res)
         last = ((length - step) / self.res).astype(np.float32)  # a beam's samples end at this t
         d2c = d2.astype(np.float32)
         g0 = ((pos[:2] - self.origin) / self.res).astype(np.float32)
-        shape = (len(length), len(t))
+        end_cells = self._cells(ends[ishit], nx)
+        compiled = kernels()
+        if compiled is None:  # pragma: no cover - without numba
+            self._update_numpy(t, last, d2c, g0, end_cells)
+            return
+        mask = self._buffers.get("scan_mask")
+        if mask is None or mask.size != ncell:  # all zero between scans
+            mask = self._buffers["scan_mask"] = np.zeros(ncell, dtype=np.int8)
+        f32 = np.float32
+        compiled(
+            self.logodds.reshape(-1),
+            self.seen.reshape(-1),
+            mask,
+            nx,
+            g0,
+            d2c,
+            t,
+            last,
+            end_cells,
+            *(f32(self.l_miss), f32(self.l_min), f32(self.l_hit), f32(self.l_max)),
+        )
+
+    def _update_numpy(
+        self, t: np.ndarray, last: np.ndarray, d2c: np.ndarray, g0: np.ndarray, end_cells: np.ndarray
+    ) -> None:
+        """``occupancy_kernels.scan_update`` with (beams x samples) NumPy arrays: the same bits."""
+        ny, nx = self.logodds.shape
+        ncell = ny * nx
+        # the (beams x samples) arrays live in reused work buffers: allocating them afresh for every
+        # scan costs more (page faults) than the arithmetic
+        shape = (len(last), len(t))
         x = self._work("x", np.float32, shape)
         gx = self._work("gx", np.intp, shape)
         cell = self._work("cell", np.intp, shape)
@@ -161,7 +221,6 @@ class OccupancyGrid2D:
         np.greater(t[None, :], last[:, None], out=past)
         past[:, 0] = False  # the sensor's own cell is always crossed
         np.copyto(cell, ncell, where=past)  # samples past a beam's free part go to a spare cell
-        end_cells = self._cells(ends[ishit], nx)
         mask = self._work("mask", np.int8, (ncell + 1,))
         mask.fill(0)
         mask[cell.reshape(-1)] = 1

@@ -7,6 +7,8 @@ Pose sources (where the laser's pose at each scan's stamp comes from):
 - ``tf``: the TF tree from a fixed frame (``map``, else ``odom``) to the laser frame, as a real
   robot's bag provides it.
 The chain from the pose's child frame to the laser frame always comes from /tf and /tf_static.
+Readings with no return (``inf``, ``>= range_max``), too close, or NaN mark and clear nothing
+(see ``navlog.replay.mapping.occupancy``) and are counted per kind among the skipped inputs.
 A scan without a pose or transform at its stamp is skipped and counted; so are scans inserted
 before the robot has moved ``minimum_travel_distance`` or turned ``minimum_travel_heading`` since
 the last inserted one (slam_toolbox's throttle; 0 inserts every scan).
@@ -23,7 +25,7 @@ import numpy as np
 
 from navlog.replay import messages
 from navlog.replay.geometry import yaw_from_matrix
-from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
+from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError
 
@@ -143,6 +145,13 @@ class OccupancyMapperNode(Node):
         return None if span[1] < stamp else (span[0] <= stamp)
 
     def _insert(self, msg, stamp: int, base: np.ndarray, pose: np.ndarray) -> None:
+        fields = (msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
+        if any(math.isnan(v) for v in fields) or not all(math.isfinite(v) for v in fields[:2]):
+            self.skipped[f"{self.p.scan_topic}: NaN or infinite angle/range fields"] += 1
+            return
+        if not np.all(np.isfinite(pose)):
+            self.skipped[f"{self.p.scan_topic}: pose not finite at the scan's stamp"] += 1
+            return
         if self._last_pose is not None and self.p.minimum_travel_distance > 0:
             moved = np.linalg.norm(pose[:2, 3] - self._last_pose[:2, 3])
             turned = abs(yaw_from_matrix(pose) - yaw_from_matrix(self._last_pose))
@@ -156,7 +165,11 @@ class OccupancyMapperNode(Node):
         if angles is None:
             angles = msg.angle_min + msg.angle_increment * np.arange(len(msg.ranges))
             self._angles_cache[key] = angles
-        self.grid.insert_scan(pose, angles, np.asarray(msg.ranges), float(msg.range_min), float(msg.range_max))
+        try:
+            self.grid.insert_scan(pose, angles, np.asarray(msg.ranges), float(msg.range_min), float(msg.range_max))
+        except GridTooLarge:
+            self.skipped[f"{self.p.scan_topic}: pose or ranges too far off (the map would exceed its cell budget)"] += 1
+            return
         self.trajectory.append((stamp, base))
 
     def _publish(self, t_ns: int) -> None:
@@ -172,4 +185,11 @@ class OccupancyMapperNode(Node):
         out = dict(self.skipped)
         if st.nan:
             out[f"{self.p.scan_topic}: NaN ranges (skipped)"] = st.nan
+        if st.no_return and not self.p.grid.no_return_ray_length:
+            out[
+                f"{self.p.scan_topic}: ranges with no return (inf or >= range_max; not used: "
+                "set occupancy.grid.no_return_ray_length to clear along them)"
+            ] = st.no_return
+        if st.too_close:
+            out[f"{self.p.scan_topic}: ranges too close (-inf or <= range_min; not used)"] = st.too_close
         return out

@@ -5,7 +5,10 @@ PointCloud2), /tf and /tf_static; it updates at ``update_frequency`` and publish
 /global_costmap/costmap (OccupancyGrid, Nav2's value mapping) and /global_costmap/published_footprint.
 ``PlannerNode`` holds the goals (from /goal_pose or a goal list), plans from the robot pose (TF
 global_frame <- robot_base_frame) every ``replan_period_s`` and publishes /plan (nav_msgs/Path).
-Without any robot TF (a log with only a map), it plans the goal list as a chain of legs from ``start``.
+When the log has robot TF (``wait_for_robot_tf``), planning waits for the transform, as scans do;
+legs that never get a robot pose (the log ends first) are planned at the end as a chain from
+``start``. Without any robot TF (a log with only a map), it plans the goal list as such a chain at
+once. Either way each leg planned without a robot pose carries a note and is counted.
 ``costmap_msg``, ``footprint_msg`` and ``path_msg`` build the messages they publish.
 """
 
@@ -199,6 +202,7 @@ class PlannerNode(Node):
         goal_tolerance: float = 0.25,
         start: Pose2D = (0.0, 0.0, 0.0),
         goal_topic: str = "/goal_pose",
+        wait_for_robot_tf: bool = False,
     ) -> None:
         super().__init__()
         self.cm_node = costmap_node
@@ -214,6 +218,8 @@ class PlannerNode(Node):
         self.plans: list[tuple[int, PlanResult]] = []
         self.failures: list[tuple[int, str]] = []
         self.chained = False
+        self.wait_for_robot_tf = wait_for_robot_tf
+        self.had_robot_pose = False
 
     def setup(self) -> None:
         self.subscribe(self.goal_topic, self._on_goal, (m.POSE_STAMPED,))
@@ -241,35 +247,55 @@ class PlannerNode(Node):
         x, y = T[0, 0] * goal[0] + T[0, 1] * goal[1] + T[0, 3], T[1, 0] * goal[0] + T[1, 1] * goal[1] + T[1, 3]
         return x, y, goal[2] + math.atan2(T[1, 0], T[0, 0])
 
-    def _plan(self, start: Pose2D, goal: Pose2D, t: int) -> None:
+    def _plan(self, start: Pose2D, goal: Pose2D, t: int, note: str = "") -> None:
         try:
             plan = self.planner.plan(self.cm_node.costmap, start, goal)
         except PlanningError as exc:
             _count(self.skipped, "planning failed")
-            self.failures.append((t, str(exc)))
+            self.failures.append((t, f"{note}: {exc}" if note else str(exc)))
             self.publish("/navlog/events", m.EVENT_TYPE, m.event(t, "plan_failed", self.name, str(exc)))
             return
+        if note:
+            plan.notes.append(note)
         self.plans.append((t, plan))
         self.publish("/plan", m.PATH, path_msg(plan, t, self.cm_node.params.global_frame))
+
+    def _plan_chain(self, t: int) -> None:
+        """Plan the goals not yet planned as a chain of legs from ``start``, each leg noted and counted."""
+        self.chained = True
+        p = self.cm_node.params
+        prev = self.start
+        for leg_goal in self.goals[self.index :]:
+            g = self._goal_in_global(leg_goal, t)
+            if g is None:
+                return
+            _count(self.skipped, f"legs planned without a robot pose ({p.global_frame} <- {p.robot_base_frame})")
+            note = (
+                f"no robot pose ({p.global_frame} <- {p.robot_base_frame}): leg planned from "
+                f"({prev[0]:.2f}, {prev[1]:.2f})"
+            )
+            self._plan(prev, g, t, note)
+            prev = g
+        self.index = len(self.goals)
+
+    def finish(self) -> None:
+        # the log ended before the robot TF came: plan what is left from `start`, and say so
+        if self.wait_for_robot_tf and not self.had_robot_pose and not self.chained and self.index < len(self.goals):
+            if self.cm_node.updates:
+                self._plan_chain(self.now())
 
     def _tick(self, t: int) -> None:
         if self.index >= len(self.goals) or self.cm_node.updates == 0:
             return
         robot = self.cm_node.robot_pose(t)
         if robot is None:
-            if self.chained:
+            if self.chained or self.had_robot_pose:
                 return
-            # no robot pose in the log: plan the goal list as a chain of legs from `start`
-            self.chained = True
-            prev = self.start
-            for leg_goal in self.goals:
-                g = self._goal_in_global(leg_goal, t)
-                if g is None:
-                    return
-                self._plan(prev, g, t)
-                prev = g
-            self.index = len(self.goals)
+            if self.wait_for_robot_tf:
+                return  # the transform may still come (as scans wait for theirs)
+            self._plan_chain(t)  # no robot TF in the log at all
             return
+        self.had_robot_pose = True
         goal = self._goal_in_global(self.goals[self.index], t)
         if goal is None:
             return

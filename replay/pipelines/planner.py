@@ -31,7 +31,10 @@ from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import Nav2Params, default_nav2_params, load_nav2_params
 from navlog.replay.nav2.costmap import Costmap2D, default_costmap_params
-from navlog.replay.nav2.planners import PlanningError, PlanResult, Pose2D, make_planner
+from navlog.replay.nav2.costmap.grid import DEFAULT_LAYER_PLUGINS
+from navlog.replay.nav2.overrides import apply_nav2_overrides
+from navlog.replay.nav2.params import parse_nav2_params
+from navlog.replay.nav2.planners import PLANNER_NAMES, PLANNERS, PlanningError, PlanResult, Pose2D, make_planner
 from navlog.replay.nodes.planner import CostmapNode, PlannerNode, costmap_msg, path_msg
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.executor import Envelope
@@ -46,11 +49,11 @@ class Params:
     nav2_params: str = ""  # a Nav2 parameter file; empty: Nav2's defaults
     planner: Literal["navfn", "smac2d"] = "navfn"
     planner_id: str = ""  # the planner_plugins entry to use; empty: the first of its type
-    navfn_potential: Literal["wavefront", "exact"] = "wavefront"
+    navfn_potential: Literal["exact", "python"] = "exact"
     map: str = ""  # a map_server YAML used as the static layer instead of the log's /map
     goals: str = ""  # a goals YAML (name in config/goals/ or a path); empty: /goal_pose from the log
     goal_frame: str = "map"
-    start: tuple[float, float, float] = (0.0, 0.0, 0.0)  # first leg's start when the log has no robot TF
+    start: tuple[float, float, float] = (0.0, 0.0, 0.0)  # first leg's start when there is no robot pose
     replan_period_s: float = 1.0
     goal_tolerance: float = 0.25  # the goal counts as reached within this distance (SimpleGoalChecker)
     # Nav2 overrides, as nested mappings under the node names (filled by --set NODE.a.b=value)
@@ -96,18 +99,49 @@ def load_goals(spec: str) -> tuple[list[tuple[float, float, float]], str]:
     return goals, str(doc.get("frame_id", "map"))
 
 
-def planning_nav2_params(nav2_params: str | Path | None, overrides: Sequence[str] = ()) -> Nav2Params:
+def default_planning_document(planner: str = "navfn") -> dict[str, Any]:
+    """Nav2's defaults for planning as a parameter document, so that ``--set`` keys resolve without a file.
+
+    The planner server lists one planner, ``GridBased`` (Nav2's name), of type ``planner`` with its
+    default values written out (``tolerance``, ``use_astar``, ...); the global costmap lists Nav2's
+    default layers, each with its plugin type (their parameters may be added by name).
+    """
+    plugin = PLANNER_NAMES[planner]
+    entry = PLANNERS[plugin]
+    assert entry is not None
+    values = {k: v for k, v in vars(entry.params()).items() if isinstance(v, (bool, int, float, str)) and k != "plugin"}
+    layers = {name: {"plugin": plugin_type} for name, plugin_type in DEFAULT_LAYER_PLUGINS.items()}
+    return {
+        "planner_server": {
+            "ros__parameters": {"planner_plugins": ["GridBased"], "GridBased": {"plugin": plugin, **values}}
+        },
+        "global_costmap": {"global_costmap": {"ros__parameters": {"plugins": list(layers), **layers}}},
+    }
+
+
+def planning_nav2_params(
+    nav2_params: str | Path | None, overrides: Sequence[str] = (), planner: str = "navfn"
+) -> Nav2Params:
     """The Nav2 parameters planning runs with: a file (none: Nav2's defaults) with ``overrides`` applied.
 
-    Errors in the global costmap or the planner server are raised at once as one ConfigError.
+    Without a file, overrides apply to ``default_planning_document(planner)``: ``tolerance=0.0``,
+    ``GridBased.use_astar=true`` or ``global_costmap.inflation_layer.inflation_radius=0.3`` work as
+    they do on a file. Errors in the global costmap or the planner server are raised at once as one
+    ConfigError.
     """
-    nav2 = load_nav2_params(nav2_params, overrides) if nav2_params else default_nav2_params(overrides)
+    if nav2_params:
+        nav2 = load_nav2_params(nav2_params, overrides)
+    elif overrides:
+        doc = apply_nav2_overrides(default_planning_document(planner), overrides)
+        nav2 = parse_nav2_params(doc, source="<defaults>")
+    else:
+        nav2 = default_nav2_params()
     return nav2.require_valid(("global_costmap", "planner_server"))
 
 
 def nav2_config(params: Params) -> Nav2Params:
     """The Nav2 parameters the pipeline runs with (file + overrides), errors raised at once."""
-    return planning_nav2_params(params.nav2_params, nav2_overrides(params))
+    return planning_nav2_params(params.nav2_params, nav2_overrides(params), params.planner)
 
 
 def build(params: Params, log_topics: set[str]) -> Pipeline:
@@ -125,6 +159,7 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         replan_period_s=params.replan_period_s,
         goal_tolerance=params.goal_tolerance,
         start=params.start,
+        wait_for_robot_tf="/tf" in log_topics,
     )
     inputs: list[str] = []
     optional = ["/tf", "/tf_static"]
@@ -190,7 +225,7 @@ def plan_on_map(
     nav2_params: str | Path | None = None,
     planner: Literal["navfn", "smac2d"] = "navfn",
     planner_id: str = "",
-    potential: Literal["wavefront", "exact"] = "wavefront",
+    potential: Literal["exact", "python"] = "exact",
     overrides: Sequence[str] = (),
 ) -> MapPlan:
     """Build the global costmap on a map (a map_server YAML or an OccupancyMap) and plan once.
@@ -201,7 +236,7 @@ def plan_on_map(
     (x, y, yaw) in the map's frame. Raises ConfigError for the parameters or the map, PlanningError
     when there is no plan (messages prefixed with the map's path when it was given one).
     """
-    nav2 = planning_nav2_params(nav2_params, overrides)
+    nav2 = planning_nav2_params(nav2_params, overrides, planner)
     where = "" if isinstance(map, OccupancyMap) else f"{map}: "
     occ = map if isinstance(map, OccupancyMap) else load_map(map)
     cm = Costmap2D(nav2.global_costmap or default_costmap_params())

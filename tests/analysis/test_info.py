@@ -58,3 +58,14 @@ def test_a_log_without_topics_or_metadata():
     assert not any(line.startswith("State:") for line in lines)
     assert lines[8:10] == ["Topic information:", "  Topic   Type   Count   Rate (Hz)"]
     assert len(lines) == 11 and set(lines[10].strip()) == {"─"}
+
+
+def test_start_and_end_are_exact_integer_nanoseconds():
+    # 1726965761.464204329 s does not survive a float (it prints ...369 through one)
+    info = dict(INFO, start_ns=1_726_965_761_464_204_329, end_ns=1_726_965_802_764_204_330)
+    lines = format_info(info).splitlines()
+    start = next(line for line in lines if line.startswith("Start:"))
+    end = next(line for line in lines if line.startswith("End:"))
+    assert start.split()[-2:] == ["1726965761.464204329", "s"]
+    assert end.split()[-2:] == ["1726965802.764204330", "s"]
+    assert f"{1_726_965_761_464_204_329 / 1e9:.9f}" != "1726965761.464204329"  # what a float would print

@@ -43,3 +43,19 @@ def test_plan_command(tmp_path, capsys):
     assert "goal occupied" in capsys.readouterr().err
     assert main(args[:4] + ["--goal", "9,0,0"] + args[6:]) == 2
     assert "outside the costmap" in capsys.readouterr().err
+
+
+def test_plan_set_without_params_overrides_nav2_defaults(tmp_path, capsys):
+    data = np.zeros((120, 120), dtype=np.int8)
+    data[:2, :] = data[-2:, :] = data[:, :2] = data[:, -2:] = 100
+    data[50:70, 65:75] = 100  # a block x 0.25 .. 0.75, y -0.5 .. 0.5
+    yaml_path, _ = save_map(OccupancyMap(data, 0.05, (-3.0, -3.0, 0.0)), tmp_path / "room.yaml")
+    base = ["plan", "--map", str(yaml_path), "--start=-1.5,0,0"]
+    # any --set works without --params: the short key resolves in Nav2's default planner (NavFn)
+    assert main([*base, "--goal", "0.5,0,0", "--set", "tolerance=0.0"]) == 2
+    assert "goal occupied" in capsys.readouterr().err
+    assert main([*base, "--goal", "0.5,0,0", "--set", "GridBased.tolerance=0.5"]) == 0
+    assert "tolerance moved" in capsys.readouterr().out
+    assert main([*base, "--goal", "1.5,0,0", "--set", "global_costmap.inflation_layer.inflation_radius=0.3"]) == 0
+    assert main([*base, "--goal", "1.5,0,0", "--set", "tolerence=0.1"]) == 2
+    assert "did you mean 'tolerance'" in capsys.readouterr().err

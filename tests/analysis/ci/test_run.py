@@ -54,8 +54,9 @@ def test_shipped_suite_passes_against_its_baselines(baseline_run):
     # ground-truth poses: the mapper's trajectory is the truth to float rounding
     assert mapping.facts["metrics.ate.rmse"] < 1e-6
     planner = r.case("planner_teleop")
-    assert planner.facts["plans.count"] == 18
-    assert planner.facts["plans.failures"] == 0
+    # 17 plans and one failure: at 14 s the robot cell and its ring are inscribed, where Nav2's NavFn finds no path
+    assert planner.facts["plans.count"] == 17
+    assert planner.facts["plans.failures"] == 1
     assert 0.1 <= planner.facts["min_clearance"] < 0.5
     safety = r.case("safety_teleop_wall")
     assert safety.facts["safety.commands_in"] == 301
@@ -117,7 +118,7 @@ def test_reports(tmp_path, cache, baseline_run):
     failures = [t.get("name") for t in planner.iter("testcase") if t.find("failure") is not None]
     assert failures == ["diff plans.json", "diff replay.mcap"]
     props = {p.get("name"): p.get("value") for p in planner.iter("property")}
-    assert props["plans.count"] == "18" and props["pipeline"] == "planner"
+    assert props["plans.count"] == "17" and props["pipeline"] == "planner"
     md = (tmp_path / "r.md").read_text()
     assert md.index("FAIL | `planner_teleop`") < md.index("PASS | `mapping_teleop_2d`")  # regressions first
     assert len(md) < 65_536

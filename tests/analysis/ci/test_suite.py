@@ -29,7 +29,7 @@ def test_shipped_suite_reads():
     assert planner.recipe == Recipe("indoor_room", "go2", "teleop", 0, True)
     assert planner.params == SHIPPED.parent / "navlog_planner_nav2.yaml"
     assert planner.diff is not None and planner.diff.tolerances.path.cost_rtol == 0.01
-    assert [i.text for i in planner.invariants] == ["no_plan_failures", "plans.count >= 10", "min_clearance >= 0.1"]
+    assert [i.text for i in planner.invariants] == ["plans.failures <= 1", "plans.count >= 10", "min_clearance >= 0.1"]
     assert suite.baselines == SHIPPED.parent / "../../data/baselines"
     assert dict(suite.case("safety_teleop_wall").remap) == {"/cmd_vel_nav": "/cmd_vel"}
 

@@ -140,11 +140,51 @@ def test_empty_estimate_gives_undefined_precision():
     assert g["counts"]["est_occupied"] == 0
 
 
-def test_different_resolutions_are_refused():
+def test_different_resolutions_are_refused_by_the_canvas_and_resampled_by_the_metrics():
     ref = OccupancyMap(_outline(), RES)
     est = OccupancyMap(_outline(), 0.1)
     with pytest.raises(mm.MapMetricError, match="--resolution 0.1"):
-        mm.grid_metrics(est, ref)
+        mm.grid_frame(ref, est)
+    assert mm.grid_metrics(est, ref).resampled_from.startswith("0.1 m cells")
+
+
+def _room(res: float, est_to_ref=(0.0, 0.0, 0.0), half: float = 2.0, size: float = 6.0) -> OccupancyMap:
+    """A square room (walls 0.1 m thick at |x|, |y| = ``half``, free inside) drawn on a grid of ``res``
+    whose frame sits at ``est_to_ref`` in the room's frame; unknown outside the walls."""
+    n = int(round(size / res))
+    origin = -size / 2
+    u, v = np.meshgrid(origin + (np.arange(n) + 0.5) * res, origin + (np.arange(n) + 0.5) * res)
+    tx, ty, yaw = est_to_ref
+    x = tx + np.cos(yaw) * u - np.sin(yaw) * v
+    y = ty + np.sin(yaw) * u + np.cos(yaw) * v
+    m = np.maximum(np.abs(x), np.abs(y))
+    data = np.full((n, n), -1, dtype=np.int8)
+    data[m < half] = 0
+    data[(m >= half) & (m < half + 0.1)] = 100
+    return OccupancyMap(data, res, (origin, origin, 0.0))
+
+
+@pytest.mark.parametrize("res", [0.05, 0.1, 0.03])
+def test_a_map_of_another_resolution_is_resampled(res):
+    ref = _room(0.05)
+    g = mm.grid_metrics(_room(res), ref, tau=0.05)
+    assert g.f1 >= 0.97 and g.coverage >= 0.97, g
+    assert (g.resampled_from != "") == (res != 0.05)
+
+
+def test_a_map_in_a_rotated_and_offset_frame_is_compared_in_the_reference_frame():
+    # a SLAM-like map whose frame is the room's turned 30 degrees and moved (0.4, -0.3) m
+    pose = (0.4, -0.3, np.radians(30.0))
+    est, ref = _room(0.05, pose), _room(0.05)
+    aligned = mm.grid_metrics(est, ref, tau=0.05, est_to_ref=pose)
+    assert aligned.f1 >= 0.97 and aligned.coverage >= 0.97
+    assert aligned.resampled_from == f"0.05 m cells, est_to_ref {tuple(float(v) for v in pose)}"
+    as_is = mm.grid_metrics(est, ref, tau=0.05)  # the frames taken as one: the walls do not match
+    assert as_is.f1 < 0.3
+    # the resampled map: the room's walls at x = 2.0 .. 2.1 in the reference frame
+    on_ref = mm.resample_map(est, ref, est_to_ref=pose)
+    assert on_ref.resolution == 0.05 and on_ref.value_at(2.05, 0.0) == 100 and on_ref.value_at(1.0, 0.5) == 0
+    assert on_ref.value_at(2.6, 2.6) == -1
 
 
 # ---------------------------------------------------------------- 3D

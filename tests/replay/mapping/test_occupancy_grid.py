@@ -2,7 +2,8 @@
 
 Samples every half cell along a beam from the sensor at cell (20, 20) (centre 1.025, 1.025): a
 beam of length L crosses the cells up to the one holding its end; the end cell of a return is
-marked occupied, a no-return beam clears up to range_max without marking. Each cell changes at
+marked occupied, a no-return beam clears ``no_return_ray_length`` (set here to range_max) without
+marking. Each cell changes at
 most once per scan. Consecutive scans of different sizes exercise the reused work buffers.
 """
 
@@ -42,7 +43,7 @@ def expected_cells() -> dict[tuple[int, int], float]:
 
 
 def test_known_beams_mark_the_expected_cells_across_scans_of_different_sizes():
-    grid = OccupancyGrid2D(OccupancyParams(resolution=0.05))
+    grid = OccupancyGrid2D(OccupancyParams(resolution=0.05, no_return_ray_length=2.0))
     grid.insert_scan(POSE, np.array([0.0, math.pi / 2]), np.array([1.0, math.inf]), 0.1, 2.0)
     grid.insert_scan(POSE, np.array([math.pi, 0.3]), np.array([0.5, math.nan]), 0.1, 2.0)
     assert grid.logodds.shape == (100, 100) and tuple(grid.origin) == (0.0, 0.0)

@@ -88,7 +88,9 @@ def cell(m, x, y) -> int:
 
 def test_known_geometry_gives_the_expected_cells(tmp_path):
     log = wall_log(tmp_path / "wall.mcap")
-    params = pipeline_params("mapping", overrides=["occupancy.minimum_travel_distance=0"])
+    # no-return beams clear up to range_max here (an explicit option; by default they clear nothing)
+    overrides = ["occupancy.minimum_travel_distance=0", "occupancy.grid.no_return_ray_length=4.0"]
+    params = pipeline_params("mapping", overrides=overrides)
     res = run_replay(log, "mapping", tmp_path / "out", params=params, progress=False)
     m = load_map(tmp_path / "out" / "map.yaml")
     assert m.resolution == 0.05

@@ -99,6 +99,48 @@ def test_replay_is_deterministic():
     assert a == b and len(a) > 5
 
 
+def _late_tf_inputs(tf_from_ns: int, child: str = "simple_robot/base_link"):
+    """The map and a goal at time 0; the robot's TF (at (-1.5, 0)) only from ``tf_from_ns`` on."""
+    envs = [
+        Envelope("/map", m.OCCUPANCY_GRID, 0, room_map().to_msg(0)),
+        Envelope("/goal_pose", m.POSE_STAMPED, 0, goal_msg(0, 1.5, 0.0)),
+    ]
+    for k in range(tf_from_ns // 100_000_000, 31):
+        t = k * 100_000_000
+        tf = m.tf_message([m.transform_stamped(t, "map", child, (-1.5, 0.0, 0.0), m.quat_from_yaw(0.0))])
+        envs.append(Envelope("/tf", m.TF_MESSAGE, t, tf))
+    return sorted(envs, key=lambda e: e.time_ns)
+
+
+def plan_starts(out):
+    return [
+        (e.time_ns, e.msg.poses[0].pose.position.x, e.msg.poses[0].pose.position.y) for e in out if e.topic == "/plan"
+    ]
+
+
+def test_planning_waits_for_the_robot_tf_when_the_log_has_tf():
+    # the goal comes first and the robot's TF 1.2 s later: every plan starts at the robot, none at (0, 0)
+    pipe, out = run(Params(nav2_params=NAV2), _late_tf_inputs(1_200_000_000))
+    starts = plan_starts(out)
+    assert starts and starts[0][0] >= 1_200_000_000
+    assert all(x == pytest.approx(-1.5, abs=0.06) and y == pytest.approx(0.0, abs=0.06) for _, x, y in starts)
+    assert not any("without a robot pose" in k for k in pipe.skipped())
+
+
+def test_legs_without_a_robot_pose_are_said_and_counted(tmp_path):
+    # /tf is in the log but never names the robot frame: the leg is planned at the end, from `start`
+    pipe, out = run(Params(nav2_params=NAV2, start=(-1.0, 1.0, 0.0)), _late_tf_inputs(0, child="other_frame"))
+    starts = plan_starts(out)
+    assert len(starts) == 1 and starts[0][1:] == pytest.approx((-1.0, 1.0), abs=0.06)
+    key = "legs planned without a robot pose (map <- simple_robot/base_link)"
+    assert pipe.skipped()[key] == 1
+    doc = json.loads(pipe.write_artifacts(tmp_path)["plans"].read_text())
+    assert "no robot pose (map <- simple_robot/base_link): leg planned from (-1.00, 1.00)" in doc["plans"][0]["notes"]
+    # a log without any /tf plans at once, also noted
+    pipe, out = run(Params(nav2_params=NAV2), [e for e in _late_tf_inputs(0) if e.topic != "/tf"])
+    assert plan_starts(out)[0][0] == 0 and pipe.skipped()[key] == 1
+
+
 def test_goal_frame_without_transform_is_counted():
     pipe, out = run(Params(nav2_params=NAV2), _inputs(frame="odom"))
     assert not [e for e in out if e.topic == "/plan"]
@@ -129,6 +171,21 @@ def test_goals_yaml_and_override_short_path():
         build(Params(nav2_params=NAV2, global_costmap={"inflation_layer": {"inflation_radios": 0.3}}), set())
     with pytest.raises(ConfigError, match="ObstcaleLayer"):
         build(Params(nav2_params=str(DATA / "kibot_nav2_fragments.yaml")), set())
+
+
+def test_overrides_without_a_file_apply_to_nav2_defaults():
+    from navlog.replay.nav2.costmap import default_costmap_params
+    from navlog.replay.nav2.planners import NavfnParams, Smac2DParams
+    from navlog.replay.pipelines.planner import planning_nav2_params
+
+    same = planning_nav2_params(None, ["tolerance=0.5"])  # Nav2's default value: nothing changes
+    assert same.planner_server.planners["GridBased"] == NavfnParams()
+    assert same.global_costmap == default_costmap_params()
+    changed = planning_nav2_params(None, ["tolerance=0.0", "global_costmap.inflation_layer.inflation_radius=0.3"])
+    assert changed.planner_server.planners["GridBased"].tolerance == 0.0
+    assert changed.global_costmap.layers["inflation_layer"].inflation_radius == 0.3
+    smac = planning_nav2_params(None, ["tolerance=0.2"], planner="smac2d").planner_server.planners["GridBased"]
+    assert isinstance(smac, Smac2DParams) and smac.tolerance == 0.2
 
 
 def test_plan_on_map_as_a_library_call(tmp_path):
