@@ -1,8 +1,12 @@
-"""A seeded, repeatable fuzz campaign over navlog's inputs: logs, rosbag2 folders, configs, CLI arguments.
+"""A seeded, repeatable fuzz campaign over navlog's inputs: logs, rosbag2 folders, configs, CLI runs.
 
 navlog's promise for bad input is a ``NavlogError`` with a clear message, or a counted, reported skip --
-never a traceback and never a hang. Each case is a mutated input and one library call (the same
-function a Python user or the CLI calls), run in a worker process under a time limit. Its outcome is
+never a traceback and never a hang. Cases are drawn by ``hypothesis`` strategies (one strategy per kind,
+see ``KINDS``) as small JSON recipes -- "flip these bits of that seed log", "move record 3 of chunk 2
+before record 0 and drop the summary", "set leaf 7 of every /scan message to NaN", "rename key 12 of
+this Nav2 file", "run ``navlog replay LOG --remap /scan=/odom``" -- and each recipe is applied to the
+unmutated seeds and run as one library call (the function a Python user or the CLI calls) in a worker
+process under a time limit. Its outcome is
 
 - ``OK``: the call returned;
 - ``CLEAN_ERROR``: it raised a ``NavlogError`` (or the CLI exited non-zero with one line);
@@ -10,24 +14,28 @@ function a Python user or the CLI calls), run in a worker process under a time l
 - ``TRACEBACK``: any other exception -- a defect;
 - ``HANG``: the call outlived ``--timeout`` seconds -- a defect.
 
-Case ``I`` of seed ``S`` is generated from ``numpy.random.default_rng([S, I])`` alone, so a run is
-repeatable whatever the number of workers, and one case re-runs by itself (``--case I``, which shows
-the full traceback). Every TRACEBACK or HANG saves a reproducer under ``OUT/repro/``: the mutated
-files, ``case.json`` (the call and its arguments) and the traceback.
+Generation is hypothesis's own, in runs of ``BLOCK`` examples seeded with ``@seed`` from the campaign seed
+and the block number, without its example database and without shrinking, so the recipe of case ``I``
+depends only on the seed, ``I`` and the hypothesis version: a run is repeatable whatever the number of workers, and one case re-runs by itself (``--case I``, which prints the
+full traceback). Every TRACEBACK or HANG saves a reproducer under ``OUT/repro/``: the mutated files,
+``case.json`` (the recipe, the call and its arguments) and the traceback; ``--repro FOLDER`` re-runs it.
 
     python fuzz/campaign.py --cases 10000 --seed 1 --out /tmp/fuzz-out
     python fuzz/campaign.py --seed 1 --case 4711 --out /tmp/fuzz-out
+    python fuzz/campaign.py --repro /tmp/fuzz-out/repro/004711-mcap-bytes-traceback --out /tmp/fuzz-out
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import io
 import json
 import math
 import multiprocessing as mp
 import os
+import random
 import shutil
 import signal
 import struct
@@ -35,6 +43,7 @@ import sys
 import tempfile
 import time
 import traceback
+import zlib
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -43,12 +52,17 @@ from typing import Any
 
 import numpy as np
 import yaml
+from hypothesis import HealthCheck, Phase, Verbosity, given, settings
+from hypothesis import seed as hypothesis_seed
+from hypothesis import strategies as st
 
 REPO = Path(__file__).resolve().parents[1]
 EXTERNAL = Path("/work/shared/external-data")
 OUTCOMES = ("OK", "CLEAN_ERROR", "COUNTED_SKIP", "TRACEBACK", "HANG")
+MCAP_MAGIC = b"\x89MCAP0\r\n"
 
-# A short teleop drive: about 0.5 s of every sensor, recorded once per output folder.
+# A short teleop drive: about 0.5 s of every sensor, recorded once per output folder, and the scenario
+# of every `navlog record` case.
 TINY_SCENARIO = """\
 name: fuzz_seed
 kind: teleop
@@ -58,6 +72,24 @@ commands:
 hold: 0.1
 """
 
+# kind -> relative weight of the kind among the cases
+KINDS: dict[str, int] = {
+    "mcap-bytes": 22,
+    "mcap-chunk": 8,
+    "mcap-semantic": 12,
+    "mcap-message": 8,
+    "rosbag2": 10,
+    "config-worlds": 3,
+    "config-robots": 3,
+    "config-scenarios": 3,
+    "config-pipelines": 3,
+    "config-nav2": 6,
+    "config-suites": 4,
+    "cli": 8,
+    "cli-record": 5,
+    "cli-replay": 5,
+}
+
 
 class Hang(Exception):
     """Raised in a worker by the per-case alarm."""
@@ -65,12 +97,19 @@ class Hang(Exception):
 
 @dataclass
 class Case:
-    """One generated input: files to write into a fresh folder, and the call to make on them."""
+    """One drawn recipe (JSON data) and its place in the campaign."""
 
     index: int
-    kind: str  # the generator family, e.g. "mcap-bytes", "config-world", "cli"
-    mutation: str  # what was done, e.g. "truncate@record"
-    call: str  # the oracle entry point, see CALLS
+    kind: str
+    recipe: dict[str, Any]
+
+
+@dataclass
+class Built:
+    """A recipe applied to the seeds: files to write into a fresh folder, and the call to make on them."""
+
+    mutation: str  # what was done, e.g. "seed_zstd:truncate@record0x06"
+    call: str  # the oracle entry point, see ``call_case``
     args: dict[str, Any] = field(default_factory=dict)  # paths are relative to the case folder
     files: dict[str, bytes] = field(default_factory=dict)
     links: dict[str, str] = field(default_factory=dict)  # name -> seed file copied as is
@@ -81,7 +120,7 @@ class Case:
 
 @dataclass
 class Seeds:
-    """The unmutated inputs every case starts from (read once per worker)."""
+    """The unmutated inputs every case starts from (read once per process)."""
 
     folder: Path
     logs: dict[str, bytes]  # name -> MCAP bytes
@@ -139,10 +178,9 @@ def build_seed_log(folder: Path) -> Path:
     return folder
 
 
-def top_records(data: bytes) -> list[tuple[int, int, int]]:
-    """(offset, opcode, content length) of each top-level MCAP record after the leading magic."""
+def split_records(data: bytes, pos: int) -> list[tuple[int, int, int]]:
+    """(offset, opcode, content length) of each MCAP record from ``pos`` on, up to the footer."""
     out = []
-    pos = 8
     while pos + 9 <= len(data):
         op = data[pos]
         (length,) = struct.unpack_from("<Q", data, pos + 1)
@@ -151,6 +189,11 @@ def top_records(data: bytes) -> list[tuple[int, int, int]]:
         if op == 0x02:  # footer: the trailing magic follows
             break
     return out
+
+
+def top_records(data: bytes) -> list[tuple[int, int, int]]:
+    """(offset, opcode, content length) of each top-level MCAP record after the leading magic."""
+    return split_records(data, 8)
 
 
 def parse_log(data: bytes) -> tuple[list[Any], list[Any], list[Any]]:
@@ -176,8 +219,10 @@ def load_seeds(folder: Path) -> Seeds:
         logs["talker"] = talker.read_bytes()
     bags = {p.name: p for p in sorted((EXTERNAL / "bags").glob("*")) if p.is_dir() and p.name != "tb3_gazebo_walker"}
     configs = {
-        kind: sorted((REPO / "config" / kind).glob("*.yaml")) for kind in ("worlds", "robots", "scenarios", "pipelines")
+        kind: sorted((REPO / "config" / kind).glob("*.yaml"))
+        for kind in ("worlds", "robots", "scenarios", "pipelines", "suites")
     }
+    configs["suites"] = [p for p in configs["suites"] if "cases:" in p.read_text()]  # a suite, not its params
     configs["nav2"] = sorted(
         [
             *(REPO / "tests/replay/nav2/data").glob("*.yaml"),
@@ -196,228 +241,875 @@ def load_seeds(folder: Path) -> Seeds:
     )
 
 
-# ------------------------------------------------------------------------------- byte mutations
+# ------------------------------------------------------------------------------------ strategies
+#
+# A strategy draws a recipe: plain JSON data naming the seed, the mutation and its parameters. Places in
+# a file are drawn as 32-bit fractions of its length (``at``), so hypothesis's simplest value is the start.
+
+AT = st.integers(0, 2**32 - 1)
+INDEX = st.integers(0, 2**20)  # an item of a list whose length is known only when the recipe is applied
+SPECIAL_FLOATS = [math.nan, math.inf, -math.inf, 1e308, -1e308, -0.0, 3.4e38, 5e-324]
+FLOATS = st.one_of(st.sampled_from(SPECIAL_FLOATS), st.floats())
+ARGV_TEXT = st.text(st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"), max_size=8)
+
+BYTE_OPS = [
+    "bitflip",
+    "bitflip@summary",
+    "truncate@random",
+    "truncate@record",
+    "length",
+    "chunk-field",
+    "duplicate-bytes",
+    "drop-bytes",
+    "duplicate-record",
+    "swap-records",
+    "drop-record",
+    "zero-run",
+]
+RECORD_CUTS = ["start", "opcode", "length", "half", "end-1", "end"]
+LENGTHS: list[int | str] = ["-1", "+1", "+8", 0, 1, 2**31, 2**63 - 1, 2**64 - 1]
+CHUNK_FIELDS = {"start": (0, "<Q"), "end": (8, "<Q"), "size": (16, "<Q"), "crc": (24, "<I")}
 
 
-def pick(rng: np.random.Generator, items: Any) -> Any:
-    items = list(items)
-    return items[int(rng.integers(len(items)))]
+def chunks_of(records: list[tuple[int, int, int]]) -> list[tuple[int, int, int]]:
+    return [r for r in records if r[1] == 0x06] or records
 
 
-def flip_bits(rng: np.random.Generator, data: bytes, lo: int = 0) -> bytes:
+@st.composite
+def mcap_bytes(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """Bit flips, truncations at random places and record boundaries, corrupted record lengths and chunk
+    fields, duplicated, dropped or swapped bytes and records."""
+    log = draw(st.sampled_from(sorted(seeds.logs)))
+    records = st.integers(0, len(seeds.records[log]) - 1)
+    op = draw(st.sampled_from(BYTE_OPS))
+    r: dict[str, Any] = {"log": log, "op": op}
+    if op.startswith("bitflip"):
+        r["flips"] = draw(st.lists(st.tuples(AT, st.integers(0, 7)), min_size=1, max_size=16))
+    elif op == "truncate@random":
+        r["at"] = draw(AT)
+    elif op == "truncate@record":
+        r["record"], r["cut"] = draw(records), draw(st.sampled_from(RECORD_CUTS))
+    elif op == "length":
+        r["record"] = draw(records)
+        r["value"] = draw(st.one_of(st.sampled_from(LENGTHS), st.integers(0, 2**64 - 1)))
+    elif op == "chunk-field":
+        r["chunk"] = draw(st.integers(0, len(chunks_of(seeds.records[log])) - 1))
+        r["field"] = draw(st.sampled_from(sorted(CHUNK_FIELDS)))
+        r["value"] = draw(st.one_of(st.sampled_from([0, 1, 0xFFFFFFFF, 2**63 - 1, 2**64 - 1]), st.integers(0, 2**32)))
+        r["delta"] = draw(st.one_of(st.none(), st.integers(-64, 64)))
+    elif op in ("duplicate-bytes", "drop-bytes", "zero-run"):
+        r["at"], r["size"] = draw(AT), draw(st.integers(1, 4096))
+    elif op in ("duplicate-record", "drop-record"):
+        r["record"] = draw(records)
+    else:
+        r["record"], r["other"] = draw(records), draw(records)
+    r["call"] = draw(st.sampled_from(["read", "read", "read-recover", "check", "cli-info", "recover"]))
+    return r
+
+
+CHUNK_OPS = ["swap", "reverse", "shuffle", "duplicate", "drop", "first", "last"]
+
+
+@st.composite
+def mcap_chunk(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """Records reordered, duplicated or dropped inside a (compressed) chunk, which is recompressed; its CRC
+    fixed or left stale; the summary kept (stale offsets) or removed (readers must stream)."""
+    log = draw(st.sampled_from(["seed_zstd", "seed_zstd", "seed_none"]))
+    return {
+        "log": log,
+        "chunk": draw(st.integers(0, len(chunks_of(seeds.records[log])) - 1)),
+        "op": draw(st.sampled_from(CHUNK_OPS)),
+        "i": draw(INDEX),
+        "j": draw(INDEX),
+        "order": draw(st.integers(0, 2**32 - 1)),
+        "crc": draw(st.sampled_from(["fixed", "fixed", "stale", "zero"])),
+        "summary": draw(st.sampled_from(["kept", "none"])),
+        "call": draw(st.sampled_from(["read", "read", "read-recover", "check", "recover"])),
+    }
+
+
+SCHEMA_TOKENS = ["float64", "float32", "uint8[]", "string", "int32", "builtin_interfaces/Time", "std_msgs/Header"]
+SCHEMA_GARBAGE = ["%%%", "uint8[ data", "foo/Bar x", "int32 = 3", "string<=", "\x00\xff", "a b c d"]
+SCHEMA_SEPARATORS = ["=" * 80, "MSG: ", "MSG: nonexistent/msg/Type", "=" * 80 + "\nMSG: a/b"]
+SCHEMA_NAMES = ["", "foo", "a/b", "sensor_msgs/msg/Imu", "nav_msgs/msg/Nope", "x/msg/Y/Z", "sensor_msgs/Imu"]
+SEMANTIC_OPS = ["schema-text", "schema-name", "encoding", "cdr", "nan-inf", "times", "order", "no-messages", "dangling"]
+CDR_FORMS = ["truncate", "extend", "random", "empty", "header", "flip"]
+TIME_FORMS = ["backwards", "zero", "max", "future", "duplicate", "jump"]
+
+
+@st.composite
+def mcap_semantic(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """The small log re-encoded with wrong schema text or names, foreign encodings, CDR that does not
+    match its schema, NaN/inf written into payloads, times backwards or far away, messages out of order."""
+    _, channels, _ = seeds.parsed["seed_none"]
+    op = draw(st.sampled_from(SEMANTIC_OPS))
+    r: dict[str, Any] = {"op": op, "channel": draw(st.integers(0, len(channels) - 1))}
+    if op == "schema-text":
+        r["form"] = draw(st.sampled_from(["drop-line", "swap-type", "garbage", "empty", "duplicate-line", "separator"]))
+        r["line"] = draw(INDEX)
+        r["token"] = draw(st.sampled_from(SCHEMA_TOKENS + SCHEMA_GARBAGE + SCHEMA_SEPARATORS))
+    elif op == "schema-name":
+        r["name"] = draw(st.one_of(st.sampled_from(SCHEMA_NAMES), st.text(max_size=12)))
+    elif op == "encoding":
+        r["on"] = draw(st.sampled_from(["channel", "schema"]))
+        r["value"] = draw(st.sampled_from(["json", "ros1", "", "protobuf", "jsonschema", "ros2idl", "ros1msg"]))
+    elif op in ("cdr", "nan-inf"):
+        r["first"] = draw(st.one_of(st.none(), st.integers(1, 3)))  # None: every message of the channel
+        if op == "cdr":
+            r["form"] = draw(st.sampled_from(CDR_FORMS))
+            r["at"] = draw(AT)
+            r["bytes"] = draw(st.binary(min_size=1, max_size=64)).hex()
+            r["flips"] = draw(st.lists(st.tuples(AT, st.integers(0, 7)), min_size=1, max_size=8))
+        else:
+            r["floats"] = draw(st.lists(st.tuples(st.sampled_from([4, 8]), AT, FLOATS), min_size=1, max_size=8))
+    elif op == "times":
+        r["form"] = draw(st.sampled_from(TIME_FORMS))
+    elif op == "order":
+        r["order"], r["repeat"] = draw(st.integers(0, 2**32 - 1)), draw(st.integers(0, 50))
+    elif op == "dangling":
+        r["schema_id"] = draw(st.sampled_from([0, 999]))
+    r["compression"] = draw(st.sampled_from(["zstd", "none"]))
+    r["profile"] = draw(st.sampled_from(["ros2", "ros2", "", "ros1"]))
+    r["call"] = draw(st.sampled_from(["read", "read", "read-recover", "check", "cli-info", "recover"]))
+    return r
+
+
+STAMP_FORMS = ["backwards", "future", "past", "zero", "nanosec-overflow", "same"]
+TEXT_VALUES = ["", "/", "map", "frame with spaces", "é/ü", "../../x", "a" * 300]
+
+
+@st.composite
+def mcap_message(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """Decoded messages with NaN/inf (or huge, or tiny) floats, empty or NaN-filled arrays, changed sizes,
+    zero-size clouds, header stamps in the future, the past or going backwards; re-serialized as CDR, read,
+    checked and replayed through the mapping and the safety pipelines."""
+    _, channels, _ = seeds.parsed["seed_none"]
+    leaf = st.fixed_dictionaries(
+        {
+            "leaf": INDEX,
+            "float": FLOATS,
+            "int": st.one_of(st.sampled_from([0, 1, 2**31 - 1, 2**32 - 1]), st.integers(0, 2**31 - 1)),
+            "array": st.sampled_from(["empty", "nan", "inf", "half", "double"]),
+            "text": st.one_of(st.sampled_from(TEXT_VALUES), ARGV_TEXT),
+        }
+    )
+    return {
+        "channel": draw(st.integers(0, len(channels) - 1)),
+        "first": draw(st.one_of(st.none(), st.integers(1, 3))),
+        "leaves": draw(st.lists(leaf, max_size=4)),
+        "special": draw(st.sampled_from([None, "zero-cloud", *(f"stamp-{f}" for f in STAMP_FORMS)])),
+        "call": draw(
+            st.sampled_from(["read", "check", "cli-info", "replay-mapping", "replay-mapping", "replay-safety"])
+        ),
+    }
+
+
+ODD_VALUES: list[Any] = ["", "abc", "1.5", "/scan", "indoor_room", "~", "null", "0x10", "1e400", [[0, 0], [1]]]
+YAML_SCALARS = st.one_of(
+    st.none(), st.booleans(), st.integers(), FLOATS, st.text(max_size=8), st.sampled_from(ODD_VALUES)
+)
+YAML_VALUES = st.recursive(
+    YAML_SCALARS,
+    lambda inner: st.one_of(st.lists(inner, max_size=3), st.dictionaries(st.text(max_size=6), inner, max_size=3)),
+    max_leaves=6,
+)
+# values that keep a recorded scenario short: numbers of a few seconds at most
+SMALL_VALUES = st.one_of(
+    st.none(), st.booleans(), st.integers(-3, 3), st.floats(-2.0, 2.0), st.sampled_from([*ODD_VALUES, math.nan])
+)
+BAD_YAML = [": :", "[", "{a: ", "- - -", "!!python/object:os.system", "*undefined", "&a", "'", "key: @", "\t"]
+TEXT_OPS = ["drop-line", "indent", "garbage", "truncate", "tabs", "binary", "bom", "anchors", "empty"]
+TREE_OPS = ["value", "value", "delete", "rename", "wrap", "duplicate"]
+RENAMES = ["insert", "drop-char", "upper", "suffix", "number", "empty"]
+
+
+def yaml_mutation(values: Any = YAML_VALUES) -> Any:
+    """Mutated YAML: either its text (syntax, indentation, encoding, anchors) or its tree (keys, types,
+    values drawn from ``values``)."""
+    text_op = st.fixed_dictionaries(
+        {
+            "op": st.sampled_from(TEXT_OPS),
+            "line": INDEX,
+            "at": AT,
+            "bad": st.sampled_from(BAD_YAML),
+            "junk": st.binary(max_size=64).map(bytes.hex),
+            "k": st.integers(1, 4),
+        }
+    )
+    tree_op = st.fixed_dictionaries(
+        {"op": st.sampled_from(TREE_OPS), "path": INDEX, "value": values, "rename": st.sampled_from(RENAMES)}
+    )
+    return st.one_of(
+        st.fixed_dictionaries({"text": text_op}),
+        st.fixed_dictionaries({"tree": st.lists(tree_op, min_size=1, max_size=3)}),
+    )
+
+
+ROSBAG_OPS = ["metadata", "metadata", "missing-storage", "corrupt-storage", "no-metadata", "empty-dir"]
+
+
+@st.composite
+def rosbag2(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """rosbag2 folders with a mutated or missing ``metadata.yaml``, a missing or corrupt storage file."""
+    op = draw(st.sampled_from(ROSBAG_OPS))
+    r: dict[str, Any] = {"bag": draw(st.sampled_from(sorted(seeds.bags))), "op": op}
+    if op == "metadata":
+        r["yaml"] = draw(yaml_mutation())
+    elif op in ("missing-storage", "corrupt-storage"):
+        r["file"] = draw(INDEX)
+        r["form"] = draw(st.sampled_from(["bitflip", "truncate", "page-zero", "header"]))
+        r["flips"] = draw(st.lists(st.tuples(AT, st.integers(0, 7)), min_size=1, max_size=16))
+        r["at"] = draw(st.one_of(st.sampled_from([0, 100, 4096, 8192, 16384]), AT))
+        r["open_file"] = draw(st.booleans())  # open the storage file itself, not the folder
+    r["call"] = draw(st.sampled_from(["read", "read", "read-recover", "check", "cli-info"]))
+    return r
+
+
+OVERRIDE_KEYS = ["", "a", "occupancy.grid.resolution", "pose_source", "lidar_mapper", "goals", "robot_radius"]
+OVERRIDE_VALUES = ["", "0", "-1", "nan", "x", "[1", "{}", "off", "1e400"]
+
+
+@st.composite
+def config(draw: Any, seeds: Seeds, kind: str) -> dict[str, Any]:
+    """A shipped config file of one kind (Nav2 parameters, world, robot, scenario, pipeline, CI suite),
+    mutated, loaded by its own loader (Nav2 files also through ``navlog check-config``)."""
+    src = draw(st.sampled_from([str(p) for p in seeds.configs[kind]]))
+    r: dict[str, Any] = {"config": kind, "file": src, "yaml": draw(yaml_mutation())}
+    if kind == "pipelines":
+        pairs = st.tuples(st.sampled_from(OVERRIDE_KEYS), st.one_of(st.sampled_from(OVERRIDE_VALUES), ARGV_TEXT))
+        r["overrides"] = [f"{k}={v}" for k, v in draw(st.lists(pairs, max_size=2))]
+    r["cli"] = kind == "nav2" and draw(st.integers(0, 9)) in (3, 5, 7)
+    return r
+
+
+CLI_VALUES = ["", "x", "-1", "0", "nan", "inf", "1e400", "/scan", "/scan=/odom", "a=b", "1,2", "1,2,3", "-1,0,0"]
+CLI_PATHS = ["LOG", "MAP", "PGM", "NAV2", "missing.mcap", "missing.yaml", "EMPTY", "DIR", "TEXT"]
+CLI_COMMANDS = ["info", "check", "check-config", "recover", "world-map", "plan", "diff"]
+
+
+def cli_value(paths: bool = True) -> Any:
+    values = st.one_of(st.sampled_from(CLI_VALUES), ARGV_TEXT)
+    return st.one_of(st.sampled_from(CLI_PATHS), values) if paths else values
+
+
+def choice(*options: list[str]) -> Any:
+    """One flag (with its value) out of the given argv fragments."""
+    return st.sampled_from(list(options))
+
+
+def flag(name: str, values: Any) -> Any:
+    return values.map(lambda v: [name, v])
+
+
+CLI_FLAGS: dict[str, Any] = {
+    "info": choice(["--json"], ["--recover"], []),
+    "check": st.one_of(
+        flag("--pipeline", st.sampled_from(["mapping", "planner", "safety", "nope", ""])),
+        flag("--require", cli_value(False)),
+        flag("--frames", st.sampled_from(["map:base_link", "odom:base_footprint", "a:b", ":", "x"])),
+        flag("--rate", st.sampled_from(["/scan=10", "/scan=0", "/scan=-1", "/scan=nan", "/imu/data=x", "=", "/x=1"])),
+        flag("--rate-tolerance", cli_value(False)),
+        flag("--gap-factor", cli_value(False)),
+        flag("--max-gap", cli_value(False)),
+        st.just(["--json"]),
+    ),
+    "check-config": choice(["--notes"], []),
+    "recover": choice(["--force"], []),
+    "world-map": st.one_of(
+        flag("--margin", cli_value(False)),
+        flag("--resolution", st.sampled_from(["0.05", "0", "-1", "nan", "1e-9", "100", "x"])),
+        flag("--z-min", cli_value(False)),
+        flag("--z-max", cli_value(False)),
+        flag("--height", cli_value(False)),
+        st.just(["--force"]),
+    ),
+    "plan": st.one_of(
+        flag("--params", cli_value()),
+        flag("--planner", st.sampled_from(["navfn", "smac2d", "x"])),
+        flag("--potential", st.sampled_from(["wavefront", "exact"])),
+        flag("--set", st.sampled_from(["robot_radius=0.3", "tolerance=-1", "x=1", "=", "inflation_radius=nan"])),
+    ),
+    "diff": st.one_of(
+        flag("--tol", cli_value(False)), flag("--ignore", cli_value(False)), st.just(["--json", "out.json"])
+    ),
+}
+STRAY_FLAGS = ["--nope", "-o", "--json=1", "--"]
+
+
+@st.composite
+def cli(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """Argument vectors of the reading commands (info, check, check-config, recover, world-map, plan, diff)."""
+    command = draw(st.sampled_from(CLI_COMMANDS))
+    argv: list[str] = [command]
+    if command in ("info", "check", "check-config", "recover"):
+        inputs = ["NAV2", "NAV2", "LOG"] if command == "check-config" else ["LOG", "LOG", "NAV2"]
+        argv.append(draw(st.one_of(st.sampled_from(inputs), cli_value())))
+        if command == "recover":
+            argv += ["-o", draw(st.sampled_from(["out.mcap", "LOG", "DIR", "", "CUT"]))]
+    elif command == "world-map":
+        world = draw(st.sampled_from(["indoor_room", "walled_room", "nope", "TEXT", "NAV2"]))
+        argv += [world, "-o", draw(st.sampled_from(["m.yaml", "DIR"]))]
+    elif command == "plan":
+        argv += ["--map", draw(st.sampled_from(["MAP", "MAP", "PGM", "NAV2", "missing.yaml", "EMPTY"]))]
+        argv.append("--start=" + draw(st.sampled_from(["0,0,0", "-1,-1,0", "1,2", "a,b,c", "100,100,0", "nan,0,0"])))
+        argv.append("--goal=" + draw(st.sampled_from(["1.2,-1,1.571", "-1,1,0", "0,0", "2,1.5,0", "inf,0,0"])))
+    else:
+        argv += [
+            draw(st.sampled_from(["LOG", "LOG", "DIR", "EMPTY", "CUT"])),
+            draw(st.sampled_from(["LOG", "CUT", "TEXT"])),
+        ]
+    for extra in draw(st.lists(CLI_FLAGS[command], max_size=3)):
+        argv += extra
+    return {"argv": with_stray_flag(draw, argv)}
+
+
+def with_stray_flag(draw: Any, argv: list[str]) -> list[str]:
+    """Now and then an unknown or half-given flag somewhere: argparse's own exit 2."""
+    if draw(st.integers(0, 9)) == 7:  # (hypothesis favours 0 and the bounds)
+        at = draw(st.integers(1, len(argv)))
+        argv = [*argv[:at], draw(st.sampled_from(STRAY_FLAGS)), *argv[at:]]
+    return argv
+
+
+RECORD_FLAGS = st.one_of(
+    flag("--world", st.sampled_from(["indoor_room", "walled_room", "nope", "TEXT", "EMPTY", "NAV2", ""])),
+    flag("--robot", st.sampled_from(["go2", "kibot", "simple_robot", "nope", "TEXT", "MAP"])),
+    flag("--seed", st.one_of(st.sampled_from(["0", "-1", "x", "1e400", "2", str(2**70)]), ARGV_TEXT)),
+    flag("--pipeline", st.sampled_from(["mapping", "safety", "planner", "nope"])),
+    flag("--params", st.sampled_from(["NAV2", "TEXT", "EMPTY", "PGM", "missing.yaml"])),
+    flag("--set", st.sampled_from(["lidar_mapper=off", "pose_source=odom", "x=1", "=", "occupancy.grid.resolution=0"])),
+    st.just(["--no-noise"]),
+    st.just(["--force"]),
+)
+
+
+@st.composite
+def cli_record(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """Short ``navlog record`` runs (the 0.5 s tiny scenario, or a mutated copy with short numbers) with
+    drawn worlds, robots, seeds, live pipelines and outputs."""
+    scenario = draw(st.sampled_from(["TINY", "TINY", "SCENARIO", "nope", "TEXT", "EMPTY", "DIR"]))
+    out = draw(st.sampled_from(["out.mcap", "out.mcap", "LOG", "DIR", "sub/missing/out.mcap", "EMPTY"]))
+    argv = ["record", "--scenario", scenario, "-o", out]
+    for extra in draw(st.lists(RECORD_FLAGS, max_size=3)):
+        argv += extra
+    r: dict[str, Any] = {"argv": with_stray_flag(draw, argv)}
+    if scenario == "SCENARIO":
+        r["yaml"] = draw(yaml_mutation(SMALL_VALUES))
+    return r
+
+
+REMAPS = ["/scan=/odom", "/scann=/scan", "/tf=/tf_missing", "/cmd_vel_nav=/cmd_vel", "/odom=/odom/ground_truth"]
+REMAPS += ["/livox/lidar=/scan", "/scan=/livox/lidar", "=", "/scan", "/map=/scan", "/goal_pose=/odom"]
+REPLAY_SETS = ["lidar_mapper=off", "pose_source=odom", "pose_source=x", "occupancy.grid.resolution=0.1"]
+REPLAY_SETS += ["occupancy.grid.resolution=0", "occupancy.grid.resolution=nan", "goals=indoor_room_waypoints"]
+REPLAY_SETS += ["map=MAP", "map=PGM", "x=1", "="]
+REPLAY_FLAGS = st.one_of(
+    flag("--set", st.one_of(st.sampled_from(REPLAY_SETS), ARGV_TEXT)),
+    flag("--remap", st.one_of(st.sampled_from(REMAPS), ARGV_TEXT)),
+    flag("--params", st.sampled_from(["NAV2", "TEXT", "EMPTY", "PGM", "MAP", "missing.yaml"])),
+    st.just(["--recover"]),
+    st.just(["--force"]),
+)
+
+
+@st.composite
+def cli_replay(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """Short ``navlog replay`` runs of the seed log (whole or cut), a rosbag2 folder or no log at all,
+    through every pipeline, with drawn remaps, parameter overrides, parameter files and outputs."""
+    log = draw(st.sampled_from(["LOG", "LOG", "LOG", "CUT", "BAG", "DIR", "EMPTY", "missing.mcap", "TEXT", "PGM"]))
+    pipeline = draw(st.sampled_from(["mapping", "mapping", "safety", "planner", "nope", ""]))
+    out = draw(st.sampled_from(["out", "out", "DIR", "LOG", "EMPTY", "sub/out"]))
+    argv = ["replay", log, "--pipeline", pipeline, "-o", out]
+    for extra in draw(st.lists(REPLAY_FLAGS, max_size=3)):
+        argv += extra
+    return {"argv": with_stray_flag(draw, argv)}
+
+
+def kind_strategy(kind: str, seeds: Seeds) -> Any:
+    if kind.startswith("config-"):
+        return config(seeds, kind.removeprefix("config-"))
+    makers: dict[str, Callable[[Seeds], Any]] = {
+        "mcap-bytes": mcap_bytes,
+        "mcap-chunk": mcap_chunk,
+        "mcap-semantic": mcap_semantic,
+        "mcap-message": mcap_message,
+        "rosbag2": rosbag2,
+        "cli": cli,
+        "cli-record": cli_record,
+        "cli-replay": cli_replay,
+    }
+    return makers[kind](seeds)
+
+
+def case_strategy(seeds: Seeds) -> Any:
+    """A recipe of any kind, kinds drawn by their weight in ``KINDS``."""
+    table = [kind for kind, weight in KINDS.items() for _ in range(weight)]
+    by_kind = {kind: kind_strategy(kind, seeds) for kind in KINDS}
+    return st.sampled_from(table).flatmap(lambda kind: by_kind[kind].map(lambda r: {"kind": kind, **r}))
+
+
+BLOCK = 100  # cases per hypothesis run: case I is example I % BLOCK of run I // BLOCK
+
+
+def generate(seed: int, count: int, seeds: Seeds, on_case: Callable[[Case], None], *, start: int = 0) -> int:
+    """Draw cases ``start .. start+count-1`` of ``seed`` with hypothesis and hand each to ``on_case`` as it is
+    drawn; returns the number of cases drawn.
+
+    Hypothesis adapts its search to the number of examples asked for, so the cases come in blocks of
+    ``BLOCK``, each one hypothesis run seeded with ``(seed, block)``: case ``I`` depends only on ``seed`` and
+    ``I`` (and the hypothesis version), not on how many cases a run asks for.
+    """
+    strategy = case_strategy(seeds)
+    drawn = 0
+    for block in range(start // BLOCK, (start + count - 1) // BLOCK + 1 if count > 0 else 0):
+        for position, recipe in enumerate(draw_block(strategy, seed * 1_000_003 + block)):
+            index = block * BLOCK + position
+            if start <= index < start + count:
+                on_case(Case(index, recipe["kind"], recipe))
+                drawn += 1
+    return drawn
+
+
+@contextlib.contextmanager
+def without_local_constants() -> Any:
+    """Hypothesis mixes into its draws constants it finds in the source of the project's modules that the
+    process has imported. The cases must not depend on which navlog modules a process happened to load (a
+    campaign that recorded its seed log, a test run, ``--case``), so generation sees none."""
+    from hypothesis.internal.conjecture import providers
+
+    saved = providers._get_local_constants
+    providers._get_local_constants = providers.Constants
+    providers.CONSTANTS_CACHE.cache.clear()
+    try:
+        yield
+    finally:
+        providers._get_local_constants = saved
+        providers.CONSTANTS_CACHE.cache.clear()
+
+
+def draw_block(strategy: Any, block_seed: int) -> list[dict[str, Any]]:
+    """The examples of one seeded hypothesis run of ``BLOCK`` examples, in the order drawn."""
+    recipes: list[dict[str, Any]] = []
+
+    @settings(
+        max_examples=BLOCK,
+        database=None,
+        deadline=None,
+        derandomize=False,
+        phases=[Phase.generate],
+        suppress_health_check=list(HealthCheck),
+        verbosity=Verbosity.quiet,
+    )
+    @hypothesis_seed(block_seed)
+    @given(strategy)
+    def each(recipe: dict[str, Any]) -> None:
+        recipes.append(recipe)
+
+    with without_local_constants():
+        each()
+    return recipes
+
+
+def case_at(seed: int, index: int, seeds: Seeds) -> Case:
+    found: list[Case] = []
+    generate(seed, 1, seeds, found.append, start=index)
+    if not found:
+        raise SystemExit(f"seed {seed} has fewer than {index + 1} cases")
+    return found[0]
+
+
+# ---------------------------------------------------------------------------------- applying recipes
+
+
+def scaled(at: int, n: int) -> int:
+    """A 32-bit fraction ``at`` of a length ``n``, as an index in ``range(n)`` (0 when ``n`` is 0)."""
+    return (at * n) >> 32
+
+
+def flip_bits(data: bytes, flips: list[Any], lo: int = 0) -> bytes:
+    if len(data) <= lo:
+        return data
     buf = bytearray(data)
-    for _ in range(int(rng.integers(1, 17))):
-        i = int(rng.integers(lo, len(buf)))
-        buf[i] ^= 1 << int(rng.integers(8))
+    for at, bit in flips:
+        buf[lo + scaled(at, len(buf) - lo)] ^= 1 << bit
     return bytes(buf)
 
 
-def mutate_bytes(rng: np.random.Generator, data: bytes, records: list[tuple[int, int, int]]) -> tuple[str, bytes]:
+def mutate_bytes(r: dict[str, Any], data: bytes, records: list[tuple[int, int, int]]) -> tuple[str, bytes]:
     """One structural or random mutation of an MCAP file's bytes."""
-    op = pick(
-        rng,
-        [
-            "bitflip",
-            "bitflip@summary",
-            "truncate@random",
-            "truncate@record",
-            "length",
-            "chunk-field",
-            "duplicate-bytes",
-            "drop-bytes",
-            "duplicate-record",
-            "swap-records",
-            "drop-record",
-            "zero-run",
-        ],
-    )
-    n = len(data)
+    op, n = r["op"], len(data)
     if op == "bitflip":
-        return op, flip_bits(rng, data)
+        return op, flip_bits(data, r["flips"])
     if op == "bitflip@summary":
-        return op, flip_bits(rng, data, lo=int(n * 0.9))
+        return op, flip_bits(data, r["flips"], lo=int(n * 0.9))
     if op == "truncate@random":
-        return op, data[: int(rng.integers(0, n))]
-    if op == "zero-run":
-        i = int(rng.integers(n))
-        k = int(rng.integers(1, 4096))
-        return op, data[:i] + bytes(min(k, n - i)) + data[i + k :]
-    off, code, length = pick(rng, records)
-    if op == "truncate@record":
-        cut = off + pick(rng, [0, 1, 9, 9 + length // 2, 9 + length, 9 + length - 1])
-        return f"truncate@record{code:#04x}", data[: min(cut, n)]
-    if op == "length":
-        value = pick(rng, [0, 1, length - 1, length + 1, length + 8, 2**31, 2**63 - 1, 2**64 - 1])
-        return f"length{code:#04x}", data[: off + 1] + struct.pack("<Q", max(0, value)) + data[off + 9 :]
+        return op, data[: scaled(r["at"], n)]
+    if op in ("zero-run", "duplicate-bytes", "drop-bytes"):
+        i, k = scaled(r["at"], n), r["size"]
+        changed = {
+            "zero-run": data[:i] + bytes(min(k, n - i)) + data[i + k :],
+            "duplicate-bytes": data[:i] + data[i : i + k] + data[i:],
+            "drop-bytes": data[:i] + data[i + k :],
+        }[op]
+        return op, changed
     if op == "chunk-field":
-        chunks = [r for r in records if r[1] == 0x06] or records
-        off, code, length = pick(rng, chunks)
-        # chunk: start u64, end u64, uncompressed size u64, crc u32, compression str, records len u64
-        field_name, at, fmt = pick(rng, [("size", 16, "<Q"), ("crc", 24, "<I"), ("start", 0, "<Q"), ("end", 8, "<Q")])
+        off, code, length = chunks_of(records)[r["chunk"]]
+        at, fmt = CHUNK_FIELDS[r["field"]]
         body = off + 9
-        values = {"<Q": [0, 1, 2**63 - 1, 2**64 - 1], "<I": [0, 1, 0xFFFFFFFF]}[fmt]
-        value = pick(rng, values) if rng.random() < 0.5 else int(rng.integers(0, 2**32))
-        if field_name == "crc" or rng.random() < 0.5:
-            new = struct.pack(fmt, value)
-        else:
-            (old,) = struct.unpack_from(fmt, data, body + at)
-            new = struct.pack(fmt, max(0, old + int(rng.integers(-64, 65))))
-        return f"chunk-{field_name}", data[: body + at] + new + data[body + at + len(new) :]
+        (old,) = struct.unpack_from(fmt, data, body + at)
+        top = 2 ** (8 * struct.calcsize(fmt)) - 1
+        value = old + r["delta"] if r["delta"] is not None else r["value"]
+        new = struct.pack(fmt, min(max(0, value), top))
+        return f"chunk-{r['field']}", data[: body + at] + new + data[body + at + len(new) :]
+    off, code, length = records[r["record"]]
     end = off + 9 + length
-    if op == "duplicate-bytes":
-        i, k = int(rng.integers(n)), int(rng.integers(1, 512))
-        return op, data[:i] + data[i : i + k] + data[i:]
-    if op == "drop-bytes":
-        i, k = int(rng.integers(n)), int(rng.integers(1, 512))
-        return op, data[:i] + data[i + k :]
+    if op == "truncate@record":
+        cut = {
+            "start": 0,
+            "opcode": 1,
+            "length": 9,
+            "half": 9 + length // 2,
+            "end-1": 9 + length - 1,
+            "end": 9 + length,
+        }
+        return f"truncate@record{code:#04x}", data[: min(off + cut[r["cut"]], n)]
+    if op == "length":
+        value = r["value"]
+        if isinstance(value, str):
+            value = length + int(value)
+        return f"length{code:#04x}", data[: off + 1] + struct.pack("<Q", min(max(0, value), 2**64 - 1)) + data[
+            off + 9 :
+        ]
     if op == "duplicate-record":
         return f"{op}{code:#04x}", data[:end] + data[off:end] + data[end:]
     if op == "drop-record":
         return f"{op}{code:#04x}", data[:off] + data[end:]
-    off2, _, length2 = pick(rng, records)
+    off2, _, length2 = records[r["other"]]
     a, b = sorted([(off, end), (off2, off2 + 9 + length2)])
     if a[1] > b[0]:
         return "swap-records(same)", data
     return "swap-records", data[: a[0]] + data[b[0] : b[1]] + data[a[1] : b[0]] + data[a[0] : a[1]] + data[b[1] :]
 
 
-SCHEMA_TOKENS = ["float64", "float32", "uint8[]", "string", "int32", "builtin_interfaces/Time", "std_msgs/Header"]
+def record_bytes(opcode: int, body: bytes) -> bytes:
+    return bytes([opcode]) + struct.pack("<Q", len(body)) + body
 
 
-def mutate_schema_text(rng: np.random.Generator, text: str) -> str:
+def mutate_chunk(r: dict[str, Any], data: bytes, records: list[tuple[int, int, int]]) -> tuple[str, bytes]:
+    """Reorder, duplicate or drop the records inside one chunk, recompress it and splice it back."""
+    import lz4.frame
+    import zstandard
+
+    off, _, length = chunks_of(records)[r["chunk"]]
+    body = data[off + 9 : off + 9 + length]
+    start, end, _, crc = struct.unpack_from("<QQQI", body, 0)
+    (clen,) = struct.unpack_from("<I", body, 28)
+    compression = body[32 : 32 + clen].decode()
+    (rlen,) = struct.unpack_from("<Q", body, 32 + clen)
+    packed = body[40 + clen : 40 + clen + rlen]
+    if compression == "zstd":
+        plain = zstandard.ZstdDecompressor().decompressobj().decompress(packed)
+    elif compression == "lz4":
+        plain = lz4.frame.decompress(packed)
+    else:
+        plain = packed
+    inner = [plain[o : o + 9 + n] for o, _, n in split_records(plain, 0)]
+    op = r["op"]
+    if inner:
+        i, j = r["i"] % len(inner), r["j"] % len(inner)
+        if op == "swap":
+            inner[i], inner[j] = inner[j], inner[i]
+        elif op == "reverse":
+            inner.reverse()
+        elif op == "shuffle":
+            random.Random(r["order"]).shuffle(inner)
+        elif op == "duplicate":
+            inner.insert(j, inner[i])
+        elif op == "drop":
+            del inner[i]
+        elif op == "first":
+            inner.insert(0, inner.pop(i))
+        else:
+            inner.append(inner.pop(i))
+    plain = b"".join(inner)
+    if compression == "zstd":
+        packed = zstandard.ZstdCompressor().compress(plain)
+    elif compression == "lz4":
+        packed = lz4.frame.compress(plain)
+    else:
+        packed = plain
+    crc = {"fixed": zlib.crc32(plain), "stale": crc, "zero": 0}[r["crc"]]
+    new_body = struct.pack("<QQQI", start, end, len(plain), crc) + body[28 : 32 + clen]
+    chunk = record_bytes(0x06, new_body + struct.pack("<Q", len(packed)) + packed)
+    mutated = data[:off] + chunk + data[off + 9 + length :]
+    if r["summary"] == "none":  # cut at the data end: a file without summary, which readers must stream
+        shift = len(chunk) - (9 + length)
+        data_end = [o for o, code, _ in records if code == 0x0F]
+        stop = data_end[0] + shift if data_end else len(mutated) - 8
+        footer = record_bytes(0x02, struct.pack("<QQI", 0, 0, 0))
+        mutated = mutated[:stop] + record_bytes(0x0F, struct.pack("<I", 0)) + footer + MCAP_MAGIC
+    return f"chunk-{op}-crc-{r['crc']}-summary-{r['summary']}", mutated
+
+
+def mutate_schema_text(r: dict[str, Any], text: str) -> str:
     lines = text.splitlines()
-    op = pick(rng, ["drop-line", "swap-type", "garbage", "empty", "duplicate-line", "bad-separator"])
-    if op == "empty" or not lines:
+    form = r["form"]
+    if form == "empty" or not lines:
         return ""
-    i = int(rng.integers(len(lines)))
-    if op == "drop-line":
+    i = r["line"] % len(lines)
+    if form == "drop-line":
         del lines[i]
-    elif op == "swap-type":
+    elif form == "swap-type":
         words = lines[i].split(" ", 1)
-        lines[i] = pick(rng, SCHEMA_TOKENS) + (" " + words[1] if len(words) > 1 else "")
-    elif op == "garbage":
-        lines[i] = pick(rng, ["%%%", "uint8[ data", "foo/Bar x", "int32 = 3", "string<=", "\x00\xff", "a b c d"])
-    elif op == "duplicate-line":
+        lines[i] = r["token"] + (" " + words[1] if len(words) > 1 else "")
+    elif form == "garbage":
+        lines[i] = r["token"]
+    elif form == "duplicate-line":
         lines.insert(i, lines[i])
     else:
-        lines.insert(i, pick(rng, ["=" * 80, "MSG: ", "MSG: nonexistent/msg/Type", "=" * 80 + "\nMSG: a/b"]))
+        lines.insert(i, r["token"])
     return "\n".join(lines)
 
 
-def inject_floats(rng: np.random.Generator, data: bytes) -> bytes:
-    """Write NaN, +-inf or huge values at aligned offsets of a CDR payload (where floats live)."""
+def inject_floats(data: bytes, floats: list[Any]) -> bytes:
+    """Write NaN, +-inf or other floats at aligned offsets of a CDR payload (where floats live)."""
     buf = bytearray(data)
-    for _ in range(int(rng.integers(1, 9))):
-        value = pick(rng, [math.nan, math.inf, -math.inf, 1e308, -0.0, 3.4e38])
-        if rng.random() < 0.5 and len(buf) >= 12:
-            i = 4 + 8 * int(rng.integers((len(buf) - 4) // 8))
-            struct.pack_into("<d", buf, i, value)
-        elif len(buf) >= 8:
-            i = 4 + 4 * int(rng.integers((len(buf) - 4) // 4))
-            struct.pack_into("<f", buf, i, value if abs(value) < 3.5e38 or not math.isfinite(value) else math.inf)
+    for width, at, value in floats:
+        slots = (len(buf) - 4) // width
+        if slots <= 0:
+            continue
+        i = 4 + width * scaled(at, slots)
+        if width == 4 and math.isfinite(value) and abs(value) > 3.4e38:
+            value = math.copysign(math.inf, value)
+        struct.pack_into("<d" if width == 8 else "<f", buf, i, value)
     return bytes(buf)
 
 
-def rewrite_log(rng: np.random.Generator, parsed: tuple[list[Any], list[Any], list[Any]]) -> tuple[str, bytes]:
-    """Re-encode the small log with a semantic mutation: schemas, encodings, CDR payloads, times, order."""
+def mutate_cdr(r: dict[str, Any], data: bytes) -> bytes:
+    form = r["form"]
+    extra = bytes.fromhex(r["bytes"])
+    if form == "truncate":
+        return data[: scaled(r["at"], len(data))]
+    if form == "extend":
+        return data + extra
+    if form == "random":
+        return (extra * (len(data) // len(extra) + 1))[: len(data)]
+    if form == "empty":
+        return b""
+    if form == "header":
+        return bytes([0, extra[0], 0, 0]) + data[4:]
+    return flip_bits(data, r["flips"])
+
+
+def write_log(
+    schemas: list[tuple[int, str, str, bytes]],
+    channels: list[tuple[int, str, str, int, dict[str, str]]],
+    messages: list[tuple[int, int, int, bytes]],
+    *,
+    compression: str = "zstd",
+    profile: str = "ros2",
+) -> bytes:
+    """A new MCAP file: schemas (id, name, encoding, text), channels (id, topic, encoding, schema id,
+    metadata) and messages (channel id, log time, publish time, data), in the order given."""
     from mcap.writer import CompressionType, Writer
 
+    out = io.BytesIO()
+    comp = CompressionType.ZSTD if compression == "zstd" else CompressionType.NONE
+    writer = Writer(out, compression=comp, chunk_size=16 << 10)
+    writer.start(profile=profile, library="fuzz")
+    schema_ids = {sid: writer.register_schema(name, enc, text) for sid, name, enc, text in schemas}
+    channel_ids = {
+        cid: writer.register_channel(topic, enc, schema_ids.get(sid, sid), meta)
+        for cid, topic, enc, sid, meta in channels
+    }
+    for seq, (cid, t, p, data) in enumerate(messages):
+        writer.add_message(channel_ids[cid], min(t, 2**64 - 1), data, min(p, 2**64 - 1), seq % 2**32)
+    writer.finish()
+    return out.getvalue()
+
+
+def parts_of(parsed: Any) -> tuple[list[Any], list[Any], list[Any]]:
     schemas, channels, messages = parsed
-    op = pick(
-        rng,
-        ["schema-text", "schema-name", "encoding", "cdr", "nan-inf", "times", "order", "no-messages", "dangling"],
+    return (
+        [[s.id, s.name, s.encoding, s.data] for s in schemas],
+        [[c.id, c.topic, c.message_encoding, c.schema_id, dict(c.metadata)] for c in channels],
+        [[m.channel_id, m.log_time, m.publish_time, m.data] for m in messages],
     )
-    target = pick(rng, channels)
-    schema_data = {s.id: s.data for s in schemas}
-    schema_name = {s.id: s.name for s in schemas}
-    schema_enc = {s.id: s.encoding for s in schemas}
-    chan_enc = {c.id: c.message_encoding for c in channels}
-    chan_schema = {c.id: c.schema_id for c in channels}
-    msgs = [(m.channel_id, m.log_time, m.publish_time, m.data) for m in messages]
-    if op == "schema-text":
-        sid = target.schema_id
-        schema_data[sid] = mutate_schema_text(rng, schema_data[sid].decode("utf-8", "replace")).encode()
-    elif op == "schema-name":
-        name = pick(rng, ["", "foo", "a/b", "sensor_msgs/msg/Imu", "nav_msgs/msg/Nope", "x/msg/Y/Z", "sensor_msgs/Imu"])
-        schema_name[target.schema_id] = name
+
+
+def picked(r: dict[str, Any], msgs: list[Any], cid: int) -> list[int]:
+    """Indexes of the messages of channel ``cid`` the recipe changes (its first few, or all)."""
+    on = [i for i, m in enumerate(msgs) if m[0] == cid]
+    return on if r["first"] is None else on[: r["first"]]
+
+
+def rewrite_log(r: dict[str, Any], parsed: Any) -> tuple[str, bytes]:
+    """Re-encode the small log with a semantic mutation: schemas, encodings, CDR payloads, times, order."""
+    schemas, channels, msgs = parts_of(parsed)
+    op = r["op"]
+    target = channels[r["channel"]]
+    schema = next((s for s in schemas if s[0] == target[3]), None)
+    if op == "schema-text" and schema is not None:
+        schema[3] = mutate_schema_text(r, schema[3].decode("utf-8", "replace")).encode()
+        op = f"schema-text-{r['form']}"
+    elif op == "schema-name" and schema is not None:
+        schema[1] = r["name"]
     elif op == "encoding":
-        if rng.random() < 0.5:
-            chan_enc[target.id] = pick(rng, ["json", "ros1", "", "protobuf"])
-        else:
-            schema_enc[target.schema_id] = pick(rng, ["jsonschema", "ros2idl", "", "ros1msg"])
-    elif op in ("cdr", "nan-inf"):
-        picked = [i for i, m in enumerate(msgs) if m[0] == target.id]
-        for i in picked[: int(rng.integers(1, 4))] if rng.random() < 0.5 else picked:
-            cid, t, p, data = msgs[i]
-            if op == "nan-inf":
-                data = inject_floats(rng, data)
-            else:
-                form = pick(rng, ["truncate", "extend", "random", "empty", "header", "flip"])
-                data = {
-                    "truncate": lambda d: d[: int(rng.integers(0, max(1, len(d))))],
-                    "extend": lambda d: d + rng.bytes(int(rng.integers(1, 64))),
-                    "random": lambda d: rng.bytes(len(d)),
-                    "empty": lambda d: b"",
-                    "header": lambda d: bytes([0, int(rng.integers(256)), 0, 0]) + d[4:],
-                    "flip": lambda d: flip_bits(rng, d) if d else d,
-                }[form](data)
-                op = f"cdr-{form}"
-            msgs[i] = (cid, t, p, data)
+        if r["on"] == "channel":
+            target[2] = r["value"]
+        elif schema is not None:
+            schema[2] = r["value"]
+    elif op == "cdr":
+        for i in picked(r, msgs, target[0]):
+            msgs[i][3] = mutate_cdr(r, msgs[i][3])
+        op = f"cdr-{r['form']}"
+    elif op == "nan-inf":
+        for i in picked(r, msgs, target[0]):
+            msgs[i][3] = inject_floats(msgs[i][3], r["floats"])
     elif op == "times":
-        form = pick(rng, ["backwards", "zero", "max", "future", "duplicate", "jump"])
-        op = f"times-{form}"
-        for i, (cid, t, p, data) in enumerate(msgs):
-            t = {
-                "backwards": msgs[-1 - i][1],
+        form = r["form"]
+        times = [m[1] for m in msgs]
+        for i, m in enumerate(msgs):
+            m[1] = {
+                "backwards": times[-1 - i],
                 "zero": 0,
-                "max": 2**64 - 1 if i % 7 == 0 else t,
-                "future": t + 10**18,
-                "duplicate": msgs[0][1],
-                "jump": t + (10**15 if i > len(msgs) // 2 else 0),
+                "max": 2**64 - 1 if i % 7 == 0 else m[1],
+                "future": m[1] + 10**18,
+                "duplicate": times[0],
+                "jump": m[1] + (10**15 if i > len(msgs) // 2 else 0),
             }[form]
-            msgs[i] = (cid, t, p, data)
+        op = f"times-{form}"
     elif op == "order":
-        rng.shuffle(msgs)
-        msgs = msgs + msgs[: int(rng.integers(0, 50))]
+        random.Random(r["order"]).shuffle(msgs)
+        msgs = msgs + msgs[: r["repeat"]]
     elif op == "no-messages":
         msgs = []
-    else:  # a channel whose schema does not exist
-        chan_schema[target.id] = pick(rng, [0, 999])
-    out = io.BytesIO()
-    writer = Writer(out, compression=pick(rng, [CompressionType.ZSTD, CompressionType.NONE]), chunk_size=16 << 10)
-    writer.start(profile=pick(rng, ["ros2", "ros2", "", "ros1"]), library="fuzz")
-    for s in schemas:
-        writer.register_schema(schema_name[s.id], schema_enc[s.id], schema_data[s.id])
-    for c in channels:
-        writer.register_channel(c.topic, chan_enc[c.id], chan_schema[c.id], dict(c.metadata))
-    for seq, (cid, t, p, data) in enumerate(msgs):
-        writer.add_message(cid, t, data, p, seq)
-    writer.finish()
-    return op, out.getvalue()
+    elif op == "dangling":  # a channel whose schema does not exist
+        target[3] = r["schema_id"]
+    data = write_log(
+        [tuple(s) for s in schemas],  # type: ignore[misc]
+        [tuple(c) for c in channels],  # type: ignore[misc]
+        [tuple(m) for m in msgs],  # type: ignore[misc]
+        compression=r["compression"],
+        profile=r["profile"],
+    )
+    return op, data
 
 
-# ------------------------------------------------------------------------------ YAML mutations
+def leaves(obj: Any) -> list[tuple[Any, str, str]]:
+    """(holder, attribute, kind) of every field of a decoded message, depth first in declaration order;
+    kind is float, int, array, list or text. Sequences of messages are entered through their first item."""
+    out: list[tuple[Any, str, str]] = []
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if dataclasses.is_dataclass(value):
+            out += leaves(value)
+        elif isinstance(value, np.ndarray):
+            out.append((obj, f.name, "array"))
+        elif isinstance(value, list):
+            out.append((obj, f.name, "list"))
+            if value and dataclasses.is_dataclass(value[0]):
+                out += leaves(value[0])
+        elif isinstance(value, bool):
+            continue
+        elif isinstance(value, float):
+            out.append((obj, f.name, "float"))
+        elif isinstance(value, int):
+            out.append((obj, f.name, "int"))
+        elif isinstance(value, str):
+            out.append((obj, f.name, "text"))
+    return out
 
-ODD_VALUES: list[Any] = [
-    None,
-    "",
-    "abc",
-    -1,
-    0,
-    1e308,
-    -1e308,
-    float("nan"),
-    float("inf"),
-    True,
-    [],
-    {},
-    [1, 2],
-    {"a": 1},
-    "1.5",
-    2**70,
-    [[0, 0], [1]],
-    "/scan",
-]
+
+def set_leaf(holder: Any, name: str, kind: str, m: dict[str, Any]) -> None:
+    value = getattr(holder, name)
+    if kind == "float":
+        setattr(holder, name, float(m["float"]))
+    elif kind == "int":
+        setattr(holder, name, int(m["int"]))
+    elif kind == "text":
+        setattr(holder, name, m["text"])
+    elif kind == "list":
+        setattr(holder, name, [] if m["array"] in ("empty", "half") else value * 2)
+    elif m["array"] == "empty":
+        setattr(holder, name, value[:0])
+    elif m["array"] == "half":
+        setattr(holder, name, value[: len(value) // 2])
+    elif m["array"] == "double":
+        setattr(holder, name, np.concatenate([value, value]))
+    elif value.dtype.kind == "f":
+        setattr(holder, name, np.full_like(value, math.nan if m["array"] == "nan" else math.inf))
+    else:
+        setattr(holder, name, value[:0])
+
+
+def set_leaf_checked(store: Any, msg: Any, typename: str, holder: Any, name: str, kind: str, m: dict[str, Any]) -> None:
+    """``set_leaf``, or where the field's type cannot hold the new value (a fixed-size array resized, a
+    number too large for its bytes) the nearest value it can: the array filled with NaN, the number cut."""
+    before = getattr(holder, name)
+    set_leaf(holder, name, kind, m)
+    try:
+        store.serialize_cdr(msg, typename)
+        return
+    except Exception:
+        setattr(holder, name, before)
+    if kind == "int":
+        setattr(holder, name, int(m["int"]) & 0x7F)
+    elif kind == "array" and before.dtype.kind == "f":
+        setattr(holder, name, np.full_like(before, math.nan))
+
+
+def set_stamp(msg: Any, form: str, i: int, n: int) -> None:
+    header = getattr(msg, "header", None)
+    stamp = getattr(header, "stamp", None)
+    if stamp is None:
+        return
+    if form == "backwards":
+        stamp.sec = max(0, stamp.sec - 2 * i)
+    elif form == "future":
+        stamp.sec = 2**31 - 1
+    elif form == "past":
+        stamp.sec, stamp.nanosec = 0, 1
+    elif form == "zero":
+        stamp.sec, stamp.nanosec = 0, 0
+    elif form == "nanosec-overflow":
+        stamp.nanosec = 2**32 - 1
+    else:
+        stamp.sec, stamp.nanosec = 100, 0
+
+
+def mutate_messages(r: dict[str, Any], parsed: Any) -> tuple[str, bytes]:
+    """Decode the chosen channel's messages, change their fields, encode them again (CDR of the schema)."""
+    from navlog.replay.messages import typestore
+
+    store = typestore()
+    schemas, channels, msgs = parts_of(parsed)
+    target = channels[r["channel"]]
+    typename = next(s[1] for s in schemas if s[0] == target[3])
+    chosen = picked(r, msgs, target[0])
+    for n, i in enumerate(chosen):
+        msg = store.deserialize_cdr(msgs[i][3], typename)
+        if r["special"] == "zero-cloud" and hasattr(msg, "point_step"):
+            msg.width, msg.row_step, msg.data = 0, 0, msg.data[:0]
+        elif r["special"] and r["special"].startswith("stamp-"):
+            set_stamp(msg, r["special"].removeprefix("stamp-"), n, len(chosen))
+        found = leaves(msg)
+        for m in r["leaves"]:
+            if found:
+                set_leaf_checked(store, msg, typename, *found[m["leaf"] % len(found)], m)
+        msgs[i][3] = bytes(store.serialize_cdr(msg, typename))
+    kinds = sorted({found_kind(msgs, chosen, store, typename, m) for m in r["leaves"]}) if chosen else []
+    data = write_log(
+        [tuple(s) for s in schemas],  # type: ignore[misc]
+        [tuple(c) for c in channels],  # type: ignore[misc]
+        [tuple(m) for m in msgs],  # type: ignore[misc]
+    )
+    return f"{target[1]}:{r['special'] or 'fields'}:{'+'.join(kinds)}", data
+
+
+def found_kind(msgs: list[Any], chosen: list[int], store: Any, typename: str, m: dict[str, Any]) -> str:
+    found = leaves(store.deserialize_cdr(msgs[chosen[0]][3], typename))
+    return found[m["leaf"] % len(found)][2] if found else "none"
 
 
 def tree_paths(node: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
@@ -431,239 +1123,177 @@ def tree_paths(node: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]
     return out
 
 
-def mutate_tree(rng: np.random.Generator, tree: Any) -> tuple[str, Any]:
+def mutate_tree(m: dict[str, Any], tree: Any) -> tuple[str, Any]:
     paths = [p for p in tree_paths(tree) if p]
     if not paths:
-        return "replace-root", pick(rng, ODD_VALUES)
-    path = pick(rng, paths)
+        return "replace-root", m["value"]
+    path = paths[m["path"] % len(paths)]
     parent = tree
     for k in path[:-1]:
         parent = parent[k]
     key = path[-1]
-    op = pick(rng, ["value", "value", "delete", "rename", "wrap", "duplicate-into-list"])
+    op = m["op"]
     if op == "value":
-        parent[key] = pick(rng, ODD_VALUES)
+        parent[key] = m["value"]
     elif op == "delete":
         del parent[key]
     elif op == "rename" and isinstance(parent, dict):
         s = str(key)
-        i = int(rng.integers(len(s) + 1))
-        new = pick(rng, [s[:i] + "x" + s[i:], s[:i] + s[i + 1 :], s.upper(), s + "_", 7, ""])
+        i = len(s) // 2
+        new = {
+            "insert": s[:i] + "x" + s[i:],
+            "drop-char": s[:i] + s[i + 1 :],
+            "upper": s.upper(),
+            "suffix": s + "_",
+            "number": 7,
+            "empty": "",
+        }[m["rename"]]
         parent[new] = parent.pop(key)
     elif op == "wrap":
-        parent[key] = [parent[key]] if rng.random() < 0.5 else {"value": parent[key]}
+        parent[key] = [parent[key]] if m["path"] % 2 else {"value": parent[key]}
     else:
         parent[key] = [parent[key], parent[key]] if not isinstance(parent[key], list) else parent[key][:1] * 3
     return f"tree-{op}", tree
 
 
-def mutate_text(rng: np.random.Generator, text: str) -> tuple[str, bytes]:
+def mutate_text(m: dict[str, Any], text: str) -> tuple[str, bytes]:
     lines = text.splitlines()
-    op = pick(rng, ["drop-line", "indent", "garbage", "truncate", "tabs", "binary", "bom", "anchors", "empty"])
-    i = int(rng.integers(max(1, len(lines))))
+    op = m["op"]
+    i = m["line"] % max(1, len(lines))
     if op == "drop-line" and lines:
         del lines[i]
     elif op == "indent" and lines:
-        lines[i] = " " * int(rng.integers(1, 5)) + lines[i]
+        lines[i] = " " * m["k"] + lines[i]
     elif op == "garbage" and lines:
-        bad = pick(rng, [": :", "[", "{a: ", "- - -", "!!python/object:os.system", "*undefined", "&a", "'", "key: @"])
-        j = int(rng.integers(len(lines[i]) + 1))
-        lines[i] = lines[i][:j] + bad + lines[i][j:]
+        j = scaled(m["at"], len(lines[i]) + 1)
+        lines[i] = lines[i][:j] + m["bad"] + lines[i][j:]
     elif op == "truncate":
-        return op, text.encode()[: int(rng.integers(len(text) + 1))]
+        return op, text.encode()[: scaled(m["at"], len(text) + 1)]
     elif op == "tabs":
-        return op, text.replace("  ", "\t", int(rng.integers(1, 4))).encode()
+        return op, text.replace("  ", "\t", m["k"]).encode()
     elif op == "binary":
-        return op, bytes(rng.integers(0, 256, 64, dtype=np.uint8)) + text.encode()
+        return op, bytes.fromhex(m["junk"]) + text.encode()
     elif op == "bom":
         return op, b"\xef\xbb\xbf" + text.encode("utf-16")[: len(text)]
     elif op == "anchors":
         return op, b"a: &a [*a]\nb: &b {x: *b}\n" + text.encode()
     elif op == "empty":
-        return op, pick(rng, [b"", b"---\n", b"~\n", b"[]\n", b"42\n", b"- a\n- b\n"])
+        return op, [b"", b"---\n", b"~\n", b"[]\n", b"42\n", b"- a\n- b\n"][m["k"] % 6]
     return f"text-{op}", "\n".join(lines).encode()
 
 
-def mutate_yaml(rng: np.random.Generator, text: str) -> tuple[str, bytes]:
-    if rng.random() < 0.35:
-        return mutate_text(rng, text)
+def mutate_yaml(r: dict[str, Any], text: str) -> tuple[str, bytes]:
+    if "text" in r:
+        return mutate_text(r["text"], text)
     tree = yaml.safe_load(text)
     ops = []
-    for _ in range(int(rng.integers(1, 4))):
-        op, tree = mutate_tree(rng, tree)
+    for m in r["tree"]:
+        op, tree = mutate_tree(m, tree)
         ops.append(op)
     return "+".join(ops), yaml.safe_dump(tree, sort_keys=False, allow_unicode=True).encode()
 
 
-# ----------------------------------------------------------------------------------- generators
+CONFIG_CALLS = {
+    "worlds": "world",
+    "robots": "robot",
+    "scenarios": "scenario",
+    "pipelines": "pipeline",
+    "nav2": "nav2",
+    "suites": "suite",
+}
 
 
-def gen_mcap(rng: np.random.Generator, seeds: Seeds, index: int) -> Case:
-    call = pick(rng, ["read", "read", "read-recover", "check", "cli-info", "recover"])
-    if rng.random() < 0.55:
-        name = pick(rng, sorted(seeds.logs))
-        mutation, data = mutate_bytes(rng, seeds.logs[name], seeds.records[name])
-        kind = "mcap-bytes"
-    else:
-        name = "seed_none"
-        mutation, data = rewrite_log(rng, seeds.parsed[name])
-        kind = "mcap-semantic"
-    return Case(index, kind, f"{name}:{mutation}", call, {"log": "log.mcap"}, {"log.mcap": data})
-
-
-def gen_rosbag(rng: np.random.Generator, seeds: Seeds, index: int) -> Case:
-    name = pick(rng, sorted(seeds.bags))
-    src = seeds.bags[name]
+def build_rosbag(r: dict[str, Any], seeds: Seeds) -> Built:
+    src = seeds.bags[r["bag"]]
     storage = sorted(p.name for p in src.iterdir() if p.suffix in (".db3", ".mcap"))
     files: dict[str, bytes] = {}
     links = {f"bag/{p.name}": str(p) for p in src.iterdir()}
-    op = pick(rng, ["metadata", "metadata", "missing-storage", "corrupt-storage", "no-metadata", "empty-dir"])
-    target = "bag"
+    op, target = r["op"], "bag"
     if op == "metadata":
-        op, files["bag/metadata.yaml"] = mutate_yaml(rng, (src / "metadata.yaml").read_text())
-        op = f"metadata-{op}"
-    elif op == "missing-storage":
-        del links[f"bag/{pick(rng, storage)}"]
-    elif op == "corrupt-storage":
-        victim = pick(rng, storage)
+        mutation, files["bag/metadata.yaml"] = mutate_yaml(r["yaml"], (src / "metadata.yaml").read_text())
+        op = f"metadata-{mutation}"
+    elif op in ("missing-storage", "corrupt-storage"):
+        victim = storage[r["file"] % len(storage)]
         del links[f"bag/{victim}"]
-        data = (src / victim).read_bytes()
-        form = pick(rng, ["bitflip", "truncate", "page-zero", "header"])
-        if form == "bitflip":
-            data = flip_bits(rng, data)
-        elif form == "truncate":
-            data = data[: pick(rng, [0, 100, 4096 * int(rng.integers(1, 8)), int(rng.integers(len(data)))])]
-        elif form == "page-zero":
-            page = 4096 * int(rng.integers(len(data) // 4096))
-            data = data[:page] + bytes(4096) + data[page + 4096 :]
-        else:
-            data = flip_bits(rng, data[:100]) + data[100:]
-        files[f"bag/{victim}"] = data
-        op = f"corrupt-storage-{form}"
-        if rng.random() < 0.3:
-            target = f"bag/{victim}"
+        if op == "corrupt-storage":
+            data = (src / victim).read_bytes()
+            form = r["form"]
+            if form == "bitflip":
+                data = flip_bits(data, r["flips"])
+            elif form == "truncate":
+                data = data[: r["at"] if r["at"] <= 16384 else scaled(r["at"], len(data))]
+            elif form == "page-zero":
+                page = 4096 * scaled(r["at"], max(1, len(data) // 4096))
+                data = data[:page] + bytes(4096) + data[page + 4096 :]
+            else:
+                data = flip_bits(data[:100], r["flips"]) + data[100:]
+            files[f"bag/{victim}"] = data
+            op = f"corrupt-storage-{form}"
+            if r["open_file"]:
+                target = f"bag/{victim}"
     elif op == "no-metadata":
         del links["bag/metadata.yaml"]
     else:
         links = {}
         files["bag/.keep"] = b""
-    call = pick(rng, ["read", "read", "read-recover", "check", "cli-info"])
-    return Case(index, "rosbag2", f"{name}:{op}", call, {"log": target}, files, links)
+    return Built(f"{r['bag']}:{op}", r["call"], {"log": target}, files, links)
 
 
-CONFIG_CALLS = {"worlds": "world", "robots": "robot", "scenarios": "scenario", "pipelines": "pipeline", "nav2": "nav2"}
+def build_config(r: dict[str, Any], seeds: Seeds) -> Built:
+    src = Path(r["file"])
+    mutation, data = mutate_yaml(r["yaml"], src.read_text())
+    args: dict[str, Any] = {"path": src.name, "name": src.stem, "overrides": r.get("overrides", [])}
+    links = {}
+    if r["config"] == "suites":  # the files a suite names beside it (parameter files)
+        links = {p.name: str(p) for p in src.parent.glob("*.yaml") if p != src}
+    call = "cli-check-config" if r["cli"] else CONFIG_CALLS[r["config"]]
+    return Built(f"{src.name}:{mutation}", call, args, {src.name: data}, links)
 
 
-def gen_config(rng: np.random.Generator, seeds: Seeds, index: int) -> Case:
-    kind = pick(rng, ["worlds", "robots", "scenarios", "pipelines", "nav2", "nav2"])
-    src = pick(rng, seeds.configs[kind])
-    mutation, data = mutate_yaml(rng, src.read_text())
-    args: dict[str, Any] = {"path": f"{src.stem}.yaml", "name": src.stem}
-    if kind == "pipelines" and rng.random() < 0.5:
-        args["overrides"] = [
-            f"{pick(rng, ['', 'a', 'occupancy.grid.resolution', 'pose_source'])}={pick(rng, ['', '0', '-1', 'nan', 'x', '[1', '{}'])}"
-        ]
-    call = CONFIG_CALLS[kind]
-    if kind == "nav2" and rng.random() < 0.3:
-        call = "cli-check-config"
-    return Case(index, f"config-{kind}", f"{src.name}:{mutation}", call, args, {f"{src.stem}.yaml": data})
+def build_cli(r: dict[str, Any], seeds: Seeds, kind: str) -> Built:
+    files = {"EMPTY": b"", "TEXT": b"not: [yaml\n", "DIR/.keep": b"", "TINY.yaml": TINY_SCENARIO.encode()}
+    seed_log = seeds.folder / "seed_zstd.mcap"
+    links = {"LOG.mcap": str(seed_log)}  # a copy: `recover -o LOG` may replace it
+    files["CUT.mcap"] = seeds.logs["seed_zstd"][: len(seeds.logs["seed_zstd"]) * 3 // 5]
+    if "BAG" in r["argv"]:
+        links |= {f"BAG/{p.name}": str(p) for p in seeds.bags["rosbag2_talker_mcap"].iterdir()}
+    mutation = r["argv"][0]
+    if "yaml" in r:
+        change, files["SCENARIO.yaml"] = mutate_yaml(r["yaml"], TINY_SCENARIO)
+        mutation += f":scenario-{change}"
+    return Built(mutation, "cli", {"argv": r["argv"]}, files, links)
 
 
-CLI_VALUES = ["", "x", "-1", "0", "nan", "inf", "1e400", "/scan", "/scan=/odom", "a=b", "1,2", "1,2,3", "-1,0,0"]
-CLI_PATHS = ["LOG", "MAP", "PGM", "NAV2", "missing.mcap", "missing.yaml", "EMPTY", "DIR", "TEXT"]
-
-
-def gen_cli(rng: np.random.Generator, seeds: Seeds, index: int) -> Case:
-    def value(paths: bool = True) -> str:
-        return pick(rng, CLI_PATHS) if paths and rng.random() < 0.6 else pick(rng, CLI_VALUES)
-
-    command = pick(rng, ["info", "check", "check-config", "recover", "world-map", "plan", "diff"])
-    argv: list[str] = [command]
-    flags: dict[str, Callable[[], list[str]]] = {
-        "info": lambda: pick(rng, [["--json"], ["--recover"], []]),
-        "check": lambda: pick(
-            rng,
-            [
-                ["--pipeline", pick(rng, ["mapping", "planner", "safety", "nope", ""])],
-                ["--require", value(False)],
-                ["--frames", pick(rng, ["map:base_link", "odom:base_footprint", "a:b", ":", "x"])],
-                ["--rate", pick(rng, ["/scan=10", "/scan=0", "/scan=-1", "/scan=nan", "/imu/data=x", "=", "/x=1"])],
-                ["--rate-tolerance", value(False)],
-                ["--gap-factor", value(False)],
-                ["--max-gap", value(False)],
-                ["--json"],
-            ],
-        ),
-        "check-config": lambda: pick(rng, [["--notes"], []]),
-        "recover": lambda: pick(rng, [["--force"], []]),
-        "world-map": lambda: pick(
-            rng,
-            [
-                ["--margin", value(False)],
-                ["--resolution", pick(rng, ["0.05", "0", "-1", "nan", "1e-9", "100", "x"])],
-                ["--z-min", value(False)],
-                ["--z-max", value(False)],
-                ["--height", value(False)],
-                ["--force"],
-            ],
-        ),
-        "plan": lambda: pick(
-            rng,
-            [
-                ["--params", value()],
-                ["--planner", pick(rng, ["navfn", "smac2d", "x"])],
-                ["--potential", pick(rng, ["wavefront", "exact"])],
-                ["--set", pick(rng, ["robot_radius=0.3", "tolerance=-1", "x=1", "=", "inflation_radius=nan"])],
-            ],
-        ),
-        "diff": lambda: pick(rng, [["--tol", value(False)], ["--ignore", value(False)], ["--json", "out.json"]]),
-    }
-    if command in ("info", "check", "check-config", "recover"):
-        argv.append(pick(rng, ["LOG", "LOG", "NAV2"] if command != "check-config" else ["NAV2", "NAV2", "LOG"]))
-        if rng.random() < 0.2:
-            argv[-1] = value()
-        if command == "recover":
-            argv += ["-o", pick(rng, ["out.mcap", "LOG", "DIR", ""])]
-    elif command == "world-map":
-        argv += [pick(rng, ["indoor_room", "walled_room", "nope", "TEXT", "NAV2"]), "-o", pick(rng, ["m.yaml", "DIR"])]
-    elif command == "plan":
-        argv += ["--map", pick(rng, ["MAP", "MAP", "PGM", "NAV2", "missing.yaml", "EMPTY"])]
-        argv += [f"--start={pick(rng, ['0,0,0', '-1,-1,0', '1,2', 'a,b,c', '100,100,0', 'nan,0,0'])}"]
-        argv += [f"--goal={pick(rng, ['1.2,-1,1.571', '-1,1,0', '0,0', '2,1.5,0', 'inf,0,0'])}"]
-    else:
-        argv += [pick(rng, ["LOG", "LOG", "DIR", "EMPTY"]), pick(rng, ["LOG", "missing.mcap", "TEXT"])]
-    for _ in range(int(rng.integers(0, 4))):
-        argv += flags[command]()
-    if rng.random() < 0.1:  # an unknown or half-given flag: argparse's own exit 2
-        argv.insert(int(rng.integers(1, len(argv) + 1)), pick(rng, ["--nope", "-o", "--json=1", "--"]))
-    files = {"EMPTY": b"", "TEXT": b"not: [yaml\n", "DIR/.keep": b""}
-    links = {"LOG.mcap": str(seeds.folder / "seed_zstd.mcap")}  # a copy: `recover -o LOG` may replace it
-    return Case(index, "cli", command, "cli", {"argv": argv}, files, links)
-
-
-GENERATORS: list[tuple[Callable[[np.random.Generator, Seeds, int], Case], float]] = [
-    (gen_mcap, 0.40),
-    (gen_rosbag, 0.12),
-    (gen_config, 0.33),
-    (gen_cli, 0.15),
-]
-
-
-def make_case(seed: int, index: int, seeds: Seeds) -> Case:
-    rng = np.random.default_rng([seed, index])
-    weights = np.array([w for _, w in GENERATORS])
-    gen = GENERATORS[int(rng.choice(len(GENERATORS), p=weights / weights.sum()))][0]
-    return gen(rng, seeds, index)
+def build(case: Case, seeds: Seeds) -> Built:
+    """Apply a recipe to the seeds."""
+    r, kind = case.recipe, case.kind
+    if kind == "mcap-bytes":
+        mutation, data = mutate_bytes(r, seeds.logs[r["log"]], seeds.records[r["log"]])
+        return Built(f"{r['log']}:{mutation}", r["call"], {"log": "log.mcap"}, {"log.mcap": data})
+    if kind == "mcap-chunk":
+        mutation, data = mutate_chunk(r, seeds.logs[r["log"]], seeds.records[r["log"]])
+        return Built(f"{r['log']}:{mutation}", r["call"], {"log": "log.mcap"}, {"log.mcap": data})
+    if kind == "mcap-semantic":
+        mutation, data = rewrite_log(r, seeds.parsed["seed_none"])
+        return Built(f"seed_none:{mutation}", r["call"], {"log": "log.mcap"}, {"log.mcap": data})
+    if kind == "mcap-message":
+        mutation, data = mutate_messages(r, seeds.parsed["seed_none"])
+        return Built(f"seed_none:{mutation}", r["call"], {"log": "log.mcap"}, {"log.mcap": data})
+    if kind == "rosbag2":
+        return build_rosbag(r, seeds)
+    if kind.startswith("config-"):
+        return build_config(r, seeds)
+    return build_cli(r, seeds, kind)
 
 
 # --------------------------------------------------------------------------------------- oracle
 
 
-def materialize(case: Case, folder: Path) -> None:
-    for name, src in case.links.items():
+def materialize(built: Built, folder: Path) -> None:
+    for name, src in built.links.items():
         (folder / name).parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(src, folder / name)
-    for name, data in case.files.items():
+    for name, data in built.files.items():
         (folder / name).parent.mkdir(parents=True, exist_ok=True)
         (folder / name).write_bytes(data)
 
@@ -680,37 +1310,81 @@ def read_all(path: Path, recover: bool) -> str:
     return "COUNTED_SKIP" if report.skipped or report.truncated else "OK"
 
 
-def call_case(case: Case, folder: Path, seeds: Seeds) -> str:
-    """Run the case's entry point; returns OK or COUNTED_SKIP, raises on errors."""
-    a = case.args
-    if case.call in ("read", "read-recover"):
-        return read_all(folder / a["log"], recover=case.call == "read-recover")
-    if case.call == "check":
+@contextlib.contextmanager
+def config_path(folder: Path) -> Any:
+    """The case folder first on navlog's config search path (a mutated file replaces the built-in one)."""
+    old = os.environ.get("NAVLOG_CONFIG_PATH")
+    os.environ["NAVLOG_CONFIG_PATH"] = str(folder)
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop("NAVLOG_CONFIG_PATH")
+        else:
+            os.environ["NAVLOG_CONFIG_PATH"] = old
+
+
+def run_cli(argv: list[str], folder: Path, seeds: Seeds) -> str:
+    from navlog.cli import main
+
+    places = {
+        "LOG": folder / "LOG.mcap",
+        "CUT": folder / "CUT.mcap",
+        "MAP": seeds.map_yaml,
+        "PGM": seeds.map_yaml.with_suffix(".pgm"),
+        "NAV2": seeds.configs["nav2"][0],
+        "TINY": folder / "TINY.yaml",
+        "SCENARIO": folder / "SCENARIO.yaml",
+    }
+
+    def place(arg: str) -> str:
+        key, eq, value = arg.partition("=")
+        if eq and value in places and key.isidentifier():  # --set map=MAP
+            return f"{key}={places[value]}"
+        return str(places[arg]) if arg in places else str(folder / arg) if (folder / arg).exists() else arg
+
+    cwd = os.getcwd()
+    os.chdir(folder)
+    try:
+        code = main(["-q", *(place(a) for a in argv)])
+    except SystemExit as exc:  # argparse refusing the arguments: its usage line and exit 2
+        code = exc.code if isinstance(exc.code, int) else 2
+    finally:
+        os.chdir(cwd)
+    return "OK" if code in (0, None) else "CLEAN_ERROR" if code in (1, 2) else f"EXIT{code}"
+
+
+def call_case(built: Built, folder: Path, seeds: Seeds) -> str:
+    """Run the case's entry point; returns OK, COUNTED_SKIP or CLEAN_ERROR (CLI), raises on errors."""
+    a = built.args
+    if built.call in ("read", "read-recover"):
+        return read_all(folder / a["log"], recover=built.call == "read-recover")
+    if built.call == "check":
         from navlog.analysis.check import check_log
 
         check_log(folder / a["log"])
         return "OK"
-    if case.call == "recover":
+    if built.call == "recover":
         from navlog.replay.io.recovery import recover_mcap
 
         recover_mcap(folder / a["log"], folder / "recovered.mcap")
         return read_all(folder / "recovered.mcap", recover=False)
-    if case.call == "nav2":
+    if built.call == "nav2":
         from navlog.replay.nav2.params import load_nav2_params
 
         load_nav2_params(folder / a["path"])
         return "OK"
-    if case.call == "world":
+    if built.call == "world":
         from navlog.recorder.world import load_world
 
         load_world(str(folder / a["path"]))
         return "OK"
-    if case.call == "robot":
+    if built.call == "robot":
         from navlog.recorder.robot import load_robot
 
         load_robot(str(folder / a["path"]))
         return "OK"
-    if case.call == "scenario":
+    if built.call == "scenario":
         from navlog.recorder.robot import load_robot
         from navlog.recorder.scenarios import check_scenario, load_scenario
         from navlog.recorder.world import load_world
@@ -718,92 +1392,82 @@ def call_case(case: Case, folder: Path, seeds: Seeds) -> str:
         scenario = load_scenario(str(folder / a["path"]))
         check_scenario(scenario, load_robot("go2"), load_world(scenario.world or "indoor_room"))
         return "OK"
-    if case.call == "pipeline":
+    if built.call == "suite":
+        from navlog.analysis.ci.suite import load_suite
+
+        load_suite(folder / a["path"])
+        return "OK"
+    if built.call == "pipeline":
         from navlog.replay.session import pipeline_params
 
-        # the mutated file replaces the built-in one of the same name through the config search path
         (folder / "pipelines").mkdir(exist_ok=True)
         shutil.copyfile(folder / a["path"], folder / "pipelines" / a["path"])
-        old = os.environ.get("NAVLOG_CONFIG_PATH")
-        os.environ["NAVLOG_CONFIG_PATH"] = str(folder)
-        try:
+        with config_path(folder):
             pipeline_params(a["name"], None, a.get("overrides", ()))
-        finally:
-            os.environ.pop("NAVLOG_CONFIG_PATH") if old is None else os.environ.__setitem__("NAVLOG_CONFIG_PATH", old)
         return "OK"
-    if case.call in ("cli", "cli-info", "cli-check-config"):
-        from navlog.cli import main
-
-        if case.call == "cli":
-            argv = list(a["argv"])
-        elif case.call == "cli-info":
-            argv = ["info", a["log"]]
-        else:
-            argv = ["check-config", a["path"]]
-        places = {
-            "LOG": folder / "LOG.mcap" if case.call == "cli" else None,
-            "MAP": seeds.map_yaml,
-            "PGM": seeds.map_yaml.with_suffix(".pgm"),
-            "NAV2": seeds.configs["nav2"][0] if case.call == "cli" else None,
-        }
-        argv = [str(places[x]) if places.get(x) else str(folder / x) if (folder / x).exists() else x for x in argv]
-        cwd = os.getcwd()
-        os.chdir(folder)
-        try:
-            code = main(["-q", *argv])
-        except SystemExit as exc:  # argparse refusing the arguments: its usage line and exit 2
-            code = exc.code if isinstance(exc.code, int) else 2
-        finally:
-            os.chdir(cwd)
-        return "OK" if code in (0, None) else "CLEAN_ERROR" if code in (1, 2) else f"EXIT{code}"
-    raise ValueError(f"unknown call {case.call}")
+    if built.call == "cli-info":
+        return run_cli(["info", a["log"]], folder, seeds)
+    if built.call == "cli-check-config":
+        return run_cli(["check-config", a["path"]], folder, seeds)
+    if built.call == "replay-mapping":
+        return run_cli(["replay", a["log"], "--pipeline", "mapping", "-o", "out"], folder, seeds)
+    if built.call == "replay-safety":  # the recorded /cmd_vel as the controller's output
+        argv = ["replay", a["log"], "--pipeline", "safety", "--remap", "/cmd_vel_nav=/cmd_vel", "-o", "out"]
+        return run_cli(argv, folder, seeds)
+    if built.call == "cli":
+        return run_cli(a["argv"], folder, seeds)
+    raise ValueError(f"unknown call {built.call}")
 
 
-def run_case(case: Case, seeds: Seeds, timeout: float) -> tuple[str, str]:
-    """(outcome, traceback text) of one case, in a fresh temporary folder, under an alarm."""
+def run_case(case: Case, seeds: Seeds, timeout: float) -> tuple[str, str, Built | None]:
+    """(outcome, traceback text, the applied recipe) of one case, in a fresh temporary folder, under an alarm."""
     from navlog.errors import NavlogError
 
     def on_alarm(signum: int, frame: Any) -> None:
         raise Hang(f"no answer after {timeout} s")
 
+    built: Built | None = None
     with tempfile.TemporaryDirectory(prefix="navlog-fuzz-") as tmp:
         folder = Path(tmp)
-        materialize(case, folder)
         old = signal.signal(signal.SIGALRM, on_alarm)
         signal.setitimer(signal.ITIMER_REAL, timeout)
         sink = io.StringIO()
         try:
+            built = build(case, seeds)
+            materialize(built, folder)
             with contextlib.redirect_stdout(sink), contextlib.redirect_stderr(sink):
-                outcome = call_case(case, folder, seeds)
+                outcome = call_case(built, folder, seeds)
             if outcome.startswith("EXIT"):
-                return "TRACEBACK", f"unexpected exit status {outcome[4:]}\n{sink.getvalue()}"
-            if case.call.startswith("cli") and "Traceback (most recent call last)" in sink.getvalue():
-                return "TRACEBACK", sink.getvalue()
-            return outcome, ""
+                return "TRACEBACK", f"unexpected exit status {outcome[4:]}\n{sink.getvalue()}", built
+            if "Traceback (most recent call last)" in sink.getvalue():
+                return "TRACEBACK", sink.getvalue(), built
+            return outcome, "", built
         except Hang:
-            return "HANG", traceback.format_exc()
+            return "HANG", traceback.format_exc(), built
         except NavlogError:
-            return "CLEAN_ERROR", ""
+            return "CLEAN_ERROR", "", built
         except Exception:
-            return "TRACEBACK", traceback.format_exc()
+            return "TRACEBACK", traceback.format_exc(), built
         finally:
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, old)
 
 
-def save_repro(case: Case, outcome: str, text: str, out: Path, seed: int) -> Path:
+def save_repro(case: Case, built: Built | None, outcome: str, text: str, out: Path, seed: int) -> Path:
     folder = out / "repro" / f"{case.index:06d}-{case.kind}-{outcome.lower()}"
     if folder.exists():
         shutil.rmtree(folder)
     folder.mkdir(parents=True)
-    materialize(case, folder)
+    if built is not None:
+        materialize(built, folder)
     meta = {
         "seed": seed,
         "index": case.index,
         "kind": case.kind,
-        "mutation": case.mutation,
-        "call": case.call,
-        "args": case.args,
+        "recipe": case.recipe,
+        "mutation": built.mutation if built else None,
+        "call": built.call if built else None,
+        "args": built.args if built else None,
         "outcome": outcome,
         "rerun": f"python fuzz/campaign.py --seed {seed} --case {case.index} --out {out}",
     }
@@ -819,14 +1483,14 @@ def worker(seed: int, seeds_dir: str, timeout: float, out: str, conn: Any) -> No
     seeds = load_seeds(Path(seeds_dir))
     conn.send(("ready", None))
     while True:
-        index = conn.recv()
-        if index is None:
+        case = conn.recv()
+        if case is None:
             return
-        case = make_case(seed, index, seeds)
-        outcome, text = run_case(case, seeds, timeout)
+        outcome, text, built = run_case(case, seeds, timeout)
         if outcome in ("TRACEBACK", "HANG"):
-            save_repro(case, outcome, text, Path(out), seed)
-        conn.send((index, (case.kind, case.mutation, case.call, outcome, text.strip().splitlines()[-1:] or [""])))
+            save_repro(case, built, outcome, text, Path(out), seed)
+        mutation, call = (built.mutation, built.call) if built else ("?", "?")
+        conn.send((case.index, (case.kind, mutation, call, outcome, text.strip().splitlines()[-1:] or [""])))
 
 
 @dataclass
@@ -845,13 +1509,13 @@ class Result:
         return total
 
     def table(self) -> str:
-        head = f"{'kind':16s}" + "".join(f"{o:>14s}" for o in OUTCOMES) + f"{'total':>8s}"
+        head = f"{'kind':18s}" + "".join(f"{o:>14s}" for o in OUTCOMES) + f"{'total':>8s}"
         rows = [head]
         for kind in sorted(self.by_kind):
             c = self.by_kind[kind]
-            rows.append(f"{kind:16s}" + "".join(f"{c[o]:14d}" for o in OUTCOMES) + f"{sum(c.values()):8d}")
+            rows.append(f"{kind:18s}" + "".join(f"{c[o]:14d}" for o in OUTCOMES) + f"{sum(c.values()):8d}")
         t = self.totals
-        rows.append(f"{'all':16s}" + "".join(f"{t[o]:14d}" for o in OUTCOMES) + f"{sum(t.values()):8d}")
+        rows.append(f"{'all':18s}" + "".join(f"{t[o]:14d}" for o in OUTCOMES) + f"{sum(t.values()):8d}")
         rate = self.cases / self.seconds if self.seconds else 0.0
         rows.append(f"{self.cases} cases, seed {self.seed}, {self.seconds:.1f} s ({rate:.1f} cases/s)")
         return "\n".join(rows)
@@ -867,15 +1531,17 @@ def run_campaign(
     start: int = 0,
     progress: bool = False,
 ) -> Result:
-    """Run cases ``start .. start+cases-1`` of ``seed`` on ``workers`` processes; write OUT/summary.json."""
+    """Run cases ``start .. start+cases-1`` of ``seed`` on ``workers`` processes; write OUT/summary.json.
+
+    Hypothesis draws the cases in this process and each is handed to a free worker as soon as it is drawn.
+    """
     out.mkdir(parents=True, exist_ok=True)
     seeds_dir = out / "seeds"
-    build_seed_log(seeds_dir)
+    seeds = load_seeds(seeds_dir)
     ctx = mp.get_context("fork")
     t0 = time.perf_counter()
-    result = Result(seed, cases, 0.0)
-    pending = list(range(start + cases - 1, start - 1, -1))
-    procs: dict[int, tuple[Any, Any, int | None, float]] = {}  # slot -> (process, conn, index, started)
+    result = Result(seed, 0, 0.0)
+    procs: dict[int, tuple[Any, Any, Case | None, float]] = {}  # slot -> (process, conn, case, started)
 
     def spawn(slot: int) -> None:
         parent, child = ctx.Pipe()
@@ -884,55 +1550,64 @@ def run_campaign(
         parent.recv()  # ready
         procs[slot] = (p, parent, None, 0.0)
 
-    def feed(slot: int) -> None:
-        p, conn, _, _ = procs[slot]
-        if pending:
-            index = pending.pop()
-            conn.send(index)
-            procs[slot] = (p, conn, index, time.perf_counter())
-        else:
-            conn.send(None)
-            p.join()
-            del procs[slot]
-
     def record(index: int, kind: str, mutation: str, call: str, outcome: str, last: list[str]) -> None:
         result.by_kind.setdefault(kind, Counter())[outcome] += 1
+        result.cases += 1
         if outcome in ("TRACEBACK", "HANG"):
             result.failures.append(
                 {"index": index, "kind": kind, "mutation": mutation, "call": call, "outcome": outcome, "error": last[0]}
             )
+        if progress and result.cases % 500 == 0:
+            print(f"  {result.cases}/{cases} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+
+    def poll() -> list[int]:
+        """Collect finished cases; kill a worker stuck where the alarm cannot reach; the idle slots."""
+        idle = []
+        for slot in list(procs):
+            p, conn, case, started = procs[slot]
+            if case is None:
+                idle.append(slot)
+            elif conn.poll(0.005):
+                got, info = conn.recv()
+                record(got, *info)
+                procs[slot] = (p, conn, None, 0.0)
+                idle.append(slot)
+            elif time.perf_counter() - started > timeout + 15:  # inside C code: kill, save, go on
+                p.kill()
+                p.join()
+                built = build(case, seeds)
+                save_repro(case, built, "HANG", "worker killed after the time limit", out, seed)
+                record(case.index, case.kind, built.mutation, built.call, "HANG", ["killed"])
+                spawn(slot)
+                idle.append(slot)
+        return idle
+
+    def dispatch(case: Case) -> None:
+        while True:
+            idle = poll()
+            if idle:
+                p, conn, _, _ = procs[idle[0]]
+                conn.send(case)
+                procs[idle[0]] = (p, conn, case, time.perf_counter())
+                return
+            time.sleep(0.002)
 
     for slot in range(max(1, workers)):
         spawn(slot)
-        feed(slot)
-    done = 0
-    while procs:
-        for slot in list(procs):
-            p, conn, index, started = procs[slot]
-            if conn.poll(0.01):
-                got, info = conn.recv()
-                record(got, *info)
-                done += 1
-                feed(slot)
-            elif index is not None and time.perf_counter() - started > timeout + 15:
-                # stuck where the alarm cannot reach (inside C code): kill the worker, save, go on
-                p.kill()
-                p.join()
-                seeds = load_seeds(seeds_dir)
-                case = make_case(seed, index, seeds)
-                save_repro(case, "HANG", "worker killed after the time limit", out, seed)
-                record(index, case.kind, case.mutation, case.call, "HANG", ["killed"])
-                done += 1
-                spawn(slot)
-                feed(slot)
-        if progress and done and done % 500 == 0:
-            print(f"  {done}/{cases} ({time.perf_counter() - t0:.0f} s)", file=sys.stderr, flush=True)
+    drawn = generate(seed, cases, seeds, dispatch, start=start)
+    while any(case is not None for _, _, case, _ in procs.values()):
+        poll()
+        time.sleep(0.002)
+    for p, conn, _, _ in procs.values():
+        conn.send(None)
+        p.join()
     result.seconds = time.perf_counter() - t0
     result.failures.sort(key=lambda f: f["index"])
     summary = {
         "seed": seed,
         "start": start,
-        "cases": cases,
+        "cases": result.cases,
+        "drawn": drawn,
         "seconds": round(result.seconds, 1),
         "outcomes": dict(sorted(result.totals.items())),
         "by_kind": {k: dict(sorted(v.items())) for k, v in sorted(result.by_kind.items())},
@@ -940,6 +1615,16 @@ def run_campaign(
     }
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     return result
+
+
+def rerun(case: Case, seeds: Seeds, timeout: float) -> int:
+    print(f"case {case.index}: {case.kind} {json.dumps(case.recipe)[:400]}")
+    outcome, text, built = run_case(case, seeds, timeout)
+    if built is not None:
+        print(f"{built.mutation} -> {built.call} {built.args}")
+    print(outcome)
+    print(text, end="")
+    return 1 if outcome in ("TRACEBACK", "HANG") else 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -951,22 +1636,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--timeout", type=float, default=20.0, help="seconds per case before it is a HANG")
     parser.add_argument("--case", type=int, help="re-run this one case in-process and print its traceback")
+    parser.add_argument("--repro", type=Path, help="re-run a saved reproducer (a folder holding case.json)")
     args = parser.parse_args(argv)
-    if args.case is not None:
+    if args.case is not None or args.repro is not None:
         seeds = load_seeds(args.out / "seeds")
-        case = make_case(args.seed, args.case, seeds)
-        print(f"case {case.index}: {case.kind} {case.mutation} -> {case.call} {case.args}")
-        outcome, text = run_case(case, seeds, args.timeout)
-        print(outcome)
-        print(text, end="")
-        return 1 if outcome in ("TRACEBACK", "HANG") else 0
+        if args.repro is not None:
+            meta = json.loads((args.repro / "case.json").read_text())
+            case = Case(meta["index"], meta["kind"], meta["recipe"])
+        else:
+            case = case_at(args.seed, args.case, seeds)
+        return rerun(case, seeds, args.timeout)
     result = run_campaign(
         args.cases, args.seed, args.out, workers=args.workers, timeout=args.timeout, start=args.start, progress=True
     )
     print(result.table())
     for f in result.failures[:50]:
         print(f"  {f['outcome']} case {f['index']} {f['kind']} {f['mutation']} -> {f['call']}: {f['error']}")
-    return 1 if result.failures else 0
+    return 1 if result.failures or result.cases < args.cases else 0
 
 
 if __name__ == "__main__":

@@ -6,10 +6,15 @@ The campaign's promise: bad input gives a ``NavlogError`` or a counted skip, nev
 from __future__ import annotations
 
 import importlib.util
+import io
+import json
+import math
 import shutil
+import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from mcap.writer import Writer
 
@@ -30,23 +35,95 @@ def load_campaign():
     return module
 
 
-def test_seeded_subset_has_no_traceback_and_no_hang(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def campaign_and_seeds(tmp_path_factory):
     campaign = load_campaign()
-    result = campaign.run_campaign(200, 7, tmp_path, workers=2, timeout=20.0)
+    folder = tmp_path_factory.mktemp("fuzz")
+    return campaign, campaign.load_seeds(folder / "seeds"), folder
+
+
+def test_seeded_subset_has_no_traceback_and_no_hang(campaign_and_seeds) -> None:
+    campaign, _, folder = campaign_and_seeds
+    result = campaign.run_campaign(200, 7, folder, workers=2, timeout=20.0)
     totals = result.totals
     assert totals["TRACEBACK"] == 0 and totals["HANG"] == 0, result.failures
-    assert sum(totals.values()) == 200
+    assert sum(totals.values()) == result.cases == 200
     # the oracle tells outcomes apart: mutated inputs are refused cleanly, corrupt messages are counted
-    assert totals["CLEAN_ERROR"] > 50 and totals["OK"] > 20 and totals["COUNTED_SKIP"] > 0
-    assert {"mcap-bytes", "mcap-semantic", "cli", "config-nav2"} <= set(result.by_kind)
-    assert (tmp_path / "summary.json").is_file()
+    assert totals["CLEAN_ERROR"] > 50 and totals["OK"] > 50 and totals["COUNTED_SKIP"] > 0
+    assert set(result.by_kind) == set(campaign.KINDS)  # every kind drawn, record and replay runs too
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["cases"] == summary["drawn"] == 200 and summary["outcomes"] == dict(sorted(totals.items()))
 
 
-def test_cases_are_repeatable(tmp_path: Path) -> None:
-    campaign = load_campaign()
-    seeds = campaign.load_seeds(campaign.build_seed_log(tmp_path / "seeds"))
-    a, b = campaign.make_case(3, 11, seeds), campaign.make_case(3, 11, seeds)
-    assert (a.kind, a.mutation, a.call, a.args, a.files) == (b.kind, b.mutation, b.call, b.args, b.files)
+def text(case) -> str:
+    """A recipe as JSON text (NaN compares equal to NaN there)."""
+    return json.dumps(case.recipe)
+
+
+def test_case_i_depends_only_on_the_seed_and_i(campaign_and_seeds) -> None:
+    campaign, seeds, _ = campaign_and_seeds
+    drawn: list = []
+    assert campaign.generate(3, 120, seeds, drawn.append) == 120
+    again: list = []
+    campaign.generate(3, 15, seeds, again.append, start=103)  # another count, another start
+    assert [(c.index, text(c)) for c in again] == [(c.index, text(c)) for c in drawn[103:118]]
+    assert text(campaign.case_at(3, 57, seeds)) == text(drawn[57])
+    # nor on what the process ran before: a fresh one that has imported no navlog module draws the same
+    script = (
+        "import json, sys; sys.path.insert(0, sys.argv[1]); import campaign; from pathlib import Path; "
+        "print(json.dumps(campaign.case_at(3, 57, campaign.load_seeds(Path(sys.argv[2]))).recipe))"
+    )
+    fresh = subprocess.run(
+        [sys.executable, "-c", script, str(REPO / "fuzz"), str(seeds.folder)], capture_output=True, text=True
+    )
+    assert fresh.returncode == 0, fresh.stderr
+    assert fresh.stdout.strip() == text(drawn[57])
+    other: list = []
+    campaign.generate(4, 20, seeds, other.append)
+    assert [text(c) for c in other] != [text(c) for c in drawn[:20]]
+    assert len({text(c) for c in drawn}) > 100  # few repeats (each block starts simple)
+
+
+def test_a_recipe_applies_to_the_same_bytes_every_time(campaign_and_seeds) -> None:
+    campaign, seeds, _ = campaign_and_seeds
+    drawn = collect(campaign, seeds, 100)
+    for kind in ("mcap-bytes", "mcap-chunk", "mcap-semantic", "mcap-message", "config-nav2", "cli-record"):
+        case = next(c for c in drawn if c.kind == kind)
+        a, b = campaign.build(case, seeds), campaign.build(case, seeds)
+        assert (a.mutation, a.call, a.args, a.files) == (b.mutation, b.call, b.args, b.files)
+
+
+def collect(campaign, seeds, count: int) -> list:
+    drawn: list = []
+    campaign.generate(1, count, seeds, drawn.append)
+    return drawn
+
+
+def test_reordered_records_inside_a_compressed_chunk_stay_a_valid_chunk(campaign_and_seeds) -> None:
+    """The chunk mutation recompresses what it reorders: with its CRC fixed and no summary, a reader
+    streams the chunk and finds every message of it, duplicated ones twice."""
+    from mcap.reader import make_reader
+
+    campaign, seeds, _ = campaign_and_seeds
+    data = seeds.logs["seed_zstd"]
+    recipe = {"chunk": 1, "op": "duplicate", "i": 5, "j": 0, "order": 0, "crc": "fixed", "summary": "none"}
+    name, mutated = campaign.mutate_chunk(recipe, data, seeds.records["seed_zstd"])
+    assert name == "chunk-duplicate-crc-fixed-summary-none"
+    before = sum(1 for _ in make_reader(io.BytesIO(data)).iter_messages())
+    reader = make_reader(io.BytesIO(mutated), validate_crcs=True)
+    assert reader.get_summary() is None
+    assert sum(1 for _ in reader.iter_messages()) == before + 1  # record 5 of chunk 1 is a message: twice
+
+
+def test_a_saved_reproducer_reruns_from_its_case_json(campaign_and_seeds, tmp_path: Path) -> None:
+    campaign, seeds, _ = campaign_and_seeds
+    case = campaign.Case(0, "mcap-bytes", {"log": "seed_zstd", "op": "truncate@random", "at": 2**31, "call": "read"})
+    outcome, trace, built = campaign.run_case(case, seeds, 20.0)
+    assert (outcome, trace) == ("CLEAN_ERROR", "")  # a truncated log without --recover: TruncatedLogError
+    folder = campaign.save_repro(case, built, "TRACEBACK", "made up", tmp_path, 5)
+    meta = json.loads((folder / "case.json").read_text())
+    assert meta["recipe"] == case.recipe and meta["mutation"] == "seed_zstd:truncate@random"
+    assert (folder / "log.mcap").stat().st_size == len(seeds.logs["seed_zstd"]) // 2
 
 
 # ------------------------------------------------------------------- regressions found by the campaign
@@ -203,3 +280,112 @@ def test_nav2_plugin_names_that_are_not_strings_are_reported(tmp_path: Path) -> 
     params = load_nav2_params(path)
     with pytest.raises(ConfigError, match="goal checker names must be strings"):
         params.require_valid()
+
+
+def test_replay_into_an_output_that_is_a_file_is_refused(tmp_path: Path) -> None:
+    from navlog.replay.session import run_replay
+
+    out = tmp_path / "taken.mcap"
+    out.write_bytes(b"someone's file")
+    with pytest.raises(NavlogError, match="taken.mcap: output is a file, not a folder"):
+        run_replay(tmp_path / "missing.mcap", "mapping", out, force=True, progress=False)
+    assert out.read_bytes() == b"someone's file"
+
+
+# cases of the campaign (seed 1) that raised: a /odom/ground_truth pose at -1.6e202 m grew the map grid
+# to an impossible size; an infinite /scan angle field made every beam NaN; a suite tolerance key that
+# YAML reads as a number could not be sorted with the others.
+MAPPING_CASES = {
+    "pose far off": {
+        "channel": 2,
+        "first": 2,
+        "leaves": [
+            {"leaf": 1897, "float": -1.633315426981561e202, "int": 0, "array": "half", "text": ""},
+            {"leaf": 708, "float": 5.752544829890466e16, "int": 0, "array": "half", "text": ""},
+        ],
+        "special": None,
+        "call": "replay-mapping",
+    },
+    "infinite angle": {
+        "channel": 6,
+        "first": None,
+        "leaves": [
+            {"leaf": 3875, "float": -math.inf, "int": 3875, "array": "half", "text": ""},
+            {"leaf": 8056, "float": -math.inf, "int": 0, "array": "nan", "text": ""},
+        ],
+        "special": "stamp-past",
+        "call": "replay-mapping",
+    },
+}
+
+
+def replay_mapping(campaign, seeds, recipe: dict, folder: Path) -> int:
+    campaign.materialize(campaign.build(campaign.Case(0, "mcap-message", recipe), seeds), folder)
+    from navlog.cli import main
+
+    return main(["-q", "replay", str(folder / "log.mcap"), "--pipeline", "mapping", "-o", str(folder / "out")])
+
+
+def test_a_scan_whose_pose_is_far_off_is_a_counted_skip(campaign_and_seeds, tmp_path: Path) -> None:
+    campaign, seeds, _ = campaign_and_seeds
+    assert replay_mapping(campaign, seeds, MAPPING_CASES["pose far off"], tmp_path) == 0
+    skipped = json.loads((tmp_path / "out" / "manifest.json").read_text())["skipped"]
+    assert skipped["/scan: pose or ranges too far off (the map would exceed its cell budget)"] == 1
+
+
+ODOM_NAN_ORIENTATION = {  # case 9648 of seed 1: /odom with a NaN quaternion component made SciPy raise
+    "channel": 3,
+    "first": None,
+    "leaves": [
+        {"leaf": 2556, "float": -0.0, "int": 0, "array": "empty", "text": ""},
+        {"leaf": 1824, "float": -5.842226606658513e16, "int": 4294967295, "array": "double", "text": ""},
+        {"leaf": 40320, "float": -1e308, "int": 1, "array": "inf", "text": "/"},
+        {"leaf": 100000, "float": math.nan, "int": 776385, "array": "nan", "text": ""},
+    ],
+    "special": "stamp-future",
+    "call": "replay-mapping",
+}
+
+
+def test_odometry_with_a_nan_orientation_is_a_counted_skip(campaign_and_seeds, tmp_path: Path) -> None:
+    campaign, seeds, _ = campaign_and_seeds
+    assert replay_mapping(campaign, seeds, ODOM_NAN_ORIENTATION, tmp_path) == 0
+    skipped = json.loads((tmp_path / "out" / "manifest.json").read_text())["skipped"]
+    assert skipped["lidar_mapper: odom_not_finite"] == 51  # every /odom message of the seed log
+
+
+def test_scans_with_infinite_angles_are_skipped_and_named(campaign_and_seeds, tmp_path: Path, capsys) -> None:
+    campaign, seeds, _ = campaign_and_seeds
+    assert replay_mapping(campaign, seeds, MAPPING_CASES["infinite angle"], tmp_path) == 2
+    err = capsys.readouterr().err
+    assert "produced nothing: no map" in err and "/scan: NaN or infinite angle/range fields x11" in err
+    assert "Traceback" not in err
+
+
+def test_the_grid_refuses_to_grow_to_reach_a_pose_far_off() -> None:
+    from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams
+
+    grid = OccupancyGrid2D(OccupancyParams(resolution=0.05))
+    pose = np.eye(4)
+    angles, ranges = np.linspace(-1.0, 1.0, 5), np.full(5, 2.0)
+    grid.insert_scan(pose, angles, ranges, 0.1, 10.0)
+    assert grid.logodds.shape == (200, 100)  # 5 m x 10 m blocks at 5 cm
+    pose[0, 3] = -1.6e202
+    with pytest.raises(GridTooLarge, match="the grid would span"):
+        grid.insert_scan(pose, angles, ranges, 0.1, 10.0)
+    assert grid.logodds.shape == (200, 100)  # nothing changed
+    pose[0, 3] = 1000.0  # 1 km along x: the grid grows to reach it
+    grid.insert_scan(pose, angles, ranges, 0.1, 10.0)
+    assert grid.logodds.shape == (200, 20_100)
+
+
+def test_suite_tolerance_keys_that_yaml_reads_as_numbers_are_reported(tmp_path: Path) -> None:
+    from navlog.analysis.ci.suite import load_suite
+
+    suite = tmp_path / "s.yaml"
+    suite.write_text(
+        "name: s\ncases:\n  - name: c\n    log: x.mcap\n    pipeline: mapping\n"
+        "    checks:\n      - diff: {tolerances: {grid.changed_share: 0.1, 7: 1}}\n"
+    )
+    with pytest.raises(ConfigError, match=r"tolerances.*7"):
+        load_suite(suite)

@@ -104,6 +104,7 @@ class Tally:
     final_complete: int = 0  # a complete new output under the final name
     previous_intact: int = 0  # --force was replacing an output: the old one is still there, byte for byte
     recovered: int = 0  # killed recordings whose .part `navlog recover` salvaged (every complete chunk)
+    recover_refused: int = 0  # killed before the first chunk was whole: `navlog recover` says so, writes nothing
     salvaged_messages: int = 0
 
 
@@ -240,14 +241,19 @@ def _check_recover(part: Path, reference: Path, tally: Tally) -> None:
     if size < 8:  # killed before the magic bytes were written
         assert done.returncode == 2 and "not an MCAP file" in done.stderr and "Traceback" not in done.stderr
         return
-    assert done.returncode == 0, done.stderr
     expected = _complete_chunk_messages(reference, size)
+    if expected == 0:  # killed before its first chunk was whole: a clear error, and nothing written
+        assert done.returncode == 2 and "nothing to recover" in done.stderr and "Traceback" not in done.stderr
+        assert not fixed.exists() and not fixed.with_name(fixed.name + ".part").exists()
+        tally.recover_refused += 1
+        return
+    assert done.returncode == 0, done.stderr
     from navlog.replay.io import open_log
 
     with open_log(fixed) as reader:
         assert not reader.report.truncated
         assert sum(i.count for i in reader.topics.values()) == expected
-    assert f"kept {expected} messages" in done.stdout or expected == 0
+    assert f"kept {expected} messages" in done.stdout
     tally.recovered += 1
     tally.salvaged_messages += expected
 
@@ -271,6 +277,36 @@ def test_kill_9_at_random_instants_full(workbench, name):
     assert tally.final_absent + tally.final_complete + tally.previous_intact == FULL_KILLS
     assert tally.kills >= FULL_KILLS // 2  # most instants fall inside the run, not after it
     print(f"{name}: {tally}")
+
+
+def _leftovers(folder: Path, out: Path) -> list[str]:
+    """What lies beside ``out`` besides ``out`` itself and what the test put there: a killed run's leftovers."""
+    return sorted(p.name for p in folder.iterdir() if p.name.startswith((f".{out.name}.", f"{out.name}.part")))
+
+
+@pytest.mark.parametrize("name", COMMANDS)
+def test_the_next_run_clears_what_a_killed_run_left(workbench, tmp_path, name):
+    """A run killed mid-write leaves its temporary; the next run of the same command for the same output
+    removes it (record reuses its ``NAME.part``, the others remove ``.NAME.PID.part`` of dead processes)."""
+    base, commands = workbench
+    cmd = commands[name]
+    out = tmp_path / cmd.output
+    left: list[str] = []
+    for _ in range(3):  # kill as soon as the temporary appears (a run may finish before it is seen)
+        proc = subprocess.Popen([str(NAVLOG), "-q", *cmd.argv(out), "--force"], stdout=subprocess.DEVNULL)
+        while proc.poll() is None and not _leftovers(tmp_path, out):
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+        left = _leftovers(tmp_path, out)
+        if left:
+            break
+    assert left, f"{name}: no kill left a temporary"
+    done = _run([*cmd.argv(out), "--force"])
+    assert done.returncode == 0, done.stderr
+    cmd.complete(out)
+    assert _leftovers(tmp_path, out) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == [out.name]
 
 
 # --- a full disk ----------------------------------------------------------------------------------------------

@@ -293,7 +293,7 @@ def _diff(data: Any, at: _Where, key: str) -> DiffCheck:
     tol_data = data.get("tolerances") or {}
     if not isinstance(tol_data, Mapping):
         raise at.error(f"{key}.tolerances", f"expected a mapping SECTION.FIELD: value, got {tol_data!r}")
-    items = tuple(f"{k}={v}" for k, v in sorted(tol_data.items()))
+    items = tuple(f"{k}={v}" for k, v in sorted(tol_data.items(), key=lambda kv: str(kv[0])))  # keys may be numbers
     try:
         tolerances = parse_tolerances(items)
     except ConfigError as exc:

@@ -24,6 +24,7 @@ from navlog.replay import messages
 from navlog.replay.config import suggest
 from navlog.replay.geometry import matrix_to_quat
 from navlog.replay.io import LogReader
+from navlog.replay.io.atomic import temp_path
 from navlog.replay.io.tum import format_rows
 
 __all__ = ["TUM_TYPES", "TumSummary", "export_tum", "trajectory_from_rows"]
@@ -190,7 +191,7 @@ def export_tum(
     if dropped:
         skipped["repeated timestamp"] += dropped
         log.warning("%s: dropped %d poses with a repeated timestamp", source, dropped)
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.part")
+    tmp = temp_path(out)  # what killed runs left beside ``out`` is removed first
     try:
         tmp.write_text(format_rows(traj.times_ns, traj.positions, traj.quaternions), encoding="utf-8")
         os.replace(tmp, out)

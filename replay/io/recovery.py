@@ -1,7 +1,8 @@
 """Salvaging a truncated MCAP file (a recorder killed with SIGKILL, a disk that filled up).
 
 Every record up to the first incomplete one is copied — schemas, channels, metadata and the messages
-of every complete chunk — into a new, properly finished MCAP file.
+of every complete chunk — into a new, properly finished MCAP file. A file with no complete chunk holding
+a message (a recording cut before its first chunk) is a ``LogError``, and nothing is written.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 from navlog.errors import LogError
-from navlog.replay.io.atomic import open_new
+from navlog.replay.io.atomic import open_new, write_error
 from navlog.replay.io.logwriter import check_output
 from navlog.replay.io.mcap_reader import MCAP_MAGIC
 
@@ -44,6 +45,31 @@ def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) ->
         if f.read(8) != MCAP_MAGIC:
             raise LogError(f"{src}: not an MCAP file (bad magic bytes)")
     tmp = dst.with_name(dst.name + ".part")
+    try:
+        n, first, last, read, ok = _copy_complete_records(src, tmp)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise write_error(dst, exc) from exc
+    if n == 0:
+        tmp.unlink(missing_ok=True)
+        why = (
+            "the file holds no message"
+            if ok
+            else f"it was cut after {read} bytes, before the end of its first chunk"
+            if read > 8
+            else "it was cut right after its magic bytes"
+        )
+        raise LogError(
+            f"{src}: nothing to recover: no complete chunk holds a message ({why}); nothing was written to {dst}. "
+            "A recording killed this early has no data to salvage: record it again."
+        )
+    os.replace(tmp, dst)
+    return RecoveryResult(n, first, last, min(read, total), total, ok)
+
+
+def _copy_complete_records(src: Path, tmp: Path) -> tuple[int, int | None, int | None, int, bool]:
+    """Copy every record of ``src`` up to the first incomplete one into a finished MCAP file ``tmp``:
+    (messages, first and last log time, bytes read, whether ``src`` was read to its end)."""
     n, first, last, ok = 0, None, None, True
     with open(src, "rb") as f, open_new(tmp) as o:
         w = Writer(o, compression=CompressionType.ZSTD)
@@ -73,11 +99,12 @@ def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) ->
                     last = rec.log_time if last is None else max(last, rec.log_time)
                 elif isinstance(rec, Metadata):
                     w.add_metadata(rec.name, dict(rec.metadata))
+        except OSError:
+            raise
         except Exception:
             ok = False
         read = f.tell()
         w.finish()
         o.flush()
         os.fsync(o.fileno())
-    os.replace(tmp, dst)
-    return RecoveryResult(n, first, last, min(read, total), total, ok)
+    return n, first, last, read, ok

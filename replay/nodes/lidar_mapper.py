@@ -160,6 +160,13 @@ class LidarMapperNode(Node):
                 fix = np.eye(4)
             self._odom_fix[child] = fix
         pp, q = msg.pose.pose.position, msg.pose.pose.orientation
+        quat = (q.x, q.y, q.z, q.w)
+        if not np.isfinite(quat).all() or not np.isfinite((pp.x, pp.y, pp.z)).all():  # (SciPy refuses NaN)
+            self._skip("odom_not_finite")
+            return
+        if np.linalg.norm(quat) <= 1e-12:  # a zero quaternion: no orientation to normalise
+            self._skip("odom_orientation_zero")
+            return
         pose = make_transform((pp.x, pp.y, pp.z), (q.x, q.y, q.z, q.w)) @ fix
         if not np.isfinite(pose).all():
             self._skip("odom_not_finite")

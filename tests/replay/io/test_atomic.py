@@ -1,0 +1,76 @@
+"""What a killed run leaves beside its output is cleared by the next run for the same output."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from pathlib import Path
+
+from navlog.replay.io.atomic import remove_stale, replace_output, temp_path, write_file
+
+
+def dead_pid() -> int:
+    """The PID of a process that has finished (and been reaped)."""
+    proc = subprocess.Popen(["true"])
+    proc.wait()
+    return proc.pid
+
+
+def test_temporaries_of_finished_processes_are_removed_and_others_kept(tmp_path: Path) -> None:
+    gone, alive = dead_pid(), os.getppid()
+    out = tmp_path / "run.rrd"
+    (tmp_path / f".run.rrd.{gone}.part").write_bytes(b"half")
+    (tmp_path / f".run.rrd.{gone}.partial").mkdir()
+    (tmp_path / f".run.rrd.{gone}.partial" / "map.pgm").write_bytes(b"half")
+    (tmp_path / f".run.rrd.{alive}.part").write_bytes(b"a run writing now")
+    (tmp_path / f".other.rrd.{gone}.part").write_bytes(b"another output's")
+    (tmp_path / "run.rrd.notes").write_bytes(b"the user's")
+    removed = remove_stale(out)
+    assert sorted(p.name for p in removed) == [f".run.rrd.{gone}.part", f".run.rrd.{gone}.partial"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        [f".run.rrd.{alive}.part", f".other.rrd.{gone}.part", "run.rrd.notes"]
+    )
+
+
+def test_an_old_output_moved_aside_comes_back_when_the_final_name_is_empty(tmp_path: Path) -> None:
+    gone = dead_pid()
+    out = tmp_path / "bag"
+    old = tmp_path / f".bag.old-{gone}"
+    old.mkdir()
+    (old / "metadata.yaml").write_text("previous\n")
+    remove_stale(out)  # killed between moving the old output aside and moving the new one in
+    assert (out / "metadata.yaml").read_text() == "previous\n" and not old.exists()
+    old.mkdir()  # killed after both renames, before removing the old one
+    remove_stale(out)
+    assert not old.exists() and (out / "metadata.yaml").read_text() == "previous\n"
+
+
+def test_a_stale_temporary_that_is_a_symlink_is_removed_as_a_link(tmp_path: Path) -> None:
+    target = tmp_path / "elsewhere"
+    target.mkdir()
+    (target / "keep.txt").write_text("precious\n")
+    (tmp_path / f".out.{dead_pid()}.part").symlink_to(target)
+    remove_stale(tmp_path / "out")
+    assert (target / "keep.txt").read_text() == "precious\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["elsewhere"]
+
+
+def test_temp_path_is_this_process_name_beside_the_output_and_clears_first(tmp_path: Path) -> None:
+    out = tmp_path / "map.yaml"
+    (tmp_path / f".map.yaml.{dead_pid()}.part").write_bytes(b"half")
+    (tmp_path / f".map.yaml.{os.getpid()}.part").mkdir()  # a killed run that had this PID
+    tmp = temp_path(out)
+    assert tmp == tmp_path / f".map.yaml.{os.getpid()}.part"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_write_file_and_replace_output_leave_only_the_output(tmp_path: Path) -> None:
+    out = tmp_path / "a.json"
+    (tmp_path / f".a.json.{dead_pid()}.part").write_bytes(b"half")
+    write_file(out, b"{}\n")
+    assert [p.name for p in tmp_path.iterdir()] == ["a.json"] and out.read_bytes() == b"{}\n"
+    new = tmp_path / "new"
+    new.mkdir()
+    (tmp_path / "folder").mkdir()
+    replace_output(new, tmp_path / "folder")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json", "folder"]
