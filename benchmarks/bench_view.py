@@ -5,7 +5,9 @@ The log is recorded with `navlog record --world indoor_room --robot go2 --scenar
 100 Hz). Pass `--log FILE` to use an existing log instead. Prints, best of `--repeat` runs:
 
 - the floor: reading and decoding every message the view draws (LogReader, no Rerun);
-- `navlog view --save`: wall seconds, its ratio to the issue's 30 s budget and to sim time, the .rrd size;
+- `navlog view --save`: wall seconds, its ratio to the 30 s budget and to sim time; the .rrd size and
+  its ratio to the log's size (ceiling 1.0: the recording is no larger than the log), and the
+  biggest entities (the 3D LiDAR history, thinned to one cloud per 0.5 s, leads);
 - the peer: `rerun mcap convert` (Rerun's own MCAP import, which stores scans, odometry and twists as
   generic columns without drawing them), and navlog's ratio to it;
 - `navlog export --to rosbag2` for sqlite3 and MCAP storage: wall seconds and MB/s.
@@ -28,6 +30,7 @@ from navlog.analysis.view import save_view
 from navlog.replay.io import open_log
 
 BUDGET_S = 30.0
+SIZE_CEILING = 1.0  # .rrd bytes / log bytes
 
 
 def best(fn, repeat: int) -> float:
@@ -37,6 +40,16 @@ def best(fn, repeat: int) -> float:
         fn()
         times.append(time.perf_counter() - t0)
     return min(times)
+
+
+def biggest_entities(rrd: Path, n: int) -> list[tuple[str, float]]:
+    """The ``n`` entities holding the most bytes of an .rrd (MB, as Arrow record batches)."""
+    from rerun.chunk import RrdReader
+
+    sizes: dict[str, int] = {}
+    for ch in RrdReader(rrd).stream().collect().stream():
+        sizes[ch.entity_path] = sizes.get(ch.entity_path, 0) + ch.to_record_batch().nbytes
+    return [(e, b / 1e6) for e, b in sorted(sizes.items(), key=lambda kv: -kv[1])[:n]]
 
 
 def main() -> int:
@@ -107,6 +120,13 @@ def main() -> int:
             f"{sim_s / t_view:.1f} x real time, {t_view / t_floor:.2f} x the floor, "
             f".rrd {rrd.stat().st_size / 1e6:.1f} MB, verify {'ok' if verify.returncode == 0 else 'FAILED'}"
         )
+        rrd_mb = rrd.stat().st_size / 1e6
+        print(
+            f"  .rrd / log size:            {rrd_mb / size_mb:7.2f}     ({rrd_mb:.1f} MB / {size_mb:.1f} MB, "
+            f"ceiling {SIZE_CEILING:.1f}: {'ok' if rrd_mb / size_mb <= SIZE_CEILING else 'OVER'})"
+        )
+        for ent, mb in biggest_entities(rrd, 4):
+            print(f"    {ent:<32} {mb:7.1f} MB")
         print(
             f"rerun mcap convert (peer):    {t_peer:7.2f} s   navlog/peer = {t_view / t_peer:.2f}, "
             f".rrd {peer_rrd.stat().st_size / 1e6:.1f} MB (scans, odometry, twist not drawn)"

@@ -1,4 +1,9 @@
-"""Point clouds (sensor_msgs/PointCloud2): x, y, z of every n-th finite point, sent in batches."""
+"""Point clouds (sensor_msgs/PointCloud2): x, y, z of every n-th finite point, sent in batches.
+
+A topic is thinned to one cloud per ``cloud_period_s`` (the first cloud of each period is kept, the
+others counted as skipped): a 3D LiDAR at 10 Hz is most of a log's bytes, and the viewer shows the
+latest cloud at the time cursor, so two clouds a second keep the scene readable at a fifth of the size.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from navlog.analysis.view.context import ViewContext
+from navlog.analysis.view.context import COLORS, ViewContext
 
 
 @dataclass
@@ -15,6 +20,7 @@ class CloudRows:
     """The clouds of one topic not yet sent: log times and points."""
 
     frame: str = ""
+    last_kept: int | None = None  # log time of the last cloud kept
     t: list[int] = field(default_factory=list)
     pts: list[np.ndarray] = field(default_factory=list)
 
@@ -30,6 +36,11 @@ class Clouds:
         from navlog.replay.pointcloud import read_points
 
         c = self.topics.setdefault(topic, CloudRows(frame=self.ctx.frame(msg.header.frame_id)))
+        period_ns = int(self.ctx.opt.cloud_period_s * 1e9)
+        if c.last_kept is not None and t - c.last_kept < period_ns:
+            self.ctx.summary.thinned[f"{topic}: one cloud per {self.ctx.opt.cloud_period_s:g} s"] += 1
+            return
+        c.last_kept = t
         arr = read_points(msg, ("x", "y", "z"))
         pts = np.empty((len(arr), 3), dtype=np.float32)
         pts[:, 0], pts[:, 1], pts[:, 2] = arr["x"], arr["y"], arr["z"]
@@ -48,7 +59,9 @@ class Clouds:
             return
         lengths = [len(p) for p in c.pts]
         xyz = np.concatenate(c.pts) if c.pts else np.zeros((0, 3), np.float32)
-        self.ctx.send_sensor_points(topic, c.frame, c.t, xyz, lengths, radii=0.015)
+        self.ctx.send_sensor_points(
+            topic, c.frame, c.t, xyz, lengths, radii=self.ctx.rr.Radius.ui_points(1.5), colors=[COLORS["cloud"]]
+        )
         c.t, c.pts = [], []
 
     def flush(self) -> None:

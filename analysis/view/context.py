@@ -17,17 +17,22 @@ from navlog.analysis.view.options import ViewOptions, ViewSummary
 
 TIMELINE = "sim_time"
 
-# role -> RGB
+# role -> RGB: one colour per kind of stream in every view, from the Okabe-Ito palette (told apart by
+# readers with any of the common colour-vision deficiencies); amber, orange and red are kept for the
+# collision monitor's states, the velocity chain is grey -> orange -> white (plots only).
 COLORS = {
-    "ground_truth": (40, 200, 80),
-    "estimate": (86, 180, 233),  # sky blue: orange, amber and red are the collision monitor's states
-    "estimate2": (40, 120, 255),
-    "replay": (200, 60, 220),
-    "plan": (230, 30, 30),
-    "goal": (255, 215, 0),
-    "waypoint": (0, 200, 220),
-    "scan": (255, 60, 60),
-    "footprint": (30, 90, 255),
+    "ground_truth": (0, 158, 115),  # bluish green
+    "estimate": (86, 180, 233),  # sky blue: the robot's own odometry
+    "estimate2": (0, 114, 178),  # blue: a mapper's or localiser's estimate (/Odometry, a replay's poses)
+    "replay": (0, 114, 178),
+    "replay_file": (255, 255, 255),  # white, thin: the same estimate as saved to trajectory.tum
+    "plan": (204, 121, 167),  # reddish purple
+    "local_plan": (213, 94, 0),  # vermillion
+    "goal": (255, 255, 255),
+    "waypoint": (190, 190, 190),
+    "scan": (240, 228, 66),  # yellow
+    "cloud": (200, 200, 200),  # light grey: 3D LiDAR clouds
+    "footprint": (230, 159, 0),  # orange: the robot
 }
 
 
@@ -40,7 +45,7 @@ def entity_name(topic: str) -> str:
 def trajectory_role(topic: str) -> str:
     """The colour role of a pose topic: replay output, ground truth, or an estimate."""
     if topic.startswith("replay"):
-        return "replay"
+        return "replay_file" if topic.endswith("trajectory_tum") else "replay"
     if "ground_truth" in topic:
         return "ground_truth"
     return "estimate2" if topic.endswith("/Odometry") else "estimate"
@@ -61,6 +66,7 @@ class ViewContext:
         self.opt = options
         self.summary = ViewSummary()
         self.offset_ns: int | None = None  # set by the first log read
+        self.start_ns = 0  # log time of the first log's first message
         self.frames_used: set[str] = set()
         self._logged_once: set[str] = set()
 

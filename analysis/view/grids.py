@@ -1,17 +1,21 @@
 """Occupancy grids and costmaps: GridMaps in 3D under ``grids/``, and the source of the top-down image.
 
 A topic publishing faster than ``grid_period_s`` is thinned to one grid per period; the latest grid
-of a thinned run is kept and drawn at the end.
+of a thinned run is kept and drawn at the end. Every grid is cropped to its known cells plus
+``grid_margin_m`` (a mapper's 20 x 20 m canvas of unknown cells around a 6 m room is not drawn).
+Costmaps (topics named ``*costmap*``) are drawn just above the map, the local one above the global.
 """
 
 from __future__ import annotations
 
+import math
 from collections import defaultdict
 from typing import Any
 
 import numpy as np
 
 from navlog.analysis.view.context import ViewContext, entity_name
+from navlog.replay.geometry import yaw_from_quat
 
 
 def grid_array(msg: Any) -> np.ndarray:
@@ -30,6 +34,32 @@ def grid_gray(cells: np.ndarray) -> np.ndarray:
     return out
 
 
+def crop_known(
+    cells: np.ndarray, res: float, origin_xyz: tuple, q_xyzw: tuple, margin_m: float
+) -> tuple[np.ndarray, tuple[float, float, float]]:
+    """The grid cropped to its known (>= 0) cells plus ``margin_m``, and the origin of the cropped grid
+    (the cell offset turned by the origin's yaw). A grid without known cells is returned whole."""
+    known_rows = np.flatnonzero((cells >= 0).any(axis=1))
+    known_cols = np.flatnonzero((cells >= 0).any(axis=0))
+    if len(known_rows) == 0:
+        return cells, tuple(float(v) for v in origin_xyz)  # type: ignore[return-value]
+    m = int(math.ceil(margin_m / res)) if res > 0 else 0
+    h, w = cells.shape
+    r0, r1 = max(0, known_rows[0] - m), min(h, known_rows[-1] + 1 + m)
+    c0, c1 = max(0, known_cols[0] - m), min(w, known_cols[-1] + 1 + m)
+    yaw = yaw_from_quat(q_xyzw)
+    dx, dy = c0 * res, r0 * res
+    ox = origin_xyz[0] + dx * math.cos(yaw) - dy * math.sin(yaw)
+    oy = origin_xyz[1] + dx * math.sin(yaw) + dy * math.cos(yaw)
+    return cells[r0:r1, c0:c1], (float(ox), float(oy), float(origin_xyz[2]))
+
+
+# m above the map plane: costmaps drawn over the map (not in the same plane), the local one on top.
+# They keep the map's colours: Rerun's RViz costmap colours draw free cells opaque black in software
+# rendering, which hides the map.
+COSTMAP_LIFT_M = {"global": 0.01, "local": 0.02}
+
+
 class Grids:
     """OccupancyGrid topics: (log time, frame, cells, resolution, origin xyz, origin q) per kept grid."""
 
@@ -43,14 +73,12 @@ class Grids:
     def on_grid(self, topic: str, t: int, msg: Any) -> None:
         info = msg.info
         o = info.origin
-        entry = (
-            t,
-            self.ctx.frame(msg.header.frame_id),
-            grid_array(msg).copy(),
-            float(info.resolution),
-            (o.position.x, o.position.y, o.position.z),
-            (o.orientation.x, o.orientation.y, o.orientation.z, o.orientation.w),
+        q = (o.orientation.x, o.orientation.y, o.orientation.z, o.orientation.w)
+        res = float(info.resolution)
+        cells, origin = crop_known(
+            grid_array(msg), res, (o.position.x, o.position.y, o.position.z), q, self.ctx.opt.grid_margin_m
         )
+        entry = (t, self.ctx.frame(msg.header.frame_id), cells.copy(), res, origin, q)
         grids = self.topics[topic]
         period_s = self.ctx.opt.grid_period_s
         if grids and t - grids[-1][0] < period_s * 1e9:
@@ -63,7 +91,7 @@ class Grids:
         grids.append(entry)
 
     def gridmap(self, cells: np.ndarray, res: float, origin_xyz, q_xyzw):
-        """A Rerun GridMap of int8 cells with RViz's map colours."""
+        """A Rerun GridMap of int8 cells with RViz's map colours (costs as shades of grey)."""
         rr = self.ctx.rr
         h, w = cells.shape
         return rr.GridMap(
@@ -83,9 +111,11 @@ class Grids:
         for topic, grids in sorted(self.topics.items()):
             ent = ctx.entity(f"grids/{entity_name(topic)}")
             ctx.set_frame(ent, grids[0][1])
+            costmap = "costmap" in topic.lower()
+            lift = COSTMAP_LIFT_M.get("local" if "local" in topic.lower() else "global", 0.0) if costmap else 0.0
             for t, _, cells, res, xyz, q in grids:
                 ctx.set_time(t)
-                ctx.rec.log(ent, self.gridmap(cells, res, xyz, q))
+                ctx.rec.log(ent, self.gridmap(cells, res, (xyz[0], xyz[1], xyz[2] + lift), q))
             ctx.summary.drawn[topic] = ent
 
     def top_source(self) -> tuple[str, list] | None:

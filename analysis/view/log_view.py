@@ -3,8 +3,8 @@
 ``ViewBuilder`` reads every message of a log once and hands it by type to the drawer of its kind
 (scans, clouds, TF, trajectories, plans, goals, grids, collision-monitor polygons, time series,
 events); bulk sensors are sent in batches as they are read, the rest when the log is done
-(``finish``), in a fixed order, followed by the top-down view, the orphan-frame links and the
-blueprint.
+(``finish``), in a fixed order, followed by the top-down view, the robot, the orphan-frame links
+and the blueprint.
 
 The timeline ``sim_time`` is a duration: the log time itself for simulator logs (sim time in
 nanoseconds), the time since the first message for bags recorded with wall-clock receive times.
@@ -19,11 +19,11 @@ import hashlib
 import logging
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from navlog.analysis.view.blueprint import make_blueprint
 from navlog.analysis.view.clouds import Clouds
-from navlog.analysis.view.context import ViewContext
+from navlog.analysis.view.context import TIMELINE, ViewContext
 from navlog.analysis.view.events import Events
 from navlog.analysis.view.goals import Goals
 from navlog.analysis.view.grids import Grids
@@ -31,6 +31,7 @@ from navlog.analysis.view.options import ViewOptions, ViewSummary
 from navlog.analysis.view.plans import Plans
 from navlog.analysis.view.polygons import Polygons
 from navlog.analysis.view.replay_outputs import add_replay_dir
+from navlog.analysis.view.robot import send_robot
 from navlog.analysis.view.scans import Scans
 from navlog.analysis.view.tf import TfTree
 from navlog.analysis.view.timeseries import TimeSeries
@@ -39,6 +40,7 @@ from navlog.analysis.view.trajectories import Trajectories
 from navlog.errors import LogError, NavlogError
 from navlog.replay import messages
 from navlog.replay.io import LogReader, open_log
+from navlog.replay.io.atomic import temp_path
 
 log = logging.getLogger("navlog")
 
@@ -109,6 +111,7 @@ class ViewBuilder:
         self.footprint = ctx.opt.footprint or robot_footprint(reader.metadata)
         wall = reader.start_ns >= WALL_CLOCK_NS
         ctx.offset_ns = reader.start_ns if wall else 0
+        ctx.start_ns = reader.start_ns
         ctx.summary.wall_clock = wall
         ctx.summary.time_offset_ns = ctx.offset_ns
         if wall:
@@ -176,11 +179,12 @@ class ViewBuilder:
         self.polygons.send()
         self.goals.send(self.events.events)
         self.grids.send()
-        send_top(self.ctx, self.tf, self.scans, self.trajectories, self.plans, self.grids, self.footprint)
+        base, poses = send_top(self.ctx, self.tf, self.scans, self.trajectories, self.plans, self.grids, self.footprint)
+        send_robot(self.ctx, self.tf, base, poses, self.footprint)
         self.series.send(self.trajectories.topics)
         self.events.send()
         self.tf.link_orphan_frames()
-        self.ctx.rec.send_blueprint(make_blueprint(self.summary), make_active=True, make_default=True)
+        self.ctx.rec.send_blueprint(make_blueprint(self.summary, self.ctx.opt), make_active=True, make_default=True)
         return self.summary
 
 
@@ -235,7 +239,7 @@ def save_view(
         raise NavlogError(f"{out}: already exists; choose another name or pass --force to overwrite it")
     if not out.parent.is_dir():
         raise NavlogError(f"{out.parent}: output folder does not exist")
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.part")
+    tmp = temp_path(out)  # what killed runs left beside ``out`` is removed first
     rec = None
     try:
         with open_log(log_path, recover=recover) as reader:
@@ -265,8 +269,7 @@ def spawn_viewer(rec: Any, *, bind: str = VIEWER_BIND, port: int = VIEWER_PORT) 
 
     # Rerun's spawn (waits until the viewer listens), with the listening address it does not pass itself
     rerun_bindings.spawn(port=port, extra_args=[f"--bind={bind}"])
-    host = f"[{bind}]" if ":" in bind else bind
-    rec.connect_grpc(f"rerun+http://{'127.0.0.1' if bind in ('0.0.0.0', '::') else host}:{port}/proxy")
+    rec.connect_grpc(viewer_url(bind, port))
 
 
 def stream_view(
@@ -280,14 +283,20 @@ def stream_view(
     flush_timeout_s: float = 30.0,
     bind: str = VIEWER_BIND,
 ) -> ViewSummary:
-    """Send a log to a viewer: a newly spawned one (listening on ``bind`` only), or one listening at ``connect``."""
+    """Send a log to a viewer: a newly spawned one (listening on ``bind`` only), or one listening at ``connect``.
+
+    Once sent to a spawned viewer (or to any viewer when ``options.play_state`` is set), the viewer's
+    time cursor goes to the log's start, paused or playing as ``options.play_state`` says (default:
+    playing); a viewer left following the newest data would open at the log's end."""
+    opt = options or ViewOptions()
     with open_log(log_path, recover=recover) as reader:
         rec = new_recording(reader)
         if spawn:
             spawn_viewer(rec, bind=bind)
         else:
             rec.connect_grpc(connect)
-        summary = build_view(reader, rec, replay_dir=Path(replay_dir) if replay_dir else None, options=options)
+        summary = build_view(reader, rec, replay_dir=Path(replay_dir) if replay_dir else None, options=opt)
+        start = reader.start_ns - summary.time_offset_ns
     try:
         rec.flush(timeout_sec=flush_timeout_s)
     except Exception as exc:
@@ -297,4 +306,28 @@ def stream_view(
             f"no Rerun viewer took the recording at {where} within {flush_timeout_s:g} s ({exc})"
         ) from None
     rec.disconnect()
+    if spawn or opt.play_state:
+        url = viewer_url(bind, VIEWER_PORT) if spawn else (connect or viewer_url(VIEWER_BIND, VIEWER_PORT))
+        rewind_viewer(url, start, opt.play_state or "playing", summary)
     return summary
+
+
+def viewer_url(bind: str, port: int) -> str:
+    """The gRPC URL of a viewer listening on ``bind``:``port``, as reached from this machine."""
+    host = f"[{bind}]" if ":" in bind else bind
+    return f"rerun+http://{'127.0.0.1' if bind in ('0.0.0.0', '::') else host}:{port}/proxy"
+
+
+def rewind_viewer(url: str, start_ns: int, play_state: Literal["paused", "playing"], summary: ViewSummary) -> None:
+    """Put the viewer's time cursor at ``start_ns`` on ``sim_time``, paused or playing; a viewer that
+    cannot be controlled (no control API) is reported in ``summary.warnings``, not an error."""
+    import numpy as np
+
+    try:
+        from rerun.experimental import ViewerClient
+
+        ViewerClient.connect(url).set_time(
+            TIMELINE, duration=np.timedelta64(int(start_ns), "ns"), play_state=play_state
+        )
+    except Exception as exc:  # the recording is there; only the cursor could not be moved
+        summary.warnings.append(f"{url}: could not move the viewer's time cursor to the start ({exc})")

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 from navlog.errors import NavlogError
 
-__all__ = ["ViewOptions", "ViewSummary"]
+__all__ = ["PLAY_STATES", "PlayState", "ViewOptions", "ViewSummary"]
+
+PLAY_STATES = ("", "paused", "playing")
+PlayState = Literal["", "paused", "playing"]
 
 
 @dataclass(frozen=True)
@@ -20,6 +23,10 @@ class ViewOptions:
     footprint: tuple[tuple[float, float], ...] | None = None  # None: the log's robot radius, else the Go2 outline
     grid_period_s: float = 1.0  # grids faster than this are thinned to one per period
     cloud_stride: int = 1  # keep every n-th point of each cloud
+    cloud_period_s: float = 0.5  # 3D LiDAR clouds: at most one per period per topic (0: every cloud)
+    grid_margin_m: float = 2.0  # grids are cropped to their known cells plus this margin
+    follow: bool = False  # the 3D camera tracks the robot as time plays
+    play_state: PlayState = ""  # "paused" or "playing" when the viewer opens ("": the viewer's default)
     batch_rows: int = 64  # messages per send_columns batch for clouds and scans
     max_canvas_px: int = 4000  # the top-down canvas is at most this many pixels on a side
 
@@ -28,6 +35,12 @@ class ViewOptions:
             raise NavlogError(f"footprint: needs at least 3 points, got {len(self.footprint)}")
         if self.grid_period_s < 0:
             raise NavlogError(f"grid_period_s: must be >= 0, got {self.grid_period_s}")
+        if self.cloud_period_s < 0 or self.grid_margin_m < 0:
+            raise NavlogError(
+                f"cloud_period_s and grid_margin_m must be >= 0, got {self.cloud_period_s}, {self.grid_margin_m}"
+            )
+        if self.play_state not in PLAY_STATES:
+            raise NavlogError(f"play_state: expected one of {', '.join(PLAY_STATES)}, got {self.play_state!r}")
         if self.cloud_stride < 1 or self.batch_rows < 1 or self.max_canvas_px < 16:
             raise NavlogError("cloud_stride and batch_rows must be >= 1, max_canvas_px >= 16")
         return self
@@ -45,11 +58,17 @@ class ViewSummary:
     not_drawn: dict[str, str] = field(default_factory=dict)  # topic -> type
     unknown_types: dict[str, str] = field(default_factory=dict)
     skipped: Counter = field(default_factory=Counter)
+    thinned: Counter = field(default_factory=Counter)  # what the view leaves out on purpose, by reason
     warnings: list[str] = field(default_factory=list)
     messages: int = 0
     points: int = 0
     has_top: bool = False
     grid_source: str = ""
+    # the robot's first pose in the fixed frame (x, y, z, yaw), where the 3D camera starts; None: unknown
+    robot_start: tuple[float, float, float, float] | None = None
+    top_bounds: tuple[float, float, float, float] | None = None  # 2D view's first bounds: u0, u1, v0, v1 (px)
+    robot_entity: str = ""  # the entity drawn in the robot's base frame (the 3D camera can follow it)
+    plot_ranges: dict[str, tuple[float, float]] = field(default_factory=dict)  # plot origin -> y range
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -63,6 +82,8 @@ class ViewSummary:
             "not_drawn": dict(sorted(self.not_drawn.items())),
             "unknown_types": dict(sorted(self.unknown_types.items())),
             "skipped": dict(sorted(self.skipped.items())),
+            "thinned": dict(sorted(self.thinned.items())),
             "warnings": list(self.warnings),
             "grid_source": self.grid_source,
+            "robot_start": list(self.robot_start) if self.robot_start else None,
         }

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from navlog.analysis.view.context import ViewContext
-from navlog.analysis.view.grids import Grids
+from navlog.analysis.view.grids import Grids, crop_known
 from navlog.analysis.view.trajectories import PoseRows, Trajectories
 from navlog.errors import NavlogError
 from navlog.replay.geometry import quat_from_yaw
@@ -49,15 +49,21 @@ def add_replay_dir(
 
 
 def add_map_yaml(path: Path, ctx: ViewContext, grids: Grids) -> bool:
-    """The replayed map as a static GridMap; it also becomes the top-down view's grid."""
+    """The replayed map becomes the top-down view's grid; in 3D it is drawn as a static GridMap unless
+    the replay.mcap's own ``/map`` (the same map as it grew) is drawn already."""
     from navlog.replay.io.map_server import load_map
 
     occ = load_map(path)
     ox, oy, yaw = occ.origin
-    grids.static_map = ("replay/map", occ.data, occ.resolution, ox, oy)
+    q = quat_from_yaw(yaw)
+    cells, (cx, cy, _) = crop_known(occ.data, occ.resolution, (ox, oy, 0.0), q, ctx.opt.grid_margin_m)
+    grids.static_map = ("replay/map", cells, occ.resolution, cx, cy)
+    if grids.topics.get(f"{REPLAY_PREFIX}/map"):
+        ctx.summary.drawn[str(path)] = f"grids/{REPLAY_PREFIX}/map"
+        return True
     ent = ctx.entity("replay/map")
     ctx.set_frame(ent, occ.frame_id or "map")
-    ctx.rec.log(ent, grids.gridmap(occ.data, occ.resolution, (ox, oy, 0.0), quat_from_yaw(yaw)), static=True)
+    ctx.rec.log(ent, grids.gridmap(cells, occ.resolution, (cx, cy, 0.0), q), static=True)
     ctx.summary.drawn[str(path)] = ent
     return True
 
@@ -82,7 +88,7 @@ def add_pcd(path: Path, ctx: ViewContext) -> None:
     ent = ctx.entity("replay/map_pcd")
     ctx.set_frame(ent, ctx.opt.fixed_frame or "map")
     z = pts[:, 2] if len(pts) else np.zeros(0)
-    ctx.rec.log(ent, ctx.rr.Points3D(pts, radii=0.02, colors=height_colors(z)), static=True)
+    ctx.rec.log(ent, ctx.rr.Points3D(pts, radii=ctx.rr.Radius.ui_points(2.0), colors=height_colors(z)), static=True)
     ctx.summary.points += len(pts)
     ctx.summary.drawn[str(path)] = ent
 

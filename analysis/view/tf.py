@@ -59,6 +59,11 @@ class TfTree:
             size[r] = sum(1 for f in frames if self.root_of(f) == r)
         summary.fixed_frame = max(roots, key=lambda r: (size[r], r == "odom", r)) if roots else "map"
 
+    def base_frame(self) -> str | None:
+        """The robot's base frame: base_footprint, else base_link, else None (no TF to the robot)."""
+        frames = set(self.buffer.frames())
+        return next((f for f in ("base_footprint", "base_link") if f in frames), None)
+
     def root_of(self, frame: str) -> str:
         parent = {c: p for p, c in self.edges}
         seen = set()
@@ -84,7 +89,9 @@ class TfTree:
     # -------------------------------------------------------------- drawing
 
     def send(self) -> None:
-        """Every edge as a Transform3D (static once, dynamic as columns) with axes in its child frame."""
+        """Every edge as a Transform3D (static once, dynamic as columns) with unlabelled axes in its child
+        frame. A dynamic edge that starts after the log does is held at its first sample from the log's
+        start, so that nothing is drawn without a transform while the first edges arrive."""
         ctx, rr = self.ctx, self.ctx.rr
         for (parent, child), e in sorted(self.edges.items()):
             ent = ctx.entity(f"tf/{entity_name(child)}")
@@ -102,17 +109,21 @@ class TfTree:
                     static=True,
                 )
             else:
+                times = list(e["t"])
+                if times[0] > ctx.start_ns:
+                    times.insert(0, ctx.start_ns)
+                    xyz, q = np.vstack([xyz[:1], xyz]), np.vstack([q[:1], q])
                 n = len(xyz)
                 ctx.rec.send_columns(
                     ent,
-                    indexes=[ctx.time_column(e["t"])],
+                    indexes=[ctx.time_column(times)],
                     columns=rr.Transform3D.columns(
                         translation=xyz, quaternion=q, parent_frame=[parent] * n, child_frame=[child] * n
                     ),
                 )
             axes = ctx.entity(f"tf/{entity_name(child)}/axes")
             ctx.set_frame(axes, child)
-            ctx.rec.log(axes, rr.TransformAxes3D(0.15, show_frame=True), static=True)
+            ctx.rec.log(axes, rr.TransformAxes3D(0.15, show_frame=False), static=True)
 
     def link_orphan_frames(self) -> None:
         """Frames with no TF path to the fixed frame are drawn as coincident with it (and reported)."""

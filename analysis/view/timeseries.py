@@ -1,7 +1,9 @@
 """Time series under ``plots/``: the velocity chain, speed, odometry drift against ground truth, IMU rates.
 
 The velocity chain (``/cmd_vel_nav`` -> ``/cmd_vel_smoothed`` -> ``/cmd_vel``) is plotted in that
-order, other Twist topics after it; vy only when it was ever commanded.
+order, other Twist topics after it; vy only when it was ever commanded. Every series records its
+value range in ``summary.plot_ranges`` (IMU rates: the 1st to 99th percentile, so that a few spikes
+do not flatten the plot), from which the blueprint sets each plot's y axis.
 """
 
 from __future__ import annotations
@@ -16,7 +18,9 @@ from navlog.analysis.view.trajectories import PoseRows
 from navlog.replay import messages
 
 VELOCITY_CHAIN = ("/cmd_vel_nav", "/cmd_vel_smoothed", "/cmd_vel")
-CHAIN_COLORS = {"/cmd_vel_nav": (120, 120, 255), "/cmd_vel_smoothed": (255, 165, 0), "/cmd_vel": (220, 30, 30)}
+# the velocity chain: controller grey, smoother orange, collision monitor's output (what the robot gets) white
+CHAIN_COLORS = {"/cmd_vel_nav": (150, 150, 150), "/cmd_vel_smoothed": (230, 159, 0), "/cmd_vel": (255, 255, 255)}
+IMU_COLORS = {"wz": (240, 228, 66), "ax": (86, 180, 233)}
 # px: each stage of the chain thinner than the one before, so equal values show as nested lines
 CHAIN_WIDTHS = {"/cmd_vel_nav": 5.0, "/cmd_vel_smoothed": 3.0, "/cmd_vel": 1.5}
 
@@ -58,11 +62,24 @@ class TimeSeries:
         self.imu[topic].append((t, msg.angular_velocity.z, msg.linear_acceleration.x, msg.linear_acceleration.y))
 
     def scalars(
-        self, ent: str, t: list[int] | np.ndarray, v: np.ndarray, name: str, color=None, width: float | None = None
+        self,
+        ent: str,
+        t: list[int] | np.ndarray,
+        v: np.ndarray,
+        name: str,
+        color=None,
+        width: float | None = None,
+        robust: bool = False,
     ) -> None:
-        """One named, coloured series of scalars (``width``: line width in px, else Rerun's)."""
+        """One named, coloured series of scalars (``width``: line width in px, else Rerun's); its range
+        (``robust``: 1st to 99th percentile) goes to ``summary.plot_ranges``."""
         ctx, rr = self.ctx, self.ctx.rr
         ent = ctx.entity(ent)
+        finite = np.asarray(v, dtype=np.float64)
+        finite = finite[np.isfinite(finite)]
+        if len(finite):
+            lo, hi = np.percentile(finite, [1, 99]) if robust else (finite.min(), finite.max())
+            ctx.summary.plot_ranges["/" + ent.strip("/")] = (float(lo), float(hi))
         ctx.rec.send_columns(
             ent, indexes=[ctx.time_column(t)], columns=rr.Scalars.columns(scalars=np.asarray(v, dtype=np.float64))
         )
@@ -107,6 +124,7 @@ class TimeSeries:
         for topic, rows in sorted(self.imu.items()):
             arr = np.array(rows, dtype=np.float64)
             t = arr[:, 0].astype(np.int64)
-            self.scalars(f"plots/imu/{entity_name(topic)}/wz", t, arr[:, 1], f"{topic} angular z")
-            self.scalars(f"plots/imu/{entity_name(topic)}/ax", t, arr[:, 2], f"{topic} accel x")
+            name = entity_name(topic)
+            self.scalars(f"plots/imu/{name}/wz", t, arr[:, 1], f"{topic} yaw rate", IMU_COLORS["wz"], robust=True)
+            self.scalars(f"plots/imu/{name}/ax", t, arr[:, 2], f"{topic} accel x", IMU_COLORS["ax"], robust=True)
             drawn[topic] = f"plots/imu/{entity_name(topic)}"

@@ -13,13 +13,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from navlog.analysis.view.context import COLORS, ViewContext, entity_name, trajectory_role
-from navlog.analysis.view.grids import Grids, grid_gray
+from navlog.analysis.view.grids import Grids, crop_known, grid_gray
 from navlog.analysis.view.plans import Plans
 from navlog.analysis.view.scans import Scans
 from navlog.analysis.view.tf import TfTree
 from navlog.analysis.view.trajectories import Trajectories
 from navlog.errors import NavlogError
 from navlog.replay.geometry import make_transform, yaw_from_quat
+
+TOP_MARGIN_M = 0.5  # the 2D view opens on the grid's known cells plus this margin
 
 # Go2 body outline (0.70 x 0.31 m) around base_footprint.
 GO2_FOOTPRINT = ((0.35, 0.155), (0.35, -0.155), (-0.35, -0.155), (-0.35, 0.155))
@@ -94,12 +96,15 @@ def send_top(
     plans: Plans,
     grids: Grids,
     footprint: tuple[tuple[float, float], ...],
-) -> None:
-    """Draw the top-down view (nothing when there is no grid, no scan and no trajectory to draw)."""
+) -> tuple[str | None, list[tuple[int, np.ndarray]]]:
+    """Draw the top-down view (nothing when there is no grid, no scan and no trajectory to draw).
+
+    Returns the robot's base frame (None: no TF to it) and its poses in the fixed frame (log time,
+    4x4), the ones the footprint is drawn at."""
     rr = ctx.rr
     summary = ctx.summary
     fixed = summary.fixed_frame
-    base = next((f for f in ("base_footprint", "base_link") if f in set(tf.buffer.frames())), None)
+    base = tf.base_frame()
     # scans into the fixed frame
     scans2d: dict[str, tuple[list[int], list[np.ndarray]]] = {}
     poses: list[tuple[int, np.ndarray]] = []
@@ -121,9 +126,10 @@ def send_top(
         if ts:
             scans2d[topic] = (ts, pts)
     trajs2d = {}
+    replay_estimates = [k for k in trajectories.topics if trajectory_role(k) == "replay"]
     for topic, o in sorted(trajectories.topics.items()):
-        if not o.t:
-            continue
+        if not o.t or (trajectory_role(topic) == "replay_file" and replay_estimates):
+            continue  # the file copy of an estimate drawn from the replay's own topic
         m = tf.to_fixed(o.frame, None)  # the latest transform of the odometry frame
         if m is None:
             continue
@@ -135,9 +141,17 @@ def send_top(
         m = np.eye(4) if frame == fixed else tf.to_fixed(frame, None)
         if m is not None:
             plans2d[topic] = [(t, xyz[:, :2].astype(np.float64) @ m[:2, :2].T + m[:2, 3]) for t, _, xyz in items]
+    if not poses and base is None:
+        # no TF to the robot: the footprint follows the first odometry in the fixed frame
+        for topic, o in sorted(trajectories.topics.items()):
+            if o.frame == fixed and o.t:
+                step = max(1, len(o.t) // max(1, int((o.t[-1] - o.t[0]) / 1e8) or 1))
+                for i in range(0, len(o.t), step):
+                    poses.append((o.t[i], make_transform(o.xyz[i], o.q[i])))
+                break
     grid = grids.top_source()
     if grid is None and not scans2d and not trajs2d:
-        return
+        return base, poses
     # the canvas: the grid's extent, else everything drawn plus a margin
     if grid is not None:
         name, grid_rows = grid
@@ -150,6 +164,15 @@ def send_top(
             b[:, 0].min(), b[:, 1].min(), b[:, 2].max(), b[:, 3].max(), grid_rows[-1][3], ctx.opt.max_canvas_px
         )
         summary.grid_source = name
+        _, _, cells, res, origin, q = grid_rows[-1]
+        known, (kx, ky, _) = crop_known(cells, res, origin, q, TOP_MARGIN_M)
+        corners = canvas.to_px(np.array([[kx, ky], [kx + known.shape[1] * res, ky + known.shape[0] * res]]))
+        summary.top_bounds = (
+            float(corners[:, 0].min()),
+            float(corners[:, 0].max()),
+            float(corners[:, 1].min()),
+            float(corners[:, 1].max()),
+        )
     else:
         allxy = [np.concatenate(p) for _, p in scans2d.values() if p] + list(trajs2d.values())
         xy = np.concatenate(allxy) if allxy else np.zeros((1, 2))
@@ -180,13 +203,20 @@ def send_top(
         ctx.rec.send_columns(
             e, indexes=[ctx.time_column(ts)], columns=rr.Points2D.columns(positions=px).partition([len(p) for p in pts])
         )
-        ctx.rec.log(e, rr.Points2D.from_fields(radii=1.0, colors=[COLORS["scan"]], draw_order=5.0), static=True)
+        ctx.rec.log(
+            e,
+            rr.Points2D.from_fields(radii=rr.Radius.ui_points(1.5), colors=[COLORS["scan"]], draw_order=5.0),
+            static=True,
+        )
     for topic, xy in trajs2d.items():
         e = ctx.entity(f"top/trajectories/{entity_name(topic)}")
         ctx.rec.log(
             e,
             rr.LineStrips2D(
-                [canvas.to_px(xy)], colors=[COLORS[trajectory_role(topic)]], labels=[topic], draw_order=3.0
+                [canvas.to_px(xy)],
+                colors=[COLORS[trajectory_role(topic)]],
+                radii=rr.Radius.ui_points(1.0),
+                draw_order=3.0,
             ),
             static=True,
         )
@@ -197,15 +227,12 @@ def send_top(
             indexes=[ctx.time_column([t for t, _ in items])],
             columns=rr.LineStrips2D.columns(strips=[canvas.to_px(xy) for _, xy in items]),
         )
-        ctx.rec.log(e, rr.LineStrips2D.from_fields(colors=[COLORS["plan"]], draw_order=4.0), static=True)
-    if not poses and base is None:
-        # no TF to the robot: the footprint follows the first odometry in the fixed frame
-        for topic, o in sorted(trajectories.topics.items()):
-            if o.frame == fixed and o.t:
-                step = max(1, len(o.t) // max(1, int((o.t[-1] - o.t[0]) / 1e8) or 1))
-                for i in range(0, len(o.t), step):
-                    poses.append((o.t[i], make_transform(o.xyz[i], o.q[i])))
-                break
+        role = "local_plan" if "local" in topic.lower() else "plan"
+        ctx.rec.log(
+            e,
+            rr.LineStrips2D.from_fields(colors=[COLORS[role]], radii=rr.Radius.ui_points(1.5), draw_order=4.0),
+            static=True,
+        )
     if poses:
         fp = np.array(tuple(footprint) + (footprint[0],), dtype=np.float64)
         strips = [canvas.to_px(fp @ m[:2, :2].T + m[:2, 3]) for _, m in poses]
@@ -214,5 +241,8 @@ def send_top(
             e, indexes=[ctx.time_column([t for t, _ in poses])], columns=rr.LineStrips2D.columns(strips=strips)
         )
         ctx.rec.log(
-            e, rr.LineStrips2D.from_fields(colors=[COLORS["footprint"]], radii=1.0, draw_order=6.0), static=True
+            e,
+            rr.LineStrips2D.from_fields(colors=[COLORS["footprint"]], radii=rr.Radius.ui_points(2.0), draw_order=6.0),
+            static=True,
         )
+    return base, poses

@@ -1,4 +1,9 @@
-"""Trajectories: odometry topics (and a replay's TUM file) as a 3D path plus a pose arrow over time."""
+"""Trajectories: odometry topics (and a replay's TUM file) as a 3D path plus a pose arrow over time.
+
+Paths carry no text labels (they would pile up where the robot stands and where tours end): each
+topic keeps one colour in every view, and the speed plot's legend names them. The TUM file of a
+replay whose own trajectory topic is drawn is a thinner line (it is the same estimate).
+"""
 
 from __future__ import annotations
 
@@ -50,15 +55,18 @@ class Trajectories:
 
     def send(self) -> None:
         ctx, rr = self.ctx, self.ctx.rr
+        replay_estimates = [k for k in self.topics if trajectory_role(k) == "replay"]
         for topic, o in sorted(self.topics.items()):
             if not o.t:
                 continue
-            color = COLORS[trajectory_role(topic)]
+            role = trajectory_role(topic)
+            color = COLORS[role]
+            copy = role == "replay_file" and bool(replay_estimates)
             base = f"trajectories/{entity_name(topic)}"
             xyz = np.asarray(o.xyz, dtype=np.float32)
             line = ctx.entity(f"{base}/path")
             ctx.set_frame(line, o.frame)
-            ctx.rec.log(line, rr.LineStrips3D([xyz], radii=0.01, colors=[color], labels=[topic]), static=True)
+            ctx.rec.log(line, rr.LineStrips3D([xyz], radii=0.005 if copy else 0.01, colors=[color]), static=True)
             pose = ctx.entity(f"{base}/pose")
             ctx.set_frame(pose, o.frame)
             ctx.rec.send_columns(

@@ -19,8 +19,9 @@ def register(sub) -> None:
         help="draw a log in Rerun: 3D (map frame), top-down 2D, time series, events",
         description="Convert any log (navlog MCAP, rosbag2 folder, .mcap or .db3) into a Rerun recording: "
         "scans, clouds, TF, trajectories, plans, grids, goals, the velocity chain and events, on a "
-        "sim_time duration timeline. --save writes an .rrd without a display; --spawn opens a viewer; "
-        "--connect streams to a running one.",
+        "sim_time duration timeline, with a default layout: the 3D view (camera on the robot) beside a "
+        "top-down view, the plots below. --save writes an .rrd without a display; --spawn opens a viewer at the "
+        "log's start; --connect streams to a running one.",
     )
     p.add_argument("log", help="a .mcap file, a .db3 file or a rosbag2 folder")
     p.add_argument(
@@ -35,6 +36,19 @@ def register(sub) -> None:
     p.add_argument("--fixed-frame", default="", help="frame of the 3D and 2D views (default: map, else the TF root)")
     p.add_argument("--frame-prefix", default="", help="prefix stripped from frame names, e.g. simple_robot/")
     p.add_argument("--cloud-stride", type=int, default=1, help="keep every n-th point of each cloud (default 1)")
+    p.add_argument(
+        "--cloud-period",
+        type=float,
+        default=0.5,
+        metavar="S",
+        help="draw at most one 3D LiDAR cloud per S seconds of each topic (default 0.5; 0: every cloud)",
+    )
+    p.add_argument("--follow", action="store_true", help="the 3D camera follows the robot as time plays")
+    p.add_argument(
+        "--paused",
+        action="store_true",
+        help="open paused at the log's start (default: a spawned viewer plays from the start)",
+    )
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
     p.set_defaults(func=run)
 
@@ -45,7 +59,14 @@ def run(args) -> int:
     from navlog.analysis.view import ViewOptions, save_view, stream_view
 
     rr.set_strict_mode(True)
-    opts = ViewOptions(fixed_frame=args.fixed_frame, frame_prefix=args.frame_prefix, cloud_stride=args.cloud_stride)
+    opts = ViewOptions(
+        fixed_frame=args.fixed_frame,
+        frame_prefix=args.frame_prefix,
+        cloud_stride=args.cloud_stride,
+        cloud_period_s=args.cloud_period,
+        follow=args.follow,
+        play_state="paused" if args.paused else "",
+    )
     t0 = time.perf_counter()
     if args.save:
         summary = save_view(
@@ -69,6 +90,11 @@ def run(args) -> int:
         f"{where}: {summary.messages} messages, {summary.points} points, {len(summary.entities)} entities "
         f"in frame {summary.fixed_frame} ({dt:.1f} s)"
         + skipped_note(summary.skipped)
+        + (
+            f"; thinned: {', '.join(f'{k} ({v} left out)' for k, v in sorted(summary.thinned.items()))}"
+            if summary.thinned
+            else ""
+        )
         + (f"; stored but not drawn: {', '.join(sorted(summary.not_drawn))}" if summary.not_drawn else ""),
         file=sys.stdout,
     )

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pytest
+
 from tests.analysis import sample_nav_log as sample
 from tests.analysis.view.rrd import column, read_rrd
 
@@ -19,3 +21,15 @@ def test_fast_grids_are_thinned_to_one_per_period(tmp_path):
     assert summary.skipped == {"grid thinned to one per 1 s on /global_costmap/costmap": 8}
     # /map stays the top-down grid; the costmap is drawn in 3D only
     assert summary.grid_source == "/map"
+
+
+def test_costmaps_are_drawn_above_the_map(tmp_path):
+    from navlog.analysis.view import save_view
+
+    log = sample.write_sample_log(tmp_path / "c.mcap", costmap_hz=1.0, with_events=False)
+    save_view(log, tmp_path / "c.rrd")
+    data = read_rrd(tmp_path / "c.rrd")
+    ((_, xyz),) = column(data, "/grids/map", "GridMap:translation")
+    lifted = column(data, "/grids/global_costmap/costmap", "GridMap:translation")[0][1]
+    assert lifted[0][2] - xyz[0][2] == pytest.approx(0.01)
+    assert lifted[0][:2] == pytest.approx(xyz[0][:2])  # same known cells: the same crop
