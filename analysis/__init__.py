@@ -10,6 +10,8 @@
 - ``navlog.analysis.check``: is a log fit to replay (``check_log``, ``LogCheck``, ``format_check``);
 - ``navlog.analysis.diff``: what moved between two replays or two logs (``DiffTolerances``,
   ``DiffReport``; the function is ``navlog.analysis.diff.diff``).
+- ``navlog.analysis.fleet``: many logs replayed in parallel (a process pool or Ray) with one summary
+  table (``replay_fleet``, ``FleetResult``).
 
 Names are imported on first use, so importing the package loads neither Rerun, Open3D nor scipy.
 """

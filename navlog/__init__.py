@@ -7,8 +7,9 @@ functions the commands call, with the same arguments:
 
 - recording (``navlog record``): ``prepare`` a world, robot and scenario, then ``record`` it to MCAP
   (``RecordSetup``, ``RecordResult``);
-- replay (``navlog replay``): ``run_replay`` (``ReplayResult``, ``pipeline_params``); logs:
-  ``open_log``, ``recover_mcap`` (``navlog recover``);
+- replay (``navlog replay``): ``run_replay`` (``ReplayResult``, ``pipeline_params``); many logs in
+  parallel (``navlog replay LOG LOG ...``): ``replay_fleet`` (``FleetResult``); logs: ``open_log``,
+  ``recover_mcap`` (``navlog recover``);
 - metrics (``navlog metrics``): ``compute_metrics`` (``MetricsOptions``);
 - Rerun (``navlog view``): ``save_view`` (``ViewOptions``, ``ViewSummary``);
 - export (``navlog export``): ``export_rosbag2`` (``BagOptions``), ``export_tum``;
@@ -40,6 +41,7 @@ if TYPE_CHECKING:
         save_view,
     )
     from navlog.analysis.export import pcd_to_map
+    from navlog.analysis.fleet import FleetResult, replay_fleet
     from navlog.analysis.view import ViewSummary
     from navlog.demo import DemoResult, run_demo
     from navlog.recorder.record import RecordResult, RecordSetup, prepare, record
@@ -68,6 +70,8 @@ _MODULES = {
     "BagOptions": "analysis",
     "write_world_map": "recorder.world",
     "pcd_to_map": "analysis.export",
+    "replay_fleet": "analysis.fleet",
+    "FleetResult": "analysis.fleet",
     "plan_on_map": "replay.pipelines.planner",
     "MapPlan": "replay.pipelines.planner",
     "run_demo": "demo",
@@ -78,6 +82,7 @@ __all__ = [
     "BagOptions",
     "ConfigError",
     "DemoResult",
+    "FleetResult",
     "LogError",
     "MapPlan",
     "MetricsOptions",
@@ -99,6 +104,7 @@ __all__ = [
     "prepare",
     "record",
     "recover_mcap",
+    "replay_fleet",
     "run_demo",
     "run_replay",
     "save_view",
