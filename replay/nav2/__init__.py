@@ -13,6 +13,8 @@ its code, and a registry per plugin kind maps Nav2 plugin type names to both, as
 - ``controllers``: the controller server's controllers and checkers (parameters only, so far);
 - ``velocity_smoother`` (``VelocitySmoother``) and ``collision_monitor`` (``CollisionMonitor``:
   polygons, sources, actions), each with its parameters;
+- ``amcl``: AMCL's particle filter (``ParticleFilter``: motion models, likelihood field, KLD
+  resampling, recovery) and its parameters (``AmclParams``);
 - ``params`` (the file), ``overrides``, ``schema`` (typed sections and problems), ``plugins``
   (the registry type).
 

@@ -20,9 +20,10 @@ node's parameters; each plugin section is read by its registered plugin's parame
 - controller_server: ``controllers.server.read_controller_server`` (Regulated Pure Pursuit, MPPI main
   parameters, goal and progress checkers: ``controllers.registry``);
 - velocity_smoother: ``velocity_smoother.read_velocity_smoother``;
-- collision_monitor: ``collision_monitor.read_collision_monitor``.
+- collision_monitor: ``collision_monitor.read_collision_monitor``;
+- amcl: ``amcl.read_amcl``.
 
-Read and listed as not implemented: amcl, bt_navigator, map_server, smoother_server, behavior
+Read and listed as not implemented: bt_navigator, map_server, smoother_server, behavior
 servers, waypoint_follower, route_server, docking_server and the rest in ``READ_ONLY_NODES``.
 """
 
@@ -37,6 +38,7 @@ import yaml
 
 from navlog.errors import ConfigError
 from navlog.replay.config import load_yaml, parse_yaml, suggest
+from navlog.replay.nav2.amcl import AmclParams, read_amcl
 from navlog.replay.nav2.collision_monitor import CollisionMonitorParams, read_collision_monitor
 from navlog.replay.nav2.controllers.server import ControllerServerParams, read_controller_server
 from navlog.replay.nav2.costmap.costmap_2d import read_costmap
@@ -53,9 +55,9 @@ IMPLEMENTED_NODES = (
     "controller_server",
     "velocity_smoother",
     "collision_monitor",
+    "amcl",
 )
 READ_ONLY_NODES = (
-    "amcl",
     "bt_navigator",
     "map_server",
     "map_saver",
@@ -94,6 +96,7 @@ NODE_READERS: dict[str, Callable[[SectionReader, dict, tuple], Any]] = {
     "controller_server": read_controller_server,
     "velocity_smoother": read_velocity_smoother,
     "collision_monitor": read_collision_monitor,
+    "amcl": read_amcl,
 }
 
 
@@ -128,6 +131,7 @@ class Nav2Params:
     controller_server: ControllerServerParams | None = None
     velocity_smoother: VelocitySmootherParams | None = None
     collision_monitor: CollisionMonitorParams | None = None
+    amcl: AmclParams | None = None
     not_implemented: tuple[str, ...] = ()  # node blocks read but not implemented
     problems: tuple[Problem, ...] = ()
 

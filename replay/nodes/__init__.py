@@ -5,7 +5,8 @@
   ``/Odometry``, ``/cloud_registered`` and a PCD;
 - ``CostmapNode`` and ``PlannerNode``: the global costmap and the planner server, ``/plan``;
 - ``VelocitySmootherNode``: Nav2's velocity smoother, ``/cmd_vel_nav`` -> ``/cmd_vel_smoothed``;
-- ``CollisionMonitorNode``: Nav2's collision monitor, ``/cmd_vel_smoothed`` -> ``/cmd_vel``, its state as events.
+- ``CollisionMonitorNode``: Nav2's collision monitor, ``/cmd_vel_smoothed`` -> ``/cmd_vel``, its state as events;
+- ``AmclNode``: Nav2's AMCL on a map, /scan and odometry TF -> ``/amcl_pose``, ``/particle_cloud``, map -> odom.
 
 Names are imported on first use (the 3D mapper needs Open3D, the others do not).
 """
@@ -17,6 +18,7 @@ from typing import TYPE_CHECKING
 from navlog.replay import lazy_exports
 
 if TYPE_CHECKING:
+    from navlog.replay.nodes.amcl import AmclNode
     from navlog.replay.nodes.collision_monitor import CollisionMonitorNode
     from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
     from navlog.replay.nodes.occupancy_mapper import OccupancyMapperNode, OccupancyMapperParams
@@ -24,6 +26,7 @@ if TYPE_CHECKING:
     from navlog.replay.nodes.velocity_smoother import VelocitySmootherNode
 
 __all__ = [
+    "AmclNode",
     "CollisionMonitorNode",
     "CostmapNode",
     "LidarMapperNode",
@@ -35,6 +38,7 @@ __all__ = [
 ]
 
 _MODULES = {
+    "AmclNode": "amcl",
     "CollisionMonitorNode": "collision_monitor",
     "LidarMapperNode": "lidar_mapper",
     "LidarMapperParams": "lidar_mapper",

@@ -1,0 +1,161 @@
+"""The localization pipeline: Nav2's AMCL on a saved map, over a log's scans and odometry TF.
+
+``navlog replay LOG --pipeline localization --set map=MAP.yaml``: the AMCL node
+(``navlog.replay.nodes.amcl``) reads the scan topic, odom -> base from /tf, the laser mount from
+/tf_static and /initialpose; its parameters come from the ``amcl`` block of a Nav2 parameter file
+(``nav2_params``: a path or a name in config/nav2/; ``--params nav2_params.yaml`` fills it; empty:
+Nav2's defaults), checked as ``navlog check-config`` checks them. The log's own map -> odom (a
+perfect localiser's, in navlog's logs) is filtered out of the TF tree AMCL reads and counted among
+the skipped inputs: AMCL publishes its own.
+
+The initial pose (``initial_pose``): ``parameters`` (the file's ``set_initial_pose`` and
+``initial_pose``), ``ground_truth`` (the first pose on ``ground_truth_topic``, whose frame is taken
+as the map frame), ``initialpose`` (wait for /initialpose in the log), or ``auto``: the parameters
+when ``set_initial_pose`` is true, else ground truth when the log has it, else /initialpose. The
+filter's random numbers come from ``seed`` (``numpy.random.SeedSequence``): the same log, map,
+parameters and seed give the same bytes.
+
+Outputs: /amcl_pose and /particle_cloud in replay.mcap (map -> odom goes on /tf to the other
+nodes but is not recorded, since the log's /tf would be recorded beside it); trajectory.tum (the
+pose of ``trajectory_frame`` in the map frame at every scan, as AMCL's TF gives it) and
+localization.json (updates, resamples, particles, the first update's and the last estimate).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from navlog.errors import ConfigError
+from navlog.replay.io.map_server import load_map
+from navlog.replay.io.tum import write_poses
+from navlog.replay.nav2 import default_nav2_params, load_nav2_params
+from navlog.replay.nav2.amcl import AmclParams
+from navlog.replay.nodes.amcl import AmclNode
+from navlog.replay.pipelines.safety import nav2_file
+from navlog.replay.runtime.pipeline import Pipeline
+
+# `navlog replay --pipeline localization --params nav2_params.yaml` fills this key
+PARAMS_FILE_KEY = "nav2_params"
+
+
+@dataclass(frozen=True)
+class Params:
+    map: str = ""  # the map_server YAML to localise on (required)
+    nav2_params: str = ""  # a Nav2 parameter file with an amcl block: a path or a name in config/nav2/; "": defaults
+    initial_pose: Literal["auto", "parameters", "ground_truth", "initialpose"] = "auto"
+    ground_truth_topic: str = "/odom/ground_truth"
+    trajectory_frame: str = "base_link"  # the frame whose map pose trajectory.tum holds ("" = base_frame_id)
+    scan_topic: str = ""  # "" = "/" + the amcl block's scan_topic
+    seed: int = 0
+
+
+def amcl_params(params: Params) -> tuple[AmclParams, str]:
+    """The amcl block of the Nav2 file (or Nav2's defaults) and where it came from; errors raised at once."""
+    if not params.nav2_params:
+        nav2 = default_nav2_params()
+    else:
+        nav2 = load_nav2_params(nav2_file(params.nav2_params)).require_valid(("amcl",))
+    return (nav2.amcl or AmclParams()), nav2.source
+
+
+def build(params: Params, log_topics: set[str]) -> Pipeline:
+    if not params.map:
+        raise ConfigError(
+            "pipeline 'localization' needs a map: --set map=MAP.yaml (a map_server YAML, e.g. from "
+            "`navlog world-map indoor_room --margin 0 -o MAP.yaml` or a mapping replay's map.yaml)"
+        )
+    amcl, source = amcl_params(params)
+    if params.scan_topic:
+        amcl = replace(amcl, scan_topic=params.scan_topic)
+    mode = params.initial_pose
+    if mode == "auto":
+        mode = (
+            "parameters"
+            if amcl.set_initial_pose
+            else "ground_truth"
+            if params.ground_truth_topic in log_topics
+            else "initialpose"
+        )
+    if mode == "parameters" and not amcl.set_initial_pose:
+        amcl = replace(amcl, set_initial_pose=True)
+    occ_map = load_map(params.map)
+    rng = np.random.default_rng(np.random.SeedSequence(params.seed).spawn(1)[0])
+    node = AmclNode(
+        amcl,
+        occ_map,
+        rng,
+        trajectory_frame=params.trajectory_frame,
+        initial_pose_topic=params.ground_truth_topic if mode == "ground_truth" else "",
+    )
+    inputs = [node.scan_topic, "/tf"]
+    optional = ["/tf_static", "/initialpose"]
+    if mode == "ground_truth":
+        inputs.append(params.ground_truth_topic)
+
+    def report() -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "nav2_params": Path(source).name if params.nav2_params else source,
+            "map": Path(params.map).name,
+            "initial_pose": mode,
+            "seed": params.seed,
+            "scans_localised": len(node.trajectory),
+            "filter_updates": node.updates,
+            "resamples": node.resamples,
+            "particles": len(node.filter.poses),
+        }
+        if len(node.filter.poses):
+            est = node.filter.estimate()
+            out["estimate"] = {
+                "x": round(float(est.pose[0]), 6),
+                "y": round(float(est.pose[1]), 6),
+                "yaw": round(float(est.pose[2]), 6),
+                "std_xy_m": round(float(np.sqrt(max(0.0, np.trace(est.covariance[:2, :2])))), 6),
+                "std_yaw_rad": round(float(np.sqrt(max(0.0, est.covariance[2, 2]))), 6),
+                "clusters": est.clusters,
+            }
+        return out
+
+    def write_artifacts(out: Path) -> dict[str, Path]:
+        written = {
+            "trajectory_tum": write_poses(
+                out / "trajectory.tum", [t for t, _ in node.trajectory], [p for _, p in node.trajectory]
+            )
+        }
+        path = out / "localization.json"
+        path.write_text(json.dumps(report(), indent=2, sort_keys=True) + "\n")
+        written["localization"] = path
+        return written
+
+    def nothing_produced() -> str | None:
+        if node.trajectory:
+            return None
+        if node.initialised_ns is None:
+            return (
+                f"no initial pose: the log has no /initialpose and initial_pose is {mode}; set one with "
+                "--set initial_pose=ground_truth (a log with ground truth) or set_initial_pose in the Nav2 file"
+            )
+        return f"no scan on {node.scan_topic} could be localised (odometry TF {amcl.odom_frame_id} -> {amcl.base_frame_id})"
+
+    info = {
+        "initial_pose": mode,
+        "nav2_params": source,
+        "map": params.map,
+        "motion_model": amcl.robot_model_type,
+        "map_to_odom": "the log's map -> odom is ignored; AMCL's goes on /tf (not recorded)",
+    }
+    return Pipeline(
+        name="localization",
+        nodes=[node],
+        inputs=inputs,
+        optional_inputs=optional,
+        outputs=["/amcl_pose", "/particle_cloud"],
+        write_artifacts=write_artifacts,
+        skipped=node.counts,
+        info=info,
+        nothing_produced=nothing_produced,
+    )
