@@ -10,8 +10,9 @@ A run ends early, with a whole file of what was recorded, when its
 ``stop`` event is set (the command line sets it on Ctrl-C; the library installs no signal handler).
 
 Both cores work: the simulation runs in the caller's thread, and the MCAP writer's thread compresses
-and writes beside it (``McapLogWriter(background=True)``: a bounded queue, the same bytes). Open3D
-is imported in a thread while MuJoCo loads and the model compiles, so the first step comes sooner.
+and writes beside it (``McapLogWriter(background=True)``: a bounded queue, the same bytes). MuJoCo
+and Open3D are imported in the caller's thread when first needed: imports hold the GIL, so importing
+Open3D in a second thread only made the two imports contend (start-up was slower, measured).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from pathlib import Path
 from navlog.errors import ConfigError
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, load_robot
 from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
-from navlog.recorder.world import World, load_world, preload_open3d
+from navlog.recorder.world import World, load_world
 from navlog.replay.config import config_hash, to_mapping
 from navlog.replay.io.logwriter import McapLogWriter, check_output
 from navlog.replay.runtime.executor import Executor, Node
@@ -114,8 +115,6 @@ def record(
     out = Path(out)
     check_output(out, force)
     command_topic = scenario_command_topic(pipeline)
-    # start-up: Open3D (the ray caster) loads in a thread while MuJoCo loads and the model compiles here
-    preload_open3d()
     from navlog.recorder.sim import SimNode, SimOptions
 
     sim = SimNode(setup.world, setup.robot, SimOptions(seed=setup.seed, noise=setup.noise, start=setup.scenario.start))

@@ -231,7 +231,7 @@ def import_open3d():
     that package while Open3D is imported and is removed after, so that a later
     ``import open3d.visualization`` imports the real package.
     """
-    with _OPEN3D_LOCK:  # one import at a time: ``preload_open3d``'s thread and the caller's
+    with _OPEN3D_LOCK:  # one import at a time, when several threads need Open3D
         if "open3d" in sys.modules:
             return sys.modules["open3d"]
         name = "open3d.visualization"
@@ -245,13 +245,6 @@ def import_open3d():
         if getattr(open3d, "visualization", None) is placeholder:
             del open3d.visualization
         return open3d
-
-
-def preload_open3d() -> None:
-    """Start ``import_open3d`` in a thread, so that Open3D loads while the caller builds the rest
-    (a later ``import_open3d`` waits for it). Nothing happens when Open3D is already imported."""
-    if "open3d" not in sys.modules:
-        threading.Thread(target=import_open3d, name="navlog-import-open3d").start()
 
 
 def world_mesh(world: World, with_floor: bool | None = None):

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from navlog.errors import LogError, TruncatedLogError
+from navlog.replay.io import cdr_decode
 from navlog.replay.io.reader import LogReader, TopicInfo
 from navlog.replay.io.typestore import LogTypestore
 from navlog.replay.runtime.executor import Envelope
@@ -27,6 +28,7 @@ _RECORD_HEAD = struct.Struct("<BQ")  # opcode, record length
 _MESSAGE_HEAD = struct.Struct("<BQHIQQ")  # opcode, length, channel id, sequence, log time, publish time
 _CHUNK_HEAD = struct.Struct("<BQQQQII")  # opcode, length, start, end, uncompressed size, crc, compression length
 _OP_MESSAGE, _OP_CHUNK, _OP_MESSAGE_INDEX = 0x05, 0x06, 0x07
+_UNSET = object()
 READ_AHEAD = 1  # MCAP chunks read and decompressed (in a second thread) ahead of the one being replayed
 
 
@@ -40,6 +42,8 @@ class McapLogReader(LogReader):
         self.format = "mcap"
         self.storage = "mcap"
         self.size_bytes = path.stat().st_size
+        self._fast_store: Any = None  # the store the fast decoders below were made for
+        self._fast: dict[str, Any] = {}
         self._recover = recover
         with open(path, "rb") as f:
             head = f.read(8)
@@ -297,6 +301,21 @@ class McapLogReader(LogReader):
             return Envelope(topic, typename, t, data)
         msg = self._decode(data, typename, topic)
         return None if msg is None else Envelope(topic, typename, t, msg)
+
+    def _decode(self, data: bytes, typename: str, topic: str) -> Any:
+        """The fast decoder of a hot type (``cdr_decode``) where it applies, else the type store's."""
+        store = self._types.store
+        if store is not self._fast_store:  # a schema gave this reader a store of its own
+            self._fast_store, self._fast = store, {}
+        fast = self._fast.get(typename, _UNSET)
+        if fast is _UNSET:
+            fast = self._fast[typename] = cdr_decode.decoder(typename, store)
+        if fast is not None:
+            try:
+                return fast(data)
+            except Exception:  # bytes it does not take: the store's deserializer decodes or counts them
+                pass
+        return super()._decode(data, typename, topic)
 
     def close(self) -> None:
         self._file.close()

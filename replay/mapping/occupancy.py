@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from navlog.replay.geometry import world_to_cell
-from navlog.replay.mapping.occupancy_kernels import kernels
+from navlog.replay.mapping.occupancy_kernels import scan_kernel
 from navlog.replay.occupancy_map import OccupancyMap
 
 MAX_CELLS = 1_000_000_000  # a grid larger than this (4 GB of log-odds) comes from a pose or range far off
@@ -176,8 +176,8 @@ class OccupancyGrid2D:
         d2c = d2.astype(np.float32)
         g0 = ((pos[:2] - self.origin) / self.res).astype(np.float32)
         end_cells = self._cells(ends[ishit], nx)
-        compiled = kernels()
-        if compiled is None:  # pragma: no cover - without numba
+        compiled = scan_kernel()
+        if compiled is None:  # the first scans of a process, or without numba
             self._update_numpy(t, last, d2c, g0, end_cells)
             return
         mask = self._buffers.get("scan_mask")

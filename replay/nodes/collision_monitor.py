@@ -159,8 +159,10 @@ class TFHistory:
 
     def add_message(self, msg: Any, static: bool) -> None:
         """Add a tf2_msgs/TFMessage to the buffer, noting whether it rewrites what the buffer held."""
+        add = self.tf.add
         for ts in msg.transforms:
             parent, child, t = self._name(ts.header.frame_id), self._name(ts.child_frame_id), m.to_ns(ts.header.stamp)
+            tr, rot = ts.transform.translation, ts.transform.rotation
             prev = self._edges.get(child)
             if static or prev is None or prev[0] != parent or prev[1]:
                 self.epoch += 1  # a new edge (the buffer starts it again) or a static one
@@ -171,7 +173,7 @@ class TFHistory:
                 self._edges[child] = (parent, False, t)
             if not static and (self.newest is None or t > self.newest):
                 self.newest = t
-        self.tf.add_message(msg, static=static)
+            add(parent, child, t, (tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w), static)
         self.added += 1
 
     def holds(self, epoch: int, t_ns: int) -> bool:

@@ -19,8 +19,8 @@ import numpy as np
 
 from navlog.replay import messages
 from navlog.replay.geometry import make_transform, matrix_to_quat, quat_from_rpy
-from navlog.replay.io.pcd import write_pcd
-from navlog.replay.mapping.lidar_odometry import GyroTrack, LidarOdometry, LidarOdometryParams, MotionPrior, PoseTrack
+from navlog.replay.mapping.lidar_odometry.deskew import GyroTrack, MotionPrior, PoseTrack
+from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
 from navlog.replay.pointcloud import read_points, xyz_cloud
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError
@@ -74,6 +74,8 @@ class LidarMapperNode(Node):
         self.params = params
         x, y, z, roll, pitch, yaw = params.initial_pose
         initial = make_transform((x, y, z), quat_from_rpy(roll, pitch, yaw))
+        from navlog.replay.mapping.lidar_odometry.odometry import LidarOdometry  # Open3D: loaded when the mapper runs
+
         self.odometry = LidarOdometry(params.odometry, np.eye(4), initial)
         self.tf = TFBuffer()
         self.gyro = GyroTrack()
@@ -267,6 +269,8 @@ class LidarMapperNode(Node):
     def save_pcd(self, path: Path) -> dict[str, Path]:
         """Write the global map (binary float32 PCD, deterministic order) to ``path``, and the
         chunks of ``save_every_n_frames`` frames beside it as ``<stem>_<k>.pcd``; returns what was written."""
+        from navlog.replay.io.pcd import write_pcd  # Open3D
+
         path = Path(path)
         written = {"map_pcd": path}
         write_pcd(path, self.odometry.global_map())

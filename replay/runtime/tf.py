@@ -4,6 +4,8 @@ Frames form a tree; ``lookup(target, source, t_ns)`` returns the 4x4 matrix that
 ``source`` into ``target`` at time ``t_ns``, interpolating each dynamic edge between its two
 nearest samples (linear translation, slerp rotation). A time outside an edge's buffered range
 raises ``TransformError`` (no extrapolation), which callers count as a skipped message.
+The frames between two frames, and each static edge's matrix, are computed once and kept until the
+tree changes; a lookup's matrix is always the caller's own.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ class _Edge:
     times: list[int] = field(default_factory=list)
     trans: list[tuple[float, float, float]] = field(default_factory=list)
     quats: list[tuple[float, float, float, float]] = field(default_factory=list)  # unit, x y z w
+    matrix: np.ndarray | None = None  # a static edge's matrix, once computed (read-only)
 
 
 class TFBuffer:
@@ -40,6 +43,8 @@ class TFBuffer:
         self._edges: dict[str, _Edge] = {}  # keyed by child frame
         self._names: dict[str, str] = {}  # frame id as given -> as stored
         self._chains: dict[str, list[str]] = {}  # frame -> it and its ancestors, while the tree is unchanged
+        # (target, source) as given -> the frames from each up to their common ancestor, while the tree is unchanged
+        self._paths: dict[tuple[str, str], tuple[list[str], list[str]]] = {}
 
     def _name(self, frame: str) -> str:
         name = self._names.get(frame)
@@ -69,12 +74,14 @@ class TFBuffer:
             edge = _Edge(parent, static)
             self._edges[child] = edge
             self._chains.clear()
-        x, y, z, w = (float(v) for v in q_xyzw)
+            self._paths.clear()
+        x, y, z, w = q_xyzw
+        x, y, z, w = float(x), float(y), float(z), float(w)
         n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
         q = (x / n, y / n, z / n, w / n)
         p = (float(xyz[0]), float(xyz[1]), float(xyz[2]))
         if static:
-            edge.times, edge.trans, edge.quats = [0], [p], [q]
+            edge.times, edge.trans, edge.quats, edge.matrix = [0], [p], [q], None
             return
         times = edge.times
         if not times or t_ns > times[-1]:  # the usual case: a newer sample
@@ -89,8 +96,10 @@ class TFBuffer:
             times.insert(i, t_ns)
             edge.trans.insert(i, p)
             edge.quats.insert(i, q)
-        cutoff = edge.times[-1] - self.cache_ns
-        drop = bisect.bisect_left(edge.times, cutoff)
+        cutoff = times[-1] - self.cache_ns
+        if times[1 if len(times) > 1 else 0] >= cutoff:
+            return  # nothing to drop (the usual case: a sample is dropped once the one after it is too old)
+        drop = bisect.bisect_left(times, cutoff)
         if drop > 1:
             del edge.times[: drop - 1], edge.trans[: drop - 1], edge.quats[: drop - 1]
 
@@ -119,7 +128,12 @@ class TFBuffer:
 
     def _edge_matrix(self, child: str, t_ns: int | None) -> np.ndarray:
         e = self._edges[child]
-        if e.static or t_ns is None:
+        if e.static:
+            if e.matrix is None:
+                e.matrix = unit_quat_transform(e.trans[-1], e.quats[-1])
+                e.matrix.flags.writeable = False
+            return e.matrix
+        if t_ns is None:
             return unit_quat_transform(e.trans[-1], e.quats[-1])
         times = e.times
         if t_ns < times[0] or t_ns > times[-1]:
@@ -155,21 +169,33 @@ class TFBuffer:
 
     def lookup(self, target: str, source: str, t_ns: int | None) -> np.ndarray:
         """4x4 transform taking points in ``source`` to ``target`` at ``t_ns`` (None: latest)."""
-        target, source = self._name(target), self._name(source)
-        if target == source:
-            return np.eye(4)
-        up_s, up_t = self._chain(source), self._chain(target)
-        common = next((f for f in up_s if f in set(up_t)), None)
-        if common is None:
-            raise TransformError(
-                f"frames {source} and {target} are not connected (known frames: {', '.join(self.frames()) or 'none'})"
-            )
-        m_s = self._to_ancestor(up_s[: up_s.index(common)], t_ns)  # source -> common
-        m_t = self._to_ancestor(up_t[: up_t.index(common)], t_ns)  # target -> common
+        path = self._paths.get((target, source))
+        if path is None:
+            path = self._path(target, source)
+        m_s = self._to_ancestor(path[0], t_ns)  # source -> common
+        m_t = self._to_ancestor(path[1], t_ns)  # target -> common
         if m_t is None:
             return np.eye(4) if m_s is None else m_s
         m_t = np.linalg.inv(m_t)
         return m_t if m_s is None else m_t @ m_s
+
+    def _path(self, target: str, source: str) -> tuple[list[str], list[str]]:
+        """The frames from ``source`` and from ``target`` up to (not including) their common ancestor,
+        kept while the tree is unchanged."""
+        t_name, s_name = self._name(target), self._name(source)
+        if t_name == s_name:
+            path: tuple[list[str], list[str]] = ([], [])
+        else:
+            up_s, up_t = self._chain(s_name), self._chain(t_name)
+            common = next((f for f in up_s if f in set(up_t)), None)
+            if common is None:
+                raise TransformError(
+                    f"frames {s_name} and {t_name} are not connected "
+                    f"(known frames: {', '.join(self.frames()) or 'none'})"
+                )
+            path = (up_s[: up_s.index(common)], up_t[: up_t.index(common)])
+        self._paths[(target, source)] = path
+        return path
 
     def _to_ancestor(self, frames: list[str], t_ns: int | None) -> np.ndarray | None:
         """The product of the edge matrices from the first of ``frames`` up to the last one's parent;
@@ -178,22 +204,22 @@ class TFBuffer:
         for f in frames:
             m = self._edge_matrix(f, t_ns)
             out = m if out is None else m @ out
+        if out is not None and len(frames) == 1 and not out.flags.writeable:
+            out = out.copy()  # a static edge's kept matrix: the caller gets its own
         return out
 
     def latest_common_time(self, target: str, source: str) -> int | None:
         """The newest time at which every dynamic edge between the two frames has a sample at or after
         it (the latest time ``lookup`` can interpolate at, given its start); None when the frames are
         not connected or only static edges join them."""
-        target, source = self._name(target), self._name(source)
-        up_s, up_t = self._chain(source), self._chain(target)
-        common = next((f for f in up_s if f in set(up_t)), None)
-        if common is None:
-            return None
-        ends = [
-            self._edges[f].times[-1]
-            for f in up_s[: up_s.index(common)] + up_t[: up_t.index(common)]
-            if not self._edges[f].static
-        ]
+        path = self._paths.get((target, source))
+        if path is None:
+            try:
+                path = self._path(target, source)
+            except TransformError:
+                return None
+        edges = self._edges
+        ends = [e.times[-1] for e in (edges[f] for frames in path for f in frames) if not e.static]
         return min(ends) if ends else None
 
     def can_transform(self, target: str, source: str, t_ns: int | None) -> bool:

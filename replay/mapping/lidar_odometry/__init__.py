@@ -26,12 +26,19 @@ the map frame is the first frame's base_link unless an initial pose is given. Op
 previous limit is restored afterwards.
 """
 
-from navlog.replay.mapping.lidar_odometry.deskew import ConstantVelocity, GyroTrack, MotionPrior, PoseTrack
-from navlog.replay.mapping.lidar_odometry.local_map import GlobalMap, LocalMap, VoxelStore
-from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, LidarOdometry
-from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams, Method
-from navlog.replay.mapping.lidar_odometry.preprocess import sorted_points, voxel_keys, voxel_sums
-from navlog.replay.mapping.lidar_odometry.registration import Registrar, Registration
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from navlog.replay import lazy_exports
+
+if TYPE_CHECKING:
+    from navlog.replay.mapping.lidar_odometry.deskew import ConstantVelocity, GyroTrack, MotionPrior, PoseTrack
+    from navlog.replay.mapping.lidar_odometry.local_map import GlobalMap, LocalMap, VoxelStore
+    from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, LidarOdometry
+    from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams, Method
+    from navlog.replay.mapping.lidar_odometry.preprocess import sorted_points, voxel_keys, voxel_sums
+    from navlog.replay.mapping.lidar_odometry.registration import Registrar, Registration
 
 __all__ = [
     "ConstantVelocity",
@@ -51,3 +58,24 @@ __all__ = [
     "voxel_keys",
     "voxel_sums",
 ]
+
+# names load on first use: a pipeline that only reads the parameters does not import Open3D and SciPy
+_MODULES = {
+    "ConstantVelocity": "deskew",
+    "GyroTrack": "deskew",
+    "MotionPrior": "deskew",
+    "PoseTrack": "deskew",
+    "GlobalMap": "local_map",
+    "LocalMap": "local_map",
+    "VoxelStore": "local_map",
+    "FrameResult": "odometry",
+    "LidarOdometry": "odometry",
+    "LidarOdometryParams": "params",
+    "Method": "params",
+    "sorted_points": "preprocess",
+    "voxel_keys": "preprocess",
+    "voxel_sums": "preprocess",
+    "Registrar": "registration",
+    "Registration": "registration",
+}
+__getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -7,7 +7,8 @@ stops, slows down, limits, or scales the command by the predicted time to collis
 - ``params``: ``CollisionMonitorParams`` (with ``CollisionPolygonParams``, ``VelocitySubPolygonParams``,
   ``CollisionSourceParams``) and ``read_collision_monitor``, used by ``navlog.replay.nav2.params``;
 - ``polygons``: the shapes (``Polygon``, ``Circle``, ``VelocityPolygon``, ``make_shape``),
-  ``Velocity`` and the approach kinematics (``project_state``, ``transform_points``);
+  ``Velocity``, the approach kinematics (``project_state``, ``transform_points``) and Nav2's ray casting
+  (``points_in_polygon``, over a polygon's ``polygon_edges``: a ``PolygonEdges`` table kept per shape);
 - ``sources``: scans, point clouds and range readings as base-frame points, the staleness rule;
 - ``monitor``: ``CollisionMonitor.process``, one ``Decision`` per command.
 
@@ -35,12 +36,14 @@ from navlog.replay.nav2.collision_monitor.params import (
 from navlog.replay.nav2.collision_monitor.polygons import (
     Circle,
     Polygon,
+    PolygonEdges,
     Shape,
     Velocity,
     VelocityPolygon,
     in_velocity_range,
     make_shape,
     points_in_polygon,
+    polygon_edges,
     project_state,
     transform_points,
 )
@@ -57,6 +60,7 @@ __all__ = [
     "CollisionSourceParams",
     "Decision",
     "Polygon",
+    "PolygonEdges",
     "Shape",
     "Velocity",
     "VelocityPolygon",
@@ -67,6 +71,7 @@ __all__ = [
     "make_shape",
     "parse_polygon_points",
     "points_in_polygon",
+    "polygon_edges",
     "project_state",
     "range_points",
     "read_collision_monitor",

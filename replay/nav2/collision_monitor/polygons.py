@@ -68,23 +68,44 @@ def transform_points(pose: tuple[float, float, float], points: np.ndarray) -> np
     return np.column_stack([c * dx + s * dy, -s * dx + c * dy])
 
 
-def points_in_polygon(vertices: np.ndarray, points: np.ndarray) -> np.ndarray:
+class PolygonEdges(NamedTuple):
+    """A polygon's bounding box and edges ``i -> j`` (from the last vertex to the first, then on) as
+    ``points_in_polygon`` casts rays against them; computed once per vertex array."""
+
+    lo: np.ndarray  # (2,) x, y minimum
+    hi: np.ndarray  # (2,) x, y maximum
+    xi: np.ndarray
+    yi: np.ndarray
+    yj: np.ndarray
+    dx: np.ndarray  # xj - xi
+    dy: np.ndarray  # yj - yi, 1 where the edge is horizontal (never crossed)
+
+
+def polygon_edges(vertices: np.ndarray) -> PolygonEdges:
+    """The bounding box and edge table of an (N, 2) polygon."""
+    xj, yj = vertices[:, 0], vertices[:, 1]
+    xi, yi = np.roll(xj, 1), np.roll(yj, 1)
+    return PolygonEdges(
+        vertices.min(axis=0), vertices.max(axis=0), xi, yi, yj, xj - xi, np.where(yj != yi, yj - yi, 1.0)
+    )
+
+
+def points_in_polygon(vertices: np.ndarray | PolygonEdges, points: np.ndarray) -> np.ndarray:
     """Boolean mask of the points inside a polygon, with Nav2's ray-casting edge rules (all edges at once).
 
     Points outside the bounding box ``xmin <= x < xmax, ymin <= y <= ymax`` are outside under those
-    rules (no edge is crossed, or every crossing is, an even number), so only the others are cast."""
+    rules (no edge is crossed, or every crossing is, an even number), so only the others are cast.
+    ``vertices`` is an (N, 2) array or its ``polygon_edges``."""
+    e = vertices if isinstance(vertices, PolygonEdges) else polygon_edges(vertices)
     inside = np.zeros(len(points), dtype=bool)
-    lo, hi = vertices.min(axis=0), vertices.max(axis=0)
+    lo, hi = e.lo, e.hi
     px_all, py_all = points[:, 0], points[:, 1]
     candidates = np.flatnonzero((px_all >= lo[0]) & (px_all < hi[0]) & (py_all >= lo[1]) & (py_all <= hi[1]))
     if not len(candidates):
         return inside
-    xj, yj = vertices[:, 0], vertices[:, 1]
-    xi, yi = np.roll(xj, 1), np.roll(yj, 1)  # edge i -> j, starting from the last vertex to the first
     px, py = px_all[candidates, None], py_all[candidates, None]
-    crosses = (py <= yi) == (py > yj)  # never true when yi == yj
-    dy = np.where(yj != yi, yj - yi, 1.0)
-    x_inter = xi + (py - yi) * (xj - xi) / dy
+    crosses = (py <= e.yi) == (py > e.yj)  # never true when yi == yj
+    x_inter = e.xi + (py - e.yi) * e.dx / e.dy
     inside[candidates] = (np.count_nonzero(crosses & (x_inter > px), axis=1) % 2).astype(bool)
     return inside
 
@@ -123,6 +144,8 @@ class Shape:
     def gather(self, source_points: dict[str, np.ndarray]) -> np.ndarray:
         """This shape's sources' points, in the shape's source order."""
         parts = [source_points[s] for s in self.sources if s in source_points and len(source_points[s])]
+        if len(parts) == 1:
+            return parts[0]  # one source: its points as they are (read, never written)
         return np.concatenate(parts) if parts else np.zeros((0, 2))
 
     def count_inside(self, points: np.ndarray) -> int:
@@ -152,13 +175,14 @@ class Shape:
 
     def collision_time(self, points: np.ndarray, cmd: Velocity) -> float:
         """Seconds before the shape, moving with ``cmd``, holds ``min_points`` points (0: already; -1: never)."""
-        if self.count_inside(points) >= self.min_points:
-            return 0.0
         dt, horizon = self.params.simulation_time_step, self.params.time_before_collision
         # only points the moving shape can reach matter: |pose| <= |v| * dt * steps, shape within reach()
+        # (the points inside it now among them: the shape lies within reach() of the origin)
         steps = int(horizon / dt) + 2
         reach = self.reach() + math.hypot(cmd.vx, cmd.vy) * dt * steps + 1e-9
         points = points[np.hypot(points[:, 0], points[:, 1]) <= reach]
+        if self.count_inside(points) >= self.min_points:
+            return 0.0
         if len(points) < self.min_points:
             return -1.0
         times, x, y, c, s = self._simulated_steps(cmd)
@@ -184,6 +208,7 @@ class Polygon(Shape):
     ) -> None:
         super().__init__(name, params, sources)
         self.vertices: np.ndarray | None = None
+        self._edge_cache: tuple[np.ndarray, PolygonEdges, float] | None = None  # (vertices, edges, reach)
         pts = params.point_list() if params.type == "polygon" else []
         if pts:
             self.set_vertices(pts)
@@ -200,13 +225,21 @@ class Polygon(Shape):
     def is_set(self) -> bool:
         return self.vertices is not None
 
+    def _edges(self) -> tuple[PolygonEdges, float]:
+        """The current vertices' edge table and reach, computed once per vertex array."""
+        v = self.vertices
+        assert v is not None
+        if self._edge_cache is None or self._edge_cache[0] is not v:
+            self._edge_cache = (v, polygon_edges(v), float(np.hypot(v[:, 0], v[:, 1]).max()))
+        return self._edge_cache[1], self._edge_cache[2]
+
     def reach(self) -> float:
-        return 0.0 if self.vertices is None else float(np.hypot(self.vertices[:, 0], self.vertices[:, 1]).max())
+        return 0.0 if self.vertices is None else self._edges()[1]
 
     def inside(self, points: np.ndarray) -> np.ndarray:
         if self.vertices is None:
             return np.zeros(len(points), dtype=bool)
-        return points_in_polygon(self.vertices, points)
+        return points_in_polygon(self._edges()[0], points)
 
 
 class Circle(Shape):

@@ -29,7 +29,9 @@ def source_fresh(stamp_ns: int, now_ns: int, timeout_s: float) -> bool:
 
 def to_base(points: np.ndarray, transform: np.ndarray) -> np.ndarray:
     """(N, 3) sensor points into the base frame with a 4x4 transform (base <- sensor)."""
-    return points @ transform[:3, :3].T + transform[:3, 3]
+    out = points @ transform[:3, :3].T
+    out += transform[:3, 3]
+    return out
 
 
 @functools.lru_cache(maxsize=16)
@@ -52,8 +54,7 @@ def scan_points(
     """A LaserScan's kept beams as (N, 3) points in the sensor frame (z = 0)."""
     r = np.asarray(ranges, dtype=np.float32)
     cos, sin = _beam_directions(len(r), float(angle_min), float(angle_increment))
-    with np.errstate(invalid="ignore"):
-        keep = (r >= np.float32(range_min)) & (r <= np.float32(range_max))
+    keep = (r >= np.float32(range_min)) & (r <= np.float32(range_max))  # NaN compares False, quietly
     rk = r[keep].astype(np.float64)
     out = np.zeros((len(rk), 3))
     np.multiply(rk, cos[keep], out=out[:, 0])

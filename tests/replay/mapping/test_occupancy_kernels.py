@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 import navlog.replay.mapping.occupancy as occupancy_module
+import navlog.replay.mapping.occupancy_kernels as kernels_module
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
-from navlog.replay.mapping.occupancy_kernels import kernels, scan_update
+from navlog.replay.mapping.occupancy_kernels import NUMPY_SCANS, kernels, scan_update
 
 needs_numba = pytest.mark.skipif(kernels() is None, reason="numba is not installed: the NumPy path runs alone")
 
@@ -45,9 +46,9 @@ def random_scans(seed: int, count: int):
 def grids_after(monkeypatch, params: OccupancyParams, seed: int, count: int) -> list[OccupancyGrid2D]:
     grids = [OccupancyGrid2D(params), OccupancyGrid2D(params)]
     for p, ang, r in random_scans(seed, count):
-        monkeypatch.setattr(occupancy_module, "kernels", kernels)
+        monkeypatch.setattr(occupancy_module, "scan_kernel", kernels)
         grids[0].insert_scan(p, ang, r, 0.1, 10.0)
-        monkeypatch.setattr(occupancy_module, "kernels", lambda: None)
+        monkeypatch.setattr(occupancy_module, "scan_kernel", lambda: None)
         grids[1].insert_scan(p, ang, r, 0.1, 10.0)
     return grids
 
@@ -77,7 +78,7 @@ def test_the_mask_is_left_clear_between_scans_and_beams_at_the_grid_edge(monkeyp
     ang = np.array([0.0, math.pi / 2, math.pi, -math.pi / 2])
     for p, r in ((pose(0.5, 0.5, 0.0), np.full(4, 0.49)), (pose(0.5, 0.5, 0.0), np.full(4, 3.0))):
         for grid, use in zip(grids, (kernels, lambda: None)):
-            monkeypatch.setattr(occupancy_module, "kernels", use)
+            monkeypatch.setattr(occupancy_module, "scan_kernel", use)
             grid.insert_scan(p, ang, r, 0.01, 10.0)
     assert grids[0].logodds.tobytes() == grids[1].logodds.tobytes()
     assert not grids[0]._buffers["scan_mask"].any()
@@ -119,3 +120,33 @@ def test_a_beam_leaving_the_grid_is_an_error_and_leaves_the_mask_clear():
             np.zeros(0, np.int64), f32(-0.4), f32(-2.0), f32(0.8), f32(3.5),
         )  # fmt: skip
     assert not mask.any()
+
+
+def test_a_process_runs_its_first_scans_on_the_numpy_path_and_the_compiled_kernel_after(monkeypatch):
+    # loading numba and the cached kernel (~0.5 s) pays for itself only after ~500 scans
+    import itertools
+
+    monkeypatch.setattr(kernels_module, "_scans", itertools.count())
+    assert NUMPY_SCANS == 500
+    assert [kernels_module.scan_kernel() for _ in range(NUMPY_SCANS)] == [None] * NUMPY_SCANS
+    assert kernels_module.scan_kernel() is kernels()
+    assert kernels_module.scan_kernel() is kernels()
+
+
+@needs_numba
+def test_a_grid_gives_the_same_bits_when_the_kernel_switches_mid_run(monkeypatch):
+    import itertools
+
+    params = OccupancyParams()
+    switched, numpy_only = OccupancyGrid2D(params), OccupancyGrid2D(params)
+    monkeypatch.setattr(kernels_module, "NUMPY_SCANS", 5)
+    monkeypatch.setattr(kernels_module, "_scans", itertools.count())
+    for p, ang, r in random_scans(3, 10):
+        switched.insert_scan(p, ang, r, 0.1, 10.0)  # scans 0-4 NumPy, 5-9 compiled
+    assert next(kernels_module._scans) == 10
+    monkeypatch.setattr(occupancy_module, "scan_kernel", lambda: None)
+    for p, ang, r in random_scans(3, 10):
+        numpy_only.insert_scan(p, ang, r, 0.1, 10.0)
+    assert switched.logodds.tobytes() == numpy_only.logodds.tobytes()
+    assert switched.seen.tobytes() == numpy_only.seen.tobytes() and switched.seen.sum() > 1000
+    assert "scan_mask" in switched._buffers and "scan_mask" not in numpy_only._buffers  # both paths ran

@@ -412,3 +412,29 @@ def contact_distance(shape, points: np.ndarray) -> float:
         else:
             lo = mid
     return lo
+
+
+def test_a_new_footprint_replaces_the_kept_edges_and_reach():
+    body = "    polygons: [Footprint]\n    observation_sources: [scan]\n    scan: {type: scan}\n"
+    body += "    Footprint: {type: polygon, action_type: approach, min_points: 2, time_before_collision: 1.0, "
+    body += "simulation_time_step: 0.1}\n"
+    p = monitor_params(body)
+    shape = make_shape(
+        "Footprint",
+        p.polygon_params["Footprint"],
+        p.observation_sources,
+        [(0.5, 0.5), (0.5, -0.5), (-0.5, -0.5), (-0.5, 0.5)],
+    )
+    assert isinstance(shape, Polygon)
+    near = np.array([[0.72, 0.01], [0.72, -0.01]])
+    assert shape.reach() == pytest.approx(math.sqrt(0.5))
+    assert shape.count_inside(near) == 0
+    # a 0.22 m gap closed at 0.05 m per step: the pose after the 5th step, loop time 0.4 s
+    assert shape.collision_time(near, Velocity(0.5, 0.0, 0.0)) == pytest.approx(0.4)
+    shape.set_vertices([(1.0, 1.0), (1.0, -1.0), (-1.0, -1.0), (-1.0, 1.0)])
+    assert shape.reach() == pytest.approx(math.sqrt(2.0))
+    assert shape.count_inside(near) == 2
+    # inside now: 0, whatever far points come with them (they are left out before counting)
+    far = np.vstack([near, [[9.0, 0.0], [-9.0, 3.0], [np.nan, 0.0], [np.inf, 0.0]]])
+    assert shape.collision_time(far, Velocity(0.5, 0.0, 0.0)) == 0.0
+    assert shape.collision_time(far[2:], Velocity(0.5, 0.0, 0.0)) == -1.0

@@ -55,3 +55,36 @@ def test_tf_messages_and_frame_prefix():
     tf.add_message(msg)
     assert tf.frames() == ["base_link", "odom"]
     assert tf.lookup("simple_robot/odom", "base_link", 7)[:3, 3] == pytest.approx([1, 2, 0])
+
+
+def test_kept_paths_and_static_matrices_give_the_same_bits_and_follow_a_changed_tree():
+    tf = buffer()
+    # map <- laser at 10: (odom at (1, 0)) @ (base at (2, 0) turned 90 deg) @ (laser 0.5 m ahead, 0.2 m up)
+    expected = np.array([[0.0, -1.0, 0.0, 3.0], [1.0, 0.0, 0.0, 0.5], [0.0, 0.0, 1.0, 0.2], [0.0, 0.0, 0.0, 1.0]])
+    first = tf.lookup("map", "laser", 10)
+    assert first == pytest.approx(expected, abs=1e-12)
+    assert np.array_equal(tf.lookup("map", "laser", 10), first)  # the kept path: the same bits again
+    assert np.array_equal(tf.lookup("laser", "map", 10), np.linalg.inv(first))  # target side: inverted
+    # a static edge's matrix is kept, but each caller gets its own copy
+    mount = tf.lookup("base_link", "laser", None)
+    mount[0, 3] = 99.0
+    assert tf.lookup("base_link", "laser", None)[0, 3] == 0.5
+    # re-parenting the laser (a new tree) is seen by the next lookup and by latest_common_time
+    assert tf.latest_common_time("map", "laser") == 10
+    tf.add("map", "laser", 0, (5.0, 0.0, 0.0), (0, 0, 0, 1), static=True)
+    assert tf.lookup("map", "laser", 10)[:3, 3] == pytest.approx([5.0, 0.0, 0.0])
+    assert tf.latest_common_time("map", "laser") is None  # only a static edge joins them now
+    # re-sending a static edge with a new value replaces its kept matrix
+    tf.add("map", "laser", 0, (6.0, 0.0, 0.0), (0, 0, 0, 1), static=True)
+    assert tf.lookup("map", "laser", None)[0, 3] == 6.0
+    assert tf.latest_common_time("map", "nowhere") is None
+
+
+def test_old_samples_are_dropped_once_the_next_one_is_older_than_the_cache():
+    tf = TFBuffer(cache_ns=100)
+    for t in range(0, 301, 50):
+        tf.add("odom", "base_link", t, (t / 100, 0.0, 0.0), (0, 0, 0, 1))
+    assert tf.time_range("base_link") == (150, 300)  # 150 is the last sample at or before 300 - 100
+    assert tf.lookup("odom", "base_link", 175)[0, 3] == pytest.approx(1.75)
+    with pytest.raises(TransformError, match="buffer holds 0.000..0.000 s"):
+        tf.lookup("odom", "base_link", 100)

@@ -1,0 +1,156 @@
+"""The fast decoders of /tf and odometry against the type store's deserializer: equal objects, or a refusal."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import struct
+
+import numpy as np
+import pytest
+from rosbags.serde import SerdeError
+from rosbags.typesys import get_types_from_msg
+
+from navlog.replay import messages
+from navlog.replay.io import cdr_decode
+
+STORE = messages.typestore()
+NAMES = ["", "a", "ab", "abc", "base_link", "odom", "front_laser_with_a_rather_long_frame_name" * 3, "ünï"]
+EDGE = [0.0, -0.0, 1.5, -2.25e-308, 1e308, math.inf, -math.inf, math.nan]
+
+
+def same(a, b) -> bool:
+    """Field-by-field equality (arrays by dtype and bits, NaN equal to NaN), classes included."""
+    if type(a) is not type(b):
+        return False
+    if isinstance(a, np.ndarray):
+        return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    if dataclasses.is_dataclass(a):
+        return all(same(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a))
+    if isinstance(a, list):
+        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b))
+    if isinstance(a, float):
+        return struct.pack("<d", a) == struct.pack("<d", b)
+    return a == b
+
+
+def tf_message(rng: np.random.Generator, n: int):
+    ts = []
+    for _ in range(n):
+        q = [float(rng.choice(EDGE)) if rng.random() < 0.3 else float(rng.normal()) for _ in range(7)]
+        ts.append(
+            messages.transform_stamped(
+                int(rng.integers(0, 2**31 * 10**9)), str(rng.choice(NAMES)), str(rng.choice(NAMES)), q[:3], q[3:]
+            )
+        )
+    return messages.msg_class(messages.TF_MESSAGE)(transforms=ts)
+
+
+def odometry(rng: np.random.Generator):
+    c = messages.msg_class
+    v = [float(rng.choice(EDGE)) if rng.random() < 0.3 else float(rng.normal()) for _ in range(13)]
+    cov = rng.normal(size=(2, 36))
+    cov[0, :3] = [math.nan, math.inf, -0.0]
+    return c(messages.ODOMETRY)(
+        header=c("std_msgs/msg/Header")(
+            stamp=c("builtin_interfaces/msg/Time")(
+                sec=int(rng.integers(-(2**31), 2**31)), nanosec=int(rng.integers(0, 2**32))
+            ),
+            frame_id=str(rng.choice(NAMES)),
+        ),
+        child_frame_id=str(rng.choice(NAMES)),
+        pose=c("geometry_msgs/msg/PoseWithCovariance")(
+            pose=c("geometry_msgs/msg/Pose")(
+                position=c("geometry_msgs/msg/Point")(x=v[0], y=v[1], z=v[2]),
+                orientation=c("geometry_msgs/msg/Quaternion")(x=v[3], y=v[4], z=v[5], w=v[6]),
+            ),
+            covariance=cov[0],
+        ),
+        twist=c("geometry_msgs/msg/TwistWithCovariance")(
+            twist=c("geometry_msgs/msg/Twist")(
+                linear=c("geometry_msgs/msg/Vector3")(x=v[7], y=v[8], z=v[9]),
+                angular=c("geometry_msgs/msg/Vector3")(x=v[10], y=v[11], z=v[12]),
+            ),
+            covariance=cov[1],
+        ),
+    )
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_tf_messages_decode_to_the_stores_objects(seed):
+    rng = np.random.default_rng(seed)
+    decode = cdr_decode.decoder(messages.TF_MESSAGE, STORE)
+    for n in (0, 1, 2, 3, 7):
+        data = messages.serialize(tf_message(rng, n), messages.TF_MESSAGE)
+        got, want = decode(data), STORE.deserialize_cdr(data, messages.TF_MESSAGE)
+        assert same(got, want) and len(got.transforms) == n
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_odometry_decodes_to_the_stores_objects(seed):
+    rng = np.random.default_rng(seed)
+    decode = cdr_decode.decoder(messages.ODOMETRY, STORE)
+    for _ in range(10):
+        data = messages.serialize(odometry(rng), messages.ODOMETRY)
+        got, want = decode(data), STORE.deserialize_cdr(data, messages.ODOMETRY)
+        assert same(got, want)
+        assert not got.pose.covariance.flags.writeable and got.pose.covariance.dtype == np.float64
+
+
+def test_a_known_transform_reads_back_its_numbers():
+    msg = messages.tf_message(
+        [messages.transform_stamped(1_500_000_000, "odom", "base_footprint", (1.0, -2.0, 0.0), (0.0, 0.0, 0.6, 0.8))]
+    )
+    got = cdr_decode.decoder(messages.TF_MESSAGE, STORE)(messages.serialize(msg, messages.TF_MESSAGE))
+    (t,) = got.transforms
+    assert (t.header.stamp.sec, t.header.stamp.nanosec) == (1, 500_000_000)
+    assert (t.header.frame_id, t.child_frame_id) == ("odom", "base_footprint")
+    assert (t.transform.translation.x, t.transform.translation.y, t.transform.rotation.w) == (1.0, -2.0, 0.8)
+
+
+@pytest.mark.parametrize("typename", [messages.TF_MESSAGE, messages.ODOMETRY])
+def test_bytes_the_decoder_does_not_accept_are_refused(typename):
+    rng = np.random.default_rng(1)
+    msg = tf_message(rng, 2) if typename == messages.TF_MESSAGE else odometry(rng)
+    data = messages.serialize(msg, typename)
+    decode = cdr_decode.decoder(typename, STORE)
+    big_endian = b"\x00\x00" + data[2:]
+    trailing = data + bytes(8)
+    cut = data[: len(data) - 9]
+    bad_string = bytearray(data)
+    struct.pack_into("<I", bad_string, 12 if typename == messages.ODOMETRY else 16, 10**6)
+    for bad in (big_endian, trailing, cut, bytes(bad_string), b"\x00"):
+        with pytest.raises((ValueError, struct.error)):
+            decode(bad)
+    for bad in (trailing, cut, bytes(bad_string), b"\x00"):  # corrupt: the store refuses them too
+        with pytest.raises(SerdeError):
+            STORE.deserialize_cdr(bad, typename)
+
+
+def test_only_types_with_their_standard_definition_get_a_decoder():
+    assert cdr_decode.decoder(messages.LASER_SCAN, STORE) is None
+    other = messages.new_typestore()
+    assert cdr_decode.decoder(messages.ODOMETRY, other) is not None
+    # a store whose Vector3 is float32 (not ROS 2's) decodes with its own deserializer
+    odd = messages.new_typestore()
+    odd.fielddefs = dict(odd.fielddefs)
+    odd.fielddefs.update(get_types_from_msg("float32 x\nfloat32 y\nfloat32 z\n", "geometry_msgs/msg/Vector3"))
+    assert cdr_decode.decoder(messages.TF_MESSAGE, odd) is None
+    assert cdr_decode.decoder(messages.ODOMETRY, odd) is None
+
+
+def test_a_recorded_log_reads_the_same_objects_as_the_stores_deserializer(teleop_log):
+    from navlog.replay.io.mcap_reader import McapLogReader
+
+    topics = ["/tf", "/tf_static", "/odom", "/odom/ground_truth", "/scan"]
+    with McapLogReader(teleop_log) as reader:
+        fast = list(reader.messages(topics))
+    with McapLogReader(teleop_log) as reader:
+        raw = list(reader.messages(topics, decode=False))
+    assert len(fast) == len(raw) > 1000
+    counts: dict[str, int] = {}
+    for a, b in zip(fast, raw):
+        assert (a.topic, a.time_ns) == (b.topic, b.time_ns)
+        assert same(a.msg, STORE.deserialize_cdr(b.msg, b.typename))
+        counts[a.typename] = counts.get(a.typename, 0) + 1
+    assert counts[messages.TF_MESSAGE] > 500 and counts[messages.ODOMETRY] > 1000
