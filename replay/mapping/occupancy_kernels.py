@@ -23,11 +23,11 @@ from __future__ import annotations
 
 import functools
 import itertools
-import warnings
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
+
+from navlog.replay.compiled import compile_together
 
 
 def scan_update(
@@ -99,18 +99,8 @@ def scan_update(
 @functools.cache
 def kernels() -> Callable[..., None] | None:
     """``scan_update`` compiled by numba (cached on disk), or None where numba is missing."""
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - numba is a dependency; without its wheels the NumPy path runs
-        return None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", category=numba.NumbaWarning)
-        compiled: Any
-        try:
-            compiled = numba.njit(cache=True)(scan_update)
-        except RuntimeError:  # no writable cache directory: compile in this process only
-            compiled = numba.njit(cache=False)(scan_update)
-    return compiled
+    compiled = compile_together(globals(), (scan_update,))
+    return None if compiled is None else compiled["scan_update"]
 
 
 NUMPY_SCANS = 500  # scans per process on the NumPy path before the compiled kernel is loaded (see above)

@@ -21,13 +21,12 @@ returns ``None`` and the layers keep their NumPy/SciPy paths.
 from __future__ import annotations
 
 import functools
-import types
-import warnings
 from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
+from navlog.replay.compiled import compile_together
 from navlog.replay.nav2.costmap.cost_values import FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION
 
 
@@ -161,22 +160,5 @@ class Kernels(NamedTuple):
 @functools.cache
 def kernels() -> Kernels | None:
     """The kernels compiled by numba (cached on disk), or None where numba is missing."""
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - numba is a dependency; without its wheels the NumPy path runs
-        return None
-
-    def jit(fn: Callable[..., Any]) -> Any:
-        try:
-            return numba.njit(cache=True)(fn)
-        except RuntimeError:  # no writable cache directory: compile in this process only
-            return numba.njit(cache=False)(fn)
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", category=numba.NumbaWarning)
-        # compiled in one scope of their own, so the compiled kernel calls the compiled helper
-        scope = dict(globals())
-        for fn in (_envelope, inflate_window, clear_rays):
-            plain = types.FunctionType(fn.__code__, scope, fn.__name__, fn.__defaults__, fn.__closure__)
-            scope[fn.__name__] = jit(plain)
-    return Kernels(scope["inflate_window"], scope["clear_rays"])
+    compiled = compile_together(globals(), (_envelope, inflate_window, clear_rays))
+    return None if compiled is None else Kernels(compiled["inflate_window"], compiled["clear_rays"])

@@ -19,12 +19,12 @@ from __future__ import annotations
 
 import functools
 import math
-import types
-import warnings
 from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
+
+from navlog.replay.compiled import compile_together
 
 POT_HIGH = np.float32(1.0e10)  # an unassigned cell's potential
 COST_OBS = 254  # NavFn cost of a blocked cell
@@ -266,22 +266,7 @@ PYTHON = Kernels(propagate, trace_path, False)
 @functools.cache
 def kernels() -> Kernels:
     """The compiled kernels (numba, cached on disk), or the plain Python ones where numba is missing."""
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - numba is a dependency; a platform without its wheels still plans
-        return PYTHON
-
-    def jit(fn: Callable[..., Any], **options: Any) -> Any:
-        try:
-            return numba.njit(cache=True, **options)(fn)
-        except RuntimeError:  # no writable cache directory: compile in this process only
-            return numba.njit(cache=False, **options)(fn)
-
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", category=numba.NumbaWarning)
-        # each function compiled in one shared scope, so compiled code calls only compiled code
-        scope = dict(globals())
-        for fn in (_round_half_away, _hypotf, _gradient, _blend, _potential_int, propagate, trace_path):
-            plain = types.FunctionType(fn.__code__, scope, fn.__name__, fn.__defaults__, fn.__closure__)
-            scope[fn.__name__] = jit(plain)
-    return Kernels(scope["propagate"], scope["trace_path"], True)
+    compiled = compile_together(
+        globals(), (_round_half_away, _hypotf, _gradient, _blend, _potential_int, propagate, trace_path)
+    )
+    return PYTHON if compiled is None else Kernels(compiled["propagate"], compiled["trace_path"], True)
