@@ -33,7 +33,7 @@ from navlog.replay.geometry import planar_matrix, quat_from_yaw, yaw_from_matrix
 from navlog.replay.nav2.amcl import AmclParams, LikelihoodField, ParticleFilter, Scan
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.executor import Node
-from navlog.replay.runtime.tf import TFBuffer, TransformError
+from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
 
 POSE_WITH_COVARIANCE_STAMPED = "geometry_msgs/msg/PoseWithCovarianceStamped"
 POSE_ARRAY = "geometry_msgs/msg/PoseArray"
@@ -88,13 +88,12 @@ class AmclNode(Node):
         self.scan_topic = "/" + params.scan_topic.lstrip("/")
         self.tf_topic = tf_topic
         self.initial_pose_topic = initial_pose_topic
-        self.timeout_ns = int(transform_timeout * 1e9)
+        self._waiting = WaitingForTransforms(int(transform_timeout * 1e9))  # scans waiting for odometry
         self.skipped: Counter[str] = Counter()
         self.trajectory: list[tuple[int, np.ndarray]] = []
         self.updates = 0
         self.resamples = 0
         self.initialised_ns: int | None = None
-        self._pending: list[Any] = []
         self._pf_odom: np.ndarray | None = None  # odometry pose at the last filter update; None: next scan forces one
         self._resample_count = 0
         self._map_to_odom: np.ndarray | None = None
@@ -169,27 +168,23 @@ class AmclNode(Node):
         if self.initialised_ns is None:
             self.skipped[f"{self.scan_topic}: no initial pose yet (publish /initialpose or set_initial_pose)"] += 1
             return
-        self._pending.append(msg)
+        self._waiting.push(msg)
         self._drain()
 
     def _drain(self, final: bool = False) -> None:
         """Process waiting scans whose odometry is known; drop those older than the timeout."""
-        newest = messages.to_ns(self._pending[-1].header.stamp) if self._pending else 0
-        while self._pending:
-            msg = self._pending[0]
-            stamp = messages.to_ns(msg.header.stamp)
-            try:
-                odom_base = self.tf.lookup(self.odom, self.base, stamp)
-                frame = self.tf.name(msg.header.frame_id)
-                laser = self.tf.lookup(self.base, frame, None if self.tf.static_between(frame, self.base) else stamp)
-            except TransformError:
-                if final or newest - stamp > self.timeout_ns:
-                    self._pending.pop(0)
-                    self.skipped[f"{self.scan_topic}: no odometry or laser transform at the scan's stamp"] += 1
-                    continue
-                return
-            self._pending.pop(0)
-            self._process(msg, stamp, odom_base, laser)
+        self._waiting.drain(
+            self._transforms, lambda msg, stamp, tfs: self._process(msg, stamp, *tfs), self._no_odometry, final=final
+        )
+
+    def _transforms(self, msg: Any, stamp: int) -> tuple[np.ndarray, np.ndarray]:
+        """(odom <- base at the scan's stamp, base <- laser)."""
+        odom_base = self.tf.lookup(self.odom, self.base, stamp)
+        frame = self.tf.name(msg.header.frame_id)
+        return odom_base, self.tf.lookup(self.base, frame, None if self.tf.static_between(frame, self.base) else stamp)
+
+    def _no_odometry(self, msg: Any, stamp: int) -> None:
+        self.skipped[f"{self.scan_topic}: no odometry or laser transform at the scan's stamp"] += 1
 
     # ------------------------------------------------------------ the filter
     def _process(self, msg: Any, stamp: int, odom_base: np.ndarray, laser: np.ndarray) -> None:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from navlog.replay import messages
 from navlog.replay.geometry import yaw_from_matrix
 from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams
 from navlog.replay.runtime.executor import Node
-from navlog.replay.runtime.tf import TFBuffer, TransformError
+from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
 
 PoseSource = Literal["ground_truth", "odom", "lidar_mapper", "tf"]
 
@@ -66,7 +66,7 @@ class OccupancyMapperNode(Node):
         self._pose_child: str | None = None
         self._last_pose: np.ndarray | None = None
         self._angles_cache: dict[tuple, np.ndarray] = {}
-        self._pending: list = []  # scans waiting for their pose, in arrival order
+        self._waiting = WaitingForTransforms(int(params.transform_timeout * 1e9))  # scans waiting for their pose
 
     @property
     def pose_topic(self) -> str:
@@ -110,30 +110,22 @@ class OccupancyMapperNode(Node):
         )
 
     def _on_scan(self, msg, t_ns: int) -> None:
-        self._pending.append(msg)
+        self._waiting.push(msg)
         self._drain(t_ns)
 
     def _drain(self, t_ns: int, final: bool = False) -> None:
-        """Insert waiting scans whose pose is known; give up on those older than the timeout.
+        """Insert waiting scans whose pose is known; give up on those older than the timeout, or whose
+        stamp the poses have passed without covering it."""
+        self._waiting.drain(
+            lambda msg, stamp: self._poses(msg.header.frame_id, stamp),
+            lambda msg, stamp, poses: self._insert(msg, stamp, *poses),
+            self._no_pose,
+            final=final,
+            hopeless=lambda stamp: self._pose_passed(stamp) is False,
+        )
 
-        Time here is the scans' own stamps (the newest one waiting), never the log's receive time:
-        real bags can stamp headers in sim time and receive in wall time.
-        """
-        timeout = int(self.p.transform_timeout * 1e9)
-        newest = messages.to_ns(self._pending[-1].header.stamp) if self._pending else 0
-        while self._pending:
-            msg = self._pending[0]
-            stamp = messages.to_ns(msg.header.stamp)
-            try:
-                base, pose = self._poses(msg.header.frame_id, stamp)
-            except TransformError:
-                if final or newest - stamp > timeout or self._pose_passed(stamp) is False:
-                    self._pending.pop(0)
-                    self.skipped[f"{self.p.scan_topic}: no pose or transform at the scan's stamp"] += 1
-                    continue
-                return
-            self._pending.pop(0)
-            self._insert(msg, stamp, base, pose)
+    def _no_pose(self, msg: Any, stamp: int) -> None:
+        self.skipped[f"{self.p.scan_topic}: no pose or transform at the scan's stamp"] += 1
 
     def _pose_passed(self, stamp: int) -> bool | None:
         """False when poses newer than ``stamp`` exist but none cover it (it will never be known)."""

@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from navlog.replay.runtime.executor import Envelope, Executor, Node, Sink, Stats
     from navlog.replay.runtime.pipeline import Pipeline
     from navlog.replay.runtime.progress import Progress, format_table
-    from navlog.replay.runtime.tf import TFBuffer, TransformError
+    from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
 
 __all__ = [
     "Envelope",
@@ -30,6 +30,7 @@ __all__ = [
     "Stats",
     "TFBuffer",
     "TransformError",
+    "WaitingForTransforms",
     "format_table",
 ]
 
@@ -42,6 +43,7 @@ _MODULES = {
     "Stats": "executor",
     "TFBuffer": "tf",
     "TransformError": "tf",
+    "WaitingForTransforms": "tf",
     "Pipeline": "pipeline",
     "Progress": "progress",
     "format_table": "progress",

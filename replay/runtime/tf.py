@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -228,3 +229,47 @@ class TFBuffer:
             return True
         except TransformError:
             return False
+
+
+class WaitingForTransforms:
+    """Messages that wait, in arrival order, until what they need at their header stamp is known (a pose,
+    a transform), as tf2's message filter holds a scan until its transform arrives.
+
+    ``drain`` hands each waiting message, oldest first, to ``resolve(msg, stamp)``; a ``TransformError``
+    keeps it (and those after it) waiting, unless it is ``final``, older than ``timeout_ns`` before the
+    newest stamp waiting, or ``hopeless(stamp)``: then ``drop(msg, stamp)`` is told and the next one
+    tried. Time is the messages' own stamps, never the log's receive time (real bags can stamp headers
+    in sim time and receive in wall time).
+    """
+
+    def __init__(self, timeout_ns: int) -> None:
+        self.timeout_ns = timeout_ns
+        self.items: list[Any] = []
+
+    def push(self, msg: Any) -> None:
+        self.items.append(msg)
+
+    def drain(
+        self,
+        resolve: Callable[[Any, int], Any],
+        use: Callable[[Any, int, Any], None],
+        drop: Callable[[Any, int], None],
+        *,
+        final: bool = False,
+        hopeless: Callable[[int], bool] | None = None,
+    ) -> None:
+        items = self.items
+        newest = messages.to_ns(items[-1].header.stamp) if items else 0
+        while items:
+            msg = items[0]
+            stamp = messages.to_ns(msg.header.stamp)
+            try:
+                found = resolve(msg, stamp)
+            except TransformError:
+                if final or newest - stamp > self.timeout_ns or (hopeless is not None and hopeless(stamp)):
+                    items.pop(0)
+                    drop(msg, stamp)
+                    continue
+                return
+            items.pop(0)
+            use(msg, stamp, found)
