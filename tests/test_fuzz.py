@@ -9,6 +9,7 @@ import importlib.util
 import io
 import json
 import math
+import re
 import shutil
 import subprocess
 import sys
@@ -278,8 +279,10 @@ def test_nav2_plugin_names_that_are_not_strings_are_reported(tmp_path: Path) -> 
     path = tmp_path / "nav2.yaml"
     path.write_text(NAV2_BAD_NAMES)
     params = load_nav2_params(path)
-    with pytest.raises(ConfigError, match="goal checker names must be strings"):
+    with pytest.raises(ConfigError) as info:
         params.require_valid()
+    for key, got in (("goal_checker_plugins", r"\[\['general_goal_checker'\]\]"), ("progress_checker_plugins", "1.5")):
+        assert re.search(f"{key}: expected a list of strings, got {got}", str(info.value)), key
 
 
 def test_replay_into_an_output_that_is_a_file_is_refused(tmp_path: Path) -> None:

@@ -10,11 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-from navlog.replay.config import suggest
 from navlog.replay.nav2.controllers.checkers import GoalCheckerParams, ProgressCheckerParams
 from navlog.replay.nav2.controllers.registry import CONTROLLERS, GOAL_CHECKERS, PROGRESS_CHECKERS, ControllerParams
-from navlog.replay.nav2.plugins import normalize_plugin, read_plugin_list
-from navlog.replay.nav2.schema import ERROR, WARNING, SectionReader, param
+from navlog.replay.nav2.plugins import read_plugin_list
+from navlog.replay.nav2.schema import WARNING, SectionReader, param
 
 
 @dataclass(frozen=True)
@@ -56,38 +55,17 @@ def read_controller_server(r: SectionReader, params: dict, path: tuple) -> Contr
     controllers = read_plugin_list(
         r, params, path, "controller_plugins", CONTROLLERS, ["FollowPath"], "dwb_core::DWBLocalPlanner"
     )
-    gc_names = params.get("goal_checker_plugins", ["goal_checker"])
     pc_key = "progress_checker_plugins" if "progress_checker_plugins" in params else "progress_checker_plugin"
     pc_names = params.get(pc_key, ["progress_checker"])
     if isinstance(pc_names, str):
         pc_names = [pc_names]
-    goal_checkers: dict[str, GoalCheckerParams] = {}
-    progress_checkers: dict[str, ProgressCheckerParams] = {}
-    for names, registry, store in (
-        (gc_names, GOAL_CHECKERS, goal_checkers),
-        (pc_names, PROGRESS_CHECKERS, progress_checkers),
-    ):
-        if not isinstance(names, list):
-            continue
-        kind = registry.kind
-        for name in names:
-            if not isinstance(name, str):
-                r.add(ERROR, path, f"{registry.kind} names must be strings, got {name!r}")
-                continue
-            sec = params.get(name)
-            cpath = path + (name,)
-            if not isinstance(sec, dict):
-                r.add(ERROR, path, f"{kind} '{name}' is listed but has no '{name}:' section")
-                continue
-            ptype = normalize_plugin(str(sec.get("plugin", "")))
-            if ptype not in registry:
-                r.add(
-                    ERROR, cpath + ("plugin",), f"unknown {kind} plugin '{sec.get('plugin')}'{suggest(ptype, registry)}"
-                )
-                continue
-            plugin = registry[ptype]
-            assert plugin is not None
-            store[name] = plugin.params.read_loaded(r, sec, cpath, ptype)
+    # as for controllers, a default-named checker without a section (or without ``plugin``) is Nav2's default type
+    goal_checkers: dict[str, GoalCheckerParams] = read_plugin_list(
+        r, params, path, "goal_checker_plugins", GOAL_CHECKERS, ["goal_checker"], "nav2_controller::SimpleGoalChecker"
+    )
+    progress_checkers: dict[str, ProgressCheckerParams] = read_plugin_list(
+        r, params, path, pc_key, PROGRESS_CHECKERS, ["progress_checker"], "nav2_controller::SimpleProgressChecker"
+    )
     known = set(controllers) | set(goal_checkers) | set(progress_checkers)
     listed = set()
     for key in ("controller_plugins", "goal_checker_plugins", "progress_checker_plugins", "progress_checker_plugin"):

@@ -12,6 +12,9 @@ from typing import Protocol
 import numpy as np
 import yaml
 
+from navlog.replay.nav2.costmap.cost_values import LETHAL, NO_INFORMATION
+from navlog.replay.nav2.costmap.raytrace import bresenham_cells
+
 
 class FootprintParams(Protocol):
     """What ``robot_footprint`` reads of a costmap's parameters."""
@@ -85,3 +88,47 @@ def transform_footprint(points, x: float, y: float, yaw: float) -> np.ndarray:
     p = np.asarray(points, dtype=np.float64).reshape(-1, 2)
     c, s = math.cos(yaw), math.sin(yaw)
     return np.column_stack([x + c * p[:, 0] - s * p[:, 1], y + s * p[:, 0] + c * p[:, 1]])
+
+
+def footprint_cost(costs: np.ndarray, vertices: np.ndarray, origin_x: float, origin_y: float, resolution: float) -> int:
+    """Nav2's ``FootprintCollisionChecker::footprintCost``: the highest cost under the footprint's outline.
+
+    ``costs[my, mx]`` is the costmap, ``vertices`` (K, 2) the footprint placed in its frame (see
+    ``transform_footprint``); ``footprint_costs`` does the same for many placements at once.
+    """
+    v = np.asarray(vertices, dtype=np.float64).reshape(1, -1, 2)
+    return int(footprint_costs(costs, v, origin_x, origin_y, resolution)[0])
+
+
+def footprint_costs(
+    costs: np.ndarray, vertices: np.ndarray, origin_x: float, origin_y: float, resolution: float
+) -> np.ndarray:
+    """``footprint_cost`` of P placements of a footprint, ``vertices`` (P, K, 2): int64 (P,).
+
+    As Nav2: a vertex outside the map is LETHAL (254); edges are rasterised in order (vertex i ->
+    i + 1, then vertex 0 -> the last); an edge touching a LETHAL cell costs LETHAL, and the first
+    edge that brings the running maximum to LETHAL ends the check (so a NO_INFORMATION cell (255)
+    met on an earlier edge keeps the result at 255).
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    p, k = v.shape[0], v.shape[1]
+    if p == 0 or k == 0:
+        return np.zeros(p, dtype=np.int64)
+    ny, nx = costs.shape
+    mx = np.floor((v[..., 0] - origin_x) / resolution).astype(np.int64)
+    my = np.floor((v[..., 1] - origin_y) / resolution).astype(np.int64)
+    off_map = ((mx < 0) | (my < 0) | (mx >= nx) | (my >= ny)).any(axis=1)
+    start = np.append(np.arange(k - 1), 0)
+    end = np.append(np.arange(1, k), k - 1)
+    sx, sy, ex, ey = mx[:, start].ravel(), my[:, start].ravel(), mx[:, end].ravel(), my[:, end].ravel()
+    cx, cy = bresenham_cells(sx, sy, ex, ey, 1e9, 0.0)
+    first = np.cumsum(np.maximum(np.abs(ex - sx), np.abs(ey - sy)) + 1)
+    first = np.concatenate([[0], first[:-1]])
+    cells = costs[np.clip(cy, 0, ny - 1), np.clip(cx, 0, nx - 1)].astype(np.int64)
+    edge_max = np.maximum.reduceat(cells, first).reshape(p, k)
+    edge_lethal = np.logical_or.reduceat(cells == LETHAL, first).reshape(p, k)
+    edge_cost = np.where(edge_lethal, LETHAL, edge_max)
+    before = np.concatenate([np.zeros((p, 1), np.int64), np.maximum.accumulate(edge_cost, axis=1)[:, :-1]], axis=1)
+    stops_lethal = (edge_lethal & (before < NO_INFORMATION)).any(axis=1)
+    result = np.where(stops_lethal, LETHAL, edge_cost.max(axis=1))
+    return np.where(off_map, LETHAL, result)

@@ -157,3 +157,21 @@ def test_malformed_yaml_names_line(tmp_path):
     bad.write_text("planner_server:\n  ros__parameters:\n    planner_plugins: [GridBased\n    x: 1\n")
     with pytest.raises(ConfigError, match=r"bad.yaml: line \d+"):
         load_nav2_params(bad)
+
+
+def test_default_checkers_without_sections_are_nav2s_simple_checkers() -> None:
+    # Nav2 declares goal_checker.plugin / progress_checker.plugin with the simple checkers as defaults
+    p = parse_nav2_text(
+        "controller_server:\n  ros__parameters:\n    FollowPath:\n"
+        "      plugin: nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController\n"
+    )
+    assert not p.errors
+    cs = p.controller_server
+    assert cs.goal_checkers["goal_checker"].plugin == "nav2_controller::SimpleGoalChecker"
+    assert cs.goal_checkers["goal_checker"].xy_goal_tolerance == 0.25
+    assert cs.progress_checkers["progress_checker"].plugin == "nav2_controller::SimpleProgressChecker"
+    named = parse_nav2_text(
+        "controller_server:\n  ros__parameters:\n    goal_checker_plugins: [precise]\n    FollowPath:\n"
+        "      plugin: nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController\n"
+    )
+    assert any("'precise' is listed but has no 'precise:' section" in e.message for e in named.errors)
