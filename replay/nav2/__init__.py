@@ -13,6 +13,8 @@ its code, and a registry per plugin kind maps Nav2 plugin type names to both, as
 - ``controllers``: the controller server's controllers and checkers (parameters only, so far);
 - ``velocity_smoother`` (``VelocitySmoother``) and ``collision_monitor`` (``CollisionMonitor``:
   polygons, sources, actions), each with its parameters;
+- ``behaviors``: the behaviour server's Spin, BackUp and Wait; ``navigator``: the BT navigator's default
+  trees (replanning, recoveries) and the waypoint follower, as a state machine on sim time;
 - ``amcl``: AMCL's particle filter (``ParticleFilter``: motion models, likelihood field, KLD
   resampling, recovery) and its parameters (``AmclParams``);
 - ``params`` (the file), ``overrides``, ``schema`` (typed sections and problems), ``plugins``

@@ -21,10 +21,13 @@ node's parameters; each plugin section is read by its registered plugin's parame
   parameters, goal and progress checkers: ``controllers.registry``);
 - velocity_smoother: ``velocity_smoother.read_velocity_smoother``;
 - collision_monitor: ``collision_monitor.read_collision_monitor``;
-- amcl: ``amcl.read_amcl``.
+- amcl: ``amcl.read_amcl``;
+- bt_navigator, waypoint_follower: ``navigator.read_bt_navigator``, ``navigator.read_waypoint_follower``
+  (navlog runs the default trees' behaviour, not tree XML: bt_navigator is also listed as not implemented);
+- behavior_server: ``behaviors.read_behavior_server``.
 
-Read and listed as not implemented: bt_navigator, map_server, smoother_server, behavior
-servers, waypoint_follower, route_server, docking_server and the rest in ``READ_ONLY_NODES``.
+Read and listed as not implemented: map_server, smoother_server, recoveries_server, route_server,
+docking_server and the rest in ``READ_ONLY_NODES``.
 """
 
 from __future__ import annotations
@@ -39,10 +42,17 @@ import yaml
 from navlog.errors import ConfigError
 from navlog.replay.config import load_yaml, parse_yaml, suggest
 from navlog.replay.nav2.amcl import AmclParams, read_amcl
+from navlog.replay.nav2.behaviors import BehaviorServerParams, read_behavior_server
 from navlog.replay.nav2.collision_monitor import CollisionMonitorParams, read_collision_monitor
 from navlog.replay.nav2.controllers.server import ControllerServerParams, read_controller_server
 from navlog.replay.nav2.costmap.costmap_2d import read_costmap
 from navlog.replay.nav2.costmap.grid import CostmapParams
+from navlog.replay.nav2.navigator import (
+    BtNavigatorParams,
+    WaypointFollowerParams,
+    read_bt_navigator,
+    read_waypoint_follower,
+)
 from navlog.replay.nav2.overrides import apply_nav2_overrides
 from navlog.replay.nav2.planners.server import PlannerServerParams, read_planner_server
 from navlog.replay.nav2.schema import ERROR, NOTE, WARNING, Problem, SectionReader
@@ -56,15 +66,15 @@ IMPLEMENTED_NODES = (
     "velocity_smoother",
     "collision_monitor",
     "amcl",
+    "bt_navigator",
+    "behavior_server",
+    "waypoint_follower",
 )
 READ_ONLY_NODES = (
-    "bt_navigator",
     "map_server",
     "map_saver",
     "smoother_server",
-    "behavior_server",
     "recoveries_server",
-    "waypoint_follower",
     "route_server",
     "docking_server",
     "loopback_simulator",
@@ -97,7 +107,12 @@ NODE_READERS: dict[str, Callable[[SectionReader, dict, tuple], Any]] = {
     "velocity_smoother": read_velocity_smoother,
     "collision_monitor": read_collision_monitor,
     "amcl": read_amcl,
+    "bt_navigator": read_bt_navigator,
+    "behavior_server": read_behavior_server,
+    "waypoint_follower": read_waypoint_follower,
 }
+# read, and run as navlog's fixed navigator: the behaviour-tree XML itself is not run (listed in not_implemented)
+PARTIAL_NODES = ("bt_navigator",)
 
 
 def _line_map(text: str) -> dict[tuple, int]:
@@ -132,6 +147,9 @@ class Nav2Params:
     velocity_smoother: VelocitySmootherParams | None = None
     collision_monitor: CollisionMonitorParams | None = None
     amcl: AmclParams | None = None
+    bt_navigator: BtNavigatorParams | None = None
+    behavior_server: BehaviorServerParams | None = None
+    waypoint_follower: WaypointFollowerParams | None = None
     not_implemented: tuple[str, ...] = ()  # node blocks read but not implemented
     problems: tuple[Problem, ...] = ()
 
@@ -244,6 +262,8 @@ def parse_nav2_params(doc: Any, source: str = "<string>", lines: dict | None = N
             params = _ros_params(r, block, path)
             if params is not None:
                 out[node] = NODE_READERS[node](r, params, path + ("ros__parameters",))
+            if node in PARTIAL_NODES:
+                read_only.append(node)
         elif node in READ_ONLY_NODES or node.endswith(("_rclcpp_node", "_client")):
             read_only.append(node)
             r.add(NOTE, path, "read, not implemented by navlog (parameters not checked)")

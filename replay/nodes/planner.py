@@ -50,11 +50,17 @@ class CostmapNode(Node):
         name: str = "global_costmap",
         static_map: OccupancyMap | None = None,
         map_topic: str = "/map",
+        publish_period_s: float | None = None,
     ) -> None:
+        """``publish_period_s``: publish the costmap at most that often (Nav2's 1 / publish_frequency);
+        None publishes it at every update."""
         super().__init__()
         self.name = name
         self.params = params
         self.costmap = Costmap2D(params, name)
+        self.publish_period_ns = None if publish_period_s is None else int(round(publish_period_s * 1e9))
+        self.last_publish_ns: int | None = None
+        self.last_map: OccupancyMap | None = None
         self.tf = TFBuffer()
         self.skipped: dict[str, int] = {}
         self.static_map = static_map
@@ -89,7 +95,23 @@ class CostmapNode(Node):
         self.create_timer(period, self._update)
 
     def _on_map(self, msg: Any, t: int) -> None:
-        self.costmap.set_static_map(OccupancyMap.from_msg(msg))
+        self.last_map = OccupancyMap.from_msg(msg)
+        self.costmap.set_static_map(self.last_map)
+
+    def clear_entirely(self) -> None:
+        """Nav2's ClearEntireCostmap: every layer forgets what it holds (a rolling window keeps its place);
+        the costmap is then updated at once at the last robot pose -- in Nav2 the planner and controller
+        wait for that update (the layers are not current until it)."""
+        old = self.costmap
+        self.costmap = Costmap2D(self.params, self.name)
+        occ = self.static_map if self.static_map is not None else self.last_map
+        if occ is not None and self.costmap.static_layers:
+            self.costmap.set_static_map(occ)
+        if self.params.rolling_window:
+            self.costmap.update_origin(old.origin_x, old.origin_y)
+        self.pending = {}
+        if self.robot is not None:
+            self.costmap.update(*self.robot)
 
     def _on_source(self, topic: str, msg: Any, t: int) -> None:
         for sname, sp in self.source_topics[topic]:
@@ -149,7 +171,11 @@ class CostmapNode(Node):
         self.pending = {}
         self.costmap.update(*robot)
         self.updates += 1
-        self.publish(f"/{self.name}/costmap", m.OCCUPANCY_GRID, costmap_msg(self.costmap, t))
+        period = self.publish_period_ns
+        # Nav2 publishes once more than a period has passed since the last publication
+        if period is None or self.last_publish_ns is None or t - self.last_publish_ns > period:
+            self.last_publish_ns = t
+            self.publish(f"/{self.name}/costmap", m.OCCUPANCY_GRID, costmap_msg(self.costmap, t))
         self.publish(
             f"/{self.name}/published_footprint",
             "geometry_msgs/msg/PolygonStamped",
@@ -179,12 +205,12 @@ def footprint_msg(cm: CostmapGrid, ns: int, x: float, y: float, yaw: float) -> A
     )
 
 
-def path_msg(plan: PlanResult, t: int, frame: str) -> Any:
-    """nav_msgs/Path of a plan's poses stamped ``t`` in ``frame``."""
+def path_msg(plan: PlanResult | None, t: int, frame: str, xyyaw: np.ndarray | None = None) -> Any:
+    """nav_msgs/Path of a plan's poses (or of ``xyyaw``, (N, 3) x, y, yaw) stamped ``t`` in ``frame``."""
     PoseStamped = m.msg_class(m.POSE_STAMPED)
+    rows = xyyaw if xyyaw is not None else plan.poses if plan is not None else np.zeros((0, 3))
     poses = [
-        PoseStamped(header=m.header(t, frame), pose=m.pose((x, y, 0.0), m.quat_from_yaw(yaw)))
-        for x, y, yaw in plan.poses
+        PoseStamped(header=m.header(t, frame), pose=m.pose((x, y, 0.0), m.quat_from_yaw(yaw))) for x, y, yaw in rows
     ]
     return m.msg_class(m.PATH)(header=m.header(t, frame), poses=poses)
 

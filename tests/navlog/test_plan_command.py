@@ -11,6 +11,7 @@ from navlog.replay.io.map_server import save_map
 from navlog.replay.occupancy_map import OccupancyMap
 
 DATA = Path(__file__).resolve().parents[1] / "replay" / "nav2" / "data"
+JAZZY_ARTICLE = Path(__file__).resolve().parents[2] / "config" / "nav2" / "simple_robot_jazzy.yaml"  # seed 001's file
 
 
 def test_check_config_exit_codes(capsys):
@@ -34,7 +35,7 @@ def test_plan_command(tmp_path, capsys):
         "--goal",
         "1.5,0,0",
         "--params",
-        str(DATA / "jazzy_article_nav2_params.yaml"),
+        str(JAZZY_ARTICLE),
     ]
     assert main(args + ["-o", str(tmp_path / "plan.mcap"), "--png", str(tmp_path / "plan.png")]) == 0
     out = capsys.readouterr().out

@@ -10,10 +10,11 @@ from navlog.errors import ConfigError
 from navlog.replay.nav2 import apply_nav2_overrides, load_nav2_params, resolve_key
 
 DATA = Path(__file__).resolve().parent / "data"
+JAZZY_ARTICLE = Path(__file__).resolve().parents[3] / "config" / "nav2" / "simple_robot_jazzy.yaml"  # seed 001's file
 
 
 def test_overrides_full_and_short_paths():
-    doc = load_nav2_params(DATA / "jazzy_article_nav2_params.yaml").raw
+    doc = load_nav2_params(JAZZY_ARTICLE).raw
     full = "global_costmap.global_costmap.ros__parameters.inflation_layer.inflation_radius"
     out = apply_nav2_overrides(doc, [f"{full}=0.5"])
     assert out["global_costmap"]["global_costmap"]["ros__parameters"]["inflation_layer"]["inflation_radius"] == 0.5

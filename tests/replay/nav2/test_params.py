@@ -12,6 +12,7 @@ from navlog.replay.nav2.costmap import InflationLayerParams, ObstacleLayerParams
 from navlog.replay.nav2.planners import NavfnParams
 
 DATA = Path(__file__).resolve().parent / "data"
+JAZZY_ARTICLE = Path(__file__).resolve().parents[3] / "config" / "nav2" / "simple_robot_jazzy.yaml"  # seed 001's file
 EXTERNAL = ("nav2_bringup_jazzy_nav2_params.yaml", "turtlebot3_humble_waffle_nav2.yaml", "turtlebot4_humble_nav2.yaml")
 
 
@@ -54,7 +55,7 @@ def test_turtlebot_humble_slash_plugin_names(shared_dir):
 
 
 def test_jazzy_article_file_loads():
-    p = load_nav2_params(DATA / "jazzy_article_nav2_params.yaml")
+    p = load_nav2_params(JAZZY_ARTICLE)
     assert p.errors == []
     assert p.global_costmap.robot_base_frame == "simple_robot/base_link"
     assert p.global_costmap.layers["obstacle_layer"].sources["scan"].topic == "/lidar"

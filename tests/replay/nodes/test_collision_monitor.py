@@ -24,6 +24,7 @@ from tests.replay.nav2.test_collision_monitor import wall_points, wall_scan
 from tests.replay.pipelines.test_mapping_replay import scan_msg as mapping_scan_msg
 
 DATA = Path(__file__).resolve().parents[1] / "nav2" / "data"
+JAZZY_ARTICLE = Path(__file__).resolve().parents[3] / "config" / "nav2" / "simple_robot_jazzy.yaml"  # seed 001's file
 MS = 1_000_000
 
 
@@ -106,7 +107,7 @@ def test_node_decisions_match_the_algorithm_at_the_same_pose():
 
 
 def test_jazzy_article_node_uses_the_published_footprint_and_prefixed_frames():
-    p = load_nav2_params(DATA / "jazzy_article_nav2_params.yaml")
+    p = load_nav2_params(JAZZY_ARTICLE)
     cmp = p.collision_monitor
     node = CollisionMonitorNode(cmp, input_topic="/cmd_vel_smoothed", output_topic="/cmd_vel")
     assert "/local_costmap/published_footprint" in node.shape_topics and node.sources["scan"].topic == "lidar"

@@ -26,7 +26,8 @@ from navlog.replay.pipelines.planner import (
 from navlog.replay.runtime.executor import Envelope, Executor
 
 DATA = Path(__file__).resolve().parents[1] / "nav2" / "data"
-NAV2 = str(DATA / "jazzy_article_nav2_params.yaml")
+JAZZY_ARTICLE = Path(__file__).resolve().parents[3] / "config" / "nav2" / "simple_robot_jazzy.yaml"  # seed 001's file
+NAV2 = str(JAZZY_ARTICLE)
 
 
 def room_map() -> OccupancyMap:

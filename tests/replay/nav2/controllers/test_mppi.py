@@ -27,6 +27,7 @@ from navlog.replay.nav2.costmap.grid import CostmapGrid, CostmapParams
 from navlog.replay.nav2.costmap.inflation_layer import InflationLayerParams, inflation_costs
 
 DATA = Path(__file__).resolve().parents[1] / "data"
+JAZZY_ARTICLE = Path(__file__).resolve().parents[4] / "config" / "nav2" / "simple_robot_jazzy.yaml"  # seed 001's file
 B, T, DT = 1000, 30, 0.1  # the critic tests' batch, time steps and model_dt
 
 
@@ -451,7 +452,7 @@ def test_path_handler_prunes_and_cuts_at_the_costmap():
 
 
 def test_seed_001_file_reads_every_critic_section_checked():
-    p = load_nav2_params(DATA / "jazzy_article_nav2_params.yaml")
+    p = load_nav2_params(JAZZY_ARTICLE)
     assert p.errors == []
     mppi = p.controller_server.controllers["FollowPath"]
     assert isinstance(mppi, MPPIParams) and mppi.batch_size == 2000 and mppi.regenerate_noises
@@ -502,7 +503,7 @@ def _run(params: MPPIParams, seed: int, cycles: int) -> list[tuple[float, float,
 @pytest.mark.parametrize("name", ["seed001", "bringup"])
 def test_same_seed_same_commands_bit_for_bit(name, request):
     if name == "seed001":
-        path = DATA / "jazzy_article_nav2_params.yaml"
+        path = JAZZY_ARTICLE
     else:
         path = (
             request.getfixturevalue("shared_dir") / "external-data" / "params" / "nav2_bringup_jazzy_nav2_params.yaml"
@@ -548,7 +549,7 @@ def _l_path() -> np.ndarray:
 
 @pytest.mark.parametrize("clutter", [False, True])
 def test_closed_loop_follows_an_l_shaped_path(clutter):
-    p = load_nav2_params(DATA / "jazzy_article_nav2_params.yaml").controller_server.controllers["FollowPath"]
+    p = load_nav2_params(JAZZY_ARTICLE).controller_server.controllers["FollowPath"]
     p = dataclasses.replace(p, batch_size=1000)
     path = _l_path()
     cm = _world(clutter)
