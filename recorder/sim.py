@@ -24,7 +24,9 @@ Odometry model (documented in the README):
   ``wheel_radius_error``), integrated: wheel slip and the radius error make it drift.
 - ``use_ground_truth_odom``: /odom relays the true pose instead (as the Go2 setup does).
 ``map -> odom`` is published as the correction that makes ``map -> base_footprint`` the true pose
-(a perfect localiser); with ground-truth odometry it stays the identity.
+(a perfect localiser); with ground-truth odometry it stays the identity. With ``localization="none"``
+it is not published at all, as on a real robot with no localiser running: /tf then holds only
+odom -> base (the drifting odometry), for a SLAM or localisation node to correct.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -65,6 +68,7 @@ class SimOptions:
     seed: int = 0
     noise: bool = True
     start: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    localization: Literal["perfect", "none"] = "perfect"  # none: no map -> odom on /tf
 
 
 def mat_to_quat(mat: np.ndarray) -> tuple[float, float, float, float]:
@@ -442,7 +446,9 @@ class SimNode(Node):
         t_map_fp = planar_matrix(bx, by, yaw)
         t_odom_fp = planar_matrix(ox, oy, oth)
         t_map_odom = t_map_fp @ np.linalg.inv(t_odom_fp)
-        tfs = [(names["map"], names["odom"], t_map_odom[:3, 3].tolist(), mat_to_quat(t_map_odom[:3, :3]))]
+        tfs = []
+        if self.options.localization == "perfect":
+            tfs.append((names["map"], names["odom"], t_map_odom[:3, 3].tolist(), mat_to_quat(t_map_odom[:3, :3])))
         if names["footprint"]:
             tfs.append((names["odom"], names["footprint"], (ox, oy, 0.0), q_odom))
             t_fp_base = np.linalg.inv(t_map_fp) @ base

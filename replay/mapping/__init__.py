@@ -5,7 +5,9 @@
   projected to a 2D grid between two heights;
 - the LiDAR odometry (``navlog.replay.mapping.lidar_odometry``, Open3D): ``LidarOdometry`` with its
   ``LidarOdometryParams``, motion priors (``MotionPrior``, ``GyroTrack``, ``PoseTrack``) and per-frame
-  ``FrameResult``.
+  ``FrameResult``;
+- the 2D SLAM (``navlog.replay.mapping.slam2d``, gtsam): ``Slam2D`` with its ``SlamParams`` (slam_toolbox's
+  names), the correlative ``ScanMatcher`` and the ``PoseGraph``.
 
 Names are imported on first use, so the occupancy grid's users do not load Open3D.
 """
@@ -26,6 +28,7 @@ if TYPE_CHECKING:
         PoseTrack,
     )
     from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams, ScanStats, project_points
+    from navlog.replay.mapping.slam2d import PoseGraph, ScanMatcher, Slam2D, SlamParams
 
 __all__ = [
     "FrameResult",
@@ -35,8 +38,12 @@ __all__ = [
     "MotionPrior",
     "OccupancyGrid2D",
     "OccupancyParams",
+    "PoseGraph",
     "PoseTrack",
+    "ScanMatcher",
     "ScanStats",
+    "Slam2D",
+    "SlamParams",
     "project_points",
 ]
 
@@ -52,5 +59,9 @@ _MODULES = {
     "LidarOdometryParams": "lidar_odometry",
     "MotionPrior": "lidar_odometry",
     "PoseTrack": "lidar_odometry",
+    "PoseGraph": "slam2d",
+    "ScanMatcher": "slam2d",
+    "Slam2D": "slam2d",
+    "SlamParams": "slam2d",
 }
 __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -6,7 +6,11 @@
 - ``CostmapNode`` and ``PlannerNode``: the global costmap and the planner server, ``/plan``;
 - ``VelocitySmootherNode``: Nav2's velocity smoother, ``/cmd_vel_nav`` -> ``/cmd_vel_smoothed``;
 - ``CollisionMonitorNode``: Nav2's collision monitor, ``/cmd_vel_smoothed`` -> ``/cmd_vel``, its state as events;
-- ``AmclNode``: Nav2's AMCL on a map, /scan and odometry TF -> ``/amcl_pose``, ``/particle_cloud``, map -> odom.
+- ``AmclNode``: Nav2's AMCL on a map, /scan and odometry TF -> ``/amcl_pose``, ``/particle_cloud``, map -> odom;
+- ``SlamNode`` (``SlamNodeParams``): 2D SLAM (slam_toolbox's role), /scan and odometry TF -> ``/map``, map -> odom,
+  the pose graph and the trajectory;
+- ``NavigationStack`` (``NavGoal``, ``GoalResult``): both costmaps and ``NavigationNode`` (navigator, planner,
+  controller server, behaviours) -> ``/plan``, ``/cmd_vel_nav``, ``/local_plan``, goal results and events.
 
 Names are imported on first use (the 3D mapper needs Open3D, the others do not).
 """
@@ -21,19 +25,27 @@ if TYPE_CHECKING:
     from navlog.replay.nodes.amcl import AmclNode
     from navlog.replay.nodes.collision_monitor import CollisionMonitorNode
     from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
+    from navlog.replay.nodes.navigation import GoalResult, NavGoal, NavigationNode, NavigationStack
     from navlog.replay.nodes.occupancy_mapper import OccupancyMapperNode, OccupancyMapperParams
     from navlog.replay.nodes.planner import CostmapNode, PlannerNode
+    from navlog.replay.nodes.slam import SlamNode, SlamNodeParams
     from navlog.replay.nodes.velocity_smoother import VelocitySmootherNode
 
 __all__ = [
     "AmclNode",
     "CollisionMonitorNode",
     "CostmapNode",
+    "GoalResult",
     "LidarMapperNode",
     "LidarMapperParams",
+    "NavGoal",
+    "NavigationNode",
+    "NavigationStack",
     "OccupancyMapperNode",
     "OccupancyMapperParams",
     "PlannerNode",
+    "SlamNode",
+    "SlamNodeParams",
     "VelocitySmootherNode",
 ]
 
@@ -45,7 +57,13 @@ _MODULES = {
     "OccupancyMapperNode": "occupancy_mapper",
     "OccupancyMapperParams": "occupancy_mapper",
     "CostmapNode": "planner",
+    "GoalResult": "navigation",
+    "NavGoal": "navigation",
+    "NavigationNode": "navigation",
+    "NavigationStack": "navigation",
     "PlannerNode": "planner",
+    "SlamNode": "slam",
+    "SlamNodeParams": "slam",
     "VelocitySmootherNode": "velocity_smoother",
 }
 __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -118,20 +118,7 @@ class AmclNode(Node):
 
     # ------------------------------------------------------------ inputs
     def _on_tf(self, msg: Any, static: bool) -> None:
-        for ts in msg.transforms:
-            child = self.tf.name(ts.child_frame_id)
-            if child == self.odom:
-                self._odom_parents += 1
-                continue
-            tr, q = ts.transform.translation, ts.transform.rotation
-            self.tf.add(
-                self.tf.name(ts.header.frame_id),
-                child,
-                messages.to_ns(ts.header.stamp),
-                (tr.x, tr.y, tr.z),
-                (q.x, q.y, q.z, q.w),
-                static=static,
-            )
+        self._odom_parents += self.tf.add_message_skipping(msg, static, self.odom)
         self._drain()
 
     def set_initial_pose(self, pose, cov: np.ndarray | None = None) -> None:

@@ -1,53 +1,74 @@
-"""The mapping pipeline: 2D occupancy mapping from /scan, and 3D LiDAR mapping when the log has a LiDAR.
+"""The mapping pipeline: 2D occupancy mapping from /scan, and 3D LiDAR mapping when the log has a LiDAR
+(alone when the log has a PointCloud2 but no scan: the 2D mapper is then off, and the manifest says so).
 
 Outputs: /map (OccupancyGrid), /Odometry, /cloud_registered (throttled) and /lidar_mapper/path in
 replay.mcap; map.yaml + map.pgm (map_server), map.pcd (binary float32), trajectory.tum.
+With ``pose_source: slam`` (what ``auto`` picks on a log without ground truth) the 2D map comes from
+the SLAM node (``navlog.replay.nodes.slam``): trajectory.tum is then its pose at every scan, and
+pose_graph.json its keyframes and edges.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from navlog.errors import ConfigError
 from navlog.replay.io.map_server import save_map
 from navlog.replay.io.tum import write_poses
-from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
+from navlog.replay.mapping.slam2d.params import SlamParams
+from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams, settle_lidar
 from navlog.replay.nodes.occupancy_mapper import DEFAULT_POSE_TOPICS, OccupancyMapperNode, OccupancyMapperParams
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.pipeline import Pipeline
 
+if TYPE_CHECKING:
+    from navlog.replay.nodes.slam import SlamNode
+
 
 @dataclass(frozen=True)
 class Params:
-    # which pose the 2D mapper uses: auto = ground_truth when the log has it, else the TF tree
-    pose_source: Literal["auto", "ground_truth", "odom", "lidar_mapper", "tf"] = "auto"
+    # which pose the 2D mapper uses: auto = ground_truth when the log has it, else SLAM (scans + odometry TF)
+    pose_source: Literal["auto", "ground_truth", "odom", "lidar_mapper", "tf", "slam"] = "auto"
     lidar_mapper: Literal["auto", "on", "off"] = "auto"  # auto: on when the log has the LiDAR topic
     occupancy: OccupancyMapperParams = field(default_factory=OccupancyMapperParams)
     lidar: LidarMapperParams = field(default_factory=LidarMapperParams)
+    slam: SlamParams = field(default_factory=SlamParams)  # pose_source slam: slam_toolbox's parameters
+
+
+def settle(params: Params, reader: Any, log_to: dict[str, str]) -> Params:
+    """Before replaying: the LiDAR topic (the log's only PointCloud2 when the configured one is absent
+    and there is no scan, or ``lidar.lidar_topic: auto``) and a check that its frame has a mount."""
+    if params.lidar_mapper == "off":
+        return params
+    alone = params.occupancy.scan_topic not in {log_to.get(t, t) for t in reader.topics}
+    lidar = settle_lidar(params.lidar, reader, log_to, choose=alone or params.lidar_mapper == "on")
+    return replace(params, lidar=lidar)
 
 
 def build(params: Params, log_topics: set[str]) -> Pipeline:
     lidar_on = params.lidar_mapper == "on" or (params.lidar_mapper == "auto" and params.lidar.lidar_topic in log_topics)
+    occupancy_on = params.occupancy.scan_topic in log_topics or not lidar_on  # else the 3D mapper runs alone
     source = params.pose_source
     if source == "auto":
         source = (
             "ground_truth"
             if (params.occupancy.pose_topic or DEFAULT_POSE_TOPICS["ground_truth"]) in log_topics
-            else "tf"
+            else "slam"
         )
     if source == "lidar_mapper" and not lidar_on:
         raise ConfigError(
             "pose_source lidar_mapper needs the 3D mapper: set lidar_mapper=on (the log needs a LiDAR topic)"
         )
-    occ = OccupancyMapperNode(replace(params.occupancy, pose_source=source))
+    slam = slam_node(params) if source == "slam" and occupancy_on else None
+    occ = slam or OccupancyMapperNode(replace(params.occupancy, pose_source=source))  # type: ignore[arg-type]
     nodes: list[Node] = []
-    inputs = [params.occupancy.scan_topic]
+    inputs = [params.occupancy.scan_topic] if occupancy_on else []
     optional = ["/tf", "/tf_static"]
-    if source in ("ground_truth", "odom"):
-        inputs.append(occ.pose_topic)
-    outputs = [params.occupancy.map_topic]
+    if source in ("ground_truth", "odom") and occupancy_on:
+        inputs.append(params.occupancy.pose_topic or DEFAULT_POSE_TOPICS[source])
+    outputs = [params.occupancy.map_topic] if occupancy_on else []
     lidar = None
     if lidar_on:
         lidar = LidarMapperNode(params.lidar)
@@ -62,21 +83,29 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
             if use
         ]
         outputs += [params.lidar.odometry_topic, params.lidar.cloud_topic, params.lidar.path_topic]
-    nodes.append(occ)
+    if occupancy_on:
+        nodes.append(occ)
 
     def write_artifacts(out: Path) -> dict[str, Path]:
         written: dict[str, Path] = {}
+        if lidar is not None:  # what the 3D mapper decided from the data (time field, mount, preset)
+            info.update({f"lidar_mapper {k}": v for k, v in sorted(lidar.notes.items())})
         if occ.grid.logodds.size:
             yaml_path, pgm_path = save_map(occ.grid.to_map(params.occupancy.map_frame), out / "map.yaml")
             written.update({"map_yaml": yaml_path, "map_pgm": pgm_path})
         if lidar is not None:
-            written.update(lidar.save_pcd(out / "map.pcd"))
             stamps, poses = lidar.poses()
+            if len(stamps):  # else no cloud was registered: the skipped counts say why
+                written.update(lidar.save_pcd(out / "map.pcd"))
             written["trajectory_tum"] = write_poses(out / "trajectory.tum", stamps, poses)
         else:
             written["trajectory_tum"] = write_poses(
                 out / "trajectory.tum", [t for t, _ in occ.trajectory], [p for _, p in occ.trajectory]
             )
+        if slam is not None:
+            from navlog.replay.nodes.slam import slam_artifacts
+
+            written.update(slam_artifacts(slam, out))
         return written
 
     def skipped() -> dict[str, int]:
@@ -88,12 +117,30 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
     info = {
         "pose_source": source,
         "lidar_mapper": "on" if lidar_on else "off",
-        "trajectory": "3D mapper base_link poses" if lidar_on else f"robot poses from {source} (scans inserted)",
+        "trajectory": "SLAM poses at every scan (optimised keyframes + odometry since)"
+        if slam is not None
+        else "3D mapper base_link poses"
+        if lidar_on
+        else f"robot poses from {source} (scans inserted)",
     }
+    if lidar_on:
+        info["lidar_topic"] = params.lidar.lidar_topic
+    if not occupancy_on:
+        info["occupancy_mapper"] = f"off (no {params.occupancy.scan_topic} in the log: the 3D mapper runs alone)"
 
     def nothing_produced() -> str | None:
-        if occ.grid.logodds.size:
+        if not occupancy_on and lidar is not None and not len(lidar.poses()[0]):
+            return f"no 3D map: no cloud on {params.lidar.lidar_topic} could be registered"
+        if not occupancy_on or occ.grid.logodds.size:
             return None
         return f"no map: no scan on {params.occupancy.scan_topic} could be placed (pose source {source})"
 
     return Pipeline("mapping", nodes, inputs, optional, outputs, write_artifacts, skipped, info, nothing_produced)
+
+
+def slam_node(params: Params) -> SlamNode:
+    """The SLAM node with the occupancy mapper's topics, frames and grid rules and the slam parameters
+    (imported here: gtsam loads only when SLAM runs)."""
+    from navlog.replay.nodes.slam import SlamNode, slam_node_params
+
+    return SlamNode(slam_node_params(params.slam, params.occupancy))

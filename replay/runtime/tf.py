@@ -58,16 +58,27 @@ class TFBuffer:
 
     def add_message(self, msg: Any, static: bool = False) -> None:
         """Add every transform of a tf2_msgs/TFMessage."""
+        self.add_message_skipping(msg, static, None)
+
+    def add_message_skipping(self, msg: Any, static: bool, skip_child: str | None) -> int:
+        """Add every transform of a tf2_msgs/TFMessage except those into ``skip_child`` (a frame whose
+        parent the caller publishes itself, e.g. a localiser's odom frame); returns how many were skipped."""
+        skipped = 0
         for ts in msg.transforms:
+            child = self._name(ts.child_frame_id)
+            if child == skip_child:
+                skipped += 1
+                continue
             tr, rot = ts.transform.translation, ts.transform.rotation
             self.add(
                 self._name(ts.header.frame_id),
-                self._name(ts.child_frame_id),
+                child,
                 messages.to_ns(ts.header.stamp),
                 (tr.x, tr.y, tr.z),
                 (rot.x, rot.y, rot.z, rot.w),
                 static,
             )
+        return skipped
 
     def add(self, parent: str, child: str, t_ns: int, xyz, q_xyzw, static: bool = False) -> None:
         edge = self._edges.get(child)

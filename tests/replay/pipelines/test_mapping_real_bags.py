@@ -15,9 +15,12 @@ NO_RETURN = (
 
 def test_inf_beams_of_a_real_bag_neither_clear_walls_nor_pass_unreported(bags_dir, tmp_path):
     bag = bags_dir / "neato_drive_square"
-    run_replay(bag, "mapping", tmp_path / "new", progress=False)
+    tf = "pose_source=tf"  # the TF mapper's rules (auto picks SLAM on a log without ground truth)
+    run_replay(bag, "mapping", tmp_path / "new", overrides=[tf], progress=False)
     # the old rule: every no-return beam clears up to range_max (5 m)
-    run_replay(bag, "mapping", tmp_path / "old", overrides=["occupancy.grid.no_return_ray_length=5.0"], progress=False)
+    run_replay(
+        bag, "mapping", tmp_path / "old", overrides=[tf, "occupancy.grid.no_return_ray_length=5.0"], progress=False
+    )
     manifest = json.loads((tmp_path / "new" / "manifest.json").read_text())
     assert manifest["skipped"][NO_RETURN] > 10_000
     assert NO_RETURN not in json.loads((tmp_path / "old" / "manifest.json").read_text())["skipped"]
@@ -28,9 +31,8 @@ def test_inf_beams_of_a_real_bag_neither_clear_walls_nor_pass_unreported(bags_di
 
 
 def test_the_manifest_records_the_pose_source_used(bags_dir, tmp_path):
-    # the bag has no ground truth: auto picks the TF tree, and the mapper's parameters say so
+    # the bag has no ground truth: auto picks SLAM (scans + odometry TF), and the manifest says so
     run_replay(bags_dir / "neato_drive_square", "mapping", tmp_path / "out", progress=False)
     manifest = json.loads((tmp_path / "out" / "manifest.json").read_text())
     assert manifest["parameters"]["pose_source"] == "auto"  # what was asked for
-    assert manifest["parameters"]["occupancy"]["pose_source"] == "tf"  # what the mapper ran with
-    assert manifest["pipeline_info"]["pose_source"] == "tf"
+    assert manifest["pipeline_info"]["pose_source"] == "slam"  # what the mapper ran with

@@ -232,7 +232,8 @@ def test_live_mapping_during_record_equals_replay(tmp_path):
 
 
 def test_real_robot_bags_replay(bags_dir, tmp_path):
-    neato = run_replay(bags_dir / "neato_drive_square", "mapping", tmp_path / "neato", progress=False)
+    tf = ["pose_source=tf"]  # the TF mapper on real bags (auto picks SLAM on a log without ground truth)
+    neato = run_replay(bags_dir / "neato_drive_square", "mapping", tmp_path / "neato", overrides=tf, progress=False)
     info = neato.manifest
     assert info["pipeline_info"]["pose_source"] == "tf" and info["pipeline_info"]["lidar_mapper"] == "off"
     assert info["log"]["unknown_types"] == {
@@ -244,7 +245,7 @@ def test_real_robot_bags_replay(bags_dir, tmp_path):
     # the robot drove a ~1 m square: its path stays within a 2 m box
     tum = np.loadtxt(tmp_path / "neato" / "trajectory.tum")
     assert len(tum) > 20 and np.ptp(tum[:, 1]) < 2.0 and np.ptp(tum[:, 2]) < 2.0
-    tb3 = run_replay(bags_dir / "tb3_gazebo_walker", "mapping", tmp_path / "tb3", progress=False)
+    tb3 = run_replay(bags_dir / "tb3_gazebo_walker", "mapping", tmp_path / "tb3", overrides=tf, progress=False)
     m3 = load_map(tmp_path / "tb3" / "map.yaml")
     assert (m3.data == 100).sum() > 20
     # header stamps are sim time (~1396 s) while receive times are wall clock: the trajectory uses stamps

@@ -1,0 +1,70 @@
+"""Parameters of the 2D SLAM, under slam_toolbox's names where they mean the same.
+
+Lengths in metres, angles in radians, times in seconds. Defaults are slam_toolbox's (Humble,
+``mapper_params_online_async.yaml``) except where noted: the correlation grid is 0.025 m instead of
+0.01 m (a quarter of the cells to search; the final least-squares refinement recovers the
+sub-cell pose), and the edge noise and robust kernel, which slam_toolbox's Ceres back end does not
+expose as parameters, are navlog's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class SlamParams:
+    resolution: float = 0.05  # of the published occupancy grid
+    max_laser_range: float = 20.0  # readings beyond it are not used for matching (they clear up to it in the map)
+    minimum_travel_distance: float = 0.5  # a scan becomes a keyframe after this much travel ...
+    minimum_travel_heading: float = 0.5  # ... or this much turning since the last keyframe
+    scan_buffer_size: int = 10  # the running buffer: keyframes a new keyframe is matched against
+    scan_buffer_maximum_scan_distance: float = 10.0  # buffer keyframes farther than this are left out
+    link_match_minimum_response_fine: float = 0.1  # below it a sequential match is not trusted (odometry used)
+    correlation_search_space_dimension: float = 0.5  # side of the square searched around the prediction
+    correlation_search_space_resolution: float = 0.025  # cell of the correlation grid (slam_toolbox: 0.01)
+    correlation_search_space_smear_deviation: float = 0.1  # std of the likelihood around every surface point
+    coarse_search_angle_offset: float = 0.349  # yaw searched either side of the prediction
+    coarse_angle_resolution: float = 0.0349  # yaw step of the search (refined after)
+    do_loop_closing: bool = True
+    loop_search_maximum_distance: float = 3.0  # keyframes closer than this are loop candidates
+    loop_match_minimum_chain_size: int = 10  # a candidate chain needs this many keyframes
+    loop_match_minimum_response_fine: float = 0.45  # a loop is accepted at or above this response
+    loop_search_space_dimension: float = 8.0  # side of the square searched for a loop
+    map_update_interval: float = 5.0  # between /map messages
+    # noise of the pose-graph edges (x, y, yaw standard deviations), navlog's
+    match_sigmas: tuple[float, float, float] = (0.02, 0.02, 0.01)  # a sequential scan match
+    odometry_sigmas: tuple[float, float, float] = (0.1, 0.1, 0.05)  # odometry alone (the match failed)
+    loop_sigmas: tuple[float, float, float] = (0.05, 0.05, 0.02)  # a loop closure (behind a Huber kernel)
+    loop_huber_k: float = 1.345  # the robust kernel's threshold, in standard deviations
+
+    def __post_init__(self) -> None:
+        positive = (
+            "resolution",
+            "max_laser_range",
+            "correlation_search_space_dimension",
+            "correlation_search_space_resolution",
+            "correlation_search_space_smear_deviation",
+            "coarse_angle_resolution",
+            "loop_search_space_dimension",
+            "map_update_interval",
+            "loop_huber_k",
+        )
+        for name in positive:
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value}")
+        for name in ("minimum_travel_distance", "minimum_travel_heading", "coarse_search_angle_offset"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a number >= 0, got {value}")
+        if self.scan_buffer_size < 1 or self.loop_match_minimum_chain_size < 1:
+            raise ValueError("scan_buffer_size and loop_match_minimum_chain_size must be at least 1")
+        for name in ("link_match_minimum_response_fine", "loop_match_minimum_response_fine"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} is a response in [0, 1], got {getattr(self, name)}")
+        for name in ("match_sigmas", "odometry_sigmas", "loop_sigmas"):
+            sig = getattr(self, name)
+            if len(sig) != 3 or not all(math.isfinite(s) and s > 0 for s in sig):
+                raise ValueError(f"{name} needs three positive standard deviations (x, y, yaw), got {sig}")

@@ -1,0 +1,272 @@
+"""Correlative scan matching on a multi-resolution lookup grid, as Karto and Cartographer match scans.
+
+The reference (a submap's points in the map frame) becomes a likelihood grid: every cell holds
+``exp(-d^2 / 2 sigma^2)`` of its distance ``d`` to the nearest reference point (scipy's Euclidean
+distance transform). A pose's *response* is the mean likelihood at the scan's points placed by it,
+in [0, 1]; points off the reference count as zero.
+
+The search covers a square of translations and a fan of yaws around a predicted pose. It is a
+branch and bound over translations (Cartographer's): level ``l`` of the grid holds, in every cell,
+the maximum likelihood over the ``2^l x 2^l`` cells starting there (scipy's maximum filter), so a
+candidate's score at that level bounds the score of every finer candidate inside it. Candidates are
+expanded best first and a branch is dropped once its bound cannot beat the best full-resolution
+score found. The winner is then refined below the cell by least squares on the distances of the
+scan's points to the reference, with scipy's ``least_squares`` and a soft-L1 loss, so points off
+the reference do not pull. A distance is measured to the mean of the reference points in the
+nearest occupied cell (the distance transform's feature transform finds that cell), not to the
+cell's centre, which would pull every point of a wall onto the centre line of its cells.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage, optimize
+
+
+@dataclass(frozen=True)
+class MatchResult:
+    pose: np.ndarray  # (x, y, yaw) of the scan's frame in the reference's frame
+    response: float  # mean likelihood of the scan's points at ``pose``, in [0, 1]
+
+
+def transform_points(pose, points: np.ndarray) -> np.ndarray:
+    """(N, 2) points in a frame at planar ``pose`` (x, y, yaw), expressed in the parent frame."""
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    out = np.empty_like(points, dtype=np.float64)
+    out[:, 0] = x + c * points[:, 0] - s * points[:, 1]
+    out[:, 1] = y + s * points[:, 0] + c * points[:, 1]
+    return out
+
+
+class LookupGrid:
+    """The likelihood and distance fields of reference points (map frame), and their max-pooled levels.
+
+    The fields cover the reference's box widened by ``3 sigma`` (the *core*): the likelihood is cut to
+    zero beyond that distance. The search reads the pooled levels on a *canvas*: the core inside a
+    zero border of ``border`` cells, so that a point placed outside it reads zeros.
+    """
+
+    def __init__(self, reference: np.ndarray, resolution: float, smear_deviation: float, border: int) -> None:
+        self.res = resolution
+        cut = 3.0 * smear_deviation
+        self.core_origin = reference.min(axis=0) - cut - resolution
+        nx, ny = (
+            np.ceil((reference.max(axis=0) + cut + resolution - self.core_origin) / resolution).astype(int) + 1
+        ).tolist()
+        cells = np.floor((reference - self.core_origin) / resolution).astype(np.int64)
+        flat = cells[:, 1] * nx + cells[:, 0]
+        count = np.bincount(flat, minlength=ny * nx)
+        free = (count == 0).reshape(ny, nx)
+        distance, self._feature = ndimage.distance_transform_edt(free, return_indices=True)
+        self.distance = distance * resolution
+        # the mean of the reference points in each occupied cell (NaN elsewhere)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            self._mean_x = (np.bincount(flat, reference[:, 0], ny * nx) / count).reshape(ny, nx)
+            self._mean_y = (np.bincount(flat, reference[:, 1], ny * nx) / count).reshape(ny, nx)
+        likelihood = np.exp(-0.5 * (self.distance / smear_deviation) ** 2).astype(np.float32)
+        likelihood[self.distance > cut] = 0.0
+        self.likelihood = likelihood
+        self.border = border
+        self.origin = self.core_origin - border * resolution  # the canvas's
+        self.shape = (ny + 2 * border, nx + 2 * border)
+        self._pooled: dict[int, np.ndarray] = {}
+
+    def pooled(self, level: int) -> np.ndarray:
+        """Flat canvas whose cell (i, j) is the maximum likelihood over cells [i, i + 2^l) x [j, j + 2^l)."""
+        grid = self._pooled.get(level)
+        if grid is None:
+            k, b = 2**level, self.border
+            ny, nx = self.likelihood.shape
+            # windows starting up to k - 1 cells before the core still see it: pool the core with a k-cell margin
+            sub = np.zeros((ny + k + 1, nx + k + 1), dtype=np.float32)
+            sub[k : k + ny, k : k + nx] = self.likelihood
+            if k > 1:
+                # a centred window of size k covers [i - k//2, i - k//2 + k - 1]: shift it by k//2
+                centred = ndimage.maximum_filter(sub, size=k, mode="constant", cval=0.0)
+                h = k // 2
+                sub = np.zeros_like(centred)
+                sub[: sub.shape[0] - h, : sub.shape[1] - h] = centred[h:, h:]
+            canvas = np.zeros(self.shape, dtype=np.float32)
+            canvas[b - k : b - k + sub.shape[0], b - k : b - k + sub.shape[1]] = sub
+            grid = self._pooled[level] = canvas.ravel()
+        return grid
+
+    def _coordinates(self, xy: np.ndarray) -> np.ndarray:
+        """(2, N) fractional (row, column) coordinates of points on the core, cell centres at integers."""
+        g = (xy - self.core_origin) / self.res - 0.5
+        return np.stack([g[:, 1], g[:, 0]])
+
+    def response(self, pose, points: np.ndarray) -> float:
+        """Mean interpolated likelihood of ``points`` (scan frame) placed at ``pose``."""
+        if len(points) == 0:
+            return 0.0
+        values = ndimage.map_coordinates(
+            self.likelihood, self._coordinates(transform_points(pose, points)), order=1, mode="constant", cval=0.0
+        )
+        return float(values.mean())
+
+    def nearest(self, pose, points: np.ndarray, far: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Points placed at ``pose``, their distance to the reference (``far`` at most; see the module
+        docstring) and the unit vector from the reference to them (zero at ``far``)."""
+        xy = transform_points(pose, points)
+        ny, nx = self.distance.shape
+        cells = np.floor((xy - self.core_origin) / self.res).astype(np.int64)
+        inside = (cells[:, 0] >= 0) & (cells[:, 0] < nx) & (cells[:, 1] >= 0) & (cells[:, 1] < ny)
+        d = np.full(len(xy), far)
+        away = np.zeros_like(xy)
+        ix, iy = cells[inside, 0], cells[inside, 1]
+        fy, fx = self._feature[0, iy, ix], self._feature[1, iy, ix]
+        delta = xy[inside] - np.stack([self._mean_x[fy, fx], self._mean_y[fy, fx]], axis=1)
+        dist = np.hypot(delta[:, 0], delta[:, 1])
+        use = (dist < far) & (dist > 0)
+        rows = np.flatnonzero(inside)[use]
+        d[rows] = dist[use]
+        d[np.flatnonzero(inside)[dist == 0]] = 0.0
+        away[rows] = delta[use] / dist[use, None]
+        return xy, d, away
+
+
+@dataclass(frozen=True)
+class SearchWindow:
+    linear: float  # side of the square of translations searched (m)
+    angular: float  # yaw searched either side of the prediction (rad)
+    angle_step: float  # yaw step (rad)
+
+
+class ScanMatcher:
+    """Matches scans (points in their own frame) against reference points; see the module docstring."""
+
+    def __init__(self, resolution: float, smear_deviation: float) -> None:
+        self.res = resolution
+        self.sigma = smear_deviation
+
+    def grid(self, reference: np.ndarray, window: SearchWindow) -> LookupGrid:
+        """The reference's lookup grid, with a zero border wide enough for ``window``'s search."""
+        w = math.ceil(window.linear / 2 / self.res)
+        return LookupGrid(reference, self.res, self.sigma, 2 * w + 2 ** self._levels(window) + 1)
+
+    def _levels(self, window: SearchWindow) -> int:
+        cells = 2 * math.ceil(window.linear / 2 / self.res) + 1
+        return max(0, min(6, int(math.floor(math.log2(cells))) - 1))
+
+    def match(
+        self, reference: np.ndarray, scan_points: np.ndarray, prediction, window: SearchWindow, min_response: float
+    ) -> MatchResult | None:
+        """The best pose of the scan within ``window`` around ``prediction`` (x, y, yaw), refined; None when
+        no pose reaches ``min_response`` (or either point set is empty)."""
+        if len(reference) == 0 or len(scan_points) == 0:
+            return None
+        grid = self.grid(reference, window)
+        best = self._search(grid, scan_points, prediction, window, min_response)
+        if best is None:
+            return None
+        pose = self._refine(grid, scan_points, best)
+        response = grid.response(pose, scan_points)
+        if response < min_response:
+            return None
+        return MatchResult(pose, response)
+
+    def _search(self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow, min_response: float):
+        """Branch and bound over (yaw, x, y): the best full-resolution candidate's pose, or None."""
+        px, py, pyaw = (float(v) for v in prediction)
+        w = math.ceil(window.linear / 2 / self.res)  # offsets 0..2w cells cover the square
+        n_ang = int(math.floor(window.angular / window.angle_step + 1e-9))
+        yaws = pyaw + window.angle_step * np.arange(-n_ang, n_ang + 1)
+        ny, nx = grid.shape
+        # per yaw, the flat index of each point's cell at offset (0, 0) (the square's corner)
+        flat = np.empty((len(yaws), len(points)), dtype=np.int64)
+        for a, yaw in enumerate(yaws.tolist()):
+            xy = transform_points((px, py, yaw), points)
+            cells = np.floor((xy - grid.origin) / self.res).astype(np.int64) - w
+            # a point off the canvas reads its zero border (the search reads offsets 0..2w from here)
+            np.clip(cells[:, 0], 0, nx - 1 - 2 * w, out=cells[:, 0])
+            np.clip(cells[:, 1], 0, ny - 1 - 2 * w, out=cells[:, 1])
+            flat[a] = cells[:, 1] * nx + cells[:, 0]
+        top = self._levels(window)
+        step = 2**top
+        offs = np.arange(0, 2 * w + 1, step)
+        oy, ox = np.meshgrid(offs, offs, indexing="ij")
+        cand = (oy * nx + ox).ravel()
+        pooled = grid.pooled(top)
+        scores = pooled[flat[:, None, :] + cand[None, :, None]].mean(axis=2)  # (yaws, offsets)
+        order = np.argsort(-scores, axis=None, kind="stable")
+        best_score, best = min_response, None
+        if top == 0:  # the window is a few cells: the top level is the full resolution
+            a, c = divmod(int(order[0]), len(cand))
+            if scores[a, c] > best_score:
+                best = (a, int(oy.ravel()[c]), int(ox.ravel()[c]))
+            order = order[:0]
+        for k in order.tolist():
+            a, c = divmod(k, len(cand))
+            if scores[a, c] <= best_score:
+                break
+            found = self._branch(grid, flat[a], int(oy.ravel()[c]), int(ox.ravel()[c]), top, 2 * w, nx, best_score)
+            if found is not None:
+                best_score = found[0]
+                best = (a, found[1], found[2])
+        if best is None:
+            return None
+        a, dy, dx = best
+        return np.array([px + (dx - w) * self.res, py + (dy - w) * self.res, float(yaws[a])])
+
+    def _branch(self, grid, flat, dy, dx, level, limit, nx, best_score):
+        """Depth-first expansion of the candidate (dy, dx) of ``level``: (score, dy, dx) of the best leaf
+        scoring above ``best_score``, or None."""
+        if level == 0:
+            return None  # leaves are scored by their parent
+        h = 2 ** (level - 1)
+        kids = [(dy + i, dx + j) for i in (0, h) for j in (0, h) if dy + i <= limit and dx + j <= limit]
+        offsets = np.array([ky * nx + kx for ky, kx in kids], dtype=np.int64)
+        scores = grid.pooled(level - 1)[flat[None, :] + offsets[:, None]].mean(axis=1)
+        best = None
+        for i in np.argsort(-scores, kind="stable").tolist():
+            s = float(scores[i])
+            if s <= best_score:
+                break
+            if level - 1 == 0:
+                best_score, best = s, (s, kids[i][0], kids[i][1])
+                continue
+            found = self._branch(grid, flat, kids[i][0], kids[i][1], level - 1, limit, nx, best_score)
+            if found is not None:
+                best_score, best = found[0], found
+        return best
+
+    def _refine(self, grid: LookupGrid, points: np.ndarray, start: np.ndarray) -> np.ndarray:
+        """Least squares on the distances to the reference from ``start`` (analytic Jacobian: a distance
+        changes along the unit vector away from the nearest reference point), kept within two cells."""
+        far = 3 * self.sigma
+        last: dict[str, tuple] = {}
+
+        def evaluate(p: np.ndarray) -> tuple:
+            key = p.tobytes()
+            if last.get("key", (None,))[0] != key:
+                last["key"] = (key, grid.nearest(p, points, far))
+            return last["key"][1]
+
+        def residuals(p: np.ndarray) -> np.ndarray:
+            return evaluate(p)[1]
+
+        def jacobian(p: np.ndarray) -> np.ndarray:
+            xy, _, away = evaluate(p)
+            arm = xy - p[:2]  # d(xy)/d(yaw) = (-arm_y, arm_x)
+            return np.stack([away[:, 0], away[:, 1], away[:, 1] * arm[:, 0] - away[:, 0] * arm[:, 1]], axis=1)
+
+        sol = optimize.least_squares(
+            residuals,
+            start,
+            jac=jacobian,
+            loss="soft_l1",
+            f_scale=self.sigma / 2,
+            x_scale=np.array([self.res, self.res, self.res]),
+            xtol=1e-5,
+            ftol=1e-5,
+            max_nfev=20,
+        )
+        pose = np.asarray(sol.x, dtype=np.float64)
+        if np.any(np.abs(pose[:2] - start[:2]) > 2 * self.res) or not np.all(np.isfinite(pose)):
+            return np.asarray(start, dtype=np.float64)
+        return pose

@@ -1,0 +1,309 @@
+"""2D SLAM from laser scans and odometry: the algorithm slam_toolbox runs, as its steps.
+
+Per scan (``Slam2D.add_scan``), given the odometry pose of the robot at the scan's stamp and the
+scan's valid points in the robot frame:
+
+1. **predict**: the last keyframe's pose composed with the odometry travelled since it;
+2. **keyframe?** only after ``minimum_travel_distance`` or ``minimum_travel_heading`` since the last
+   keyframe (the first scan is one); other scans just report the prediction;
+3. **match** the scan against the running buffer (the last ``scan_buffer_size`` keyframes' points)
+   in a ``correlation_search_space_dimension`` square around the prediction; a response below
+   ``link_match_minimum_response_fine`` falls back to odometry;
+4. **add** the keyframe to the pose graph with an edge from the previous one;
+5. **close loops** (``do_loop_closing``): keyframes within ``loop_search_maximum_distance`` that are
+   older than the running buffer, in a chain of at least ``loop_match_minimum_chain_size`` such
+   keyframes, form a submap; a match of the new scan against it in a
+   ``loop_search_space_dimension`` square with a response of at least
+   ``loop_match_minimum_response_fine`` adds a loop edge, and the graph is optimised (gtsam). After
+   a closure the next search waits until the keyframes have travelled ``loop_search_maximum_distance``
+   (a closed loop stays closed; searching again at every keyframe of the same pass would only
+   repeat it).
+
+``map_to_odom`` is the correction the last keyframe implies; ``trajectory()`` is the robot's pose at
+every scan with the final poses (each scan's keyframe pose composed with the odometry since it);
+``grid()`` is the occupancy grid rebuilt from the keyframes' scans at their optimised poses (the
+real-scan rules of ``navlog.replay.mapping.occupancy``), kept up to date incrementally: it is
+rebuilt only when an optimisation has moved a keyframe's scan by more than a map cell since it was
+inserted.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import gtsam
+import numpy as np
+
+from navlog.replay.geometry import planar_matrix
+from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
+from navlog.replay.mapping.slam2d.params import SlamParams
+from navlog.replay.mapping.slam2d.pose_graph import PoseGraph
+from navlog.replay.mapping.slam2d.scan_matcher import ScanMatcher, SearchWindow, transform_points
+
+
+@dataclass(frozen=True)
+class LaserScan2D:
+    """One scan as the map needs it: beams in the laser frame, the laser's mount in the robot frame."""
+
+    angles: np.ndarray
+    ranges: np.ndarray
+    range_min: float
+    range_max: float
+    mount: np.ndarray  # 4x4 robot <- laser
+
+    def points(self, max_range: float) -> np.ndarray:
+        """(N, 2) planar points of the valid readings (finite, inside the range limits and
+        ``max_range``) in the robot frame, in beam order."""
+        r = self.ranges
+        ok = np.isfinite(r) & (r > self.range_min) & (r < self.range_max) & (r <= max_range)
+        a, rr = self.angles[ok], r[ok]
+        local = np.stack([rr * np.cos(a), rr * np.sin(a), np.zeros_like(rr)], axis=1)
+        return local @ self.mount[:2, :3].T + self.mount[:2, 3]
+
+
+def surface_points(points: np.ndarray, spacing: float, max_gap: float) -> np.ndarray:
+    """The scan's surfaces as dense points: neighbouring returns (in beam order) closer than ``max_gap``
+    joined by points every ``spacing`` or less. A reference of bare returns would pull a matched scan
+    towards its returns (the gaps between them read as distance); a surface does not."""
+    if len(points) < 2:
+        return points
+    gaps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    join = gaps < max_gap
+    steps = np.where(join, np.ceil(gaps / spacing).astype(np.int64), 1)
+    starts = np.repeat(points[:-1], steps, axis=0)
+    ends = np.repeat(points[1:], steps, axis=0)
+    first = np.repeat(np.cumsum(steps) - steps, steps)
+    frac = (np.arange(int(steps.sum())) - first) / np.repeat(steps, steps)
+    frac[np.repeat(~join, steps)] = 0.0  # not joined: the return alone
+    return np.concatenate([starts + (ends - starts) * frac[:, None], points[-1:]])
+
+
+@dataclass
+class Keyframe:
+    index: int
+    stamp: int  # ns
+    odom: gtsam.Pose2  # the odometry pose at the stamp
+    points: np.ndarray  # (N, 2) in the robot frame
+    scan: LaserScan2D
+    surface: np.ndarray  # (M, 2) the points joined into surfaces (``surface_points``), for matching against
+
+
+@dataclass
+class SlamCounts:
+    scans: int = 0
+    keyframes: int = 0
+    matched: int = 0  # sequential matches accepted
+    odometry_only: int = 0  # keyframes placed by odometry (no or weak match)
+    loop_attempts: int = 0
+    loops: int = 0
+    empty_scans: int = 0  # scans with no valid reading (not keyframes)
+    responses: list[float] = field(default_factory=list)  # of accepted loop closures
+
+
+def _pose2(pose) -> gtsam.Pose2:
+    return gtsam.Pose2(float(pose[0]), float(pose[1]), float(pose[2]))
+
+
+def _xyt(p: gtsam.Pose2) -> np.ndarray:
+    return np.array([p.x(), p.y(), p.theta()])
+
+
+class Slam2D:
+    """The SLAM state: keyframes, their pose graph, the map (see the module docstring)."""
+
+    def __init__(self, params: SlamParams, grid: OccupancyParams | None = None) -> None:
+        self.p = params
+        self.grid_params = grid or OccupancyParams(resolution=params.resolution)
+        self.matcher = ScanMatcher(
+            params.correlation_search_space_resolution, params.correlation_search_space_smear_deviation
+        )
+        self.graph = PoseGraph()
+        self.keyframes: list[Keyframe] = []
+        self.counts = SlamCounts()
+        self._scans: list[tuple[int, int, gtsam.Pose2]] = []  # (stamp, keyframe index, odometry) per scan
+        self._grid = OccupancyGrid2D(self.grid_params)
+        self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
+        self._since_loop = math.inf  # path length of keyframes since the last loop closure
+        self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
+        self._link = SearchWindow(
+            params.correlation_search_space_dimension, params.coarse_search_angle_offset, params.coarse_angle_resolution
+        )
+        self._loop = SearchWindow(
+            params.loop_search_space_dimension, params.coarse_search_angle_offset, params.coarse_angle_resolution
+        )
+
+    # ------------------------------------------------------------ the steps
+    def add_scan(self, stamp: int, odom_pose, scan: LaserScan2D) -> np.ndarray | None:
+        """Process one scan; returns the robot's pose (x, y, yaw) in the map frame at its stamp (None for a
+        scan with no valid reading before the first keyframe: nothing places it)."""
+        self.counts.scans += 1
+        odom = _pose2(odom_pose)
+        prediction = self._predict(odom)
+        if self.keyframes and not self._travelled(odom):
+            self._scans.append((stamp, len(self.keyframes) - 1, odom))
+            return _xyt(prediction)
+        points = scan.points(self.p.max_laser_range)
+        if len(points) == 0:
+            self.counts.empty_scans += 1
+            if not self.keyframes:
+                return None
+            self._scans.append((stamp, len(self.keyframes) - 1, odom))
+            return _xyt(prediction)
+        pose = self._add_keyframe(stamp, odom, points, scan, prediction)
+        if self.p.do_loop_closing:
+            self._close_loop()
+        self._scans.append((stamp, len(self.keyframes) - 1, odom))
+        return _xyt(self._pose(len(self.keyframes) - 1)) if self.graph.optimizations else pose
+
+    def _predict(self, odom: gtsam.Pose2) -> gtsam.Pose2:
+        if not self.keyframes:
+            return odom  # the map frame starts where the odometry frame is
+        last = self.keyframes[-1]
+        return self._pose(last.index).compose(last.odom.between(odom))
+
+    def _travelled(self, odom: gtsam.Pose2) -> bool:
+        d = self.keyframes[-1].odom.between(odom)
+        return (
+            math.hypot(d.x(), d.y()) >= self.p.minimum_travel_distance
+            or abs(d.theta()) >= self.p.minimum_travel_heading
+        )
+
+    def _add_keyframe(
+        self, stamp: int, odom: gtsam.Pose2, points: np.ndarray, scan: LaserScan2D, prediction: gtsam.Pose2
+    ) -> np.ndarray:
+        i = len(self.keyframes)
+        pose = _xyt(prediction)
+        if i == 0:
+            self.graph.add_node(pose)
+        else:
+            match = self.matcher.match(
+                self._buffer_points(prediction), points, pose, self._link, self.p.link_match_minimum_response_fine
+            )
+            prev = self._pose(i - 1)
+            if match is not None:
+                pose = match.pose
+                self.counts.matched += 1
+                sigmas, kind, response = self.p.match_sigmas, "match", match.response
+            else:
+                self.counts.odometry_only += 1
+                sigmas, kind, response = self.p.odometry_sigmas, "odometry", 0.0
+            self.graph.add_node(pose)
+            rel = prev.between(_pose2(pose))
+            self.graph.add_edge(i - 1, i, _xyt(rel), sigmas, kind, response=response)  # type: ignore[arg-type]
+        res = self.p.correlation_search_space_resolution
+        surface = surface_points(points, res / 2, self.p.correlation_search_space_smear_deviation * 1.5)
+        self.keyframes.append(Keyframe(i, stamp, odom, points, scan, surface))
+        self.counts.keyframes += 1
+        return pose
+
+    def _buffer_points(self, around: gtsam.Pose2) -> np.ndarray:
+        """The running buffer's points in the map frame (keyframes within the buffer distance)."""
+        recent = self.keyframes[-self.p.scan_buffer_size :]
+        centre = np.array([around.x(), around.y()])
+        return self._points_of(
+            [
+                k.index
+                for k in recent
+                if np.linalg.norm(self._pose_xy(k.index) - centre) <= self.p.scan_buffer_maximum_scan_distance
+            ]
+        )
+
+    def _points_of(self, indices: list[int]) -> np.ndarray:
+        """The keyframes' surfaces in the map frame, at their current poses."""
+        parts = []
+        for i in indices:
+            pose = self.graph.pose(i)
+            cached = self._map_points.get(i)
+            if cached is None or not np.array_equal(cached[0], pose):
+                cached = self._map_points[i] = (pose, transform_points(pose, self.keyframes[i].surface))
+            parts.append(cached[1])
+        return np.concatenate(parts) if parts else np.zeros((0, 2))
+
+    def _close_loop(self) -> None:
+        new = len(self.keyframes) - 1
+        if new > 0 and math.isfinite(self._since_loop):
+            self._since_loop += float(np.linalg.norm(self._pose_xy(new) - self._pose_xy(new - 1)))
+        if self._since_loop < self.p.loop_search_maximum_distance:
+            return
+        old_end = new - self.p.scan_buffer_size  # keyframes before this are not in the running buffer
+        if old_end <= 0:
+            return
+        poses = self.graph.poses()
+        d = np.linalg.norm(poses[:old_end, :2] - poses[new, :2], axis=1)
+        near = d <= self.p.loop_search_maximum_distance
+        if not near.any():
+            return
+        closest = int(np.argmin(np.where(near, d, np.inf)))
+        lo = hi = closest  # the chain: near keyframes contiguous with the closest one
+        while lo > 0 and near[lo - 1]:
+            lo -= 1
+        while hi + 1 < old_end and near[hi + 1]:
+            hi += 1
+        if hi - lo + 1 < self.p.loop_match_minimum_chain_size:
+            return
+        self.counts.loop_attempts += 1
+        chain = list(range(lo, hi + 1))
+        match = self.matcher.match(
+            self._points_of(chain),
+            self.keyframes[new].points,
+            poses[new],
+            self._loop,
+            self.p.loop_match_minimum_response_fine,
+        )
+        if match is None:
+            return
+        rel = _pose2(poses[closest]).between(_pose2(match.pose))
+        self.graph.add_edge(
+            closest, new, _xyt(rel), self.p.loop_sigmas, "loop", response=match.response, huber_k=self.p.loop_huber_k
+        )
+        self.graph.optimize()
+        self.counts.loops += 1
+        self.counts.responses.append(match.response)
+        self._since_loop = 0.0
+
+    # ------------------------------------------------------------ results
+    def _pose(self, i: int) -> gtsam.Pose2:
+        return _pose2(self.graph.pose(i))
+
+    def _pose_xy(self, i: int) -> np.ndarray:
+        return self.graph.pose(i)[:2]
+
+    @property
+    def map_to_odom(self) -> np.ndarray:
+        """4x4 map <- odom implied by the last keyframe (the identity before the first)."""
+        if not self.keyframes:
+            return np.eye(4)
+        last = self.keyframes[-1]
+        m = self._pose(last.index).compose(last.odom.inverse())
+        return planar_matrix(m.x(), m.y(), m.theta())
+
+    def trajectory(self) -> tuple[list[int], np.ndarray]:
+        """Stamps and (n, 3) map poses of every scan: its keyframe's final pose composed with the odometry since it."""
+        poses = [self._pose(k) for k in range(len(self.keyframes))]
+        out = np.array(
+            [_xyt(poses[k].compose(self.keyframes[k].odom.between(odom))) for _, k, odom in self._scans]
+        ).reshape(-1, 3)
+        return [t for t, _, _ in self._scans], out
+
+    def grid(self) -> OccupancyGrid2D:
+        """The occupancy grid of every keyframe's scan at its current pose (see the module docstring)."""
+        poses = self.graph.poses()
+        done = len(self._grid_poses)
+        if done:
+            moved = poses[:done] - self._grid_poses
+            reach = self.p.max_laser_range
+            if self.keyframes:
+                reach = min(reach, max(float(k.scan.range_max) for k in self.keyframes[:done]))
+            shift = np.hypot(moved[:, 0], moved[:, 1]) + reach * np.abs(
+                np.remainder(moved[:, 2] + np.pi, 2 * np.pi) - np.pi
+            )
+            if float(shift.max()) > self.grid_params.resolution:
+                self._grid = OccupancyGrid2D(self.grid_params)
+                done = 0
+        for k in self.keyframes[done:]:
+            x, y, yaw = poses[k.index]
+            s = k.scan
+            self._grid.insert_scan(planar_matrix(x, y, yaw) @ s.mount, s.angles, s.ranges, s.range_min, s.range_max)
+        self._grid_poses = np.concatenate([self._grid_poses[:done], poses[done:]])
+        return self._grid

@@ -1,0 +1,163 @@
+"""2D SLAM on a known room: the scan matcher, loop closure, the map and determinism.
+
+Scans are ray cast (Open3D, through ``tests/replay/lidar_scene``) in a 10 x 10 m room with four
+boxes, at the height of a 2D laser, from known poses.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import open3d as o3d
+import pytest
+
+from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow, Slam2D, SlamParams
+from navlog.replay.mapping.slam2d.scan_matcher import transform_points
+from tests.replay import lidar_scene
+
+N_BEAMS = 720
+RANGE_MAX = 8.0
+ANGLES = -math.pi + 2 * math.pi * np.arange(N_BEAMS) / N_BEAMS
+MOUNT = np.eye(4)
+
+
+@pytest.fixture(scope="module")
+def scene() -> o3d.t.geometry.RaycastingScene:
+    return lidar_scene.raycasting_scene(lidar_scene.room_mesh())
+
+
+def cast(scene, pose, rng: np.random.Generator | None = None, noise: float = 0.01) -> np.ndarray:
+    """Ranges of a 720-beam scan at planar ``pose`` (x, y, yaw), 0.3 m above the floor; inf past RANGE_MAX."""
+    x, y, yaw = pose
+    dirs = np.stack([np.cos(ANGLES + yaw), np.sin(ANGLES + yaw), np.zeros(N_BEAMS)], axis=1)
+    rays = np.concatenate([np.tile([x, y, 0.3], (N_BEAMS, 1)), dirs], axis=1).astype(np.float32)
+    r = scene.cast_rays(o3d.core.Tensor(rays))["t_hit"].numpy().astype(np.float64)
+    if rng is not None:
+        r = r + rng.normal(0.0, noise, N_BEAMS)
+    r[r > RANGE_MAX] = np.inf
+    return r
+
+
+def scan_of(ranges: np.ndarray) -> LaserScan2D:
+    return LaserScan2D(ANGLES, ranges, 0.05, RANGE_MAX, MOUNT)
+
+
+def test_matcher_recovers_a_known_offset_within_a_cell(scene):
+    rng = np.random.default_rng(1)
+    true = np.array([0.6, -0.4, 0.3])
+    ref_pose = true + np.array([-0.12, 0.07, -0.05])  # where the reference scan was taken
+    reference = transform_points(ref_pose, scan_of(cast(scene, ref_pose, rng)).points(RANGE_MAX))
+    points = scan_of(cast(scene, true, rng)).points(RANGE_MAX)
+    # the prediction is off by (0.12 m, -0.07 m, 0.05 rad): the search must find the true pose
+    prediction = true + np.array([0.12, -0.07, 0.05])
+    matcher = ScanMatcher(0.025, 0.1)
+    res = matcher.match(reference, points, prediction, SearchWindow(0.5, 0.349, 0.0349), 0.1)
+    assert res is not None
+    assert np.hypot(*(res.pose[:2] - true[:2])) < 0.025
+    assert abs(res.pose[2] - true[2]) < 0.005
+    assert res.response > 0.8
+    # far off the window, no pose reaches the response: None, not a wrong pose
+    assert (
+        matcher.match(reference, points, true + np.array([3.0, 3.0, 0.0]), SearchWindow(0.5, 0.1, 0.0349), 0.8) is None
+    )
+
+
+def rectangle_path(step: float = 0.1) -> np.ndarray:
+    """(n, 3) poses along a 6 x 6 m rectangle, driven once and a third, heading along the path."""
+    corners = [(-3, -3), (3, -3), (3, 3), (-3, 3), (-3, -3), (3, -3), (3, -1)]
+    out = []
+    for (x0, y0), (x1, y1) in zip(corners[:-1], corners[1:], strict=True):
+        n = int(round(math.hypot(x1 - x0, y1 - y0) / step))
+        yaw = math.atan2(y1 - y0, x1 - x0)
+        out += [(x0 + (x1 - x0) * i / n, y0 + (y1 - y0) * i / n, yaw) for i in range(n)]
+    return np.array(out)
+
+
+def drifting_odometry(truth: np.ndarray, yaw_error: float) -> np.ndarray:
+    """Odometry integrating the true steps with every turn (and step heading) scaled by ``1 + yaw_error``."""
+    odom = [truth[0].copy()]
+    for a, b in zip(truth[:-1], truth[1:], strict=True):
+        c, s = math.cos(a[2]), math.sin(a[2])
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        lx, ly = c * dx + s * dy, -s * dx + c * dy  # the step in the robot frame
+        dyaw = math.remainder(b[2] - a[2], 2 * math.pi) * (1 + yaw_error)
+        o = odom[-1]
+        co, so = math.cos(o[2]), math.sin(o[2])
+        odom.append(np.array([o[0] + co * lx - so * ly, o[1] + so * lx + co * ly, o[2] + dyaw]))
+    return np.array(odom)
+
+
+def run_slam(scene, truth: np.ndarray, odom: np.ndarray, params: SlamParams) -> Slam2D:
+    rng = np.random.default_rng(5)
+    slam = Slam2D(params)
+    for i, (t, o) in enumerate(zip(truth, odom, strict=True)):
+        slam.add_scan(i * 100_000_000, o, scan_of(cast(scene, t, rng)))
+    return slam
+
+
+def test_a_loop_closure_removes_the_odometry_drift(scene):
+    truth = rectangle_path()
+    odom = drifting_odometry(truth, 0.012)
+    revisit = 240  # back at the start corner: the path's first lap ends here
+    drift = np.hypot(*(odom[revisit, :2] - truth[revisit, :2]))
+    assert 0.25 < drift < 0.4
+    # sequential matches are refused (response 1.0 is never reached): only odometry and loops place keyframes
+    params = SlamParams(
+        link_match_minimum_response_fine=1.0,
+        loop_match_minimum_chain_size=4,
+        scan_buffer_size=6,
+        loop_search_maximum_distance=2.0,
+    )
+    slam = run_slam(scene, truth, odom, params)
+    assert slam.counts.matched == 0 and slam.counts.loops >= 1
+    stamps, poses = slam.trajectory()
+    assert len(stamps) == len(truth)
+    err = np.hypot(*(poses[:, :2] - truth[:, :2]).T)
+    assert err[revisit] < 0.05 and err[-1] < 0.05
+    # the pose graph holds the odometry chain and the loops
+    kinds = [e.kind for e in slam.graph.edges]
+    assert kinds.count("odometry") == len(slam.keyframes) - 1 and kinds.count("loop") == slam.counts.loops
+
+
+def test_sequential_matching_keeps_the_drifting_path_and_the_map_right(scene):
+    truth = rectangle_path(0.1)[:150]
+    odom = drifting_odometry(truth, 0.02)
+    slam = run_slam(scene, truth, odom, SlamParams(do_loop_closing=False))
+    assert slam.counts.odometry_only == 0
+    _, poses = slam.trajectory()
+    odom_err = np.hypot(*(odom[:, :2] - truth[:, :2]).T)
+    err = np.hypot(*(poses[:, :2] - truth[:, :2]).T)
+    assert odom_err.max() > 0.15 and err.max() < 0.03
+    # the map: the south wall (y = -5) is occupied where the laser saw it, the room inside free
+    m = slam.grid().to_map()
+    i = int((-4.975 - m.origin[1]) / m.resolution)
+    j = int((0.0 - m.origin[0]) / m.resolution)
+    assert m.data[i, j] == 100 and m.data[i + 20, j] == 0
+
+
+def test_the_same_scans_give_the_same_map_bytes(scene):
+    truth = rectangle_path(0.1)[:80]
+    odom = drifting_odometry(truth, 0.02)
+    a = run_slam(scene, truth, odom, SlamParams()).grid()
+    b = run_slam(scene, truth, odom, SlamParams()).grid()
+    assert a.logodds.tobytes() == b.logodds.tobytes() and np.array_equal(a.origin, b.origin)
+
+
+def test_bad_parameters_are_named():
+    with pytest.raises(ValueError, match="correlation_search_space_resolution"):
+        SlamParams(correlation_search_space_resolution=0.0)
+    with pytest.raises(ValueError, match="loop_sigmas"):
+        SlamParams(loop_sigmas=(0.1, 0.1))  # type: ignore[arg-type]
+
+
+def test_scans_without_a_valid_reading_are_counted_not_placed(scene):
+    slam = Slam2D(SlamParams())
+    blind = scan_of(np.full(N_BEAMS, np.inf))
+    assert slam.add_scan(0, (0.0, 0.0, 0.0), blind) is None  # nothing to start the map from
+    pose = slam.add_scan(100_000_000, (0.0, 0.0, 0.0), scan_of(cast(scene, (0.0, 0.0, 0.0))))
+    assert pose is not None and np.allclose(pose, 0.0)
+    slam.add_scan(200_000_000, (0.6, 0.0, 0.0), blind)  # travelled, but nothing to match: odometry
+    assert slam.counts.empty_scans == 2 and slam.counts.keyframes == 1
+    stamps, poses = slam.trajectory()
+    assert stamps == [100_000_000, 200_000_000] and np.allclose(poses[1], (0.6, 0.0, 0.0))

@@ -1,0 +1,82 @@
+"""The SLAM node end to end: a short go2 recording without a localiser, replayed with pose_source=slam."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from navlog.analysis.metrics import compute_metrics
+from navlog.replay.io import open_log
+from navlog.replay.io.map_server import load_map
+from navlog.replay.session import run_replay
+
+ODOM_PARENTS_FROM_LOG = "/tf: transforms into 'odom' from the log (ignored: SLAM publishes its own)"
+
+
+@pytest.fixture(scope="module")
+def unlocalised_log(tmp_path_factory):
+    """The 17 s teleop drive, recorded as a real robot's log: no map -> odom on /tf."""
+    from navlog.recorder.record import prepare, record
+
+    out = tmp_path_factory.mktemp("slam") / "teleop_none.mcap"
+    record(prepare("indoor_room", "go2", "teleop", seed=3, localization="none"), out, progress=False)
+    return out
+
+
+def tf_children(log) -> set[str]:
+    with open_log(log) as reader:
+        return {ts.child_frame_id for env in reader.messages(["/tf"]) for ts in env.msg.transforms}
+
+
+def test_localization_none_records_no_map_to_odom_but_keeps_ground_truth(unlocalised_log, teleop_log):
+    assert "odom" not in tf_children(unlocalised_log)  # odom -> base_footprint -> base_link only
+    assert "odom" in tf_children(teleop_log)  # the default keeps the perfect localiser's map -> odom
+    with open_log(unlocalised_log) as reader:
+        assert "/odom/ground_truth" in reader.topics
+        assert reader.metadata["navlog"]["localization"] == "none"
+
+
+def test_slam_maps_the_unlocalised_log_within_centimetres(unlocalised_log, tmp_path):
+    res = run_replay(
+        unlocalised_log,
+        "mapping",
+        tmp_path / "slam",
+        overrides=["pose_source=slam", "lidar_mapper=off"],
+        progress=False,
+    )
+    assert res.manifest["pipeline_info"]["pose_source"] == "slam"
+    graph = json.loads((tmp_path / "slam" / "pose_graph.json").read_text())
+    assert len(graph["nodes"]) >= 5 and {e["kind"] for e in graph["edges"]} == {"match"}
+    slam = compute_metrics(unlocalised_log, tmp_path / "slam")["trajectory"]["ate"]["translation_m"]
+    run_replay(
+        unlocalised_log,
+        "mapping",
+        tmp_path / "odom",
+        overrides=["pose_source=odom", "lidar_mapper=off"],
+        progress=False,
+    )
+    odom = compute_metrics(unlocalised_log, tmp_path / "odom")["trajectory"]["ate"]["translation_m"]
+    assert slam["rmse"] < 0.03 and slam["rmse"] < odom["rmse"]
+    assert slam["count"] > 150  # a pose at every scan, not only at keyframes
+    m = load_map(tmp_path / "slam" / "map.yaml")
+    assert (m.data == 100).sum() > 300 and (m.data == 0).sum() > 5000
+    # the same log replayed again: the same bytes
+    again = run_replay(
+        unlocalised_log,
+        "mapping",
+        tmp_path / "again",
+        overrides=["pose_source=slam", "lidar_mapper=off"],
+        progress=False,
+    )
+    assert {"map_pgm", "trajectory_tum", "pose_graph", "replay_mcap"} <= set(res.manifest["outputs"])
+    for name, out in res.manifest["outputs"].items():
+        assert again.manifest["outputs"][name]["sha256"] == out["sha256"], name
+
+
+def test_a_logged_map_to_odom_is_ignored_and_counted(teleop_log, tmp_path):
+    res = run_replay(
+        teleop_log, "mapping", tmp_path / "out", overrides=["pose_source=slam", "lidar_mapper=off"], progress=False
+    )
+    assert res.manifest["skipped"][ODOM_PARENTS_FROM_LOG] > 100
+    assert compute_metrics(teleop_log, tmp_path / "out")["trajectory"]["ate"]["translation_m"]["rmse"] < 0.03
