@@ -35,6 +35,9 @@ from navlog.replay.runtime.pipeline import Pipeline
 from navlog.replay.runtime.progress import Progress, format_table
 from navlog.version import __version__
 
+DEFAULT_WORLD, DEFAULT_ROBOT = "indoor_room", "go2"  # when neither the command line nor the scenario names one
+LOCALIZATIONS = ("perfect", "none", "amcl")  # what publishes map -> odom while recording (none: nothing)
+
 
 @dataclass
 class RecordResult:
@@ -45,6 +48,25 @@ class RecordResult:
     topics: dict[str, tuple[str, int]]  # topic -> (type, count)
     interrupted: bool = False
     metadata: dict[str, str] = field(default_factory=dict)
+    collisions: int = 0  # robot-world contacts (the simulator's collision events)
+    navigation: dict | None = None  # a navigate scenario's goal results (the navigation pipeline's report)
+
+    @property
+    def failed(self) -> str | None:
+        """Why a navigation run failed (a collision, a goal not reached), or None."""
+        if self.navigation is None:
+            return None
+        why = []
+        if self.collisions:
+            why.append(f"{self.collisions} collision(s)")
+        failed = [g["name"] for g in self.navigation.get("goals", []) if g["status"] != "succeeded"]
+        if failed:
+            why.append(f"goal(s) failed: {', '.join(failed)}")
+        ended = len(self.navigation.get("goals", []))
+        planned = self.navigation.get("planned_goals", ended)
+        if ended < planned:
+            why.append(f"{planned - ended} goal(s) never ended (max_duration reached)")
+        return "; ".join(why) or None
 
     @property
     def real_time_factor(self) -> float:
@@ -60,6 +82,7 @@ class RecordSetup:
     scenario: ScenarioSpec
     seed: int
     noise: bool
+    localization: str = "perfect"  # "none": no map -> odom on /tf (a real robot's log, for SLAM)
 
     def topics(self) -> set[str]:
         """The topics the simulator and the scenario publish."""
@@ -76,6 +99,10 @@ class RecordSetup:
             "seed": self.seed,
             "noise": self.noise,
         }
+        extra = {}
+        if self.localization != "perfect":  # the default's metadata (and so its bytes) stay as they were
+            full["localization"] = self.localization
+            extra["localization"] = self.localization
         return {
             "navlog_version": __version__,
             "world": self.world.name,
@@ -84,14 +111,34 @@ class RecordSetup:
             "seed": str(self.seed),
             "noise": "on" if self.noise else "off",
             "config_hash": config_hash(full),
+            **extra,
         }
 
 
-def prepare(world: str, robot: str, scenario: str, seed: int = 0, noise: bool = True) -> RecordSetup:
-    """Load and check world, robot and scenario; raises ConfigError before anything runs."""
-    w, r, s = load_world(world), load_robot(robot), load_scenario(scenario)
+def prepare(
+    world: str | None,
+    robot: str | None,
+    scenario: str,
+    seed: int = 0,
+    noise: bool = True,
+    localization: str = "perfect",
+) -> RecordSetup:
+    """Load and check world, robot and scenario; raises ConfigError before anything runs.
+
+    ``world``/``robot`` None: the scenario's own (its ``world``/``robot`` fields), else indoor_room / go2.
+
+    ``localization``: ``amcl`` runs Nav2's AMCL live on the world's map (the scenario's Nav2 file's
+    ``amcl`` block, started at the scenario's start pose): it publishes map -> odom from /scan and the
+    drifting odometry, as on a real robot (a navigate scenario's navigation then runs on it);
+    ``perfect`` publishes map -> odom as the true correction; ``none`` publishes no
+    map -> odom (odom -> base only, drifting), as a real robot's log for a SLAM node to map."""
+    if localization not in LOCALIZATIONS:
+        raise ConfigError(f"localization '{localization}' is not one of: {', '.join(LOCALIZATIONS)}")
+    s = load_scenario(scenario)
+    w = load_world(world or s.world or DEFAULT_WORLD)
+    r = load_robot(robot or s.robot or DEFAULT_ROBOT)
     check_scenario(s, r, w)
-    return RecordSetup(w, r, s, seed, noise)
+    return RecordSetup(w, r, s, seed, noise, localization)
 
 
 def record(
@@ -102,12 +149,17 @@ def record(
     progress: bool = True,
     live_nodes: Sequence[Node] = (),
     pipeline: Pipeline | None = None,
+    navigation: Pipeline | None = None,
     stop: threading.Event | None = None,
 ) -> RecordResult:
     """Simulate ``setup`` and write every topic to ``out`` (MCAP); see the module docstring.
 
     ``pipeline``: a replay pipeline (``build(params, setup.topics())``) whose nodes run live after
     ``live_nodes``; when it filters commands, the scenario publishes on the topic it takes.
+
+    ``navigation``: for a navigate scenario, its navigation pipeline (default: built from the scenario,
+    ``navlog.recorder.navigation.navigation_pipeline``); it drives the robot, and the run ends the
+    scenario's hold time after its last goal ended.
 
     ``stop``, when set (from another thread or a signal handler), ends the run within a second of sim
     time; the file is then closed cleanly with what was recorded and the result says ``interrupted``.
@@ -117,12 +169,33 @@ def record(
     command_topic = scenario_command_topic(pipeline)
     from navlog.recorder.sim import SimNode, SimOptions
 
-    sim = SimNode(setup.world, setup.robot, SimOptions(seed=setup.seed, noise=setup.noise, start=setup.scenario.start))
-    driver = ScenarioNode(setup.scenario, setup.robot, command_topic=command_topic)
+    options = SimOptions(
+        seed=setup.seed,
+        noise=setup.noise,
+        start=setup.scenario.start,
+        localization="perfect" if setup.localization == "perfect" else "none",
+    )
+    sim = SimNode(setup.world, setup.robot, options)
+    nodes: list[Node] = []
+    if setup.scenario.kind == "navigate":
+        from navlog.recorder.navigation import navigation_pipeline, world_map_node
+
+        if navigation is None:
+            navigation = navigation_pipeline(setup.scenario, setup.seed)
+        map_server = world_map_node(setup.scenario, setup.world)
+        nodes += [map_server] if map_server is not None else []
+    if setup.localization == "amcl":
+        from navlog.recorder.navigation import amcl_node
+
+        nodes.append(amcl_node(setup.scenario, setup.world, setup.seed))
+    done = navigation.done if navigation is not None else None
+    driver = ScenarioNode(setup.scenario, setup.robot, command_topic=command_topic, navigation_done=done)
     ex = Executor()
     ex.add_node(sim, source=True)
-    ex.add_node(driver)
-    for node in [*live_nodes, *(pipeline.nodes if pipeline is not None else [])]:
+    collisions = CollisionCounter()
+    nodes += [driver, collisions]
+    nodes += navigation.nodes if navigation is not None else []
+    for node in [*nodes, *live_nodes, *(pipeline.nodes if pipeline is not None else [])]:
         ex.add_node(node)
     meta = setup.metadata()
     max_ns = int(setup.scenario.max_duration * 1e9)
@@ -150,7 +223,29 @@ def record(
     types = writer.topic_types
     for topic, n in sorted(ex.stats.published.items()):
         counts[topic] = (types.get(topic, ""), n)
-    return RecordResult(out, ex.now / 1e9, wall, out.stat().st_size, counts, interrupted, meta)
+    report = navigation.report() if navigation is not None and navigation.report is not None else None
+    return RecordResult(
+        out, ex.now / 1e9, wall, out.stat().st_size, counts, interrupted, meta, collisions.count, report
+    )
+
+
+class CollisionCounter(Node):
+    """Counts the simulator's ``collision`` events (robot-world contacts)."""
+
+    name = "collision_counter"
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.count = 0
+
+    def setup(self) -> None:
+        from navlog.recorder.sim import EVENTS_TOPIC
+
+        self.subscribe(EVENTS_TOPIC, self._on_event)
+
+    def _on_event(self, msg, t_ns: int) -> None:
+        if getattr(msg, "kind", "") == "collision":
+            self.count += 1
 
 
 def scenario_command_topic(pipeline: Pipeline | None) -> str:
@@ -204,4 +299,19 @@ def format_summary(res: RecordResult) -> str:
         rows.append((topic, typ, n, f"{rate:.2f} Hz"))
     if rows:
         lines.append(format_table(("topic", "type", "msgs", "rate"), rows, align=("left", "left", "right", "right")))
+    if res.navigation is not None:
+        goals = [
+            (g["name"], g["status"], g["code"] or "", f"{g['time_s']:.1f} s", g["recoveries"], g["message"])
+            for g in res.navigation.get("goals", [])
+        ]
+        lines.append(
+            format_table(
+                ("goal", "result", "code", "time", "recoveries", "message"),
+                goals,
+                align=("left", "left", "right", "right", "right", "left"),
+            )
+        )
+        lines.append(
+            f"navigation FAILED: {res.failed}" if res.failed else "navigation: every goal reached, no collision"
+        )
     return "\n".join(lines)

@@ -3,6 +3,11 @@
 - ``tour``: visit waypoints in order with a simple heading-then-drive controller on the true pose
   (like a person driving the robot around the room), then stand still for ``hold`` seconds.
 - ``teleop``: play a list of timed velocity commands, then stand still for ``hold`` seconds.
+- ``navigate``: Nav2 drives: the scenario names a Nav2 parameter file (``nav2_params``) and a goals
+  YAML (``goals``); the recorder runs the navigation pipeline live (planner, controller, behaviours,
+  navigator, then the velocity smoother and collision monitor when the file configures them) and the
+  run ends ``hold`` seconds after the last goal ended. ``map: world`` publishes the world's obstacles
+  grown by ``map_margin`` on /map at t = 0, as a map_server would (the Go2 setup's fixed map).
 
 Both are checked before anything is simulated: the start pose and the whole intended path must stay
 at least the robot's radius away from every obstacle (``check_scenario``). A scenario made to test
@@ -16,6 +21,7 @@ pipeline reads /cmd_vel_nav), on the topic that pipeline takes (``ScenarioNode(c
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -39,9 +45,10 @@ class TimedCommand:
 @dataclass(frozen=True)
 class ScenarioSpec:
     name: str
-    kind: Literal["tour", "teleop"]
+    kind: Literal["tour", "teleop", "navigate"]
     description: str = ""
     world: str = ""  # the world a tour was laid out for ("" = any world)
+    robot: str = ""  # the robot it was made for ("" = any robot; also the default of --robot)
     start: tuple[float, float, float] = (0.0, 0.0, 0.0)
     waypoints: list[tuple[float, float]] = field(default_factory=list)
     speed: float = 0.3
@@ -52,12 +59,22 @@ class ScenarioSpec:
     max_duration: float = 600.0
     rate: float = 20.0
     expect_contact: bool = False  # the path is meant to reach an obstacle (a test of the safety filters)
+    # navigate: the Nav2 parameter file and goals YAML (names in config/nav2, config/goals, or paths)
+    nav2_params: str = ""
+    goals: str = ""
+    navigation: Literal["waypoints", "through_poses"] = "waypoints"
+    map: Literal["world", "none"] = "world"  # world: the world's obstacles on /map, grown by map_margin
+    map_margin: float = 0.15
 
     def __post_init__(self) -> None:
         if self.kind == "tour" and not self.waypoints:
             raise ValueError("a tour needs waypoints")
         if self.kind == "teleop" and not self.commands:
             raise ValueError("a teleop scenario needs commands")
+        if self.kind == "navigate" and not (self.nav2_params and self.goals):
+            raise ValueError("a navigate scenario needs nav2_params (a Nav2 file) and goals (a goals YAML)")
+        if not 0 <= self.map_margin <= 5:
+            raise ValueError("map_margin must be between 0 and 5 m")
         if self.speed <= 0 or self.turn_rate <= 0 or self.rate <= 0 or self.max_duration <= 0:
             raise ValueError("speed, turn_rate, rate and max_duration must be positive")
         numbers = [*self.start, *(v for w in self.waypoints for v in w)]
@@ -103,6 +120,11 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World) -> No
             f"scenario '{scenario.name}' is laid out for world '{scenario.world}', not '{world.name}'; "
             f"use --world {scenario.world} or a scenario made for {world.name}"
         )
+    if scenario.robot and scenario.robot != robot.name:
+        raise ConfigError(
+            f"scenario '{scenario.name}' is made for robot '{scenario.robot}', not '{robot.name}'; "
+            f"use --robot {scenario.robot} or a scenario made for {robot.name}"
+        )
     start = np.array([scenario.start[:2]])
     c0 = float(clearance(world, start)[0])
     if c0 < robot.radius:
@@ -111,6 +133,9 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World) -> No
             f"{'inside an obstacle' if c0 < 0 else f'only {c0:.2f} m from an obstacle'} in world '{world.name}' "
             f"(robot radius {robot.radius} m); move 'start'"
         )
+    if scenario.kind == "navigate":
+        check_goals(scenario, robot, world)
+        return
     path = intended_path(scenario, robot)
     c = clearance(world, path)
     i = int(np.argmin(c))
@@ -129,13 +154,54 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World) -> No
         )
 
 
+def navigation_goals(scenario: ScenarioSpec) -> list[tuple[str, tuple[float, float, float]]]:
+    """A navigate scenario's goals, (name, (x, y, yaw)) in the map frame, from its goals YAML."""
+    from navlog.replay.pipelines.planner import load_named_goals
+
+    goals, _ = load_named_goals(scenario.goals)
+    if not goals:
+        raise ConfigError(f"scenario '{scenario.name}': goals '{scenario.goals}' lists no goal")
+    return goals
+
+
+def check_goals(scenario: ScenarioSpec, robot: RobotSpec, world: World) -> None:
+    """Refuse, before simulating, a goal outside the world or closer than the robot's radius to an obstacle."""
+    goals = navigation_goals(scenario)
+    x0, y0, x1, y1 = world.bounds()
+    c = clearance(world, np.array([pose[:2] for _, pose in goals]))
+    for (name, (x, y, _)), ci in zip(goals, c):
+        if not (x0 <= x <= x1 and y0 <= y <= y1):
+            raise ConfigError(
+                f"scenario '{scenario.name}': goal '{name}' ({x:.2f}, {y:.2f}) is outside world '{world.name}' "
+                f"(x {x0:.2f}..{x1:.2f}, y {y0:.2f}..{y1:.2f}); fix it in {scenario.goals}"
+            )
+        if ci < robot.radius:
+            where = "inside an obstacle" if ci < 0 else f"only {ci:.2f} m from an obstacle"
+            raise ConfigError(
+                f"scenario '{scenario.name}': goal '{name}' ({x:.2f}, {y:.2f}) is {where} of world '{world.name}' "
+                f"(robot radius {robot.radius} m); move it in {scenario.goals}"
+            )
+
+
 class ScenarioNode(Node):
     """Publishes commands on ``command_topic`` at ``rate`` from the true pose, until the scenario is done."""
 
     name = "scenario"
 
-    def __init__(self, scenario: ScenarioSpec, robot: RobotSpec, *, command_topic: str = CMD_VEL_TOPIC) -> None:
+    def __init__(
+        self,
+        scenario: ScenarioSpec,
+        robot: RobotSpec,
+        *,
+        command_topic: str = CMD_VEL_TOPIC,
+        navigation_done: Callable[[], bool] | None = None,
+    ) -> None:
+        """``navigation_done``: for a navigate scenario, says when every goal has ended (the node then
+        publishes no command: the navigation stack drives)."""
         super().__init__()
+        if scenario.kind == "navigate" and navigation_done is None:
+            raise ValueError("a navigate scenario needs navigation_done (the navigation stack's done)")
+        self.navigation_done = navigation_done
         self.scenario = scenario
         self.robot = robot
         self.command_topic = command_topic
@@ -158,6 +224,10 @@ class ScenarioNode(Node):
         self.pose = (p.x, p.y, yaw_from_quat((q.x, q.y, q.z, q.w)))
 
     def _on_timer(self, t_ns: int) -> None:
+        if self.navigation_done is not None:
+            if self.done_ns is None and self.navigation_done():
+                self.done_ns = t_ns
+            return
         cmd = (0.0, 0.0, 0.0)
         if self.done_ns is None:
             cmd = self._tour(t_ns) if self.scenario.kind == "tour" else self._teleop(t_ns)

@@ -1,8 +1,8 @@
 """Screenshots of `navlog view`'s default layout in the real Rerun viewer, checked in pixels.
 
 Renders the default blueprint of a mapping log (a `navlog demo` folder: the 138 s Go2 tour of
-indoor_room and its mapping replay), a navigation log (the test suite's corridor log: plan, goal,
-global costmap, velocity chain, events), a safety log (Nav2's velocity smoother and collision monitor
+indoor_room and its mapping replay), a navigation log (`navlog record --scenario nav_tour`: Nav2's
+plan, local plan, footprint, goals, both costmaps, the velocity chain and the navigator's events), a safety log (Nav2's velocity smoother and collision monitor
 stopping a robot before a box), a real robot's bag without ground truth (neato_drive_square) and a
 `navlog diff --rrd` of two mapping replays (ground truth against drifting odometry),
 each with the screenshot tool (`rerun-shot.sh RRD OUT.png`: Xvfb + Mesa's software Vulkan, about
@@ -125,7 +125,7 @@ def shrink(src: Path, dst: Path) -> None:
 
 def build_rrds(work: Path, demo: Path | None, bags: Path) -> list[Shot]:
     from navlog.analysis.view import save_view
-    from tests.analysis import sample_nav_log
+    from navlog.recorder.record import prepare, record
     from tests.analysis.view.safety_log import write_safety_log
 
     shots = []
@@ -134,9 +134,10 @@ def build_rrds(work: Path, demo: Path | None, bags: Path) -> list[Shot]:
         subprocess.run([str(Path(sys.executable).with_name("navlog")), "-q", "demo", "-o", str(demo)], check=True)
     save_view(demo / "mapping.mcap", work / "mapping.rrd", replay_dir=demo / "replay", force=True)
     shots.append(Shot("mapping", work / "mapping.rrd", 0.0, 45))
-    nav = sample_nav_log.write_sample_log(work / "navigation.mcap", costmap_hz=1.0)
+    nav = work / "navigation.mcap"
+    record(prepare(None, None, "nav_tour"), nav, progress=False, force=True)
     save_view(nav, work / "navigation.rrd", force=True)
-    shots.append(Shot("navigation", work / "navigation.rrd", 1.0, 15))
+    shots.append(Shot("navigation", work / "navigation.rrd", 5.0, 20))
     safety = write_safety_log(work / "safety.mcap")
     save_view(safety, work / "safety.rrd", force=True)
     shots.append(Shot("safety", work / "safety.rrd", 5.0, 15))

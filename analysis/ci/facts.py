@@ -37,7 +37,7 @@ def case_facts(
     goals: int | None = None,
 ) -> Facts:
     """The facts of the groups in ``roots`` (``metrics``, ``plans``, ``goals``, ``min_clearance``,
-    ``safety``, ``events`` and the flags that derive from them)."""
+    ``safety``, ``navigation``, ``events`` and the flags that derive from them)."""
     roots = set(roots)
     facts: Facts = {}
     if "metrics" in roots and metrics is not None:
@@ -46,17 +46,23 @@ def case_facts(
     if roots & {"plans", "no_plan_failures"}:
         facts.update(_plans(replay_dir / "plans.json"))
     if roots & {"events", "no_collision", "goals", "all_goals_reached"}:
-        kinds = _event_kinds(log) + _event_kinds(replay_dir / "replay.mcap")
+        logged, replayed = _event_kinds(log), _event_kinds(replay_dir / "replay.mcap")
+        kinds = logged + replayed
         facts.update({f"events.{k}": float(n) for k, n in sorted(kinds.items())})
         facts["no_collision"] = kinds.get("collision", 0) == 0
-        facts["goals.reached"] = float(kinds.get("goal_reached", 0))
+        # goals: the replay's navigator when it ran one (a live run's are in the log too: not counted twice)
+        goal_events = replayed if replayed.get("goal_accepted", 0) else logged
+        reached = goal_events.get("goal_succeeded", 0)
+        facts["goals.reached"] = float(reached)
         if goals is not None:
             facts["goals.total"] = float(goals)
-            facts["all_goals_reached"] = goals > 0 and kinds.get("goal_reached", 0) >= goals
+            facts["all_goals_reached"] = goals > 0 and reached >= goals
     if "min_clearance" in roots and static_map is not None:
         clearance = min_clearance(replay_dir / "replay.mcap", static_map)
         if clearance is not None:
             facts["min_clearance"] = clearance
+    if "navigation" in roots and (replay_dir / "navigation.json").is_file():
+        facts.update(_numbers(flatten(_read_json(replay_dir / "navigation.json")), "navigation."))
     if "safety" in roots and (replay_dir / "safety.json").is_file():
         facts.update(_numbers(flatten(_read_json(replay_dir / "safety.json")), "safety."))
     return facts
@@ -108,27 +114,21 @@ def _event_kinds(log: Path) -> Counter[str]:
 
 
 def min_clearance(replay_log: Path, static_map: Path) -> float | None:
-    """The smallest distance (m) from a /plan pose to the nearest occupied cell (> 65) of the map, cell
-    centre to cell centre; None when there is no plan pose on the map."""
+    """The smallest clearance (m) of a /plan pose to the occupied cells (>= 65) of the map, measured as the
+    navigation metrics measure it (``clearance_field``); None when there is no plan pose on the map."""
     import numpy as np
-    from scipy.ndimage import distance_transform_edt
 
+    from navlog.analysis.metrics.navigation import clearance_field, clearances
     from navlog.replay.io.formats import open_log
     from navlog.replay.io.map_server import load_map
 
     grid = load_map(static_map)
-    free = np.asarray(grid.data) <= 65
-    dist = distance_transform_edt(free) * grid.resolution
-    ox, oy = grid.origin[0], grid.origin[1]
-    best: float | None = None
+    field = clearance_field(np.asarray(grid.data) >= 65, grid.resolution)
+    xy: list[tuple[float, float]] = []
     with open_log(replay_log) as reader:
         if PLAN_TOPIC not in reader.topics:
             return None
         for env in reader.messages([PLAN_TOPIC]):
-            for ps in env.msg.poses:
-                col = int((ps.pose.position.x - ox) // grid.resolution)
-                row = int((ps.pose.position.y - oy) // grid.resolution)
-                if 0 <= row < dist.shape[0] and 0 <= col < dist.shape[1]:
-                    d = float(dist[row, col])
-                    best = d if best is None else min(best, d)
-    return best
+            xy += [(ps.pose.position.x, ps.pose.position.y) for ps in env.msg.poses]
+    c = clearances(grid, np.asarray(xy, dtype=float).reshape(-1, 2), field)
+    return float(np.nanmin(c)) if np.isfinite(c).any() else None

@@ -8,7 +8,10 @@ Facts (see ``facts.py``) by pipeline:
 - planner: ``plans.count``, ``plans.failures``, ``plans.length_m.max|min|mean``, ``plans.cost.max``,
   ``goals.total``, ``goals.reached``, ``min_clearance`` (m, from every /plan pose to the nearest
   occupied cell of the static map), flags ``all_goals_reached`` and ``no_plan_failures``;
-- safety: ``safety.PATH`` into safety.json (``safety.collision_monitor.stopped_s``).
+- safety: ``safety.PATH`` into safety.json (``safety.collision_monitor.stopped_s``);
+- navigation: ``navigation.PATH`` into navigation.json (``navigation.succeeded``, ``navigation.failed``),
+  ``goals.*``, ``min_clearance`` and ``all_goals_reached`` as for the planner (goals: ``goal_succeeded``
+  events), ``safety.PATH`` when its Nav2 file runs the safety filters.
 
 Operators: ``<=``, ``<``, ``>=``, ``>``, ``==``, ``!=``. A name outside these is refused when the suite
 is read, with a did-you-mean; a fact the replay cannot give is an ERROR of that check.
@@ -36,11 +39,11 @@ OPS: dict[str, Callable[[float, float], bool]] = {
     "<": operator.lt,
     ">": operator.gt,
 }
-ALL = ("mapping", "planner", "safety")
+ALL = ("mapping", "planner", "safety", "navigation", "localization")
 # flag name -> the pipelines that give it
 FLAGS: dict[str, tuple[str, ...]] = {
     "no_collision": ALL,
-    "all_goals_reached": ("planner",),
+    "all_goals_reached": ("planner", "navigation"),
     "no_plan_failures": ("planner",),
 }
 # first part of a numeric fact's path -> the pipelines that give it
@@ -48,9 +51,10 @@ ROOTS: dict[str, tuple[str, ...]] = {
     "events": ALL,
     "metrics": ("mapping",),
     "plans": ("planner",),
-    "goals": ("planner",),
-    "min_clearance": ("planner",),
-    "safety": ("safety",),
+    "goals": ("planner", "navigation"),
+    "min_clearance": ("planner", "navigation"),
+    "safety": ("safety", "navigation"),
+    "navigation": ("navigation",),
 }
 _COMPARISON = re.compile(r"^\s*([A-Za-z_][\w.\[\]@-]*)\s*(<=|>=|==|!=|<|>)\s*(\S+)\s*$")
 

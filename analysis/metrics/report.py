@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from navlog.analysis.metrics import maps as map_metrics
+from navlog.analysis.metrics import navigation as nav_metrics
 from navlog.analysis.metrics import trajectory as tr
 from navlog.analysis.tables import grid, indented, render, table
 from navlog.errors import NavlogError
@@ -28,6 +29,8 @@ from navlog.replay import messages as m
 from navlog.replay.io import open_log
 
 GT_TOPIC = "/odom/ground_truth"
+EVENTS_TOPIC = "/navlog/events"
+CMD_TOPIC = "/cmd_vel"
 PCD_FRAMES = ("first-pose", "as-is", "aligned")
 TRAJECTORY_FILE = "trajectory.tum"
 MAP_FILE = "map.yaml"
@@ -54,6 +57,7 @@ class MetricsOptions:
     rpe_unit: str = "m"
     rpe_pairs_from: str = "reference"
     gt_topic: str = GT_TOPIC
+    cmd_topic: str = CMD_TOPIC  # the commands the robot drove on (navigation: acceleration and jerk)
     pcd_frame: str = "first-pose"
     view_spacing_m: float = 0.5
     view_fov_deg: tuple[float, float] = (-15.0, 15.0)
@@ -130,6 +134,30 @@ def ground_truth_trajectory(reader, topic: str = GT_TOPIC) -> tuple[tr.Trajector
     return tr.Trajectory(t[keep], vals[keep, :3], vals[keep, 3:]), counts
 
 
+def read_events(reader, topic: str = EVENTS_TOPIC) -> list[nav_metrics.Event]:
+    """The log's navlog events as (time ns, kind, source, detail, value), by header stamp."""
+    if topic not in reader.topics:
+        return []
+    out = []
+    for env in reader.messages([topic]):
+        e = env.msg
+        if e is not None:
+            out.append((m.to_ns(e.header.stamp), str(e.kind), str(e.source), str(e.detail), float(e.value)))
+    return out
+
+
+def read_commands(reader, topic: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """(log times ns, linear x) of the velocity commands on ``topic`` (Twist or TwistStamped), or None."""
+    if topic not in reader.topics:
+        return None
+    times, vx = [], []
+    for env in reader.messages([topic]):
+        if env.msg is not None:
+            times.append(env.time_ns)
+            vx.append(m.twist_values(env.msg)[0])
+    return np.asarray(times, dtype=np.int64), np.asarray(vx, dtype=float)
+
+
 def read_pcd_points(path: Path) -> np.ndarray:
     import open3d as o3d
 
@@ -156,7 +184,7 @@ def read_mesh(path: str | Path):
 
 def compute_metrics(
     log: str | Path,
-    replay_dir: str | Path,
+    replay_dir: str | Path | None = None,
     *,
     reference_map: str | Path | None = None,
     reference_mesh: str | Path | None = None,
@@ -169,8 +197,8 @@ def compute_metrics(
     """
     from navlog.replay.io.map_server import load_map
 
-    out_dir = Path(replay_dir)
-    if not out_dir.is_dir():
+    out_dir = Path(replay_dir) if replay_dir is not None else None
+    if out_dir is not None and not out_dir.is_dir():
         raise NavlogError(f"{out_dir}: no such replay output folder (give the folder of `navlog replay ... -o OUT/`)")
     if reference_map is not None and not Path(reference_map).is_file():
         raise NavlogError(f"{reference_map}: no such map file (--reference-map takes a map_server YAML)")
@@ -178,15 +206,16 @@ def compute_metrics(
         raise NavlogError(
             f"{reference_mesh}: no such mesh file (--reference-mesh takes a .ply/.obj/.stl triangle mesh)"
         )
+    base = out_dir if out_dir is not None else Path("-no-replay-")  # no replay: no output file exists
     paths = {
-        "trajectory": out_dir / TRAJECTORY_FILE,
-        "map": out_dir / MAP_FILE,
-        "pcd": out_dir / PCD_FILE,
+        "trajectory": base / TRAJECTORY_FILE,
+        "map": base / MAP_FILE,
+        "pcd": base / PCD_FILE,
     }
     result: dict[str, Any] = {
         "inputs": {
             "log": str(log),
-            "replay": str(out_dir),
+            "replay": str(out_dir) if out_dir is not None else None,
             **{k: (str(p) if p.is_file() else None) for k, p in paths.items()},
             "reference_map": str(reference_map) if reference_map else None,
             "reference_mesh": str(reference_mesh) if reference_mesh else None,
@@ -207,7 +236,20 @@ def compute_metrics(
                 f"ATE, RPE, and the first-pose frame of map.pcd need the ground truth topic {options.gt_topic} "
                 f"({m.ODOMETRY}) in the log; {reader.path} has none (choose another with --gt-topic)"
             )
-    if paths["trajectory"].is_file():
+        events = read_events(reader)
+        commands = read_commands(reader, options.cmd_topic)
+    ref_map = load_map(reference_map) if reference_map is not None else None
+    nav = nav_metrics.navigation_metrics(events, gt, commands, ref_map)
+    if nav is not None:
+        result["navigation"] = nav
+        if ref_map is None:
+            skipped.append(
+                "navigation clearance needs the true obstacles: --reference-map MAP.yaml "
+                "(from `navlog world-map WORLD --margin 0 -o MAP.yaml`)"
+            )
+    if out_dir is None:
+        skipped.append("ATE, RPE and the map metrics need a replay's outputs: --replay OUT/")
+    elif paths["trajectory"].is_file():
         est = tr.Trajectory.from_tum(paths["trajectory"])
     else:
         skipped.append(f"ATE and RPE need the estimated trajectory {paths['trajectory']} (not found)")
@@ -242,7 +284,9 @@ def compute_metrics(
         result["trajectory"] = section
 
     # -- 2D map
-    if reference_map is None:
+    if out_dir is None:
+        pass
+    elif ref_map is None:
         skipped.append(
             "2D map precision/recall/F1, IoU, mean distances and coverage need a reference grid: "
             "--reference-map MAP.yaml (e.g. from `navlog world-map WORLD --margin 0 -o MAP.yaml`)"
@@ -250,7 +294,6 @@ def compute_metrics(
     elif not paths["map"].is_file():
         skipped.append(f"2D map metrics need the replayed map {paths['map']} (not found)")
     else:
-        ref_map = load_map(reference_map)
         est_map = load_map(paths["map"])
         seed = tuple(gt.positions[0, :2]) if gt is not None and len(gt) else None
         gm = map_metrics.grid_metrics(est_map, ref_map, tau=options.tau, seed_xy=seed)
@@ -261,7 +304,9 @@ def compute_metrics(
         }
 
     # -- 3D map
-    if reference_mesh is None:
+    if out_dir is None:
+        pass
+    elif reference_mesh is None:
         skipped.append("3D map accuracy@tau needs the true surfaces: --reference-mesh MESH.ply")
     elif not paths["pcd"].is_file():
         skipped.append(f"3D map accuracy@tau needs the replayed point map {paths['pcd']} (not found)")
@@ -296,7 +341,7 @@ def compute_metrics(
                 )
 
     result["skipped"] = skipped
-    if not any(k in result for k in ("trajectory", "map_2d", "map_3d")):
+    if not any(k in result for k in ("trajectory", "map_2d", "map_3d", "navigation")):
         raise NavlogError("no metric could be computed: " + "; ".join(skipped))
     return result
 
@@ -357,7 +402,48 @@ def _stats_row(label: str, s: dict, unit: str, note: str = "") -> tuple[str, ...
 
 def format_table(metrics: dict[str, Any]) -> str:
     """The metrics as text for people: one table per section, then the skipped notes."""
-    items: list[Any] = [f"Metrics of {metrics['inputs']['replay']} (log {metrics['inputs']['log']})"]
+    replay = metrics["inputs"]["replay"]
+    items: list[Any] = [
+        f"Metrics of {replay} (log {metrics['inputs']['log']})" if replay else f"Metrics of {metrics['inputs']['log']}"
+    ]
+    n = metrics.get("navigation")
+    if n:
+        items.append(
+            f"Navigation: {n['goals_succeeded']}/{n['goals_total']} goals reached, {n['collisions']} collision(s), "
+            f"{n['recoveries']} recovery(ies), minimum clearance {_f(n.get('min_clearance_m'), 'm')}"
+        )
+        goal_rows = [
+            (
+                g["name"],
+                g["status"] + (f" ({g['code']})" if g["code"] else ""),
+                _f(g["time_s"], "s", 1),
+                _f(g.get("path_length_m"), "m", 2),
+                _f(g.get("min_clearance_m"), "m", 3),
+                str(g["recoveries"]),
+                str(g["collisions"]),
+            )
+            for g in n["goals"]
+        ]
+        items.append(
+            indented(
+                table(
+                    ("goal", "result", "time", "path", "clearance", "recoveries", "collisions"),
+                    goal_rows,
+                    right=(2, 3, 4, 5, 6),
+                )
+            )
+        )
+        motion = [
+            (label, _f(st["mean"], unit), _f(st["max"], unit), _f(st["rms"], unit))
+            for label, key, unit in (
+                ("speed (ground truth)", "speed_mps", "m/s"),
+                ("|accel| of the command", "command_accel_mps2", "m/s2"),
+                ("|jerk| of the command", "command_jerk_mps3", "m/s3"),
+            )
+            if (st := n.get(key))
+        ]
+        if motion:
+            items.append(indented(table(("", "mean", "max", "rms"), motion, right=(1, 2, 3))))
     t = metrics.get("trajectory")
     if t:
         a = t["ate"]

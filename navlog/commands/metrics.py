@@ -12,7 +12,7 @@ DELTA_UNITS = ("frames", "m", "s")
 def register(sub) -> None:
     p = sub.add_parser(
         "metrics",
-        help="measure a replay: ATE/RPE, 2D map precision/recall/F1/IoU, 3D map accuracy",
+        help="measure a replay or a navigation log: ATE/RPE, 2D/3D map accuracy, goals and clearance",
         description="Compare the outputs of `navlog replay LOG -o OUT/` with ground truth: OUT/trajectory.tum "
         "against the log's /odom/ground_truth (ATE after Umeyama alignment, RPE), OUT/map.yaml against a "
         "reference grid (occupied precision, recall and F1 at a tolerance, IoU, mean distances, free-space "
@@ -21,7 +21,12 @@ def register(sub) -> None:
         "Metrics whose inputs are missing are skipped with a note.",
     )
     p.add_argument("log", help="the log that was replayed (.mcap, .db3 or rosbag2 folder)")
-    p.add_argument("--replay", required=True, metavar="OUT", help="the replay output folder")
+    p.add_argument(
+        "--replay",
+        metavar="OUT",
+        help="the replay output folder (trajectory and map metrics); without it, only the log's own "
+        "metrics (navigation: goals, clearance, collisions, recoveries, speed, jerk)",
+    )
     p.add_argument("--reference-map", metavar="MAP.yaml", help="reference grid (e.g. from `navlog world-map`)")
     p.add_argument("--reference-mesh", metavar="MESH.ply", help="triangle mesh of the true surfaces")
     p.add_argument("--tau", type=float, default=0.05, help="2D tolerance in metres (default 0.05)")
@@ -54,6 +59,9 @@ def register(sub) -> None:
         help="path along which RPE pairs are chosen (default reference; evo's default is estimate)",
     )
     p.add_argument("--gt-topic", default="/odom/ground_truth", help="ground-truth nav_msgs/Odometry topic")
+    p.add_argument(
+        "--cmd-topic", default="/cmd_vel", help="the commands the robot drove on (navigation jerk; default /cmd_vel)"
+    )
     p.add_argument(
         "--pcd-frame",
         choices=PCD_FRAMES,
@@ -92,6 +100,7 @@ def run(args) -> int:
         rpe_unit=args.rpe_unit,
         rpe_pairs_from=args.rpe_pairs_from,
         gt_topic=args.gt_topic,
+        cmd_topic=args.cmd_topic,
         pcd_frame=args.pcd_frame,
         view_fov_deg=(args.view_fov[0], args.view_fov[1]),
         view_range_m=args.view_range,

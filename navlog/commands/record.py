@@ -17,13 +17,24 @@ def register(sub) -> None:
         description="Run the MuJoCo simulation headless, faster than real time, and write a ROS 2 MCAP log "
         "(scan, 3D LiDAR, IMU, odometry, ground truth, TF, clock, cmd_vel). Worlds, robots and scenarios are "
         "YAML files in config/worlds, config/robots and config/scenarios (a name or a path).",
-        epilog="example:\n  navlog record --world indoor_room --robot go2 --scenario mapping --seed 7 -o run.mcap",
+        epilog="examples:\n  navlog record --world indoor_room --robot go2 --scenario mapping --seed 7 -o run.mcap\n"
+        "  navlog record --scenario nav_tour -o nav.mcap          # Nav2 drives the Go2 through four waypoints\n"
+        "  navlog record --scenario nav_tour --params config/nav2/nav_go2_mppi.yaml -o nav_mppi.mcap\n"
+        "A navigate scenario exits 1 when a goal failed or the robot hit something.",
     )
-    p.add_argument("--world", default="indoor_room", help="world name or YAML path (default: indoor_room)")
-    p.add_argument("--robot", default="go2", help="robot name or YAML path (default: go2)")
+    p.add_argument("--world", help="world name or YAML path (default: the scenario's world, else indoor_room)")
+    p.add_argument("--robot", help="robot name or YAML path (default: the scenario's robot, else go2)")
     p.add_argument("--scenario", default="mapping", help="scenario name or YAML path (default: mapping)")
     p.add_argument("--seed", type=int, default=0, help="seed of all sensor and odometry noise (default: 0)")
     p.add_argument("--no-noise", action="store_true", help="switch every sensor and odometry noise off")
+    p.add_argument(
+        "--localization",
+        choices=("perfect", "none", "amcl"),
+        default="perfect",
+        help="perfect: map -> odom on /tf is the true correction (default); none: no map -> odom at all, "
+        "odom -> base only, as a real robot's log for SLAM (/odom/ground_truth stays, for evaluation); "
+        "amcl: Nav2's AMCL runs live on the world's map and publishes map -> odom (navigation runs on it)",
+    )
     p.add_argument("-o", "--output", required=True, type=Path, help="output .mcap file")
     p.add_argument("--force", action="store_true", help="overwrite the output if it exists")
     p.add_argument(
@@ -34,9 +45,17 @@ def register(sub) -> None:
     p.add_argument(
         "--params",
         type=Path,
-        help="the pipeline's parameter YAML, or the Nav2 file of a pipeline that takes one (planner, safety)",
+        help="the pipeline's parameter YAML, or the Nav2 file of a pipeline that takes one (planner, safety); "
+        "for a navigate scenario without --pipeline: the Nav2 file that replaces the scenario's",
     )
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a pipeline parameter")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a pipeline parameter (a navigate scenario without --pipeline: a navigation parameter, "
+        "e.g. --set velocity_smoother=off)",
+    )
     p.set_defaults(func=run)
 
 
@@ -65,18 +84,37 @@ def stop_on_ctrl_c() -> Iterator[threading.Event]:
 def run(args) -> int:
     from navlog.recorder.record import format_summary, prepare, record
 
-    setup = prepare(args.world, args.robot, args.scenario, seed=args.seed, noise=not args.no_noise)
-    pipe = None
+    setup = prepare(
+        args.world, args.robot, args.scenario, seed=args.seed, noise=not args.no_noise, localization=args.localization
+    )
+    pipe = navigation = None
     if args.pipeline:
         from navlog.replay.session import load_pipeline_module, pipeline_params
 
         params = pipeline_params(args.pipeline, args.params, overrides=args.set)
         pipe = load_pipeline_module(args.pipeline).build(params, setup.topics())
-    elif args.params is not None:
+    elif setup.scenario.kind == "navigate":
+        from navlog.recorder.navigation import navigation_pipeline
+
+        navigation = navigation_pipeline(setup.scenario, setup.seed, args.params, args.set)
+    elif args.params is not None or args.set:
         from navlog.errors import ConfigError
 
-        raise ConfigError("--params needs --pipeline: the parameters of which pipeline?")
+        raise ConfigError(
+            "--params and --set need --pipeline (the parameters of which pipeline?), "
+            "or a navigate scenario (its Nav2 file and navigation parameters)"
+        )
     with stop_on_ctrl_c() as stop:
-        res = record(setup, args.output, force=args.force, progress=not args.quiet, pipeline=pipe, stop=stop)
+        res = record(
+            setup,
+            args.output,
+            force=args.force,
+            progress=not args.quiet,
+            pipeline=pipe,
+            navigation=navigation,
+            stop=stop,
+        )
     print(format_summary(res))
-    return 130 if res.interrupted else 0
+    if res.interrupted:
+        return 130
+    return 1 if res.failed else 0

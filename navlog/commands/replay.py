@@ -18,6 +18,7 @@ def register(sub) -> None:
         epilog="examples:\n  navlog replay run.mcap --pipeline mapping -o out/\n"
         "  navlog replay run.mcap --pipeline mapping --set pose_source=odom -o out-odom/\n"
         "  navlog replay bag_dir --pipeline mapping --remap /scan=/stable_scan -o out/\n"
+        "  navlog replay nav.mcap --pipeline navigation --set goals=indoor_room_waypoints -o out-nav/\n"
         "  navlog replay logs/ --pipeline mapping -o fleet/ --workers 4\n"
         "  navlog replay 'logs/2026-*.mcap' --list more.txt --pipeline mapping -o fleet/ --retries 1\n"
         "  navlog replay s3://bucket/logs/ --pipeline mapping -o s3://bucket/replays/ --ray auto\n"

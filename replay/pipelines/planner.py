@@ -17,6 +17,7 @@ global costmap on a map and plans once (what ``navlog plan`` runs); ``write_plan
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -80,6 +81,12 @@ def nav2_overrides(params: Params) -> list[str]:
 
 def load_goals(spec: str) -> tuple[list[tuple[float, float, float]], str]:
     """Goals (x, y, yaw) and their frame from a goals YAML: name in config/goals/ or a path."""
+    named, frame = load_named_goals(spec)
+    return [pose for _, pose in named], frame
+
+
+def load_named_goals(spec: str) -> tuple[list[tuple[str, tuple[float, float, float]]], str]:
+    """Goals as (name, (x, y, yaw)) and their frame from a goals YAML (unnamed goals: 'goal N')."""
     path = Path(spec)
     if not path.is_file():
         found = find_config("goals", spec)
@@ -93,9 +100,12 @@ def load_goals(spec: str) -> tuple[list[tuple[float, float, float]], str]:
     goals = []
     for i, g in enumerate(doc["goals"]):
         try:
-            goals.append((float(g["x"]), float(g["y"]), float(g.get("yaw", 0.0))))
+            pose = (float(g["x"]), float(g["y"]), float(g.get("yaw", 0.0)))
         except (TypeError, KeyError, ValueError):
             raise ConfigError(f"{path}: goals[{i}]: expected x, y and yaw numbers, got {g!r}") from None
+        if not all(math.isfinite(v) for v in pose):
+            raise ConfigError(f"{path}: goals[{i}]: x, y and yaw must be finite numbers, got {g!r}")
+        goals.append((str(g.get("name", f"goal {i + 1}")), pose))
     return goals, str(doc.get("frame_id", "map"))
 
 

@@ -34,3 +34,8 @@ class Pipeline:
     # a pipeline that filters velocity commands: (the topic it takes them on, the topic it gives them on);
     # run live, the scenario publishes its commands on the first and the robot drives on the second
     commands: tuple[str, str] | None = None
+    # a pipeline that drives the robot itself (navigation): True once its task has ended, and a live
+    # recording may stop (after the scenario's hold time)
+    done: Callable[[], bool] | None = None
+    # what the pipeline did, for a summary (navigation: goal results), or None
+    report: Callable[[], dict] | None = None

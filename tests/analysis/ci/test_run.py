@@ -39,7 +39,7 @@ def failed_names(case) -> set[str]:
 def test_shipped_suite_passes_against_its_baselines(baseline_run):
     r = baseline_run
     assert r.exit_code == 0, to_markdown(r)
-    assert [c.status for c in r.cases] == [Status.PASS] * 3
+    assert [c.status for c in r.cases] == [Status.PASS] * 4
     assert r.unused_baselines == ()
     mapping = r.case("mapping_teleop_2d")
     # the recipe recorded the very log the baseline was made from
@@ -61,6 +61,11 @@ def test_shipped_suite_passes_against_its_baselines(baseline_run):
     safety = r.case("safety_teleop_wall")
     assert safety.facts["safety.commands_in"] == 301
     assert safety.facts["safety.collision_monitor.stopped_s"] == pytest.approx(8.65)
+    nav = r.case("navigation_tour")
+    # the replayed navigator reached the five goals of the tour, as the live run did; no contact
+    assert nav.facts["goals.reached"] == 5 and nav.facts["goals.total"] == 5
+    assert nav.check("all_goals_reached").status is Status.PASS and nav.check("no_collision").status is Status.PASS
+    assert {c.name for c in nav.checks if c.kind == "diff"} >= {"replay.mcap", "navigation.json", "safety.json"}
 
 
 def test_inflation_change_fails_the_planner_case_only(cache, baseline_run):
@@ -74,6 +79,7 @@ def test_inflation_change_fails_the_planner_case_only(cache, baseline_run):
     # no other pipeline has the key: untouched
     assert r.case("mapping_teleop_2d").status is Status.PASS
     assert r.case("safety_teleop_wall").status is Status.PASS
+    assert r.case("navigation_tour").status is Status.PASS
 
 
 def test_map_resolution_change_fails_the_map_outputs_only(cache, baseline_run):
@@ -128,11 +134,11 @@ def test_reports(tmp_path, cache, baseline_run):
 def test_baselines_new_update_unused_and_version(tmp_path, cache, baseline_run):
     base = tmp_path / "baselines"
     r = run_suite(SHIPPED, cache_dir=cache, baseline_dir=base)
-    assert [c.status for c in r.cases] == [Status.NEW] * 3 and r.exit_code == 1
+    assert [c.status for c in r.cases] == [Status.NEW] * 4 and r.exit_code == 1
     r = run_suite(SHIPPED, cache_dir=cache, baseline_dir=base, update_new=True)
     assert r.exit_code == 0 and all(c.baseline_written for c in r.cases)
     # the same bytes as the committed baselines
-    for case in ("mapping_teleop_2d", "planner_teleop", "safety_teleop_wall"):
+    for case in ("mapping_teleop_2d", "planner_teleop", "safety_teleop_wall", "navigation_tour"):
         for f in sorted((BASELINES / "navlog" / case).iterdir()):
             assert (base / "navlog" / case / f.name).read_bytes() == f.read_bytes(), f
     # a baseline nobody uses is reported; one from another navlog version is NEW (compared, then a failure)
@@ -190,7 +196,8 @@ def test_command_line(tmp_path, cache, baseline_run, capsys):
     assert json.loads((tmp_path / "r.json").read_text())["status"] == "FAIL"
     assert main([*args, "--set", "inflation_radus=0.3"]) == 2
     assert (
-        "no case's pipeline (mapping, planner, safety) has the parameter 'inflation_radus'" in capsys.readouterr().err
+        "no case's pipeline (mapping, navigation, planner, safety) has the parameter 'inflation_radus'"
+        in capsys.readouterr().err
     )
     bad = tmp_path / "bad.yaml"
     bad.write_text("cases:\n  - {name: a, pipeline: mapping, log: x.mcap, chceks: []}\n")

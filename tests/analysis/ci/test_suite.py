@@ -24,7 +24,15 @@ def write(tmp_path: Path, text: str) -> Path:
 def test_shipped_suite_reads():
     suite = load_suite(SHIPPED)
     assert suite.name == "navlog"
-    assert [c.name for c in suite.cases] == ["mapping_teleop_2d", "planner_teleop", "safety_teleop_wall"]
+    assert [c.name for c in suite.cases] == [
+        "mapping_teleop_2d",
+        "planner_teleop",
+        "safety_teleop_wall",
+        "navigation_tour",
+    ]
+    nav = suite.case("navigation_tour")
+    assert nav.recipe == Recipe("indoor_room", "go2", "nav_tour", 0, True) and nav.pipeline == "navigation"
+    assert [i.text for i in nav.invariants] == ["all_goals_reached", "no_collision"]
     planner = suite.case("planner_teleop")
     assert planner.recipe == Recipe("indoor_room", "go2", "teleop", 0, True)
     assert planner.params == SHIPPED.parent / "navlog_planner_nav2.yaml"

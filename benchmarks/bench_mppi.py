@@ -1,0 +1,125 @@
+"""MPPI controller cycle time: batch x time_steps at model_dt 0.05 against the 50 ms budget of 20 Hz.
+
+Runs the Jazzy bringup's MPPI (its critics and weights; ``batch_size`` set per run) on a 3 x 3 m
+local costmap at 0.05 m with an inflated box beside a straight plan, robot and plan fixed, and
+prints per configuration the median cycle time of N cycles (after 3 warm-up cycles), its ratio to
+the 50 ms period, the cycle's share per stage (noise + predict + integrate, critics, update), and
+the load average, and the same with ``predict`` in NumPy instead of its numba kernel (the ratio
+of the two, measured in the same run). One process, one thread each (set OMP/BLAS threads to 1 before NumPy loads);
+nothing is asserted.
+
+    .venv/bin/python benchmarks/bench_mppi.py [--batch 1000 2000] [--cycles 40]
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
+
+import argparse
+import dataclasses
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+from navlog.replay.nav2 import load_nav2_params
+from navlog.replay.nav2.controllers import mppi
+from navlog.replay.nav2.controllers.base import ControlContext, ControllerSetup
+from navlog.replay.nav2.controllers.mppi import MPPIController, MPPIParams
+from navlog.replay.nav2.costmap.grid import CostmapGrid, CostmapParams
+from navlog.replay.nav2.costmap.inflation_layer import inflation_costs
+
+BRINGUP = Path("/work/shared/external-data/params/nav2_bringup_jazzy_nav2_params.yaml")
+SEED_001 = Path(__file__).resolve().parents[1] / "tests" / "replay" / "nav2" / "data" / "jazzy_article_nav2_params.yaml"
+BUDGET = 0.050  # s: one period at 20 Hz
+
+
+class _Tolerance:
+    xy_goal_tolerance = 0.25
+    yaw_goal_tolerance = 0.25
+
+
+def _params() -> MPPIParams:
+    path = BRINGUP if BRINGUP.exists() else SEED_001
+    p = load_nav2_params(path).controller_server.controllers["FollowPath"]
+    assert isinstance(p, MPPIParams)
+    return p
+
+
+def _costmap() -> CostmapGrid:
+    cm = CostmapGrid(CostmapParams(width=3, height=3, resolution=0.05, origin_x=-1.5, origin_y=-1.5, robot_radius=0.22))
+    yy, xx = np.mgrid[0 : cm.size_y, 0 : cm.size_x]
+    d = np.hypot(xx - 40, yy - 36)  # a lethal cell at (0.5, 0.3) inflated to 0.7 m
+    costs = inflation_costs(d, cm.resolution, 0.22, 3.0)
+    costs[d * cm.resolution > 0.7] = 0
+    cm.costs[:] = costs
+    return cm
+
+
+def measure(batch: int, cycles: int) -> tuple[float, dict[str, float]]:
+    params = dataclasses.replace(_params(), batch_size=batch, time_steps=56, model_dt=0.05)
+    ctl = MPPIController(params, ControllerSetup(controller_frequency=20.0, seed=1, robot_radius=0.22))
+    ctl.set_plan(np.column_stack([np.arange(-1.0, 1.5, 0.05), np.zeros(50), np.zeros(50)]))
+    ctx = ControlContext(0, _costmap(), np.eye(3), _Tolerance())
+    opt = ctl.optimizer
+    stages = {"rollouts": 0.0, "critics": 0.0, "update": 0.0}
+    real_noised, real_update = opt._noised_controls, opt._update_control_sequence
+    critic_scores = [c.score for c in ctl.critics]
+
+    def timed(fn, stage):
+        def run(*a):
+            t0 = time.perf_counter()
+            out = fn(*a)
+            stages[stage] += time.perf_counter() - t0
+            return out
+
+        return run
+
+    opt._noised_controls = timed(real_noised, "rollouts")  # type: ignore[method-assign]
+    real_integrate = opt.integrate
+    opt.integrate = timed(real_integrate, "rollouts")  # type: ignore[method-assign]
+    opt._update_control_sequence = timed(real_update, "update")  # type: ignore[method-assign]
+    for c, score in zip(ctl.critics, critic_scores, strict=True):
+        c.score = timed(score, "critics")  # type: ignore[method-assign]
+    times = []
+    for i in range(cycles + 3):
+        if i == 3:
+            stages = dict.fromkeys(stages, 0.0)
+        t0 = time.perf_counter()
+        ctl.compute_velocity_commands((0.0, 0.0, 0.0), (0.2, 0.0, 0.0), ctx)
+        if i >= 3:
+            times.append(time.perf_counter() - t0)
+    total = sum(times)
+    return statistics.median(times), {k: v / total for k, v in stages.items()}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--batch", type=int, nargs="+", default=[1000, 2000])
+    ap.add_argument("--cycles", type=int, default=40)
+    args = ap.parse_args()
+    print(f"MPPI cycle, time_steps 56, model_dt 0.05, bringup critics  (load average {os.getloadavg()[0]:.2f})")
+    compiled = mppi._kernels
+    for batch in args.batch:
+        median, share = measure(batch, args.cycles)
+        parts = ", ".join(f"{k} {v:.0%}" for k, v in share.items())
+        print(
+            f"batch {batch:5d} x 56: median {median * 1000:6.1f} ms of {args.cycles} cycles, "
+            f"{median / BUDGET:.2f} of the 50 ms budget ({parts})  (load average {os.getloadavg()[0]:.2f})"
+        )
+        mppi._kernels = lambda: None  # the same cycle with predict in NumPy instead of the numba kernel
+        try:
+            plain, _ = measure(batch, args.cycles)
+        finally:
+            mppi._kernels = compiled
+        print(f"      NumPy predict: median {plain * 1000:6.1f} ms; numba kernel / NumPy = {median / plain:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,191 @@
+"""The navigation pipeline: Nav2's planner, controller, behaviours and navigator, then its safety filters.
+
+``NavigationStack`` (``navlog.replay.nodes.navigation``) runs the global and local costmaps, the
+planner server, the controller server, the behaviour server and the navigator on the goals; it
+publishes ``/plan``, ``/cmd_vel_nav``, ``/local_plan``, both costmaps, ``/goal_pose`` and its events.
+After it, the velocity smoother and the collision monitor (the safety pipeline, ``auto``: when the
+Nav2 file configures them) turn ``/cmd_vel_nav`` into ``/cmd_vel``.
+
+The same pipeline runs live (``navlog record --scenario nav_tour``: the scenario names the Nav2 file
+and the goals, and the robot drives on ``/cmd_vel``) and in replay (``navlog replay LOG --pipeline
+navigation --params nav2.yaml --set goals=...``): open loop on the log's TF, odometry, scans and map,
+the same parameters regenerate the recorded ``/plan`` and ``/cmd_vel_nav`` bit for bit.
+
+Goals: a goals YAML (``goals``: a name in config/goals/ or a path), or, empty, ``/goal_pose`` from the log.
+Writes ``navigation.json``: per goal its result (succeeded or failed with Nav2's error code), time,
+recoveries and replans; the safety filters' summary when they ran.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from navlog.replay.io.map_server import load_map
+from navlog.replay.nav2 import load_nav2_params
+from navlog.replay.pipelines import safety
+from navlog.replay.pipelines.planner import load_named_goals
+from navlog.replay.runtime.pipeline import Pipeline
+
+# `navlog replay/record --pipeline navigation --params nav2_params.yaml` fills this key
+PARAMS_FILE_KEY = "nav2_params"
+NAV2_BLOCKS = ("global_costmap", "local_costmap", "planner_server", "controller_server")
+DEFAULT_NAV2 = "nav_go2"
+
+
+@dataclass(frozen=True)
+class Params:
+    nav2_params: str = DEFAULT_NAV2  # a Nav2 parameter file: a name in config/nav2/ or a path
+    goals: str = ""  # a goals YAML (name in config/goals/ or a path); empty: /goal_pose from the log
+    mode: Literal["waypoints", "through_poses"] = "waypoints"
+    map: str = ""  # a map_server YAML for the static layer; empty: /map from the log
+    velocity_smoother: Literal["auto", "on", "off"] = "auto"  # auto: on when the Nav2 file configures it
+    collision_monitor: Literal["auto", "on", "off"] = "auto"
+    cmd_topic: str = "/cmd_vel_nav"  # the controller's and behaviours' commands
+    output_topic: str = "/cmd_vel"  # what the robot drives on
+    odom_topic: str = "/odom"
+    seed: int = 0  # the seed of a sampling controller (MPPI)
+
+
+def filter_switches(params: Params, nav2: Any) -> dict[str, str]:
+    """'on'/'off' for the velocity smoother and the collision monitor (auto: on when the file has the block)."""
+    out = {}
+    for name in ("velocity_smoother", "collision_monitor"):
+        mode = getattr(params, name)
+        out[name] = ("on" if getattr(nav2, name) is not None else "off") if mode == "auto" else mode
+    return out
+
+
+def build(params: Params, log_topics: set[str]) -> Pipeline:
+    from navlog.replay.nodes.navigation import NavGoal, NavigationStack
+
+    path = safety.nav2_file(params.nav2_params)
+    nav2 = load_nav2_params(path).require_valid(NAV2_BLOCKS)
+    goals: list[NavGoal] = []
+    if params.goals:
+        named, _ = load_named_goals(params.goals)
+        goals = [NavGoal(name, pose) for name, pose in named]
+    static_map = load_map(params.map) if params.map else None
+    switches = filter_switches(params, nav2)
+    filtered = "on" in switches.values()
+    stack = NavigationStack(
+        nav2,
+        goals=goals,
+        mode=params.mode,
+        static_map=static_map,
+        seed=params.seed,
+        cmd_topic=params.cmd_topic if filtered else params.output_topic,
+        odom_topic=params.odom_topic,
+    )
+    nodes = list(stack.nodes)
+    produced = {params.cmd_topic, "/plan", "/local_plan", "/goal_pose"}
+    inputs = ["/tf"]
+    optional = ["/tf_static", params.odom_topic, "/map", *stack_inputs(stack)]
+    if not goals:
+        inputs.append("/goal_pose")
+        produced.discard("/goal_pose")
+    outputs = sorted(stack_outputs(stack) | ({params.cmd_topic} if filtered else {params.output_topic}))
+    filters: Pipeline | None = None
+    if filtered:
+        filters = safety.build(
+            safety.Params(
+                nav2_params=str(path),
+                velocity_smoother=switches["velocity_smoother"],  # type: ignore[arg-type]
+                collision_monitor=switches["collision_monitor"],  # type: ignore[arg-type]
+                input_topic=params.cmd_topic,
+                output_topic=params.output_topic,
+            ),
+            log_topics,
+        )
+        nodes += filters.nodes
+        optional += [t for t in filters.inputs + filters.optional_inputs if t not in produced]
+        outputs += [t for t in filters.outputs if t not in outputs]
+    optional = [t for t in dict.fromkeys(optional) if t not in inputs and t not in produced]
+
+    def report() -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "nav2_params": path.name,
+            "goals": [
+                {
+                    "name": r.name,
+                    "goal": [round(v, 6) for v in r.goal],
+                    "status": r.status,
+                    "code": r.code,
+                    "message": r.message,
+                    "time_s": round((r.end_ns - r.start_ns) / 1e9, 9),
+                    "recoveries": r.recoveries,
+                    "replans": r.replans,
+                }
+                for r in stack.results
+            ],
+        }
+        out["planned_goals"] = len(goals)
+        out["succeeded"] = sum(r.status == "succeeded" for r in stack.results)
+        out["failed"] = sum(r.status == "failed" for r in stack.results)
+        if filters is not None:
+            out["safety_filters"] = {"chain": filters.info.get("chain", "")}
+        return out
+
+    def write_artifacts(out: Path) -> dict[str, Path]:
+        written: dict[str, Path] = {}
+        if filters is not None:
+            written.update(filters.write_artifacts(out))
+        nav = out / "navigation.json"
+        nav.write_text(json.dumps(report(), indent=2, sort_keys=True) + "\n")
+        written["navigation"] = nav
+        return written
+
+    def skipped() -> dict[str, int]:
+        out = {f"navigation: {k}": v for k, v in stack.skipped().items()}
+        if filters is not None:
+            out.update(filters.skipped())
+        return out
+
+    def nothing_produced() -> str | None:
+        if stack.results:
+            return None
+        if not goals:
+            return "no goal: the log has no /goal_pose; give the goals with --set goals=GOALS.yaml"
+        return "no goal ended: the log ends before the first goal was reached or failed"
+
+    info = {
+        "nav2_params": str(path),
+        "goals": params.goals or "/goal_pose from the log",
+        "velocity_smoother": switches["velocity_smoother"],
+        "collision_monitor": switches["collision_monitor"],
+    }
+    return Pipeline(
+        name="navigation",
+        nodes=nodes,
+        inputs=inputs,
+        optional_inputs=optional,
+        outputs=outputs,
+        write_artifacts=write_artifacts,
+        skipped=skipped,
+        info=info,
+        nothing_produced=nothing_produced,
+        done=lambda: stack.done,
+        report=report,
+    )
+
+
+def stack_inputs(stack: Any) -> list[str]:
+    """The sensor topics the stack's costmaps observe."""
+    topics: list[str] = []
+    for node in stack.nodes:
+        topics += list(getattr(node, "topics", []))
+    return topics
+
+
+def stack_outputs(stack: Any) -> set[str]:
+    """The topics the navigation stack publishes."""
+    from navlog.replay.nodes.collision_monitor import EVENTS_TOPIC
+
+    out = {"/plan", "/local_plan", "/goal_pose", EVENTS_TOPIC}
+    for node in stack.nodes:
+        name = getattr(node, "name", "")
+        if name in ("global_costmap", "local_costmap"):
+            out |= {f"/{name}/costmap", f"/{name}/published_footprint"}
+    return out
