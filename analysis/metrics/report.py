@@ -58,6 +58,9 @@ class MetricsOptions:
     rpe_pairs_from: str = "reference"
     gt_topic: str = GT_TOPIC
     cmd_topic: str = CMD_TOPIC  # the commands the robot drove on (navigation: acceleration and jerk)
+    # the replayed map's frame in the reference map's (x, y, yaw), e.g. a SLAM map against a saved one;
+    # None: the same frame
+    map_frame: tuple[float, float, float] | None = None
     pcd_frame: str = "first-pose"
     view_spacing_m: float = 0.5
     view_fov_deg: tuple[float, float] = (-15.0, 15.0)
@@ -75,6 +78,10 @@ class MetricsOptions:
             raise bad("max_diff", self.max_diff_ns, "must be >= 0")
         if not self.max_gap_ns > 0:
             raise bad("max_gap", self.max_gap_ns, "must be > 0")
+        if self.map_frame is not None and not (
+            len(self.map_frame) == 3 and all(math.isfinite(float(v)) for v in self.map_frame)
+        ):
+            raise bad("map_frame", self.map_frame, "must be three finite numbers: x, y (m), yaw (rad)")
         if self.align not in tr.ALIGN_MODES:
             raise bad("align", self.align, f"use one of {', '.join(tr.ALIGN_MODES)}")
         if self.rpe_unit not in tr.DELTA_UNITS:
@@ -296,7 +303,7 @@ def compute_metrics(
     else:
         est_map = load_map(paths["map"])
         seed = tuple(gt.positions[0, :2]) if gt is not None and len(gt) else None
-        gm = map_metrics.grid_metrics(est_map, ref_map, tau=options.tau, seed_xy=seed)
+        gm = map_metrics.grid_metrics(est_map, ref_map, tau=options.tau, seed_xy=seed, est_to_ref=options.map_frame)
         result["map_2d"] = {
             **gm.to_dict(),
             "resolution_m": ref_map.resolution,

@@ -31,6 +31,14 @@ def register(sub) -> None:
     p.add_argument("--reference-mesh", metavar="MESH.ply", help="triangle mesh of the true surfaces")
     p.add_argument("--tau", type=float, default=0.05, help="2D tolerance in metres (default 0.05)")
     p.add_argument(
+        "--map-frame",
+        type=float,
+        nargs=3,
+        metavar=("X", "Y", "YAW"),
+        help="where the replayed map's frame lies in the reference map's (m, m, rad), e.g. a SLAM map "
+        "started elsewhere; the map is resampled onto the reference grid (default: the same frame)",
+    )
+    p.add_argument(
         "--tau-3d",
         type=float,
         nargs="+",
@@ -101,6 +109,7 @@ def run(args) -> int:
         rpe_pairs_from=args.rpe_pairs_from,
         gt_topic=args.gt_topic,
         cmd_topic=args.cmd_topic,
+        map_frame=tuple(args.map_frame) if args.map_frame else None,
         pcd_frame=args.pcd_frame,
         view_fov_deg=(args.view_fov[0], args.view_fov[1]),
         view_range_m=args.view_range,

@@ -302,3 +302,17 @@ def test_metrics_of_a_truncated_log_point_to_an_option_metrics_takes(teleop_log,
     whole = compute_metrics(teleop_log, out)["trajectory"]["ate"]["pairs"]
     assert 0 < recovered < whole  # only the poses within the readable half have ground truth
     assert main(["metrics", str(cut), "--replay", str(out), "--recover", "--json"]) == 0
+
+
+def test_map_frame_places_a_shifted_map_on_the_reference(world, capsys):
+    # the replayed map lies one cell (0.05 m) east of the reference: at tau 0 its walls miss, until
+    # --map-frame says where its frame sits in the reference's
+    args = ["metrics", str(world["log"]), "--replay", str(world["out"]), "--reference-map", str(world["ref_map"])]
+    assert main([*args, "--tau", "0", "--json"]) == 0
+    off = json.loads(capsys.readouterr().out)["map_2d"]
+    assert main([*args, "--tau", "0", "--json", "--map-frame", "-0.05", "0", "0"]) == 0
+    on = json.loads(capsys.readouterr().out)["map_2d"]
+    assert off["f1"] < 0.6
+    assert on["f1"] == pytest.approx(1.0)
+    with pytest.raises(NavlogError, match="map_frame"):
+        MetricsOptions(map_frame=(0.0, float("nan"), 0.0))
