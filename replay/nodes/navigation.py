@@ -13,7 +13,8 @@ to the executor in this order (``nodes``):
    sim time: the navigator ticks every ``bt_loop_duration`` (10 ms), the controller cycles every
    1/``controller_frequency``, a behaviour every 1/``cycle_frequency``.
 
-The robot pose comes from TF (global frame <- robot base for the navigator and planner, the local
+The navigator's first tick is at ``start_ns`` (default: the executor's start, the log's first
+message in a replay, 0 live), then every ``bt_loop_duration``. The robot pose comes from TF (global frame <- robot base for the navigator and planner, the local
 costmap's frame <- robot base for the controller and behaviours); the navigator waits for it and
 for the first global costmap update, counting the ticks it waited. The odometry twist is the latest
 message on ``odom_topic``. Goals come from the list (each published on ``/goal_pose`` as it is
@@ -124,7 +125,7 @@ class NavigationNode(Node):
         seed: int = 0,
         cmd_topic: str = "/cmd_vel_nav",
         odom_topic: str = "/odom",
-        start_ns: int = 0,
+        start_ns: int | None = None,
     ) -> None:
         super().__init__()
         self.gnode, self.lnode = global_node, local_node
@@ -374,7 +375,7 @@ class NavigationStack:
         seed: int = 0,
         cmd_topic: str = "/cmd_vel_nav",
         odom_topic: str = "/odom",
-        start_ns: int = 0,
+        start_ns: int | None = None,
     ) -> None:
         if mode not in ("waypoints", "through_poses"):
             raise ConfigError(f"navigation mode must be 'waypoints' or 'through_poses', got {mode!r}")

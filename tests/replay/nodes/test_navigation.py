@@ -228,3 +228,21 @@ def test_unknown_controller_id_is_a_config_error():
     nav2 = parse_nav2_text(NAV2.replace('["FollowPath"]', '["Follow"]').replace("    FollowPath:", "    Follow:"))
     with pytest.raises(ConfigError, match="'FollowPath' is not in controller_plugins"):
         NavigationStack(nav2.require_valid(), goals=GOALS, static_map=room())
+
+
+def test_a_log_that_starts_late_is_ticked_from_its_start() -> None:
+    # a real bag's log time is the wall clock (1.7e9 s): the navigator's first tick is there, not at 0
+    from navlog.replay.runtime.executor import Envelope
+
+    start = 1_701_316_731_782_245_423
+    nav2 = parse_nav2_text(NAV2).require_valid()
+    stack = NavigationStack(nav2, goals=GOALS, static_map=room())
+    ex = Executor(start_ns=start)
+    ex.add_source(
+        Envelope("/clock", m.CLOCK, start + k * 100_000_000, m.clock(start + k * 100_000_000)) for k in range(11)
+    )
+    for node in stack.nodes:
+        ex.add_node(node)
+    ex.run(on_step=lambda t: ex.stop() if ex.stats.timer_fires > 1000 else None)  # a bound, were ticks at 0
+    assert start + S <= ex.now < start + S + 20_000_000
+    assert ex.stats.timer_fires < 200  # 1 s of 10 ms ticks and the costmaps' timers, not 1.7e11 ticks
