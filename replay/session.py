@@ -151,6 +151,8 @@ def run_replay(
         to_log = dict(remap)  # pipeline topic -> log topic, for remapped topics only
         log_to = {v: k for k, v in remap.items()}
         logical_topics = {log_to.get(t, t) for t in reader.topics}
+        if hasattr(module, "settle"):  # a pipeline may decide `auto` parameters from the log's content
+            params = module.settle(params, reader, log_to)
         pipe = module.build(params, logical_topics)
         missing = [t for t in pipe.inputs if to_log.get(t, t) not in reader.topics]
         if missing:

@@ -22,6 +22,17 @@ from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
 from navlog.replay.mapping.lidar_odometry.preprocess import downsample, point_cloud, sorted_points, voxel_sums
 
 
+def keyframe_due(params: LidarOdometryParams, last_key: np.ndarray | None, pose: np.ndarray) -> bool:
+    """True for the first pose (``last_key`` None) and for one ``keyframe_distance`` or
+    ``keyframe_angle_deg`` away from the last keyframe."""
+    if last_key is None:
+        return True
+    rel = np.linalg.inv(last_key) @ pose
+    moved = float(np.linalg.norm(rel[:3, 3]))
+    turned = math.degrees(rotation_angle(rel[:3, :3]))
+    return not (moved < params.keyframe_distance and turned < params.keyframe_angle_deg)
+
+
 class LocalMap:
     """The local map registered against: sorted voxel keys, their points and normals, and the Open3D
     cloud built from them (with covariances for GICP)."""
@@ -37,15 +48,13 @@ class LocalMap:
     def __len__(self) -> int:
         return len(self.cloud.points)
 
+    @property
+    def target(self) -> o3d.geometry.PointCloud:
+        """What the registration aligns to: the Open3D cloud."""
+        return self.cloud
+
     def is_keyframe(self, pose: np.ndarray) -> bool:
-        """True for the first pose and for one ``keyframe_distance`` or ``keyframe_angle_deg`` away from the last keyframe."""
-        p = self.params
-        if self._last_key is None:
-            return True
-        rel = np.linalg.inv(self._last_key) @ pose
-        moved = float(np.linalg.norm(rel[:3, 3]))
-        turned = math.degrees(rotation_angle(rel[:3, :3]))
-        return not (moved < p.keyframe_distance and turned < p.keyframe_angle_deg)
+        return keyframe_due(self.params, self._last_key, pose)
 
     def update(self, pose: np.ndarray, points_map: np.ndarray) -> bool:
         """Add the frame as a keyframe if it is one (returns whether it was): one point per

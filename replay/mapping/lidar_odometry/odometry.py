@@ -1,46 +1,87 @@
-"""``LidarOdometry``: one frame at a time, crop → deskew → downsample and register → update the maps."""
+"""``LidarOdometry``: one frame at a time, crop → deskew → reduce (one point per ``save_voxel`` voxel)
+→ downsample and register → update the maps."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import open3d as o3d
 
-from navlog.replay.geometry import matrix_to_rotvec
+from navlog.replay.geometry import matrix_to_rotvec, rotation_angle
 from navlog.replay.mapping.lidar_odometry.deskew import ConstantVelocity, MotionPrior, deskew_points, relative_motion
 from navlog.replay.mapping.lidar_odometry.local_map import GlobalMap, LocalMap
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
-from navlog.replay.mapping.lidar_odometry.preprocess import downsample, valid_points
+from navlog.replay.mapping.lidar_odometry.preprocess import reduced, valid_points
 from navlog.replay.mapping.lidar_odometry.registration import Registrar
+from navlog.replay.mapping.lidar_odometry.voxel_map import GaussianLocalMap, GaussianRegistrar
 
 
 @dataclass
 class FrameResult:
     stamp_ns: int
     pose: np.ndarray  # base_link in map, 4x4
-    points_map: np.ndarray  # (N, 3) deskewed points of the frame in the map frame
+    points_base: np.ndarray  # (N, 3) deskewed points of the frame in base_link at the registration time
+    registered: np.ndarray  # 4x4: base_link in map at the registration time (the middle of the sweep)
     fitness: float
     rmse: float
     keyframe: bool
     velocity: np.ndarray  # (6,) body-frame linear and angular velocity (vx vy vz wx wy wz)
 
+    @property
+    def points_map(self) -> np.ndarray:
+        """(N, 3) the deskewed points of the frame in the map frame (computed when asked: a sweep's
+        worth of points is not moved for frames nobody publishes)."""
+        return self.points_base @ self.registered[:3, :3].T + self.registered[:3, 3]
+
 
 class _Threads:
     """Limit Open3D's threads for the duration of a call and restore the previous limit."""
 
-    def __init__(self, n: int) -> None:
+    def __init__(self, n: int, active: bool = True) -> None:
         self.n = n
-        self.prev = 0
+        self.prev = n
+        self.active = active  # setting the limit costs milliseconds: only around Open3D work
 
     def __enter__(self) -> None:
-        self.prev = o3d.utility.get_max_threads()
-        if self.prev != self.n:
-            o3d.utility.set_max_threads(self.n)
+        if self.active:
+            self.prev = o3d.utility.get_max_threads()
+            if self.prev != self.n:
+                o3d.utility.set_max_threads(self.n)
 
     def __exit__(self, *exc) -> None:
-        if self.prev != self.n:
+        if self.active and self.prev != self.n:
             o3d.utility.set_max_threads(self.prev)
+
+
+class AdaptiveThreshold:
+    """KISS-ICP's adaptive correspondence threshold: 3 sigma of the motion model's deviation from the
+    registered poses, each deviation measured as the displacement it causes at ``max_range``
+    (``2 r sin(angle / 2)`` plus the translation); frames moving less than ``min_motion`` add nothing.
+    Until a deviation is measured the threshold is ``initial``; it stays within [``low``, ``high``]."""
+
+    def __init__(self, initial: float, max_range: float, min_motion: float, low: float, high: float) -> None:
+        self.initial, self.max_range, self.min_motion = initial, max_range, min_motion
+        self.low, self.high = low, high
+        self._sse = 0.0
+        self._n = 0
+
+    def update(self, deviation: np.ndarray, motion: np.ndarray) -> None:
+        """Add the deviation (predicted pose^-1 @ registered pose) of a frame that made ``motion`` (4x4)."""
+        if float(np.linalg.norm(motion[:3, 3])) < self.min_motion:
+            return
+        angle = rotation_angle(deviation[:3, :3])
+        error = 2.0 * self.max_range * math.sin(0.5 * angle) + float(np.linalg.norm(deviation[:3, 3]))
+        self._sse += error * error
+        self._n += 1
+
+    @property
+    def value(self) -> float:
+        if self._n == 0:
+            return self.initial
+        return min(max(3.0 * math.sqrt(self._sse / self._n), self.low), self.high)
 
 
 class LidarOdometry:
@@ -59,10 +100,25 @@ class LidarOdometry:
         self.stamps: list[int] = []
         self.trajectory: list[np.ndarray] = []
         self.skipped: dict[str, int] = {}
-        self.local_map = LocalMap(params)
+        self.local_map: LocalMap | GaussianLocalMap
+        self.registrar: Registrar | GaussianRegistrar
+        if params.method == "vgicp":
+            self.local_map, self.registrar = GaussianLocalMap(params), GaussianRegistrar(params)
+        else:
+            self.local_map, self.registrar = LocalMap(params), Registrar(params)
         self.global_store = GlobalMap(params.save_voxel, params.save_every_n_frames)
-        self.registrar = Registrar(params)
         self._velocity = ConstantVelocity()
+        self.threshold = (
+            AdaptiveThreshold(
+                params.max_correspondence,
+                params.max_range,
+                params.min_motion,
+                params.scan_voxel,
+                3 * params.max_correspondence,
+            )
+            if params.adaptive_threshold
+            else None
+        )
         self._ref: tuple[int, np.ndarray] | None = None  # (time, pose) of the last registration
 
     @property
@@ -113,33 +169,43 @@ class LidarOdometry:
         if p.deskew and times is not None:
             t = times[keep]
             ref_ns = stamp_ns + int(round(0.5 * (float(t.min()) + float(t.max())) * 1e9))
+            if self._ref is not None and ref_ns <= self._ref[0]:  # times that put this sweep before the last
+                self._skip("sweep_time_not_increasing")
+                return None
             base = deskew_points(base, t, stamp_ns, ref_ns, p.deskew_slots, prior, self._velocity)
-        with _Threads(p.threads):
+        # one point per save_voxel voxel: what the maps and the registration use
+        fine = reduced(base, p.save_voxel)
+        with _Threads(p.threads, p.method != "vgicp"):  # vgicp: Open3D is not called per frame
             # 3. register against the local map (the first frame defines it)
-            pose, fitness, rmse = self._register(stamp_ns, ref_ns, base, prior)
+            pose, fitness, rmse, source = self._register(stamp_ns, ref_ns, fine, prior)
             # 4. update the pose history and the maps
-            return self._update(stamp_ns, ref_ns, pose, base, fitness, rmse, prior)
+            return self._update(stamp_ns, ref_ns, pose, base, fine, source, fitness, rmse, prior)
 
     def _register(
         self, stamp_ns: int, ref_ns: int, base: np.ndarray, prior: MotionPrior | None
-    ) -> tuple[np.ndarray, float, float]:
-        """The pose of base_link at ``ref_ns``, with ICP's fitness and RMSE; updates the constant velocity."""
+    ) -> tuple[np.ndarray, float, float, Any]:
+        """The pose of base_link at ``ref_ns``, with ICP's fitness and RMSE and the registered source
+        cloud; updates the constant velocity."""
+        source = self.registrar.source(base)
         if self._ref is None:
             pose = self.initial_pose.copy()
             if ref_ns != stamp_ns:  # the initial pose is given at the stamp
                 pose = pose @ self._relative(stamp_ns, np.array([ref_ns]), prior)[0]
-            return pose, 1.0, 0.0
+            return pose, 1.0, 0.0, source
         last_ns, last = self._ref
         guess = last @ self._relative(last_ns, np.array([ref_ns]), prior)[0]
-        result = self.registrar.register(downsample(base, self.params.scan_voxel), self.local_map.cloud, guess)
+        distance = self.threshold.value if self.threshold is not None else None
+        result = self.registrar.register(source, self.local_map.target, guess, distance)
         if not result.accepted:
             self._skip("registration_rejected")
         pose = result.pose
+        if self.threshold is not None and result.accepted:
+            self.threshold.update(np.linalg.inv(guess) @ pose, np.linalg.inv(last) @ pose)
         # constant-velocity model for the next frame, from the registration-time poses
         dt = (ref_ns - last_ns) * 1e-9
         rel = np.linalg.inv(last) @ pose
         self._velocity = ConstantVelocity(rel[:3, 3] / dt, matrix_to_rotvec(rel[:3, :3]) / dt)
-        return pose, result.fitness, result.rmse
+        return pose, result.fitness, result.rmse, source
 
     def _update(
         self,
@@ -147,6 +213,8 @@ class LidarOdometry:
         ref_ns: int,
         pose: np.ndarray,
         base: np.ndarray,
+        fine: np.ndarray,
+        source: Any,
         fitness: float,
         rmse: float,
         prior: MotionPrior | None,
@@ -155,11 +223,14 @@ class LidarOdometry:
         out = pose if ref_ns == stamp_ns else pose @ self._relative(ref_ns, np.array([stamp_ns]), prior)[0]
         self.stamps.append(int(stamp_ns))
         self.trajectory.append(out)
-        points_map = base @ pose[:3, :3].T + pose[:3, 3]
-        keyframe = self.local_map.update(pose, points_map)
-        self.global_store.add(points_map)
+        fine_map = fine @ pose[:3, :3].T + pose[:3, 3]
+        if isinstance(self.local_map, GaussianLocalMap):
+            keyframe = self.local_map.update(pose, source)
+        else:
+            keyframe = self.local_map.update(pose, fine_map)
+        self.global_store.add(fine_map)
         velocity = np.concatenate([self._velocity.v, self._velocity.w])
-        return FrameResult(int(stamp_ns), out, points_map, fitness, rmse, keyframe, velocity)
+        return FrameResult(int(stamp_ns), out, base, pose, fitness, rmse, keyframe, velocity)
 
     # -------------------------------------------------- results
     def global_map(self) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""Scan-to-local-map registration with Open3D's legacy ICP (point-to-plane, or generalized ICP).
+"""Scan-to-local-map registration with Open3D's legacy ICP (point-to-plane, or generalized ICP): the
+``point_to_plane`` and ``gicp`` methods (``vgicp`` is in ``voxel_map.py``).
 
 The scan, voxel-filtered at ``scan_voxel``, is registered against the local map from an initial
 guess, with correspondences within ``max_correspondence`` and at most ``max_iterations`` iterations;
@@ -14,6 +15,7 @@ import numpy as np
 import open3d as o3d
 
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
+from navlog.replay.mapping.lidar_odometry.preprocess import downsample
 
 _reg = o3d.pipelines.registration
 
@@ -34,21 +36,31 @@ class Registrar:
     def __init__(self, params: LidarOdometryParams) -> None:
         self.params = params
         self.estimation = (
-            _reg.TransformationEstimationPointToPlane()
-            if params.method == "point_to_plane"
-            else _reg.TransformationEstimationForGeneralizedICP()
+            _reg.TransformationEstimationForGeneralizedICP()
+            if params.method == "gicp"
+            else _reg.TransformationEstimationPointToPlane()
         )
         self.criteria = _reg.ICPConvergenceCriteria(params.convergence, params.convergence, params.max_iterations)
         self.count = 0  # registrations run
 
+    def source(self, points: np.ndarray) -> o3d.geometry.PointCloud:
+        """The scan (N, 3) in base_link, voxel-filtered at ``scan_voxel``."""
+        return downsample(points, self.params.scan_voxel)
+
     def register(
-        self, source: o3d.geometry.PointCloud, target: o3d.geometry.PointCloud, guess: np.ndarray
+        self,
+        source: o3d.geometry.PointCloud,
+        target: o3d.geometry.PointCloud,
+        guess: np.ndarray,
+        max_correspondence: float | None = None,
     ) -> Registration:
-        """Register ``source`` (the downsampled scan) onto ``target`` (the local map) from ``guess`` (4x4)."""
+        """Register ``source`` (the downsampled scan) onto ``target`` (the local map) from ``guess`` (4x4),
+        with correspondences within ``max_correspondence`` (the parameter's when None)."""
         p = self.params
+        distance = p.max_correspondence if max_correspondence is None else max_correspondence
         if p.method == "gicp":
             source.estimate_covariances(o3d.geometry.KDTreeSearchParamKNN(p.normal_max_nn))
-        result = _reg.registration_icp(source, target, p.max_correspondence, guess, self.estimation, self.criteria)
+        result = _reg.registration_icp(source, target, distance, guess, self.estimation, self.criteria)
         self.count += 1
         fitness, rmse = float(result.fitness), float(result.inlier_rmse)
         if fitness < p.min_fitness:
