@@ -8,7 +8,8 @@ the process may use both cores (`--pin` pins it to the idlest one). Prints, all 
 same run:
 
 1. start-up: process start to the first simulated step of `navlog record` (a fresh process per
-   sample, stopped at its first step), median of `--runs`, against the 1.0 s target;
+   sample, stopped at its first step), median of `--runs`, against the 1.0 s target, and which heavy
+   libraries are loaded by then (SciPy must not be: nothing in a recording needs it);
 2. the record real-time factor (sim s / wall s), median of `--runs` recordings, against the 20x
    target, with the CPU time of each thread (the simulation's and the writer's), and the
    simulation floor, alternated with them: the same tour (the recording's own /cmd_vel commands
@@ -115,6 +116,8 @@ import os, sys, time
 import navlog.replay.runtime.executor as executor_mod
 def first_step(self, *a, **k):
     os.write(1, f"FIRST_STEP {time.time()!r}\\n".encode())
+    heavy = [m for m in ("scipy", "open3d", "mujoco", "rosbags") if m in sys.modules]
+    os.write(1, f"LOADED {','.join(heavy)}\\n".encode())
     os._exit(0)
 executor_mod.Executor.run = first_step
 from navlog.cli import main
@@ -122,10 +125,11 @@ sys.exit(main(sys.argv[1:]))
 """
 
 
-def startup_runs(args, work: Path) -> tuple[list[float], list[float]]:
-    """(wall s, CPU s) from process start to the first simulated step of `navlog record`, a fresh process each."""
+def startup_runs(args, work: Path) -> tuple[list[float], list[float], str]:
+    """(wall s, CPU s, heavy libraries loaded) from process start to the first simulated step of `navlog record`,
+    a fresh process each."""
     argv = ["-q", *COMMAND.split()[1:], "-o", str(work / "startup.mcap"), "--force"]
-    walls, cpus = [], []
+    walls, cpus, loaded = [], [], ""
     for _ in range(args.runs):
         r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.time()
@@ -136,7 +140,8 @@ def startup_runs(args, work: Path) -> tuple[list[float], list[float]]:
             raise SystemExit(f"start-up probe failed: {done.stderr.strip()[-500:]}")
         walls.append(float(marks[-1].split()[1]) - t0)
         cpus.append(r1.ru_utime + r1.ru_stime - r0.ru_utime - r0.ru_stime)
-    return walls, cpus
+        loaded = next((line.split(" ", 1)[1] for line in done.stdout.splitlines() if line.startswith("LOADED ")), "")
+    return walls, cpus, loaded
 
 
 # ---------------------------------------------------------------- 2. real-time factor and the floor
@@ -520,11 +525,12 @@ def main() -> int:
     cmd = COMMAND if args.duration is None else f"{COMMAND} (tour cut at {args.duration:g} s)"
     try:
         print(f"start-up of `{COMMAND}` to its first simulated step, {args.runs} processes ({load()})", flush=True)
-        starts, start_cpus = startup_runs(args, work)
+        starts, start_cpus, loaded = startup_runs(args, work)
         su = statistics.median(starts)
         print(
             f"start-up: median {su:.2f} s, best {min(starts):.2f} s (CPU time median {statistics.median(start_cpus):.2f} s); "
-            f"target {TARGET_STARTUP_S:.1f} s: ratio {su / TARGET_STARTUP_S:.2f}"
+            f"target {TARGET_STARTUP_S:.1f} s: ratio {su / TARGET_STARTUP_S:.2f}; loaded at the first step: "
+            f"{loaded.replace(',', ', ') or 'none of scipy, open3d, mujoco, rosbags'}"
         )
         print(f"recording: {cmd}, {args.runs} runs, each followed by a floor run ({load()})", flush=True)
         r = clean_runs(args, work)

@@ -3,6 +3,10 @@
 Everything here is pure given poses and a random generator: the simulator node decides when a
 sensor fires and at which poses. Ray casting uses Open3D's RaycastingScene on the world's static
 mesh (the robot is not in it, so sensors never see their own body).
+
+A scan and a cloud are built either as message objects (``scan_message``, ``make_cloud``) for nodes
+that subscribe, or as their CDR bytes directly (``scan_cdr``, ``cloud_cdr``, through
+``navlog.replay.io.cdr``) for the recorder alone: the same bytes, without the objects.
 """
 
 from __future__ import annotations
@@ -15,6 +19,12 @@ import numpy as np
 from navlog.recorder.robot import LaserConfig, LidarConfig, Mount
 from navlog.replay import messages
 from navlog.replay.geometry import make_transform, quat_from_rpy
+from navlog.replay.io.cdr import layout
+from navlog.replay.pointcloud import VELODYNE_FIELDS, VELODYNE_POINT_STEP, cloud_dtype
+
+_NS = 1_000_000_000
+_NO_INTENSITIES = np.zeros(0, dtype=np.float32)
+_NO_INTENSITIES.flags.writeable = False
 
 
 def mount_matrix(mount: Mount) -> np.ndarray:
@@ -114,6 +124,15 @@ def scan_message(ns: int, frame: str, cfg: LaserConfig, ranges: np.ndarray):
         range_max=range_max,
         ranges=np.asarray(ranges, dtype=np.float32),
         intensities=np.zeros(0, dtype=np.float32),
+    )
+
+
+def scan_cdr(ns: int, frame: str, cfg: LaserConfig, ranges: np.ndarray) -> bytes:
+    """The CDR bytes of ``scan_message(ns, frame, cfg, ranges)``, encoded without building the message."""
+    angle_min, angle_max, inc, scan_time, range_min, range_max = _scan_constants(cfg)
+    sec, nsec = divmod(ns, _NS)
+    return layout(messages.LASER_SCAN).encode(
+        (sec, nsec, frame, angle_min, angle_max, inc, 0.0, scan_time, range_min, range_max, ranges, _NO_INTENSITIES)
     )
 
 
@@ -218,8 +237,14 @@ def lidar_sweep(
     if ok.all():  # the usual case indoors: every ray returns; no selection copies
         d, dirs_ok, ring_ok, t_ok = dist, dirs, ring.copy(), t32.copy()
     else:
-        sel = np.flatnonzero(ok)
-        d, dirs_ok, cos, ring_ok, t_ok = dist[sel], dirs[sel], cos[sel], ring[sel], t32[sel]
+        sel = np.flatnonzero(ok)  # ``take``: the same copies as fancy indexing, several times faster for rows
+        d, dirs_ok, cos, ring_ok, t_ok = (
+            dist.take(sel),
+            dirs.take(sel, axis=0),
+            cos.take(sel),
+            ring.take(sel),
+            t32.take(sel),
+        )
     # intensity = 255 |cos| exp(-d / 20), evaluated in place where that cannot change a bit
     np.abs(cos, out=cos)
     cos *= 255.0
@@ -234,3 +259,27 @@ def lidar_sweep(
         "ring": ring_ok,
         "time": t_ok,
     }
+
+
+@lru_cache(maxsize=1)
+def _cloud_layout() -> tuple[np.dtype, tuple[tuple[str, int, int, int], ...]]:
+    """The LiDAR cloud's point dtype and its PointField values (name, offset, datatype, count)."""
+    PointField = messages.msg_class(messages.POINT_FIELD)
+    fields = [PointField(name=name, offset=off, datatype=code, count=1) for name, off, code in VELODYNE_FIELDS]
+    return cloud_dtype(fields, VELODYNE_POINT_STEP), tuple((name, off, code, 1) for name, off, code in VELODYNE_FIELDS)
+
+
+def cloud_cdr(ns: int, frame: str, columns: dict[str, np.ndarray]) -> bytes:
+    """The CDR bytes of ``navlog.replay.pointcloud.make_cloud(ns, frame, columns)`` (the Velodyne layout),
+    encoded without building the message: the points are packed once and copied once into the bytes."""
+    dtype, fields = _cloud_layout()
+    n = len(next(iter(columns.values()))) if columns else 0
+    points = np.zeros(n, dtype=dtype)
+    for name, _, _ in VELODYNE_FIELDS:
+        if name in columns:
+            points[name] = columns[name]
+    sec, nsec = divmod(ns, _NS)
+    step = VELODYNE_POINT_STEP
+    return layout(messages.POINT_CLOUD2).encode(
+        (sec, nsec, frame, 1, n, fields, False, step, step * n, points.view(np.uint8), True)
+    )

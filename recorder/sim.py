@@ -13,7 +13,7 @@ on ``/navlog/events``, and ``collision_end`` once it has not touched it for 0.1 
 episode (a robot pressing on a wall touches it on most ticks, not all).
 A legged robot's trunk does not collide (its geoms have no contact type), so only wheeled robots report.
 
-The high-rate messages (clock, IMU, odometry, TF) of a topic no node subscribes to are published as
+The messages (clock, IMU, odometry, TF, scan, cloud) of a topic no node subscribes to are published as
 their CDR bytes, encoded directly from the values (``navlog.replay.io.cdr``): the recorder writes
 the same bytes the message objects would serialize to, without building them.
 
@@ -61,6 +61,7 @@ EVENTS_TOPIC = "/navlog/events"
 CONTACT_GAP_NS = 100_000_000  # a contact episode ends after this long without touching (pressing on a wall flickers)
 CLOCK_PERIOD_NS = 10_000_000  # /clock at 100 Hz
 _ZEROS36 = (0.0,) * 36  # the covariances of the simulator's odometry
+_HOMOGENEOUS_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 @dataclass(frozen=True)
@@ -241,9 +242,10 @@ class SimNode(Node):
 
     def base_pose(self) -> np.ndarray:
         """True 4x4 pose of base_link in the world frame."""
-        t = np.eye(4)
+        t = np.empty((4, 4))  # every element set below: np.eye's values, without its cost on every tick
         t[:3, :3] = self.data.xmat[self._bid].reshape(3, 3)
         t[:3, 3] = self.data.xpos[self._bid]
+        t[3] = _HOMOGENEOUS_ROW
         return t
 
     def base_velocity(self) -> tuple[np.ndarray, np.ndarray]:
@@ -507,9 +509,8 @@ class SimNode(Node):
         assert cfg is not None  # scheduled only for a configured sensor
         pose = self.sensor_pose(base, cfg.frame)
         ranges = sensors.laser_ranges(self.caster, cfg, pose, self.rng_scan if self.options.noise else None)
-        self.publish(
-            cfg.topic, messages.LASER_SCAN, sensors.scan_message(t_ns, self.robot.frame(cfg.frame), cfg, ranges)
-        )
+        build = sensors.scan_cdr if self._raw(cfg.topic) else sensors.scan_message
+        self.publish(cfg.topic, messages.LASER_SCAN, build(t_ns, self.robot.frame(cfg.frame), cfg, ranges))
 
     def _publish_lidar(self, t_ns: int) -> None:
         cfg = self.robot.lidar
@@ -519,4 +520,5 @@ class SimNode(Node):
             self.caster, cfg, self._lidar_frames, window, self.rng_lidar if self.options.noise else None
         )
         self._lidar_frames += 1
-        self.publish(cfg.topic, messages.POINT_CLOUD2, make_cloud(t_ns, self.robot.frame(cfg.frame), cols))
+        build = sensors.cloud_cdr if self._raw(cfg.topic) else make_cloud
+        self.publish(cfg.topic, messages.POINT_CLOUD2, build(t_ns, self.robot.frame(cfg.frame), cols))

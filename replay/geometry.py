@@ -13,8 +13,11 @@ Conventions:
   ``resolution`` metres; cell ``(i, j)`` covers ``[origin + i * res, origin + (i + 1) * res)``.
 
 Some quantities have two implementations that differ in their floating-point steps (SciPy's
-``Rotation`` against a closed form, two slerp variants); both are kept where callers' outputs depend
-on the exact bits, and each docstring says which steps it takes.
+``Rotation`` steps against a closed form, two slerp variants); both are kept where callers' outputs
+depend on the exact bits, and each docstring says which steps it takes. ``quat_from_rpy`` and
+``quat_to_matrix`` take SciPy's steps in plain Python floats (bit for bit SciPy's results, without
+loading SciPy, which costs the recorder's start-up 0.3-1 s); the rest of SciPy's conversions import it
+when first called.
 """
 
 from __future__ import annotations
@@ -63,11 +66,29 @@ def quat_from_yaw(yaw: float) -> Quat:
     return (0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
 
 
-def quat_from_rpy(roll: float, pitch: float, yaw: float) -> Quat:
-    """Quaternion of extrinsic x-y-z rotations (roll, then pitch, then yaw), through SciPy."""
-    from scipy.spatial.transform import Rotation  # imported when first needed: SciPy takes 0.3-1 s to load
+def _compose(p: Quat, q: Quat) -> Quat:
+    """Hamilton product ``p * q`` in SciPy's ``Rotation`` steps (``pw q + qw p + p x q``, ``pw qw - p.q``)."""
+    px, py, pz, pw = p
+    qx, qy, qz, qw = q
+    return (
+        pw * qx + qw * px + (py * qz - pz * qy),
+        pw * qy + qw * py + (pz * qx - px * qz),
+        pw * qz + qw * pz + (px * qy - py * qx),
+        pw * qw - (px * qx + py * qy + pz * qz),
+    )
 
-    return tuple(Rotation.from_euler("xyz", [roll, pitch, yaw]).as_quat())  # type: ignore[return-value]
+
+def quat_from_rpy(roll: float, pitch: float, yaw: float) -> Quat:
+    """Quaternion of extrinsic x-y-z rotations (roll, then pitch, then yaw).
+
+    SciPy's ``Rotation.from_euler("xyz", ...).as_quat()`` to the bit: the three elementary rotations'
+    quaternions composed as ``qz * (qy * qx)``, not normalised.
+    """
+    r, p, y = float(roll) / 2.0, float(pitch) / 2.0, float(yaw) / 2.0
+    qx = (math.sin(r), 0.0, 0.0, math.cos(r))
+    qy = (0.0, math.sin(p), 0.0, math.cos(p))
+    qz = (0.0, 0.0, math.sin(y), math.cos(y))
+    return _compose(qz, _compose(qy, qx))
 
 
 def yaw_from_quat(q_xyzw) -> float:
@@ -179,10 +200,25 @@ def slerp_rows(q0: np.ndarray, q1: np.ndarray, a: np.ndarray) -> np.ndarray:
 
 
 def quat_to_matrix(q_xyzw) -> np.ndarray:
-    """3x3 rotation matrix of a quaternion of any non-zero norm, through SciPy (which normalises it first)."""
-    from scipy.spatial.transform import Rotation
+    """3x3 rotation matrix of a quaternion of any non-zero norm, normalised first.
 
-    return Rotation.from_quat(np.asarray(q_xyzw, dtype=np.float64)).as_matrix()
+    SciPy's ``Rotation.from_quat(q).as_matrix()`` to the bit: divided by ``sqrt(x^2 + y^2 + z^2 + w^2)``,
+    then the diagonal as ``x^2 - y^2 - z^2 + w^2`` (and its permutations), the rest as ``2 (xy - zw)`` etc.
+    """
+    x, y, z, w = np.asarray(q_xyzw, dtype=np.float64).reshape(4).tolist()
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    if n == 0.0:
+        raise ValueError(f"quaternion {tuple(q_xyzw)} has zero norm: it is no rotation")
+    x, y, z, w = x / n, y / n, z / n, w / n
+    x2, y2, z2, w2 = x * x, y * y, z * z, w * w
+    xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w
+    return np.array(
+        [
+            [x2 - y2 - z2 + w2, 2 * (xy - zw), 2 * (xz + yw)],
+            [2 * (xy + zw), -x2 + y2 - z2 + w2, 2 * (yz - xw)],
+            [2 * (xz - yw), 2 * (yz + xw), -x2 - y2 + z2 + w2],
+        ]
+    )
 
 
 def unit_quat_to_matrix(q: np.ndarray) -> np.ndarray:
@@ -276,7 +312,7 @@ def rotation_angle(r: np.ndarray) -> float:
 
 
 def make_transform(xyz, q_xyzw) -> np.ndarray:
-    """4x4 homogeneous matrix from a translation and a quaternion (``quat_to_matrix``: SciPy, normalising)."""
+    """4x4 homogeneous matrix from a translation and a quaternion (``quat_to_matrix``: SciPy's steps, normalising)."""
     t = np.eye(4)
     t[:3, :3] = quat_to_matrix(q_xyzw)
     t[:3, 3] = np.asarray(xyz, dtype=np.float64)

@@ -8,8 +8,10 @@ the type into steps:
   one ``struct`` format; CDR aligns each primitive to its size from the start of the data, so a run
   has one format per start offset modulo 8;
 - a *string*: uint32 length (with the NUL), the UTF-8 bytes, NUL;
-- a *sequence*: uint32 count, then its elements: a numpy array or bytes for primitives, a list of
-  value tuples (each in the element type's layout order) for messages, a list of str for strings.
+- a *sequence*: uint32 count, then its elements: a numpy array (or anything ``numpy.asarray`` takes)
+  or bytes for primitives, a list of value tuples (each in the element type's layout order) for
+  messages, a list of str for strings. A contiguous array of the element type is not copied before
+  the one final join, so large blobs (a LaserScan's ranges, a PointCloud2's points) cost one copy.
 
 ``Layout(typename).encode(values)`` takes the values in field order, depth first, every element of a
 fixed array as its own value (an Imu: sec, nanosec, frame_id, x, y, z, w, 9 covariances, ...), and
@@ -161,14 +163,20 @@ class Layout:
                     pos += pad + 5 + len(raw)
             else:  # _SEQ_PRIM
                 dtype, size = arg
-                raw = value if isinstance(value, bytes) else np.ascontiguousarray(value, dtype=dtype).tobytes()
-                count = len(raw) // size
+                if isinstance(value, bytes):
+                    raw, nbytes = value, len(value)
+                else:  # the array's own buffer, copied once by the final join
+                    raw = np.ascontiguousarray(value, dtype=dtype)
+                    nbytes = raw.nbytes
+                count = nbytes // size
                 parts.append(_PAD[pad] + _U32.pack(count))
                 pos += pad + 4
                 if count:
                     pad = -pos % size
-                    parts.append(_PAD[pad] + raw)
-                    pos += pad + len(raw)
+                    if pad:
+                        parts.append(_PAD[pad])
+                    parts.append(raw)
+                    pos += pad + nbytes
         return pos
 
 

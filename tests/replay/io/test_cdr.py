@@ -141,3 +141,66 @@ def test_a_tf_message_of_two_transforms():
     assert layout(messages.TF_MESSAGE).encode(values) == messages.serialize(
         messages.tf_message(tfs), messages.TF_MESSAGE
     )
+
+
+@pytest.mark.parametrize("frame", ["", "a", "ab", "abc", "laser", "front_laser", "π/scan"])  # every alignment
+def test_a_laser_scan_with_special_ranges(frame):
+    """Ranges hold NaN, both infinities (REP 117) and signed zeros; the float32 array follows a header of any
+    length; intensities may be empty or not."""
+    LaserScan = STORE.types[messages.LASER_SCAN]
+    rng = np.random.default_rng(len(frame))
+    ranges = rng.uniform(0.1, 6.0, 37).astype(np.float32)
+    ranges[[0, 5, 9, 30]] = [np.inf, -np.inf, np.nan, -0.0]
+    for intensities in (np.zeros(0, dtype=np.float32), rng.normal(size=37).astype(np.float32)):
+        head = (-0.5, 6.25, 0.125, 0.0, 0.1, 0.12, 6.0)  # Python floats: both round 0.1 and 0.12 to float32
+        msg = LaserScan(messages.header(3_000_000_007, frame), *head, ranges, intensities)
+        data = layout(messages.LASER_SCAN).encode((3, 7, frame, *head, ranges, intensities))
+        assert data == messages.serialize(msg, messages.LASER_SCAN)
+        n_frame = len(frame.encode()) + 1
+        start = 4 + 8 + 4 + n_frame + (-(8 + 4 + n_frame) % 4) + 7 * 4 + 4  # ranges after their count
+        assert np.array_equal(np.frombuffer(data[start : start + 37 * 4], dtype="<f4"), ranges, equal_nan=True)
+    # an empty scan, and ranges given as float64 values or a strided view: converted as the serializer does
+    empty = LaserScan(messages.header(0, frame), *head, np.zeros(0, np.float32), np.zeros(0, np.float32))
+    assert layout(messages.LASER_SCAN).encode((0, 0, frame, *head, [], [])) == messages.serialize(
+        empty, messages.LASER_SCAN
+    )
+    wide = np.repeat(ranges, 2)[::2]
+    assert layout(messages.LASER_SCAN).encode((3, 7, frame, *head, wide.astype(np.float64), wide)) == (
+        messages.serialize(LaserScan(messages.header(3_000_000_007, frame), *head, ranges, ranges), messages.LASER_SCAN)
+    )
+
+
+@pytest.mark.parametrize("n", [0, 1, 3, 1000])
+@pytest.mark.parametrize("frame", ["", "l", "lidar", "livox_frame"])
+def test_a_point_cloud_blob(n, frame):
+    """A PointCloud2's fields list and its data blob given as the uint8 view of a structured array (22-byte
+    points, so odd lengths), with NaN and infinite coordinates."""
+    PointCloud2 = STORE.types[messages.POINT_CLOUD2]
+    PointField = STORE.types[messages.POINT_FIELD]
+    fields = [("x", 0, 7, 1), ("y", 4, 7, 1), ("z", 8, 7, 1), ("intensity", 12, 7, 1), ("ring", 16, 4, 1)]
+    fields.append(("time", 18, 7, 1))
+    dtype = np.dtype(
+        {
+            "names": [f[0] for f in fields],
+            "formats": ["<f4"] * 4 + ["<u2", "<f4"],
+            "offsets": [f[1] for f in fields],
+            "itemsize": 22,
+        }
+    )
+    rng = np.random.default_rng(n)
+    points = np.zeros(n, dtype=dtype)
+    for name in ("x", "y", "z", "intensity", "time"):
+        points[name] = rng.normal(size=n)
+    points["ring"] = rng.integers(0, 2**16, n)
+    if n >= 3:
+        points["x"][:3] = [np.nan, np.inf, -np.inf]
+    blob = points.view(np.uint8)
+    msg = PointCloud2(
+        messages.header(12_000_000_345, frame), 1, n, [PointField(*f) for f in fields], False, 22, 22 * n, blob, True
+    )
+    data = layout(messages.POINT_CLOUD2).encode((12, 345, frame, 1, n, fields, False, 22, 22 * n, blob, True))
+    assert data == messages.serialize(msg, messages.POINT_CLOUD2)
+    assert data[-1 - 22 * n : -1] == points.tobytes()  # the blob as it is, then is_dense
+    assert data == layout(messages.POINT_CLOUD2).encode(
+        (12, 345, frame, 1, n, fields, False, 22, 22 * n, points.tobytes(), True)
+    )
