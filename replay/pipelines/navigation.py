@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
+from navlog.errors import ConfigError
 from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import load_nav2_params
 from navlog.replay.pipelines import safety
@@ -63,6 +64,12 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
 
     path = safety.nav2_file(params.nav2_params)
     nav2 = load_nav2_params(path).require_valid(NAV2_BLOCKS)
+    missing = [name for name in ("controller_server", "planner_server") if getattr(nav2, name) is None]
+    if missing:
+        raise ConfigError(
+            f"{path}: no {' and no '.join(missing)} block: navigation needs a planner and a controller "
+            "(a Nav2 file such as config/nav2/nav_go2.yaml has both); give one with --params"
+        )
     goals: list[NavGoal] = []
     if params.goals:
         named, _ = load_named_goals(params.goals)

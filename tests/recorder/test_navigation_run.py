@@ -104,3 +104,9 @@ def test_navigation_runs_on_amcl_in_the_loop(tmp_path) -> None:
     with open_log(tmp_path / "amcl.mcap") as r:
         parents = {(t.header.frame_id, t.child_frame_id) for e in r.messages(["/tf"]) for t in e.msg.transforms}
     assert ("map", "odom") in parents  # published by AMCL only: the simulator publishes none
+
+
+def test_a_nav2_file_without_a_controller_is_refused_naming_the_block(tmp_path) -> None:
+    safety_only = REPO / "config" / "nav2" / "kibot_safety.yaml"  # costmap, planner and the filters only
+    with pytest.raises(ConfigError, match="kibot_safety.yaml: no controller_server block"):
+        navigation_pipeline(prepare(None, None, "nav_tour").scenario, 0, safety_only)
