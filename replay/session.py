@@ -275,7 +275,9 @@ def _run(
     with (
         Progress(reader.duration_ns / 1e9, f"replay {pipe.name}", "log s", enabled=progress) as bar,
         McapLogWriter(
-            tmp / "replay.mcap", metadata={"navlog": {"navlog_version": __version__, "pipeline": pipe.name}}
+            tmp / "replay.mcap",
+            metadata={"navlog": {"navlog_version": __version__, "pipeline": pipe.name}},
+            background=True,  # serialising, compressing and writing on the second core (the same bytes)
         ) as writer,
     ):
         ex.add_sink(_OutputSink(writer, set(pipe.outputs)))
