@@ -96,6 +96,16 @@ class Controller(Protocol):
     def reset(self) -> None: ...
 
 
+def first_after_integrated_distance(xy: np.ndarray, distance: float, start: int = 0) -> int:
+    """Nav2's ``first_after_integrated_distance``: the first index after ``start`` at which the path
+    (N, >=2) has run more than ``distance`` metres from ``start`` (``len(xy)`` when it never does)."""
+    if start >= len(xy):
+        return len(xy)
+    seg = np.hypot(np.diff(xy[start:, 0]), np.diff(xy[start:, 1]))
+    over = np.flatnonzero(np.cumsum(seg) > distance)
+    return start + 1 + int(over[0]) if len(over) else len(xy)
+
+
 def se2(x: float, y: float, yaw: float) -> np.ndarray:
     """The 3x3 homogeneous matrix of the pose (x, y, yaw)."""
     c, s = np.cos(yaw), np.sin(yaw)

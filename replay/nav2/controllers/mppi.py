@@ -50,6 +50,7 @@ from navlog.replay.nav2.controllers.base import (
     NoValidControl,
     Pose2D,
     Twist2D,
+    first_after_integrated_distance,
     transform_poses,
 )
 from navlog.replay.nav2.costmap.cost_values import INSCRIBED, LETHAL, NO_INFORMATION
@@ -955,16 +956,6 @@ class InvalidPath(ControllerError):
     code = 103
 
 
-def _first_after_length(xy: np.ndarray, start: int, length: float) -> int:
-    """Nav2's ``first_after_integrated_distance``: first index after ``start`` whose integrated length
-    from ``start`` exceeds ``length`` (``len(xy)`` when none does)."""
-    if start >= len(xy):
-        return len(xy)
-    seg = np.hypot(np.diff(xy[start:, 0]), np.diff(xy[start:, 1]))
-    over = np.nonzero(np.cumsum(seg) > length)[0]
-    return start + 1 + int(over[0]) if len(over) else len(xy)
-
-
 class PathHandler:
     """Nav2's MPPI ``PathHandler``: the global plan pruned behind the robot and the part of it the
     optimizer follows, in the costmap frame."""
@@ -992,10 +983,10 @@ class PathHandler:
         search = self.p.max_robot_pose_search_dist
         if search <= 0.0:
             search = max(costmap.size_x, costmap.size_y) * costmap.resolution * 0.5
-        upper = _first_after_length(self.plan, 0, search)
+        upper = first_after_integrated_distance(self.plan, search)
         d = np.hypot(self.plan[:upper, 0] - robot[0], self.plan[:upper, 1] - robot[1])
         closest = int(np.argmin(d)) if upper > 0 else 0
-        end = _first_after_length(self.plan, closest, self.p.prune_distance)
+        end = first_after_integrated_distance(self.plan, self.p.prune_distance, closest)
         local = transform_poses(self.plan[closest:end], global_to_local)
         _, inside = _map_costs(costmap, local[:, 0], local[:, 1])
         out = np.nonzero(~inside)[0]

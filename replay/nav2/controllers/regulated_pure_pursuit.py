@@ -42,6 +42,7 @@ from navlog.replay.nav2.controllers.base import (
     NoValidControl,
     Pose2D,
     Twist2D,
+    first_after_integrated_distance,
     se2,
     transform_poses,
 )
@@ -414,14 +415,12 @@ class RegulatedPurePursuitController:
             raise InvalidPath("RegulatedPurePursuitController: received plan with length of one")
         plan_to_local = np.asarray(ctx.global_to_local, dtype=np.float64)
         robot = np.linalg.solve(plan_to_local, np.array([pose[0], pose[1], 1.0]))[:2]  # the robot in the plan frame
-        steps = np.hypot(*np.diff(plan[:, :2], axis=0).T)
         search = self.params.max_robot_pose_search_dist
         if search is None:
             search = _size_in_metres(ctx.costmap) / 2.0
         elif search < 0.0:
             search = math.inf
-        beyond = np.flatnonzero(np.cumsum(steps) > search)
-        upper = int(beyond[0]) + 1 if len(beyond) else len(plan)
+        upper = first_after_integrated_distance(plan, search)
         to_robot = np.hypot(plan[:, 0] - robot[0], plan[:, 1] - robot[1])
         begin = int(np.argmin(to_robot[:upper]))
         if len(plan) > 1 and begin == upper - 1:

@@ -31,6 +31,7 @@ from navlog.replay.nav2.controllers.base import (
     NoValidControl,
     Pose2D,
     Twist2D,
+    first_after_integrated_distance,
     transform_poses,
 )
 from navlog.replay.nav2.controllers.dwb.critics import Critic, Cycle, make_critic
@@ -40,13 +41,6 @@ from navlog.replay.nav2.costmap.footprint import radius_footprint
 from navlog.replay.nav2.costmap.grid import CostmapGrid
 
 SHOWN_TRAJECTORIES = 64  # legal trajectories returned for drawing, evenly spread over the samples
-
-
-def prune_start(plan_xy: np.ndarray, distance: float) -> int:
-    """``first_after_integrated_distance``: the first index after which the plan has run ``distance`` metres."""
-    run = np.cumsum(np.hypot(*np.diff(plan_xy, axis=0).T))
-    after = np.flatnonzero(run > distance)
-    return int(after[0]) + 1 if len(after) else len(plan_xy)
 
 
 class DWBController:
@@ -137,7 +131,7 @@ class DWBController:
         end_threshold = min(half, p.forward_prune_distance) if p.shorten_transformed_plan else half
         xy = self.plan[:, :2]
         dist = np.hypot(xy[:, 0] - robot[0], xy[:, 1] - robot[1])
-        stop = prune_start(xy, p.prune_distance)
+        stop = first_after_integrated_distance(xy, p.prune_distance)
         near = np.flatnonzero(dist[:stop] < start_threshold)
         begin = int(near[0]) if len(near) else stop
         far = np.flatnonzero(dist[begin:] > end_threshold)
