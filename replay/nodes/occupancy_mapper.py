@@ -25,7 +25,7 @@ import numpy as np
 
 from navlog.replay import messages
 from navlog.replay.geometry import yaw_from_matrix
-from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams
+from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams, ScanAngles
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
 
@@ -65,7 +65,7 @@ class OccupancyMapperNode(Node):
         self.trajectory: list[tuple[int, np.ndarray]] = []  # (stamp, robot pose in map) of inserted scans
         self._pose_child: str | None = None
         self._last_pose: np.ndarray | None = None
-        self._angles_cache: dict[tuple, np.ndarray] = {}
+        self._angles = ScanAngles()
         self._waiting = WaitingForTransforms(int(params.transform_timeout * 1e9))  # scans waiting for their pose
 
     @property
@@ -137,9 +137,9 @@ class OccupancyMapperNode(Node):
         return None if span[1] < stamp else (span[0] <= stamp)
 
     def _insert(self, msg, stamp: int, base: np.ndarray, pose: np.ndarray) -> None:
-        fields = (msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
-        if any(math.isnan(v) for v in fields) or not all(math.isfinite(v) for v in fields[:2]):
-            self.skipped[f"{self.p.scan_topic}: NaN or infinite angle/range fields"] += 1
+        angles = self._angles(msg)
+        if angles is None:
+            self.skipped[f"{self.p.scan_topic}: {ScanAngles.SKIP_REASON}"] += 1
             return
         if not np.all(np.isfinite(pose)):
             self.skipped[f"{self.p.scan_topic}: pose not finite at the scan's stamp"] += 1
@@ -152,11 +152,6 @@ class OccupancyMapperNode(Node):
                 self.skipped["scans within minimum travel (not inserted)"] += 1
                 return
         self._last_pose = pose
-        key = (float(msg.angle_min), float(msg.angle_increment), len(msg.ranges))
-        angles = self._angles_cache.get(key)
-        if angles is None:
-            angles = msg.angle_min + msg.angle_increment * np.arange(len(msg.ranges))
-            self._angles_cache[key] = angles
         try:
             self.grid.insert_scan(pose, angles, np.asarray(msg.ranges), float(msg.range_min), float(msg.range_max))
         except GridTooLarge:

@@ -18,7 +18,6 @@ in the map frame at every scan, from the final keyframe poses.
 from __future__ import annotations
 
 import json
-import math
 from collections import Counter
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -29,7 +28,7 @@ import numpy as np
 from navlog.replay import messages
 from navlog.replay.geometry import planar_matrix, quat_from_yaw, yaw_from_matrix
 from navlog.replay.io.tum import write_poses
-from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyParams
+from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyParams, ScanAngles
 from navlog.replay.mapping.slam2d import LaserScan2D, Slam2D, SlamParams
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
@@ -64,7 +63,7 @@ class SlamNode(Node):
         self.tf_published = 0
         self._log_odom_parents = 0
         self._waiting = WaitingForTransforms(int(params.transform_timeout * 1e9))
-        self._angles: dict[tuple[float, float, int], np.ndarray] = {}
+        self._angles = ScanAngles()
         self._to_trajectory_frame: list[np.ndarray] = []  # per scan: base <- trajectory frame
         self._base: str | None = None
 
@@ -122,17 +121,13 @@ class SlamNode(Node):
 
     # ------------------------------------------------------------ SLAM
     def _process(self, msg: Any, stamp: int, odom_base: np.ndarray, mount: np.ndarray, to_traj: np.ndarray) -> None:
-        fields = (msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
-        if any(math.isnan(v) for v in fields) or not all(math.isfinite(v) for v in fields[:2]):
-            self.skipped[f"{self.p.scan_topic}: NaN or infinite angle/range fields"] += 1
+        angles = self._angles(msg)
+        if angles is None:
+            self.skipped[f"{self.p.scan_topic}: {ScanAngles.SKIP_REASON}"] += 1
             return
         if not np.all(np.isfinite(odom_base)):
             self.skipped[f"{self.p.scan_topic}: odometry not finite at the scan's stamp"] += 1
             return
-        key = (float(msg.angle_min), float(msg.angle_increment), len(msg.ranges))
-        angles = self._angles.get(key)
-        if angles is None:
-            angles = self._angles[key] = msg.angle_min + msg.angle_increment * np.arange(len(msg.ranges))
         scan = LaserScan2D(
             angles, np.asarray(msg.ranges, dtype=np.float64), float(msg.range_min), float(msg.range_max), mount
         )
