@@ -406,6 +406,21 @@ class NavigationStack:
         return self.navigation.navigator.results
 
     @property
+    def outputs(self) -> list[str]:
+        """The topics the stack publishes (a replay regenerates them: never read from the log)."""
+        out = {"/plan", "/local_plan", self.navigation.cmd_topic, EVENTS_TOPIC}
+        if self.navigation.has_goal_list:  # without one it reads /goal_pose instead
+            out.add("/goal_pose")
+        for node in (self.global_costmap, self.local_costmap):
+            out |= {f"/{node.name}/costmap", f"/{node.name}/published_footprint"}
+        return sorted(out)
+
+    @property
+    def sensor_topics(self) -> list[str]:
+        """The topics the costmaps observe (their obstacle sources), the global costmap's first."""
+        return self.global_costmap.topics + self.local_costmap.topics
+
+    @property
     def done(self) -> bool:
         """Every goal of the list ended (never, without a list: goals come from /goal_pose)."""
         return bool(self.goals) and len(self.results) >= len(self.goals)

@@ -87,13 +87,10 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         odom_topic=params.odom_topic,
     )
     nodes = list(stack.nodes)
-    produced = {params.cmd_topic, "/plan", "/local_plan", "/goal_pose"}
-    inputs = ["/tf"]
-    optional = ["/tf_static", params.odom_topic, "/map", *stack_inputs(stack)]
-    if not goals:
-        inputs.append("/goal_pose")
-        produced.discard("/goal_pose")
-    outputs = sorted(stack_outputs(stack) | ({params.cmd_topic} if filtered else {params.output_topic}))
+    produced = set(stack.outputs)  # regenerated: the log's copies are not read (nor recorded twice)
+    inputs = ["/tf"] + ([] if goals else ["/goal_pose"])
+    optional = ["/tf_static", params.odom_topic, "/map", *stack.sensor_topics]
+    outputs = list(stack.outputs)
     filters: Pipeline | None = None
     if filtered:
         filters = safety.build(
@@ -176,23 +173,3 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         done=lambda: stack.done,
         report=report,
     )
-
-
-def stack_inputs(stack: Any) -> list[str]:
-    """The sensor topics the stack's costmaps observe."""
-    topics: list[str] = []
-    for node in stack.nodes:
-        topics += list(getattr(node, "topics", []))
-    return topics
-
-
-def stack_outputs(stack: Any) -> set[str]:
-    """The topics the navigation stack publishes."""
-    from navlog.replay.nodes.collision_monitor import EVENTS_TOPIC
-
-    out = {"/plan", "/local_plan", "/goal_pose", EVENTS_TOPIC}
-    for node in stack.nodes:
-        name = getattr(node, "name", "")
-        if name in ("global_costmap", "local_costmap"):
-            out |= {f"/{name}/costmap", f"/{name}/published_footprint"}
-    return out

@@ -76,6 +76,11 @@ def test_a_replay_of_the_log_regenerates_its_plans_and_commands_bit_for_bit(nav_
         live, replayed = raw(log, topic), raw(res.out_dir / "replay.mcap", topic)
         assert len(live) >= least, topic
         assert live == replayed, topic
+    # every topic the stack regenerates appears once, as often as live: none is also read from the log
+    with open_log(log) as live_log, open_log(res.out_dir / "replay.mcap") as replay_log:
+        counts = {t: (live_log.topics[t].count, i.count) for t, i in replay_log.topics.items()}
+    assert counts["/local_costmap/published_footprint"][0] >= 300
+    assert all(live == replayed for live, replayed in counts.values()), counts
     report = json.loads((res.out_dir / "navigation.json").read_text())
     assert report["succeeded"] == 5 and report["failed"] == 0
 
