@@ -39,3 +39,10 @@ class Pipeline:
     done: Callable[[], bool] | None = None
     # what the pipeline did, for a summary (navigation: goal results), or None
     report: Callable[[], dict] | None = None
+
+    def __post_init__(self) -> None:
+        # a topic the pipeline regenerates must not also be streamed from the log: the replay would hold
+        # both copies and the nodes would see each message twice
+        both = sorted(set(self.inputs + self.optional_inputs) & set(self.outputs))
+        if both:
+            raise ValueError(f"pipeline '{self.name}' both reads and publishes {', '.join(both)}")
