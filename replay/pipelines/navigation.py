@@ -101,7 +101,7 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
                 input_topic=params.cmd_topic,
                 output_topic=params.output_topic,
             ),
-            log_topics,
+            log_topics | produced,  # the stack publishes its footprint live and in replay alike
         )
         nodes += filters.nodes
         optional += [t for t in filters.inputs + filters.optional_inputs if t not in produced]
