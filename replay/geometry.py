@@ -41,6 +41,7 @@ __all__ = [
     "quat_to_matrix",
     "quat_to_wxyz",
     "quats_mul",
+    "rigid_inverse",
     "rotate_planar",
     "rotation_angle",
     "rotvecs_to_matrices",
@@ -317,6 +318,17 @@ def make_transform(xyz, q_xyzw) -> np.ndarray:
     t[:3, :3] = quat_to_matrix(q_xyzw)
     t[:3, 3] = np.asarray(xyz, dtype=np.float64)
     return t
+
+
+def rigid_inverse(t: np.ndarray) -> np.ndarray:
+    """The inverse of a 4x4 rigid transform: rotation transposed, translation ``-R^T p`` (a few times
+    cheaper than a general inverse, equal to it to rounding)."""
+    out = np.empty((4, 4))
+    rt = t[:3, :3].T
+    out[:3, :3] = rt
+    out[:3, 3] = -(rt @ t[:3, 3])
+    out[3] = (0.0, 0.0, 0.0, 1.0)
+    return out
 
 
 def unit_quat_transform(xyz, q) -> np.ndarray:

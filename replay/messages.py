@@ -217,6 +217,42 @@ def transform_stamped(ns: int, parent: str, child: str, xyz, q_xyzw):
     )
 
 
+class TFTransforms:
+    """A tf2_msgs/TFMessage in its light form: ``entries``, one tuple per transform, ``(parent, child,
+    stamp_ns, tx, ty, tz, qx, qy, qz, qw)`` with the frame ids as sent. A log reader gives it, instead of
+    message objects, to the subscribers that accept it (``Node.subscribe(..., light=True)``): a TF
+    buffer needs the numbers, not six objects per transform."""
+
+    __slots__ = ("entries",)
+
+    def __init__(self, entries: list[tuple]) -> None:
+        self.entries = entries
+
+
+def tf_entries(msg: Any) -> list[tuple]:
+    """The transforms of a TFMessage, light (``TFTransforms``) or message object, as ``TFTransforms`` tuples."""
+    if type(msg) is TFTransforms:
+        return msg.entries
+    out = []
+    for ts in msg.transforms:
+        tr, rot, st = ts.transform.translation, ts.transform.rotation, ts.header.stamp
+        out.append(
+            (
+                ts.header.frame_id,
+                ts.child_frame_id,
+                int(st.sec) * 1_000_000_000 + int(st.nanosec),
+                tr.x,
+                tr.y,
+                tr.z,
+                rot.x,
+                rot.y,
+                rot.z,
+                rot.w,
+            )
+        )
+    return out
+
+
 def tf_message(transforms: list) -> Any:
     return _types().TFMessage(list(transforms))
 

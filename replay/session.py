@@ -13,6 +13,7 @@ import hashlib
 import importlib
 import json
 import logging
+import mmap
 import shutil
 import threading
 import time
@@ -74,11 +75,17 @@ def parse_remaps(items: Sequence[str]) -> dict[str, str]:
 
 
 def sha256_file(path: Path) -> str:
-    h = hashlib.sha256()
+    """The file's SHA-256, hashed from a memory map in one call: the interpreter lock is released once
+    for the whole file, so hashing beside a replay (``_hash_inputs``) never makes its thread wait."""
     with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+        try:
+            with mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+                return hashlib.sha256(data).hexdigest()
+        except (ValueError, OSError):  # an empty file, or one that cannot be mapped: read it in blocks
+            h = hashlib.sha256()
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+            return h.hexdigest()
 
 
 def _input_files(path: Path) -> list[Path]:
@@ -255,8 +262,8 @@ def _run(
     last_stamp: dict[str, int] = {}
     backwards: dict[str, int] = {}
 
-    def stream() -> Iterator[Envelope]:
-        for env in reader.messages(wanted):
+    def stream(light: set[str]) -> Iterator[Envelope]:
+        for env in reader.messages(wanted, light=light):
             topic = log_to.get(env.topic, env.topic)
             header = getattr(env.msg, "header", None)
             if header is not None:
@@ -266,9 +273,11 @@ def _run(
                 last_stamp[topic] = max(stamp, last_stamp.get(topic, stamp))
             yield env if topic == env.topic else Envelope(topic, env.typename, env.time_ns, env.msg)
 
-    ex.add_source(stream())
     for node in pipe.nodes:
         ex.add_node(node)
+    # the log's topics whose every subscriber takes their light form (TF buffers: /tf as numbers, no objects)
+    to_log = {ours: theirs for theirs, ours in log_to.items()}
+    ex.add_source(stream({to_log.get(t, t) for t in ex.light_topics()}))
     _check_types(reader.path, ex, reader, wanted, log_to)
     start = time.perf_counter()
     t0 = reader.start_ns

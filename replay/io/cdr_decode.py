@@ -4,9 +4,10 @@ The type store's generated deserializer calls one function per nested type and u
 about 36 us per /tf message and 26 us per odometry message, about 0.4 s of a 2D mapping replay of the
 138 s tour. These decoders read the same little-endian CDR with a few ``struct`` calls and build the
 same message objects (the store's own classes; covariances as read-only float64 arrays over the bytes,
-as the store makes them).
+as the store makes them). A TFMessage also has a light form, ``messages.TFTransforms``: the same numbers
+as tuples, no objects, for the subscribers that accept it (TF buffers).
 
-``decoder(typename, store)`` gives the decoder of a type, or None when there is none or when ``store``
+``decoder(typename, store[, light=True])`` gives the decoder of a type, or None when there is none or when ``store``
 defines the type (or one it contains) otherwise than the ROS 2 definitions these layouts assume. A
 decoder raises ``ValueError`` (or ``struct.error``, ``UnicodeDecodeError``) on bytes it does not
 accept — big-endian, truncated, a bad string or sequence length, trailing bytes — and the caller then
@@ -76,6 +77,26 @@ def _check_end(data: bytes, pos: int) -> None:
         raise ValueError("CDR message size mismatch")
 
 
+def _tf_parse(data: bytes, max_len: int) -> list[tuple]:
+    """A TFMessage's transforms as ``(sec, nanosec, frame_id, child_frame_id, tx, ty, tz, qx, qy, qz, qw)``."""
+    _check(data)
+    (count,) = _U32.unpack_from(data, _HEADER)
+    pos = 4
+    if pos + count > len(data) - _HEADER or count > max_len:
+        raise ValueError(f"bad sequence length {count}")
+    out = []
+    for _ in range(count):
+        pos = (pos + 3) & -4
+        sec, nanosec = _TIME.unpack_from(data, _HEADER + pos)
+        frame_id, pos = _string(data, pos + 8)
+        child, pos = _string(data, pos)
+        pos = (pos + 7) & -8
+        out.append((sec, nanosec, frame_id, child, *_D7.unpack_from(data, _HEADER + pos)))
+        pos += 56
+    _check_end(data, pos)
+    return out
+
+
 def _tf_decoder(store: Any) -> Callable[[bytes], Any]:
     c = store.types
     tf_message, stamped = c["tf2_msgs/msg/TFMessage"], c["geometry_msgs/msg/TransformStamped"]
@@ -88,29 +109,30 @@ def _tf_decoder(store: Any) -> Callable[[bytes], Any]:
     max_len = store.max_sequence_length
 
     def decode(data: bytes) -> Any:
-        _check(data)
-        (count,) = _U32.unpack_from(data, _HEADER)
-        pos = 4
-        if pos + count > len(data) - _HEADER or count > max_len:
-            raise ValueError(f"bad sequence length {count}")
-        out = []
-        for _ in range(count):
-            pos = (pos + 3) & -4
-            sec, nanosec = _TIME.unpack_from(data, _HEADER + pos)
-            frame_id, pos = _string(data, pos + 8)
-            child, pos = _string(data, pos)
-            pos = (pos + 7) & -8
-            tx, ty, tz, qx, qy, qz, qw = _D7.unpack_from(data, _HEADER + pos)
-            pos += 56
-            out.append(
+        return tf_message(
+            [
                 stamped(
                     header(time(sec, nanosec), frame_id),
                     child,
                     transform(vector3(tx, ty, tz), quaternion(qx, qy, qz, qw)),
                 )
-            )
-        _check_end(data, pos)
-        return tf_message(out)
+                for sec, nanosec, frame_id, child, tx, ty, tz, qx, qy, qz, qw in _tf_parse(data, max_len)
+            ]
+        )
+
+    return decode
+
+
+def _tf_light_decoder(store: Any) -> Callable[[bytes], Any]:
+    max_len = store.max_sequence_length
+
+    def decode(data: bytes) -> Any:
+        return messages.TFTransforms(
+            [
+                (frame_id, child, sec * 1_000_000_000 + nanosec, tx, ty, tz, qx, qy, qz, qw)
+                for sec, nanosec, frame_id, child, tx, ty, tz, qx, qy, qz, qw in _tf_parse(data, max_len)
+            ]
+        )
 
     return decode
 
@@ -156,11 +178,13 @@ def _odometry_decoder(store: Any) -> Callable[[bytes], Any]:
 
 
 _FACTORIES = {messages.TF_MESSAGE: _tf_decoder, messages.ODOMETRY: _odometry_decoder}
+_LIGHT_FACTORIES = {messages.TF_MESSAGE: _tf_light_decoder}
 
 
-def decoder(typename: str, store: Any) -> Callable[[bytes], Any] | None:
-    """The fast decoder of ``typename`` building ``store``'s message objects, or None (see the module docstring)."""
-    factory = _FACTORIES.get(typename)
+def decoder(typename: str, store: Any, *, light: bool = False) -> Callable[[bytes], Any] | None:
+    """The fast decoder of ``typename`` building ``store``'s message objects, or with ``light`` the type's
+    light form (``messages.TFTransforms``), or None (see the module docstring)."""
+    factory = (_LIGHT_FACTORIES if light else _FACTORIES).get(typename)
     if factory is None:
         return None
     base = messages.typestore().fielddefs

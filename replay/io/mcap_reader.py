@@ -43,7 +43,8 @@ class McapLogReader(LogReader):
         self.storage = "mcap"
         self.size_bytes = path.stat().st_size
         self._fast_store: Any = None  # the store the fast decoders below were made for
-        self._fast: dict[str, Any] = {}
+        self._fast: dict[tuple[str, bool], Any] = {}  # (type, light form) -> fast decoder or None
+        self._light: frozenset[str] = frozenset()  # topics on which the light form may be given
         self._recover = recover
         with open(path, "rb") as f:
             head = f.read(8)
@@ -143,10 +144,11 @@ class McapLogReader(LogReader):
                 ch.topic, typename, counts[cid], known, ch.metadata.get("offered_qos_profiles", "")
             )
 
-    def messages(self, topics=None, *, decode=True, start_ns=None, end_ns=None) -> Iterator[Envelope]:
+    def messages(self, topics=None, *, decode=True, light=(), start_ns=None, end_ns=None) -> Iterator[Envelope]:
         wanted = self._wanted(topics)
         if not wanted:
             return
+        self._light = frozenset(light)
         if self.report.truncated:
             yield from self._messages_truncated(wanted, decode, start_ns, end_ns)
             return
@@ -303,13 +305,15 @@ class McapLogReader(LogReader):
         return None if msg is None else Envelope(topic, typename, t, msg)
 
     def _decode(self, data: bytes, typename: str, topic: str) -> Any:
-        """The fast decoder of a hot type (``cdr_decode``) where it applies, else the type store's."""
+        """The fast decoder of a hot type (``cdr_decode``; its light form on the ``light`` topics of
+        ``messages``) where it applies, else the type store's."""
         store = self._types.store
         if store is not self._fast_store:  # a schema gave this reader a store of its own
             self._fast_store, self._fast = store, {}
-        fast = self._fast.get(typename, _UNSET)
+        key = (typename, topic in self._light)
+        fast = self._fast.get(key, _UNSET)
         if fast is _UNSET:
-            fast = self._fast[typename] = cdr_decode.decoder(typename, store)
+            fast = self._fast[key] = cdr_decode.decoder(typename, store, light=key[1])
         if fast is not None:
             try:
                 return fast(data)
@@ -341,9 +345,9 @@ class SplitMcapLogReader(LogReader):
                 self.topics[name] = TopicInfo(name, info.typename, count, info.known, info.qos)
         self.report.truncated = any(p.report.truncated for p in self.parts)
 
-    def messages(self, topics=None, *, decode=True, start_ns=None, end_ns=None) -> Iterator[Envelope]:
+    def messages(self, topics=None, *, decode=True, light=(), start_ns=None, end_ns=None) -> Iterator[Envelope]:
         wanted = self._wanted(topics)
-        streams = [p.messages(wanted, decode=decode, start_ns=start_ns, end_ns=end_ns) for p in self.parts]
+        streams = [p.messages(wanted, decode=decode, light=light, start_ns=start_ns, end_ns=end_ns) for p in self.parts]
         for env in heapq.merge(*streams, key=lambda e: e.time_ns):
             self.report.read += 1
             yield env

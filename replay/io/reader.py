@@ -90,9 +90,13 @@ class LogReader:
         topics: Iterable[str] | None = None,
         *,
         decode: bool = True,
+        light: Iterable[str] = (),
         start_ns: int | None = None,
         end_ns: int | None = None,
     ) -> Iterator[Envelope]:
+        """The wanted topics' messages in log-time order: decoded message objects (raw CDR bytes when not
+        ``decode``). On the ``light`` topics a reader may give a type's light form instead
+        (``messages.TFTransforms`` for a TFMessage), for subscribers that accept it."""
         raise NotImplementedError
 
     def close(self) -> None:

@@ -68,7 +68,7 @@ class RosbagLogReader(LogReader):
         keys = ("version", "storage_identifier", "ros_distro", "compression_format", "compression_mode")
         return {"rosbag2": {k: str(info.get(k, "") or "") for k in keys}}
 
-    def messages(self, topics=None, *, decode=True, start_ns=None, end_ns=None) -> Iterator[Envelope]:
+    def messages(self, topics=None, *, decode=True, light=(), start_ns=None, end_ns=None) -> Iterator[Envelope]:
         wanted = self._wanted(topics)
         conns = [c for c in self._reader.connections if c.topic in wanted]
         if not conns:

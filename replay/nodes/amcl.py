@@ -109,8 +109,8 @@ class AmclNode(Node):
         )
 
     def setup(self) -> None:
-        self.subscribe("/tf", lambda m, t: self._on_tf(m, False), (messages.TF_MESSAGE,))
-        self.subscribe("/tf_static", lambda m, t: self._on_tf(m, True), (messages.TF_MESSAGE,))
+        self.subscribe("/tf", lambda m, t: self._on_tf(m, False), (messages.TF_MESSAGE,), light=True)
+        self.subscribe("/tf_static", lambda m, t: self._on_tf(m, True), (messages.TF_MESSAGE,), light=True)
         self.subscribe("/initialpose", self._on_initial_pose, (POSE_WITH_COVARIANCE_STAMPED,))
         self.subscribe(self.scan_topic, self._on_scan, (messages.LASER_SCAN,))
         if self.initial_pose_topic:

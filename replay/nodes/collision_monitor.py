@@ -48,6 +48,7 @@ import numpy as np
 
 from navlog.errors import ConfigError
 from navlog.replay import messages as m
+from navlog.replay.geometry import rigid_inverse
 from navlog.replay.nav2.collision_monitor import (
     ACTION_CODES,
     Circle,
@@ -158,11 +159,10 @@ class TFHistory:
         return name
 
     def add_message(self, msg: Any, static: bool) -> None:
-        """Add a tf2_msgs/TFMessage to the buffer, noting whether it rewrites what the buffer held."""
-        add = self.tf.add
-        for ts in msg.transforms:
-            parent, child, t = self._name(ts.header.frame_id), self._name(ts.child_frame_id), m.to_ns(ts.header.stamp)
-            tr, rot = ts.transform.translation, ts.transform.rotation
+        """Add a tf2_msgs/TFMessage (object or light form) to the buffer, noting whether it rewrites what the buffer held."""
+        add, name = self.tf.add, self._name
+        for parent, child, t, tx, ty, tz, qx, qy, qz, qw in m.tf_entries(msg):
+            parent, child = name(parent), name(child)
             prev = self._edges.get(child)
             if static or prev is None or prev[0] != parent or prev[1]:
                 self.epoch += 1  # a new edge (the buffer starts it again) or a static one
@@ -173,7 +173,7 @@ class TFHistory:
                 self._edges[child] = (parent, False, t)
             if not static and (self.newest is None or t > self.newest):
                 self.newest = t
-            add(parent, child, t, (tr.x, tr.y, tr.z), (rot.x, rot.y, rot.z, rot.w), static)
+            add(parent, child, t, (tx, ty, tz), (qx, qy, qz, qw), static)
         self.added += 1
 
     def holds(self, epoch: int, t_ns: int) -> bool:
@@ -246,8 +246,9 @@ class CollisionMonitorNode(Node):
 
     # ------------------------------------------------------------------ wiring
     def setup(self) -> None:
-        self.subscribe("/tf", lambda msg, t: self.tf_history.add_message(msg, static=False), (m.TF_MESSAGE,))
-        self.subscribe("/tf_static", lambda msg, t: self.tf_history.add_message(msg, static=True), (m.TF_MESSAGE,))
+        add = self.tf_history.add_message
+        self.subscribe("/tf", lambda msg, t: add(msg, static=False), (m.TF_MESSAGE,), light=True)
+        self.subscribe("/tf_static", lambda msg, t: add(msg, static=True), (m.TF_MESSAGE,), light=True)
         topics: dict[str, list[str]] = {}
         for name, sp in self.sources.items():
             topics.setdefault(_absolute(sp.topic), []).append(name)
@@ -278,15 +279,16 @@ class CollisionMonitorNode(Node):
     # ------------------------------------------------------------------ transforms and points
     def _lookup_at(self, target: str, source: str, t: int) -> tuple[np.ndarray, bool]:
         """The transform at ``t`` (and True), else at the newest time within ``transform_tolerance``
-        before it (and False)."""
-        try:
-            return self.tf.lookup(target, source, t), True
-        except TransformError:
-            # the newest time every edge of the chain reaches, if it is before ``t`` within the tolerance
-            latest = self.tf.latest_common_time(target, source)
-            if latest is None or not t - round(self.params.transform_tolerance * 1e9) <= latest < t:
-                raise
+        before it (and False).
+
+        The usual case in a replay, a command newer than the last /tf sample, goes straight to that
+        sample's time: the failed lookup at ``t`` would give nothing but its error."""
+        # the newest time every edge of the chain reaches: the transform is taken there when it is
+        # before ``t`` within the tolerance
+        latest = self.tf.latest_common_time(target, source)
+        if latest is not None and t - round(self.params.transform_tolerance * 1e9) <= latest < t:
             return self.tf.lookup(target, source, latest), False
+        return self.tf.lookup(target, source, t), True
 
     def _lookup_recent(self, target: str, source: str, t: int) -> np.ndarray:
         """The transform at ``t``, else at the newest time within ``transform_tolerance`` before it."""
@@ -296,8 +298,10 @@ class CollisionMonitorNode(Node):
         """base <- odom at ``now``: looked up once per decision, whichever sources need it."""
         added = self.tf_history.added
         if self._base_now is None or self._base_now[:2] != (now, added):
-            try:
-                T: np.ndarray | None = self._lookup_recent(self.params.base_frame_id, self.params.odom_frame_id, now)
+            try:  # odom <- base inverted: a rigid transform's inverse, without a general matrix inverse
+                T: np.ndarray | None = rigid_inverse(
+                    self._lookup_recent(self.params.odom_frame_id, self.params.base_frame_id, now)
+                )
             except TransformError:
                 T = None
             self._base_now = (now, added, T)

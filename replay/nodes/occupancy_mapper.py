@@ -79,8 +79,10 @@ class OccupancyMapperNode(Node):
         return topics
 
     def setup(self) -> None:
-        self.subscribe("/tf", lambda m, t: self.tf.add_message(m), (messages.TF_MESSAGE,))
-        self.subscribe("/tf_static", lambda m, t: self.tf.add_message(m, static=True), (messages.TF_MESSAGE,))
+        self.subscribe("/tf", lambda m, t: self.tf.add_message(m), (messages.TF_MESSAGE,), light=True)
+        self.subscribe(
+            "/tf_static", lambda m, t: self.tf.add_message(m, static=True), (messages.TF_MESSAGE,), light=True
+        )
         if self.p.pose_source != "tf":
             self.subscribe(self.pose_topic, self._on_pose, (messages.ODOMETRY,))
         self.subscribe(self.p.scan_topic, self._on_scan, (messages.LASER_SCAN,))

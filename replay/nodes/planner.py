@@ -79,8 +79,8 @@ class CostmapNode(Node):
         return sorted(self.source_topics)
 
     def setup(self) -> None:
-        self.subscribe("/tf", lambda msg, t: self.tf.add_message(msg, static=False), (m.TF_MESSAGE,))
-        self.subscribe("/tf_static", lambda msg, t: self.tf.add_message(msg, static=True), (m.TF_MESSAGE,))
+        self.subscribe("/tf", lambda msg, t: self.tf.add_message(msg, static=False), (m.TF_MESSAGE,), light=True)
+        self.subscribe("/tf_static", lambda msg, t: self.tf.add_message(msg, static=True), (m.TF_MESSAGE,), light=True)
         if self.costmap.static_layers:
             if self.static_map is not None:
                 self.costmap.set_static_map(self.static_map)

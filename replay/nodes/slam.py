@@ -72,8 +72,8 @@ class SlamNode(Node):
         return [self.p.scan_topic, "/tf", "/tf_static"]
 
     def setup(self) -> None:
-        self.subscribe("/tf", lambda m, t: self._on_tf(m, False), (messages.TF_MESSAGE,))
-        self.subscribe("/tf_static", lambda m, t: self._on_tf(m, True), (messages.TF_MESSAGE,))
+        self.subscribe("/tf", lambda m, t: self._on_tf(m, False), (messages.TF_MESSAGE,), light=True)
+        self.subscribe("/tf_static", lambda m, t: self._on_tf(m, True), (messages.TF_MESSAGE,), light=True)
         self.subscribe(self.p.scan_topic, self._on_scan, (messages.LASER_SCAN,))
         self.create_timer(int(self.p.slam.map_update_interval * 1e9), self._publish_map)
 

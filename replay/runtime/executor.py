@@ -72,10 +72,12 @@ class Node:
     def now(self) -> int:
         return self.executor.now
 
-    def subscribe(self, topic: str, callback: Callback, types: tuple[str, ...] = ()) -> None:
+    def subscribe(self, topic: str, callback: Callback, types: tuple[str, ...] = (), *, light: bool = False) -> None:
         """Call ``callback(msg, time_ns)`` for every message on ``topic``; ``types`` names the message types
-        the callback reads (checked against a log's topics before a replay starts)."""
-        self.executor.subscribe(topic, callback, types)
+        the callback reads (checked against a log's topics before a replay starts). ``light``: the callback
+        also takes a type's light form (``messages.TFTransforms``), which a replay then reads the topic as
+        when every subscriber of it takes it."""
+        self.executor.subscribe(topic, callback, types, light=light)
 
     def publish(self, topic: str, typename: str, msg: Any) -> None:
         self.executor.publish(Envelope(topic, typename, self.executor.now, msg), self.rank)
@@ -112,6 +114,7 @@ class Executor:
         self._queue: list[tuple[int, int, int, str, Any]] = []
         self._subs: dict[str, list[Callback]] = {}
         self._sub_types: dict[str, set[str]] = {}
+        self._light: dict[str, bool] = {}  # topic -> every subscriber takes the light form
         self._timers: list[_Timer] = []
         self._nodes: list[Node] = []
         self._sinks: list[Sink] = []
@@ -137,10 +140,15 @@ class Executor:
     def add_sink(self, sink: Sink) -> None:
         self._sinks.append(sink)
 
-    def subscribe(self, topic: str, callback: Callback, types: tuple[str, ...] = ()) -> None:
+    def subscribe(self, topic: str, callback: Callback, types: tuple[str, ...] = (), *, light: bool = False) -> None:
         self._subs.setdefault(topic, []).append(callback)
+        self._light[topic] = self._light.get(topic, True) and light
         if types:
             self._sub_types.setdefault(topic, set()).update(types)
+
+    def light_topics(self) -> set[str]:
+        """The topics every subscriber of which takes the light form of its messages."""
+        return {topic for topic, light in self._light.items() if light}
 
     def has_subscribers(self, topic: str) -> bool:
         """True when a node subscribes to ``topic`` (else only sinks see it: raw CDR bytes will do)."""

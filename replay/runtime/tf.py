@@ -57,27 +57,20 @@ class TFBuffer:
         return name
 
     def add_message(self, msg: Any, static: bool = False) -> None:
-        """Add every transform of a tf2_msgs/TFMessage."""
+        """Add every transform of a tf2_msgs/TFMessage (a message object or ``messages.TFTransforms``)."""
         self.add_message_skipping(msg, static, None)
 
     def add_message_skipping(self, msg: Any, static: bool, skip_child: str | None) -> int:
         """Add every transform of a tf2_msgs/TFMessage except those into ``skip_child`` (a frame whose
         parent the caller publishes itself, e.g. a localiser's odom frame); returns how many were skipped."""
         skipped = 0
-        for ts in msg.transforms:
-            child = self._name(ts.child_frame_id)
+        name = self._name
+        for parent, child, t_ns, tx, ty, tz, qx, qy, qz, qw in messages.tf_entries(msg):
+            child = name(child)
             if child == skip_child:
                 skipped += 1
                 continue
-            tr, rot = ts.transform.translation, ts.transform.rotation
-            self.add(
-                self._name(ts.header.frame_id),
-                child,
-                messages.to_ns(ts.header.stamp),
-                (tr.x, tr.y, tr.z),
-                (rot.x, rot.y, rot.z, rot.w),
-                static,
-            )
+            self.add(name(parent), child, t_ns, (tx, ty, tz), (qx, qy, qz, qw), static)
         return skipped
 
     def add(self, parent: str, child: str, t_ns: int, xyz, q_xyzw, static: bool = False) -> None:

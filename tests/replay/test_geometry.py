@@ -100,3 +100,17 @@ def test_world_to_cell_and_back_on_a_known_grid():
     # one axis with a scalar origin
     np.testing.assert_allclose(g.cell_to_world(np.arange(3), -1.0, res), [-0.75, -0.25, 0.25])
     np.testing.assert_array_equal(g.world_to_cell(np.array([-0.75, -0.25, 0.25]), -1.0, res), [0, 1, 2])
+
+
+def test_rigid_inverse_undoes_a_transform_as_a_general_inverse_does():
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        q = rng.normal(size=4)
+        t = g.make_transform(rng.normal(size=3) * 10, q / np.linalg.norm(q))
+        inv = g.rigid_inverse(t)
+        np.testing.assert_allclose(inv @ t, np.eye(4), atol=1e-12)
+        np.testing.assert_allclose(inv, np.linalg.inv(t), atol=1e-12)
+        assert inv[3].tolist() == [0.0, 0.0, 0.0, 1.0]
+    # a known one: 90 degrees about z at (1, 2, 3) -> back: (-2, 1, -3)
+    t = g.unit_quat_transform((1.0, 2.0, 3.0), g.quat_from_yaw(math.pi / 2))
+    np.testing.assert_allclose(g.rigid_inverse(t)[:3, 3], (-2.0, 1.0, -3.0), atol=1e-15)

@@ -82,3 +82,15 @@ def test_a_replay_that_produces_no_map_fails_and_says_why(teleop_log, tmp_path):
     assert "pipeline 'mapping' produced nothing: no map: no scan on /scan could be placed (pose source tf)" in msg
     assert "/scan: no pose or transform at the scan's stamp x171" in msg and "/tf_static" in msg
     assert not (tmp_path / "out").exists()
+
+
+def test_input_digests_are_sha256_of_the_whole_file(tmp_path):
+    import hashlib
+
+    from navlog.replay.session import sha256_file
+
+    for size in (0, 1, 4097, (1 << 20) + 3):
+        p = tmp_path / f"f{size}"
+        data = bytes(range(256)) * (size // 256) + bytes(size % 256)
+        p.write_bytes(data)
+        assert sha256_file(p) == hashlib.sha256(data).hexdigest()

@@ -154,3 +154,50 @@ def test_a_recorded_log_reads_the_same_objects_as_the_stores_deserializer(teleop
         assert same(a.msg, STORE.deserialize_cdr(b.msg, b.typename))
         counts[a.typename] = counts.get(a.typename, 0) + 1
     assert counts[messages.TF_MESSAGE] > 500 and counts[messages.ODOMETRY] > 1000
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_light_form_of_tf_holds_the_objects_numbers(seed):
+    rng = np.random.default_rng(seed)
+    light = cdr_decode.decoder(messages.TF_MESSAGE, STORE, light=True)
+    for n in (0, 1, 3, 7):
+        data = messages.serialize(tf_message(rng, n), messages.TF_MESSAGE)
+        got = light(data)
+        assert type(got) is messages.TFTransforms and len(got.entries) == n
+        want = messages.tf_entries(STORE.deserialize_cdr(data, messages.TF_MESSAGE))
+        assert struct.pack(f"<{n * 7}d", *(v for e in got.entries for v in e[3:])) == struct.pack(
+            f"<{n * 7}d", *(v for e in want for v in e[3:])
+        )
+        assert [e[:3] for e in got.entries] == [e[:3] for e in want]
+    # the bytes the object decoder refuses, the light one refuses too (the reader then asks the store)
+    data = messages.serialize(tf_message(rng, 2), messages.TF_MESSAGE)
+    for bad in (b"\x00\x00" + data[2:], data + bytes(8), data[:-9], b"\x00"):
+        with pytest.raises((ValueError, struct.error)):
+            light(bad)
+    assert cdr_decode.decoder(messages.ODOMETRY, STORE, light=True) is None  # no light form: objects
+
+
+def test_a_log_read_with_light_tf_gives_a_tf_buffer_the_same_transforms(teleop_log):
+    from navlog.replay.io.mcap_reader import McapLogReader
+    from navlog.replay.runtime.tf import TFBuffer
+
+    buffers = []
+    for light in (set(), {"/tf", "/tf_static"}):
+        tf, kinds = TFBuffer(), set()
+        with McapLogReader(teleop_log) as reader:
+            for env in reader.messages(["/tf", "/tf_static", "/odom"], light=light):
+                if env.topic != "/odom":
+                    tf.add_message(env.msg, static=env.topic == "/tf_static")
+                kinds.add((env.topic, type(env.msg).__name__))
+        buffers.append(tf)
+        if light:  # the TF topics come light, the others as objects
+            assert kinds == {
+                ("/tf", "TFTransforms"),
+                ("/tf_static", "TFTransforms"),
+                ("/odom", "nav_msgs__msg__Odometry"),
+            }
+    objects, light = buffers
+    lo, hi = objects.time_range("base_link")
+    for t in np.linspace(lo, hi, 50).astype(int).tolist():
+        a, b = objects.lookup("map", "front_laser", t), light.lookup("map", "front_laser", t)
+        assert a.tobytes() == b.tobytes()

@@ -13,6 +13,7 @@ import pytest
 
 from navlog.errors import ConfigError
 from navlog.replay import messages as m
+from navlog.replay.geometry import rigid_inverse
 from navlog.replay.nav2 import load_nav2_params, parse_nav2_text
 from navlog.replay.nav2.collision_monitor import CollisionMonitor, Velocity, points_in_polygon, scan_points, to_base
 from navlog.replay.nav2.costmap import robot_footprint
@@ -404,7 +405,7 @@ def test_cached_scan_points_and_transforms_equal_a_fresh_computation_for_every_c
 
         scan = [msg for _, topic, _, msg in stream[:i] if topic == "/scan"][-1]
         stamp = m.to_ns(scan.header.stamp)
-        base_odom = buffer(i).lookup("base_link", "odom", stream[i][0] * MS)
+        base_odom = rigid_inverse(buffer(i).lookup("odom", "base_link", stream[i][0] * MS))
         odom_laser = buffer(sensor_tf_from or i).lookup("odom", "laser", stamp)
         sensor = scan_points(scan.ranges, scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max)
         return to_base(sensor, base_odom @ odom_laser)[:, :2]

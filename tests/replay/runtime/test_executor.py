@@ -139,3 +139,22 @@ def test_subscriptions_declare_the_types_they_read():
         "/cloud": ("sensor_msgs/msg/LaserScan", "sensor_msgs/msg/PointCloud2"),
         "/scan": ("sensor_msgs/msg/LaserScan",),
     }
+
+
+def test_a_topic_is_read_light_only_when_every_subscriber_takes_the_light_form():
+    from navlog.replay.runtime.executor import Executor, Node
+
+    class Buffer(Node):
+        def setup(self) -> None:
+            self.subscribe("/tf", lambda m, t: None, light=True)
+            self.subscribe("/tf_static", lambda m, t: None, light=True)
+
+    class Objects(Node):
+        def setup(self) -> None:
+            self.subscribe("/tf_static", lambda m, t: None)  # reads the message objects
+
+    ex = Executor()
+    ex.add_node(Buffer())
+    assert ex.light_topics() == {"/tf", "/tf_static"}
+    ex.add_node(Objects())
+    assert ex.light_topics() == {"/tf"}
