@@ -15,7 +15,8 @@ Then prints, each replay in a fresh child process:
     runs it: interpreter start, imports, reading, nodes, writing the outputs, exit; target >= 100x)
     and of the replay itself (what `navlog replay` prints: reading, nodes, writing; the pipeline's
     modules imported before it);
-(b) 3D mapping replay (the full mapping pipeline) of the mapping log: real-time factor; target >= 6x;
+(b) 3D mapping replay (the full mapping pipeline) of the mapping log: real-time factor of the whole
+    process and of the replay itself (--repeat-3d runs of each); target >= 6x as a whole process;
 (c) peak resident memory (the child's ru_maxrss) of the full mapping pipeline replaying the
     10-minute log and the 1-minute log, and their ratio; target: within 20 %. The resident size after
     the imports (before the log is opened) is printed too, so the replay's own growth is visible.
@@ -25,7 +26,15 @@ chunks ahead in a second thread, so CPU may exceed wall on an idle machine): on 
 wall >> CPU means the replay waited for a core. Nothing is asserted; the script prints measured
 numbers and ratios.
 
-    .venv/bin/python benchmarks/bench_replay.py [--repeat 3] [--workdir DIR] [--skip-3d] [--skip-memory]
+Where the time goes: after (a) and (b), one more replay of each runs instrumented (unless
+--no-stages) and prints the CPU seconds of its replay span by stage on the main thread
+(deserialization, the 2D mapper's pose lookups and map updates, the 3D mapper's deskew, voxel filter,
+ICP source covariances, ICP, map updates; the rest is the executor, TF buffers and outgoing
+messages) and by thread for the others (decompression, the replay.mcap writer, the input hash, the
+3D global map). CPU time, not wall time: on a shared machine the figures stay comparable.
+
+    .venv/bin/python benchmarks/bench_replay.py [--repeat 3] [--repeat-3d 1] [--workdir DIR] [--skip-3d]
+        [--skip-memory] [--no-stages]
 """
 
 from __future__ import annotations
@@ -46,6 +55,100 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 
+
+# the per-stage CPU time of one replay (``--stages``): each stage's functions wrapped with a timer of
+# the calling thread's CPU time (time.thread_time: what a busy machine does to wall time does not
+# count); the other threads' CPU time read when each ends (or at the end of the replay)
+STAGES_CODE = r"""
+import functools, sys, threading, time
+
+MAIN_STAGES = [  # (stage, module, attribute path); inclusive times, summed per stage
+    ("deserialization: CDR -> messages", "navlog.replay.io.mcap_reader", "McapLogReader._decode"),
+    ("2D: scans placed (pose lookups + map updates)", "navlog.replay.nodes.occupancy_mapper", "OccupancyMapperNode._insert"),
+    ("2D: scans placed (pose lookups + map updates)", "navlog.replay.nodes.occupancy_mapper", "OccupancyMapperNode._poses"),
+    ("2D:   of which map updates (ray casting)", "navlog.replay.mapping.occupancy", "OccupancyGrid2D.insert_scan"),
+    ("2D: /map messages", "navlog.replay.nodes.occupancy_mapper", "OccupancyMapperNode._publish"),
+    ("3D: IMU and odometry tracks", "navlog.replay.mapping.lidar_odometry.deskew", "GyroTrack.add"),
+    ("3D: IMU and odometry tracks", "navlog.replay.mapping.lidar_odometry.deskew", "PoseTrack.add"),
+    ("3D: sweeps (all of a sweep's work)", "navlog.replay.nodes.lidar_mapper", "LidarMapperNode._process"),
+    ("3D:   deskew", "navlog.replay.mapping.lidar_odometry.odometry", "deskew_points"),
+    ("3D:   voxel filter at save_voxel", "navlog.replay.mapping.lidar_odometry.odometry", "reduced"),
+    ("3D:   ICP source: voxel filter + covariances", "navlog.replay.mapping.lidar_odometry.voxel_map", "GaussianRegistrar.source"),
+    ("3D:   ICP: small_gicp VGICP", "navlog.replay.mapping.lidar_odometry.voxel_map", "GaussianRegistrar.register"),
+    ("3D:   map updates (voxel map, global map)", "navlog.replay.mapping.lidar_odometry.voxel_map", "GaussianLocalMap.update"),
+    ("3D:   map updates (voxel map, global map)", "navlog.replay.mapping.lidar_odometry.local_map", "GlobalMap.add"),
+    ("manifest (output hashes)", "navlog.replay.session", "_manifest"),
+]
+ARTIFACTS = "outputs: map, trajectory, PCD files"  # the pipeline's write_artifacts
+THREADS = [  # thread name prefix -> what it does
+    ("navlog-read", "decompression (reader thread)"),
+    ("navlog-mcap-writer", "replay.mcap: serialization, compression, writing (writer thread)"),
+    ("navlog-hash", "input log sha256 (hash thread)"),
+    ("navlog-global-map", "3D: global map batches (background thread)"),
+]
+
+
+class STAGES:
+    def __init__(self, on):
+        self.cpu, self.calls, self.threads = {}, {}, {}
+        self.main = threading.get_ident()
+        self.c0 = time.thread_time()
+        if not on:
+            return
+        import navlog.replay.pipelines.mapping as mapping
+
+        build = mapping.build
+
+        def timed_build(*a, **k):  # the nodes' modules are imported now: wrap the stages of those loaded
+            pipe = build(*a, **k)
+            for stage, module, path in MAIN_STAGES:
+                owner = sys.modules.get(module)
+                *parents, name = path.split(".")
+                for part in parents:
+                    owner = getattr(owner, part, None)
+                if hasattr(owner, name):  # a function the code no longer has is left out
+                    setattr(owner, name, self._timed(stage, getattr(owner, name)))
+            pipe.write_artifacts = self._timed(ARTIFACTS, pipe.write_artifacts)
+            return pipe
+
+        mapping.build = timed_build
+        run, stages = threading.Thread.run, self
+
+        def counted_run(thread):  # each other thread's CPU time when it ends
+            try:
+                run(thread)
+            finally:
+                stages.threads[thread.name] = stages.threads.get(thread.name, 0.0) + time.thread_time()
+
+        threading.Thread.run = counted_run
+
+    def _timed(self, stage, fn):
+        stages = self
+
+        @functools.wraps(fn)
+        def timed(*a, **k):
+            if threading.get_ident() != stages.main:
+                return fn(*a, **k)
+            t = time.thread_time()
+            try:
+                return fn(*a, **k)
+            finally:
+                stages.cpu[stage] = stages.cpu.get(stage, 0.0) + time.thread_time() - t
+                stages.calls[stage] = stages.calls.get(stage, 0) + 1
+
+        return timed
+
+    def figures(self):
+        main_total = time.thread_time() - self.c0
+        other = {}
+        for name, cpu in self.threads.items():
+            label = next((what for prefix, what in THREADS if name.startswith(prefix)), "other threads")
+            other[label] = other.get(label, 0.0) + cpu
+        order = [*dict.fromkeys(s for s, _, _ in MAIN_STAGES), ARTIFACTS]
+        main = [[s, self.cpu[s], self.calls[s]] for s in order if s in self.cpu]
+        return {"main_thread_cpu_s": main_total, "main": main, "threads": sorted(other.items())}
+"""
+
 # run in a child process: one replay, then its timing and memory figures as JSON on stdout
 CHILD = r"""
 import json, resource, sys, time
@@ -63,6 +166,7 @@ import navlog.replay.pipelines.mapping, navlog.replay.nodes.lidar_mapper, navlog
 
 span = {}
 run = runner._run
+stages = STAGES(sys.argv[4] == "1")
 
 def timed_run(*args, **kwargs):  # CPU time (all threads) over the span that run_replay's wall_s covers
     c0 = time.process_time()
@@ -72,7 +176,7 @@ def timed_run(*args, **kwargs):  # CPU time (all threads) over the span that run
 
 runner._run = timed_run
 base = rss_kib()
-result = runner.run_replay(sys.argv[2], "mapping", sys.argv[3], overrides=sys.argv[4:], progress=False, force=True)
+result = runner.run_replay(sys.argv[2], "mapping", sys.argv[3], overrides=sys.argv[5:], progress=False, force=True)
 print(json.dumps({
     "wall_s": result.wall_s,
     "log_s": result.log_s,
@@ -80,6 +184,7 @@ print(json.dumps({
     "peak_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
     "base_kib": base,
     "messages": result.manifest["log"]["messages_read"],
+    "stages": stages.figures(),
 }))
 """
 
@@ -110,9 +215,9 @@ def record(out: Path, scenario: str, log: Path) -> None:
         subprocess.run(cmd, cwd=ROOT, env=env, stdout=f, stderr=subprocess.STDOUT, check=True)
 
 
-def replay(log: Path, out: Path, overrides: list[str]) -> dict:
+def replay(log: Path, out: Path, overrides: list[str], stages: bool = False) -> dict:
     proc = subprocess.run(
-        [sys.executable, "-c", CHILD, str(ROOT), str(log), str(out), *overrides],
+        [sys.executable, "-c", STAGES_CODE + CHILD, str(ROOT), str(log), str(out), "1" if stages else "0", *overrides],
         cwd=ROOT,
         capture_output=True,
         text=True,
@@ -140,9 +245,17 @@ def whole_process(log: Path, out: Path, overrides: list[str]) -> tuple[float, fl
 
 
 def speed(
-    label: str, log: Path, work: Path, overrides: list[str], repeat: int, target: float, process: bool = False
+    label: str,
+    log: Path,
+    work: Path,
+    overrides: list[str],
+    repeat: int,
+    target: float,
+    process: bool = False,
+    stages: bool = True,
 ) -> None:
-    """Real-time factors of `repeat` replays: of the replay span, and with ``process`` of whole processes."""
+    """Real-time factors of `repeat` replays: of the replay span, and with ``process`` of whole processes;
+    with ``stages``, where the time goes in one more (instrumented) replay."""
     runs = [replay(log, work / "out", overrides) for _ in range(repeat)]
     log_s = runs[0]["log_s"]
     print(f"{label}: {log_s:.1f} s of log, {runs[0]['messages']} messages read, {repeat} run(s)")
@@ -157,14 +270,34 @@ def speed(
             f"{best:.1f}x real time best, {median:.1f}x median (target >= {target:g}x: median/target {median / target:.2f})"
         )
         print(f"  {what:7s} CPU  {min(cpus):.2f} s best -> {log_s / min(cpus):.1f}x real time per CPU second")
+    if stages:
+        print_stages(replay(log, work / "out", overrides, stages=True)["stages"])
+
+
+def print_stages(st: dict) -> None:
+    """The CPU seconds of one replay by stage (main thread) and by thread (the others)."""
+    main = st["main_thread_cpu_s"]
+    print("  where the time goes (one more replay, instrumented; CPU s of the replay span, imports excluded):")
+    print(f"    {'main thread':48s} {main:6.2f} s")
+    top = 0.0
+    for stage, cpu, calls in st["main"]:
+        print(f"      {stage:46s} {cpu:6.2f} s  {100 * cpu / main:4.1f} %  ({calls} calls)")
+        top += 0.0 if stage.startswith(("2D:  ", "3D:  ")) else cpu  # indented rows are parts of the row above
+    print(
+        f"      {'the rest: executor, TF buffers, messages out':46s} {main - top:6.2f} s  {100 * (main - top) / main:4.1f} %"
+    )
+    for what, cpu in st["threads"]:
+        print(f"    {what:48s} {cpu:6.2f} s")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--repeat", type=int, default=3, help="runs of the 2D replay (the 3D one runs once)")
+    ap.add_argument("--repeat", type=int, default=3, help="runs of the 2D replay")
+    ap.add_argument("--repeat-3d", type=int, default=1, help="runs of the 3D replay (each also as a whole process)")
     ap.add_argument("--workdir", type=Path, help="keep the logs here (and reuse them); default: a temporary folder")
     ap.add_argument("--skip-3d", action="store_true", help="skip (b)")
     ap.add_argument("--skip-memory", action="store_true", help="skip (c) and the patrol recordings")
+    ap.add_argument("--no-stages", action="store_true", help="skip the instrumented replays (where the time goes)")
     args = ap.parse_args()
 
     work = args.workdir or Path(tempfile.mkdtemp(prefix="navlog-bench-replay-"))
@@ -192,9 +325,19 @@ def main() -> None:
             args.repeat,
             100.0,
             process=True,
+            stages=not args.no_stages,
         )
         if not args.skip_3d:
-            speed("(b) 3D mapping replay (full pipeline)", mapping, work, [], 1, 6.0)
+            speed(
+                "(b) 3D mapping replay (full pipeline)",
+                mapping,
+                work,
+                [],
+                args.repeat_3d,
+                6.0,
+                process=True,
+                stages=not args.no_stages,
+            )
         if not args.skip_memory:
             print("(c) peak resident memory, full mapping pipeline")
             figures = {}

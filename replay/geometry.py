@@ -15,9 +15,10 @@ Conventions:
 Some quantities have two implementations that differ in their floating-point steps (SciPy's
 ``Rotation`` steps against a closed form, two slerp variants); both are kept where callers' outputs
 depend on the exact bits, and each docstring says which steps it takes. ``quat_from_rpy`` and
-``quat_to_matrix`` take SciPy's steps in plain Python floats (bit for bit SciPy's results, without
-loading SciPy, which costs the recorder's start-up 0.3-1 s); the rest of SciPy's conversions import it
-when first called.
+``quat_to_matrix``, and ``matrix_to_quat``, ``matrices_to_canonical_quats`` and ``matrix_to_rotvec``
+for orthonormal matrices, take SciPy's steps in plain Python floats (bit for bit SciPy's results,
+without loading SciPy, which costs the recorder's start-up 0.3-1 s and a short replay half a second,
+and without its per-call overhead); the rest of SciPy's conversions import it when first called.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import numpy as np
 __all__ = [
     "cell_to_world",
     "make_transform",
+    "matrices_to_canonical_quats",
     "matrices_to_quats",
     "matrix_to_quat",
     "matrix_to_rotvec",
@@ -250,11 +252,68 @@ def unit_quats_to_matrices(q: np.ndarray) -> np.ndarray:
     return out
 
 
-def matrix_to_quat(r: np.ndarray) -> Quat:
-    """Quaternion (w >= 0) of a 3x3 rotation matrix, through SciPy."""
-    from scipy.spatial.transform import Rotation
+def _scipy_quat(r: np.ndarray) -> Quat | None:
+    """The quaternion SciPy's ``Rotation.from_matrix(r)`` holds (sign as it leaves it), to the bit, in
+    plain Python floats: the largest of the diagonal and the trace picks the formula (Markley's
+    method), then divided by ``sqrt(x^2 + y^2 + z^2 + w^2)``. None unless ``r`` is orthonormal to
+    1e-13 and right-handed: SciPy first projects other matrices onto a rotation (an SVD), so they go
+    through SciPy."""
+    rows = np.asarray(r, dtype=np.float64).reshape(3, 3).tolist()
+    for p in range(3):
+        for q in range(p, 3):
+            dot = rows[p][0] * rows[q][0] + rows[p][1] * rows[q][1] + rows[p][2] * rows[q][2]
+            if not abs(dot - (1.0 if p == q else 0.0)) <= 1e-13:  # (NaN fails too)
+                return None
+    (a, b, c), (d, e, f), (g, h, i) = rows
+    if not a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g) > 0:
+        return None
+    trace = a + e + i
+    decision = (a, e, i, trace)
+    choice = max(range(4), key=decision.__getitem__)  # the first largest, as numpy's argmax
+    if choice == 3:
+        x, y, z, w = h - f, c - g, d - b, 1 + trace
+    else:
+        j, k = (choice + 1) % 3, (choice + 2) % 3
+        out = [0.0, 0.0, 0.0, 0.0]
+        out[choice] = 1 - trace + 2 * rows[choice][choice]
+        out[j] = rows[j][choice] + rows[choice][j]
+        out[k] = rows[k][choice] + rows[choice][k]
+        out[3] = rows[k][j] - rows[j][k]
+        x, y, z, w = out
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    return x / n, y / n, z / n, w / n
 
-    return tuple(Rotation.from_matrix(np.asarray(r, dtype=np.float64)).as_quat(canonical=True))  # type: ignore[return-value]
+
+def _canonical(q: Quat) -> Quat:
+    """``q`` or ``-q``, whichever has its first non-zero of w, x, y, z positive (SciPy's canonical sign)."""
+    x, y, z, w = q
+    if w < 0 or (w == 0 and (x < 0 or (x == 0 and (y < 0 or (y == 0 and z < 0))))):
+        return -x, -y, -z, -w
+    return q
+
+
+def matrix_to_quat(r: np.ndarray) -> Quat:
+    """Quaternion (w >= 0) of a 3x3 rotation matrix: SciPy's ``Rotation.from_matrix(r).as_quat(canonical=True)``
+    to the bit (``_scipy_quat``; SciPy itself for a matrix that is not orthonormal)."""
+    q = _scipy_quat(r)
+    if q is None:
+        from scipy.spatial.transform import Rotation
+
+        return tuple(Rotation.from_matrix(np.asarray(r, dtype=np.float64)).as_quat(canonical=True))  # type: ignore[return-value]
+    return _canonical(q)
+
+
+def matrices_to_canonical_quats(r: np.ndarray) -> np.ndarray:
+    """(K, 4) quaternions (w >= 0) of rotation matrices (K, 3, 3), ``matrix_to_quat`` of each: SciPy's
+    ``Rotation.from_matrix(r).as_quat(canonical=True)`` to the bit (SciPy itself when a matrix is not
+    orthonormal)."""
+    m = np.asarray(r, dtype=np.float64).reshape(-1, 3, 3)
+    quats = [_scipy_quat(one) for one in m]
+    if any(q is None for q in quats):
+        from scipy.spatial.transform import Rotation
+
+        return Rotation.from_matrix(m).as_quat(canonical=True)
+    return np.array([_canonical(q) for q in quats if q is not None], dtype=np.float64).reshape(-1, 4)
 
 
 def matrices_to_quats(r: np.ndarray) -> np.ndarray:
@@ -298,10 +357,23 @@ def rotvecs_to_matrices(v: np.ndarray) -> np.ndarray:
 
 
 def matrix_to_rotvec(r: np.ndarray) -> np.ndarray:
-    """Rotation vector (axis times angle, radians) of a 3x3 rotation matrix, through SciPy."""
-    from scipy.spatial.transform import Rotation
+    """Rotation vector (axis times angle, radians) of a 3x3 rotation matrix: SciPy's
+    ``Rotation.from_matrix(r).as_rotvec()`` to the bit (``_scipy_quat`` with w made >= 0, angle
+    ``2 atan2(|xyz|, w)``, scaled by ``angle / sin(angle / 2)`` or, at most 1e-3 rad, its series;
+    SciPy itself for a matrix that is not orthonormal)."""
+    q = _scipy_quat(r)
+    if q is None:
+        from scipy.spatial.transform import Rotation
 
-    return Rotation.from_matrix(r).as_rotvec()
+        return Rotation.from_matrix(r).as_rotvec()
+    x, y, z, w = (-v for v in q) if q[3] < 0 else q
+    angle = 2 * math.atan2(math.sqrt(x * x + y * y + z * z), w)
+    if angle <= 1e-3:
+        angle2 = angle * angle
+        scale = 2 + angle2 / 12 + 7 * angle2 * angle2 / 2880
+    else:
+        scale = angle / math.sin(angle / 2)
+    return np.array([scale * x, scale * y, scale * z])
 
 
 def rotation_angle(r: np.ndarray) -> float:

@@ -20,6 +20,7 @@ from typing import NamedTuple
 import numpy as np
 
 from navlog.errors import NavlogError
+from navlog.replay.geometry import matrices_to_canonical_quats
 
 __all__ = [
     "HEADER",
@@ -83,12 +84,9 @@ def write_tum(
 
 
 def write_poses(path: str | Path, times_ns: Iterable[int], poses: Iterable[np.ndarray]) -> Path:
-    """Write 4x4 poses as a TUM file."""
-    from scipy.spatial.transform import Rotation
-
+    """Write 4x4 poses as a TUM file (quaternions as SciPy's ``Rotation.from_matrix(...).as_quat(canonical=True)``)."""
     mats = np.asarray(list(poses), dtype=np.float64).reshape(-1, 4, 4)
-    quats = Rotation.from_matrix(mats[:, :3, :3]).as_quat(canonical=True) if len(mats) else np.zeros((0, 4))
-    return write_tum(path, list(times_ns), mats[:, :3, 3], quats)
+    return write_tum(path, list(times_ns), mats[:, :3, 3], matrices_to_canonical_quats(mats[:, :3, :3]))
 
 
 # ---------------------------------------------------------------- reading

@@ -26,6 +26,7 @@ from navlog.replay.mapping.occupancy_kernels import scan_kernel
 from navlog.replay.occupancy_map import OccupancyMap
 
 MAX_CELLS = 1_000_000_000  # a grid larger than this (4 GB of log-odds) comes from a pose or range far off
+NUMPY_BEAM_GROUPS = 4  # beams of similar length updated together on the NumPy path (``_update_numpy``)
 MAX_COORDINATE = 1e6  # m; a grid reaching farther from the map origin comes from a pose or range far off
 
 
@@ -222,11 +223,41 @@ class OccupancyGrid2D:
     def _update_numpy(
         self, t: np.ndarray, last: np.ndarray, d2c: np.ndarray, g0: np.ndarray, end_cells: np.ndarray
     ) -> None:
-        """``occupancy_kernels.scan_update`` with (beams x samples) NumPy arrays: the same bits."""
+        """``occupancy_kernels.scan_update`` with (beams x samples) NumPy arrays: the same bits.
+
+        The beams are taken in ``NUMPY_BEAM_GROUPS`` groups of similar length (sorted by their number
+        of free samples), each group's arrays as long as its longest beam: a room's beams are mostly
+        short, so this computes about half the samples one array as long as the longest beam would."""
         ny, nx = self.logodds.shape
         ncell = ny * nx
-        # the (beams x samples) arrays live in reused work buffers: allocating them afresh for every
-        # scan costs more (page faults) than the arithmetic
+        mask = self._work("mask", np.int8, (ncell + 1,))
+        mask.fill(0)
+        samples = np.maximum(np.searchsorted(t, last, side="right"), 1)  # the sensor's own sample at least
+        order = np.argsort(samples, kind="stable")
+        bounds = np.linspace(0, len(order), NUMPY_BEAM_GROUPS + 1).astype(int)
+        for lo, hi in zip(bounds[:-1], bounds[1:]):
+            if hi > lo:
+                beams = order[lo:hi]
+                mask[self._crossed(t[: samples[beams[-1]]], last[beams], d2c[beams], g0, nx, ncell).reshape(-1)] = 1
+        # a beam's own end cell is not cleared by it (nor by grazing neighbours in this scan)
+        mask[end_cells] = 2
+        mask = mask[:ncell]
+        flat = self.logodds.reshape(-1)
+        seen = self.seen.reshape(-1)
+        f = np.flatnonzero(mask == 1)
+        o = np.flatnonzero(mask == 2)
+        flat[f] = np.maximum(flat[f] + self.l_miss, self.l_min)
+        flat[o] = np.minimum(flat[o] + self.l_hit, self.l_max)
+        seen[f] = True
+        seen[o] = True
+
+    def _crossed(
+        self, t: np.ndarray, last: np.ndarray, d2c: np.ndarray, g0: np.ndarray, nx: int, ncell: int
+    ) -> np.ndarray:
+        """(beams x samples) flat cells of the beams' samples at ``t``; ``ncell`` (a spare cell) for
+        samples past a beam's free part."""
+        # the arrays live in reused work buffers: allocating them afresh for every scan costs more
+        # (page faults) than the arithmetic
         shape = (len(last), len(t))
         x = self._work("x", np.float32, shape)
         gx = self._work("gx", np.intp, shape)
@@ -243,24 +274,11 @@ class OccupancyGrid2D:
         np.greater(t[None, :], last[:, None], out=past)
         past[:, 0] = False  # the sensor's own cell is always crossed
         np.copyto(cell, ncell, where=past)  # samples past a beam's free part go to a spare cell
-        mask = self._work("mask", np.int8, (ncell + 1,))
-        mask.fill(0)
-        mask[cell.reshape(-1)] = 1
-        # a beam's own end cell is not cleared by it (nor by grazing neighbours in this scan)
-        mask[end_cells] = 2
-        mask = mask[:ncell]
-        flat = self.logodds.reshape(-1)
-        seen = self.seen.reshape(-1)
-        f = np.flatnonzero(mask == 1)
-        o = np.flatnonzero(mask == 2)
-        flat[f] = np.maximum(flat[f] + self.l_miss, self.l_min)
-        flat[o] = np.minimum(flat[o] + self.l_hit, self.l_max)
-        seen[f] = True
-        seen[o] = True
+        return cell
 
     def _work(self, name: str, dtype, shape: tuple[int, ...]) -> np.ndarray:
         """A reusable work array of ``shape`` (contents undefined), grown when a scan needs more."""
-        n = int(np.prod(shape))
+        n = math.prod(shape)
         buf = self._buffers.get(name)
         if buf is None or buf.size < n:
             buf = np.empty(max(n, 0 if buf is None else buf.size + buf.size // 4), dtype=dtype)

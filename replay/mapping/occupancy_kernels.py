@@ -12,10 +12,11 @@ Plain Python runs the same function (slowly); ``kernels()`` compiles it with num
 without numba, and the grid keeps its NumPy path.
 
 ``scan_kernel()`` is what the grid asks for each scan. Loading numba and the cached kernel costs a
-process about 0.4-0.6 s, and the kernel saves about 0.9 ms per 720-beam scan against the NumPy path
-(2-core machine: 0.8 against 1.7 ms per ``insert_scan``), so it pays for itself only after some 500
-scans: a 2D replay of the 138 s mapping tour inserts 356. The grid therefore takes the NumPy path for
-the first ``NUMPY_SCANS`` scans of a process and the compiled kernel after them (at most twice the
+process about 0.4-0.6 s, and the kernel saves about 0.3 ms per 720-beam scan against the NumPy path
+(2-core machine, the mapping tour's scans: 0.75 against 1.05 ms per ``insert_scan``, the NumPy path
+taking the beams in groups of similar length), so it pays for itself only after some 1500 scans: a
+2D replay of the 138 s mapping tour inserts 356. The grid therefore takes the NumPy path for the
+first ``NUMPY_SCANS`` scans of a process and the compiled kernel after them (at most twice the
 better choice's time, whatever the length); both give the same bits.
 """
 

@@ -114,3 +114,42 @@ def test_rigid_inverse_undoes_a_transform_as_a_general_inverse_does():
     # a known one: 90 degrees about z at (1, 2, 3) -> back: (-2, 1, -3)
     t = g.unit_quat_transform((1.0, 2.0, 3.0), g.quat_from_yaw(math.pi / 2))
     np.testing.assert_allclose(g.rigid_inverse(t)[:3, 3], (-2.0, 1.0, -3.0), atol=1e-15)
+
+
+def rotations_of_every_kind(seed: int) -> np.ndarray:
+    """Random rotations, compositions of them, small angles, half turns (w = 0), the identity and the
+    axis-aligned half turns: each of the quaternion formulas and both rotation-vector branches."""
+    rng = np.random.default_rng(seed)
+    q = rng.normal(size=(4000, 4))
+    mats = g.unit_quats_to_matrices(q / np.linalg.norm(q, axis=1, keepdims=True))
+    axes = rng.normal(size=(500, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    small = g.rotvecs_to_matrices(axes * rng.choice([1e-2, 2e-3, 1e-3, 1e-5], size=(500, 1)))
+    half = g.rotvecs_to_matrices(axes * math.pi)
+    special = np.array([np.eye(3), np.diag([1.0, -1, -1]), np.diag([-1.0, 1, -1]), np.diag([-1.0, -1, 1])])
+    return np.concatenate([mats, mats[:500] @ mats[500:1000], small, half, special])
+
+
+def test_matrix_quaternions_and_rotation_vectors_are_scipys_to_the_bit():
+    mats = rotations_of_every_kind(9)
+    want_q = Rotation.from_matrix(mats).as_quat(canonical=True)
+    assert g.matrices_to_canonical_quats(mats).tobytes() == want_q.tobytes()
+    assert np.array(g.matrix_to_quat(mats[-2])).tolist() == [0.0, 1.0, 0.0, 0.0]  # diag(-1, 1, -1)
+    for m, q in zip(mats[::7], want_q[::7]):
+        assert np.array(g.matrix_to_quat(m)).tobytes() == q.tobytes()
+        assert g.matrix_to_rotvec(m).tobytes() == Rotation.from_matrix(m).as_rotvec().tobytes()
+    np.testing.assert_allclose(g.matrix_to_rotvec(np.diag([-1.0, -1, 1])), [0.0, 0.0, math.pi])
+
+
+def test_a_matrix_that_is_not_a_rotation_goes_through_scipy():
+    # SciPy makes it orthonormal first (an SVD): the result is SciPy's, not the formula's on the raw matrix
+    skewed = np.array([[1.0, 1e-6, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    assert g._scipy_quat(skewed) is None and g._scipy_quat(np.diag([1.0, 1.0, -1.0])) is None  # a reflection
+    assert g._scipy_quat(np.full((3, 3), np.nan)) is None
+    assert (
+        np.array(g.matrix_to_quat(skewed)).tobytes() == Rotation.from_matrix(skewed).as_quat(canonical=True).tobytes()
+    )
+    assert g.matrix_to_rotvec(skewed).tobytes() == Rotation.from_matrix(skewed).as_rotvec().tobytes()
+    both = np.stack([np.eye(3), skewed])
+    assert g.matrices_to_canonical_quats(both).tobytes() == Rotation.from_matrix(both).as_quat(canonical=True).tobytes()
+    assert g.matrices_to_canonical_quats(np.zeros((0, 3, 3))).shape == (0, 4)

@@ -12,14 +12,17 @@ global voxel store that becomes the saved point-cloud map.
 from __future__ import annotations
 
 import math
+import threading
+from typing import TYPE_CHECKING
 
 import numpy as np
-import open3d as o3d
-from scipy.spatial import cKDTree
 
 from navlog.replay.geometry import rotation_angle
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
 from navlog.replay.mapping.lidar_odometry.preprocess import downsample, point_cloud, sorted_points, voxel_sums
+
+if TYPE_CHECKING:
+    import open3d as o3d
 
 
 def keyframe_due(params: LidarOdometryParams, last_key: np.ndarray | None, pose: np.ndarray) -> bool:
@@ -38,6 +41,8 @@ class LocalMap:
     cloud built from them (with covariances for GICP)."""
 
     def __init__(self, params: LidarOdometryParams) -> None:
+        import open3d as o3d  # loaded by the Open3D methods only (the vgicp method needs neither it nor SciPy)
+
         self.params = params
         self.cloud = o3d.geometry.PointCloud()
         self._keys = np.zeros(0, dtype=np.int64)  # sorted voxel keys of the local map points
@@ -62,6 +67,9 @@ class LocalMap:
         the registration), cropped around the pose; normals are estimated only for the new points and
         the map points within ``normal_radius`` of them (on the cloud of their neighbourhoods), the
         others keep theirs."""
+        import open3d as o3d
+        from scipy.spatial import cKDTree
+
         p = self.params
         if not self.is_keyframe(pose):
             return False
@@ -136,7 +144,12 @@ class VoxelStore:
 
 class GlobalMap:
     """Every registered frame in one ``VoxelStore`` at ``save_voxel`` (frames are buffered and added
-    in batches of about 400 000 points), and chunks of ``save_every_n_frames`` frames when asked."""
+    in batches of about 400 000 points), and chunks of ``save_every_n_frames`` frames when asked.
+
+    A batch is added to the store in a thread of its own while the next frames are registered (its
+    sort and copies release the GIL: they run on a second core); the batches are added one at a
+    time in the order they were flushed, so the store holds the same bits as adding them in line.
+    ``points`` waits for the last batch."""
 
     _BATCH_POINTS = 400_000
 
@@ -149,6 +162,8 @@ class GlobalMap:
         self._buffered = 0
         self._chunk: list[np.ndarray] = []
         self._chunk_frames = 0
+        self._adding: threading.Thread | None = None  # the batch being added to the store
+        self._error: BaseException | None = None  # raised by that batch, re-raised here
 
     def add(self, points_map: np.ndarray) -> None:
         self._buffer.append(points_map)
@@ -162,11 +177,29 @@ class GlobalMap:
                 self.close_chunk()
 
     def flush(self) -> None:
-        """Move the buffered frames into the store."""
+        """Move the buffered frames into the store (in the background: ``points`` waits for it)."""
         if not self._buffer:
             return
-        self.store.add(np.concatenate(self._buffer))
-        self._buffer, self._buffered = [], 0
+        batch, self._buffer, self._buffered = self._buffer, [], 0
+        self._wait()  # one batch at a time, in order: at most one batch in flight
+
+        def work() -> None:
+            try:
+                self.store.add(np.concatenate(batch))
+            except BaseException as exc:  # re-raised by the caller's next wait
+                self._error = exc
+
+        self._adding = threading.Thread(target=work, name="navlog-global-map", daemon=True)
+        self._adding.start()
+
+    def _wait(self) -> None:
+        """Wait for the batch being added; raise what it raised."""
+        if self._adding is not None:
+            self._adding.join()
+            self._adding = None
+        if self._error is not None:
+            error, self._error = self._error, None
+            raise error
 
     def close_chunk(self) -> None:
         """End the current chunk (if it holds any frame): voxel-filtered at ``save_voxel``, sorted."""
@@ -177,4 +210,5 @@ class GlobalMap:
 
     def points(self) -> np.ndarray:
         """(N, 3) the store's points (after ``flush``) in a deterministic order."""
+        self._wait()
         return sorted_points(self.store.points(), self.save_voxel)

@@ -5,18 +5,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import open3d as o3d
 
 from navlog.replay.geometry import matrix_to_rotvec, rotation_angle
 from navlog.replay.mapping.lidar_odometry.deskew import ConstantVelocity, MotionPrior, deskew_points, relative_motion
 from navlog.replay.mapping.lidar_odometry.local_map import GlobalMap, LocalMap
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
 from navlog.replay.mapping.lidar_odometry.preprocess import reduced, valid_points
-from navlog.replay.mapping.lidar_odometry.registration import Registrar
 from navlog.replay.mapping.lidar_odometry.voxel_map import GaussianLocalMap, GaussianRegistrar
+
+if TYPE_CHECKING:
+    from navlog.replay.mapping.lidar_odometry.registration import Registrar
 
 
 @dataclass
@@ -47,12 +48,16 @@ class _Threads:
 
     def __enter__(self) -> None:
         if self.active:
+            import open3d as o3d
+
             self.prev = o3d.utility.get_max_threads()
             if self.prev != self.n:
                 o3d.utility.set_max_threads(self.n)
 
     def __exit__(self, *exc) -> None:
         if self.active and self.prev != self.n:
+            import open3d as o3d
+
             o3d.utility.set_max_threads(self.prev)
 
 
@@ -104,7 +109,9 @@ class LidarOdometry:
         self.registrar: Registrar | GaussianRegistrar
         if params.method == "vgicp":
             self.local_map, self.registrar = GaussianLocalMap(params), GaussianRegistrar(params)
-        else:
+        else:  # Open3D's ICP: Open3D and SciPy are loaded for these methods only
+            from navlog.replay.mapping.lidar_odometry.registration import Registrar
+
             self.local_map, self.registrar = LocalMap(params), Registrar(params)
         self.global_store = GlobalMap(params.save_voxel, params.save_every_n_frames)
         self._velocity = ConstantVelocity()
@@ -235,8 +242,7 @@ class LidarOdometry:
     # -------------------------------------------------- results
     def global_map(self) -> np.ndarray:
         """(N, 3) every registered frame, voxel-filtered at ``save_voxel``, in a deterministic order."""
-        with _Threads(self.params.threads):
-            self.global_store.flush()
+        self.global_store.flush()  # NumPy only: no Open3D thread limit to set
         return self.global_store.points()
 
     def finish_chunks(self) -> list[np.ndarray]:

@@ -7,9 +7,13 @@ keys stay valid as a map grows and a surface at a round coordinate falls inside 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import open3d as o3d
 import small_gicp
+
+if TYPE_CHECKING:
+    import open3d as o3d
 
 _KEY_BITS = 21  # voxel indices within +-2**20 of the origin on each axis
 _KEY_OFFSET = 1 << (_KEY_BITS - 1)
@@ -28,6 +32,8 @@ def valid_points(points: np.ndarray, times: np.ndarray | None, min_range: float,
 
 def point_cloud(points: np.ndarray) -> o3d.geometry.PointCloud:
     """An Open3D cloud of (N, 3) points (copied as float64)."""
+    import open3d as o3d  # loaded when first asked for: the vgicp method does not use it
+
     return o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.ascontiguousarray(points, dtype=np.float64)))
 
 

@@ -10,14 +10,15 @@ rejected and the guess kept.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import open3d as o3d
 
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
 from navlog.replay.mapping.lidar_odometry.preprocess import downsample
 
-_reg = o3d.pipelines.registration
+if TYPE_CHECKING:
+    import open3d as o3d
 
 
 @dataclass(frozen=True)
@@ -34,6 +35,9 @@ class Registrar:
     """Runs ICP with the method, correspondence distance and stopping rule of the parameters."""
 
     def __init__(self, params: LidarOdometryParams) -> None:
+        import open3d as o3d  # loaded by these methods only (``Registration`` is the vgicp method's too)
+
+        _reg = o3d.pipelines.registration
         self.params = params
         self.estimation = (
             _reg.TransformationEstimationForGeneralizedICP()
@@ -56,11 +60,15 @@ class Registrar:
     ) -> Registration:
         """Register ``source`` (the downsampled scan) onto ``target`` (the local map) from ``guess`` (4x4),
         with correspondences within ``max_correspondence`` (the parameter's when None)."""
+        import open3d as o3d
+
         p = self.params
         distance = p.max_correspondence if max_correspondence is None else max_correspondence
         if p.method == "gicp":
             source.estimate_covariances(o3d.geometry.KDTreeSearchParamKNN(p.normal_max_nn))
-        result = _reg.registration_icp(source, target, distance, guess, self.estimation, self.criteria)
+        result = o3d.pipelines.registration.registration_icp(
+            source, target, distance, guess, self.estimation, self.criteria
+        )
         self.count += 1
         fitness, rmse = float(result.fitness), float(result.inlier_rmse)
         if fitness < p.min_fitness:

@@ -6,7 +6,15 @@ import numpy as np
 import pytest
 
 from navlog.errors import NavlogError
-from navlog.replay.io.tum import format_seconds, parse_seconds_ns, parse_tum, read_tum, write_poses, write_tum
+from navlog.replay.io.tum import (
+    format_rows,
+    format_seconds,
+    parse_seconds_ns,
+    parse_tum,
+    read_tum,
+    write_poses,
+    write_tum,
+)
 
 
 def test_seconds_are_exact_nanoseconds():
@@ -49,6 +57,23 @@ def test_write_creates_folders_and_poses_write_the_same_text(tmp_path):
     assert q.read_text().splitlines()[2] == (
         "0.500000000 1.000000000 0.000000000 2.000000000 0.000000000 0.000000000 0.000000000 1.000000000"
     )
+
+
+def test_pose_quaternions_are_scipys_bit_for_bit(tmp_path):
+    from scipy.spatial.transform import Rotation
+
+    from navlog.replay.geometry import quat_from_rpy, quat_to_matrix
+
+    poses = np.tile(np.eye(4), (4, 1, 1))
+    poses[1, :3, :3] = quat_to_matrix(quat_from_rpy(0.1, -0.2, 2.5))
+    poses[2, :3, :3] = np.diag([-1.0, -1.0, 1.0])  # a half turn: w = 0
+    # a matrix SciPy first projects onto a rotation (an SVD): the file takes SciPy's result for it too
+    poses[3, :3, :3] = [[1.0, 1e-6, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    for rows in (poses[:3], poses):
+        text = write_poses(tmp_path / "p.tum", range(len(rows)), list(rows)).read_text()
+        want = Rotation.from_matrix(rows[:, :3, :3]).as_quat(canonical=True)
+        assert text == format_rows(range(len(rows)), rows[:, :3, 3], want)
+    assert text.splitlines()[3].endswith(" 0.000000000 0.000000000 1.000000000 0.000000000")
 
 
 def test_comments_blank_lines_and_tabs_are_accepted():

@@ -150,3 +150,21 @@ def test_a_grid_gives_the_same_bits_when_the_kernel_switches_mid_run(monkeypatch
     assert switched.logodds.tobytes() == numpy_only.logodds.tobytes()
     assert switched.seen.tobytes() == numpy_only.seen.tobytes() and switched.seen.sum() > 1000
     assert "scan_mask" in switched._buffers and "scan_mask" not in numpy_only._buffers  # both paths ran
+
+
+@pytest.mark.parametrize("groups", [2, 4, 720])
+def test_the_numpy_path_gives_the_same_bits_whatever_the_beam_groups(monkeypatch, groups):
+    # beams of every length in one scan: grouped by length, each group's arrays only as long as its
+    # longest beam; one group (as long as the longest beam of the scan) is the reference
+    monkeypatch.setattr(occupancy_module, "scan_kernel", lambda: None)
+    scans = list(random_scans(11, 6))
+    grids = {}
+    for n in (1, groups):
+        monkeypatch.setattr(occupancy_module, "NUMPY_BEAM_GROUPS", n)
+        grids[n] = OccupancyGrid2D(OccupancyParams())
+        for p, ang, r in scans:
+            grids[n].insert_scan(p, ang, r, 0.1, 10.0)
+    assert grids[groups].logodds.tobytes() == grids[1].logodds.tobytes()
+    assert grids[groups].seen.tobytes() == grids[1].seen.tobytes() and grids[1].seen.sum() > 1000
+    # the largest work array of the grouped path holds fewer samples than 720 beams x the longest beam
+    assert grids[groups]._buffers["x"].size < grids[1]._buffers["x"].size

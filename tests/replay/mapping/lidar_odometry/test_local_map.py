@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from navlog.replay.mapping.lidar_odometry import GlobalMap, LidarOdometryParams, LocalMap, VoxelStore, voxel_sums
@@ -69,3 +70,39 @@ def test_global_map_chunks_of_n_frames():
     assert [len(c) for c in gm.chunks] == [800, 800, 400]
     gm.flush()
     assert len(gm.points()) == 5 * 400
+
+
+def test_global_map_adds_its_batches_in_the_background_with_the_bits_of_adding_them_in_line(monkeypatch):
+    monkeypatch.setattr(GlobalMap, "_BATCH_POINTS", 1000)  # a batch every third frame of 400 points
+    rng = np.random.default_rng(3)
+    frames = [rng.uniform(-2.0, 2.0, (400, 3)) + [0.3 * k, 0.0, 0.0] for k in range(20)]
+    gm = GlobalMap(0.05)
+    in_line = VoxelStore(0.05)
+    batch: list[np.ndarray] = []
+    for f in frames:
+        gm.add(f)
+        batch.append(f)
+        if sum(len(b) for b in batch) >= 1000:
+            in_line.add(np.concatenate(batch))
+            batch = []
+    gm.flush()
+    in_line.add(np.concatenate(batch))
+    got = gm.points()
+    assert gm._adding is None  # points() waited for the last batch
+    assert len(got) == len(in_line) > 5000
+    np.testing.assert_array_equal(gm.store.keys, in_line.keys)
+    assert gm.store.sums.tobytes() == in_line.sums.tobytes()  # same batches, same order: same sums
+
+
+def test_an_error_adding_a_batch_is_raised_by_the_next_call(monkeypatch):
+    gm = GlobalMap(0.05)
+    gm.add(np.zeros((10, 3)))
+
+    def broken(points: np.ndarray) -> None:
+        raise MemoryError("no room for the batch")
+
+    monkeypatch.setattr(gm.store, "add", broken)
+    gm.flush()  # the batch fails in the background
+    with pytest.raises(MemoryError, match="no room"):
+        gm.points()
+    assert len(gm.points()) == 0  # raised once; the store is as it was

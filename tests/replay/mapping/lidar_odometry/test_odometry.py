@@ -48,3 +48,26 @@ def test_all_nan_and_too_few_points_are_counted():
     assert odo.process(2, np.ones((10, 3)), np.zeros(4)) is None
     assert odo.skipped == {"too_few_points": 2, "time_field_length_mismatch": 1}
     assert len(odo.poses()[0]) == 0
+
+
+def test_the_vgicp_odometry_loads_neither_open3d_nor_scipy():
+    # a second or so of a replay's start-up: they serve the Open3D methods only
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from navlog.replay.mapping.lidar_odometry import LidarOdometry, LidarOdometryParams\n"
+        "import navlog.replay.nodes.lidar_mapper, navlog.replay.pipelines.mapping\n"
+        "import numpy as np\n"
+        "odo = LidarOdometry(LidarOdometryParams(method='vgicp'))\n"
+        "rng = np.random.default_rng(0)\n"
+        "for k in range(3):\n"
+        "    odo.process(k * 100_000_000, rng.uniform(-5, 5, (2000, 3)))\n"
+        "assert len(odo.global_map()) > 1000\n"
+        "print('open3d' in sys.modules, 'scipy' in sys.modules)\n"
+        "LidarOdometry(LidarOdometryParams(method='point_to_plane'))\n"
+        "print('open3d' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["False", "False", "True"]
