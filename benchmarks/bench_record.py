@@ -3,20 +3,23 @@
 The run is `navlog record --world indoor_room --robot go2 --scenario mapping --seed 7` (about 138 s
 of sim time with the default sensor set: scan 10 Hz x 720 beams, 3D LiDAR 10 Hz x 16 x 720 rays,
 IMU 200 Hz, odometry / TF / ground truth 50 Hz, clock 100 Hz). `--duration S` cuts the mapping
-tour after S seconds of sim time for a quicker look. The recorder writes from a second thread, so
-the process may use both cores (`--pin` pins it to the idlest one). Prints, all measured in the
-same run:
+tour after S seconds of sim time for a quicker look. The recorder writes from a second thread and
+casts the laser and the LiDAR in a worker process, so the recording may use both cores (`--pin`
+pins the process to the idlest one: `record()` then keeps the sensors in its own process, as it does
+on one CPU; `--in-process` keeps them there anyway). Prints, all measured in the same run:
 
 1. start-up: process start to the first simulated step of `navlog record` (a fresh process per
    sample, stopped at its first step), median of `--runs`, against the 1.0 s target, and which heavy
    libraries are loaded by then (SciPy must not be: nothing in a recording needs it);
 2. the record real-time factor (sim s / wall s), median of `--runs` recordings, against the 20x
-   target, with the CPU time of each thread (the simulation's and the writer's), and the
+   target, with the CPU time of each thread (the simulation's and the writer's) and of the sensor
+   worker process (its start-up included: it imports Open3D and builds the world mesh), and the
    simulation floor, alternated with them: the same tour (the recording's own /cmd_vel commands
    at their times) with physics, drive control and ray casting only — no sensor models, no
    messages, no serialization, no writing. Record wall / floor wall against the 2.0 target; the
    floor's final pose must equal the recording's (it is the same tour);
-3. a per-stage breakdown from one extra, instrumented recording (physics and drive control, ray
+3. a per-stage breakdown from one extra, instrumented recording, with the sensors in the
+   simulation's process so that every stage is timed (physics and drive control, ray
    casting, sensor models, message building, executor, serialization in the simulation's thread;
    compression and MCAP records + file writing in the writer thread); the wrappers add a little time;
 4. the writing throughput against its ceiling: the messages of that recording written by the raw
@@ -61,12 +64,14 @@ import numpy as np  # noqa: E402
 import open3d  # noqa: E402, F401  (imported up front, so that no run's CPU time includes the import)
 from mcap.writer import CompressionType, Writer  # noqa: E402
 
+import navlog.recorder.range_sensors as range_mod  # noqa: E402
 import navlog.recorder.record as record_mod  # noqa: E402
 import navlog.recorder.sim as sim_mod  # noqa: E402
 from navlog.recorder import sensors  # noqa: E402
 from navlog.recorder.record import prepare, record  # noqa: E402
 from navlog.recorder.sim import TICK_NS, SimNode, SimOptions, mat_to_quat  # noqa: E402
 from navlog.replay import messages  # noqa: E402
+from navlog.replay.io import logwriter  # noqa: E402
 from navlog.replay.io.logwriter import McapLogWriter  # noqa: E402
 from navlog.version import __version__  # noqa: E402
 
@@ -170,6 +175,11 @@ class _ThreadTimes:
         McapLogWriter._drain = self._real_drain  # type: ignore[method-assign]
 
 
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
 def commands_of(path: Path) -> list[tuple[int, tuple[float, float, float]]]:
     """The /cmd_vel commands of a recording: (time ns, (vx, vy, wz))."""
     from navlog.replay.io import open_log
@@ -248,9 +258,10 @@ def clean_runs(args, work: Path) -> dict:
         setup = setup_for(args.seed, args.duration)
         path = work / "run.mcap"
         with _ThreadTimes() as threads:
-            c0, m0 = time.process_time(), time.thread_time()
-            res = record(setup, path, force=True, progress=False)
+            c0, m0, w0 = time.process_time(), time.thread_time(), _children_cpu()
+            res = record(setup, path, force=True, progress=False, sensor_worker=False if args.in_process else None)
             main_cpu, cpu = time.thread_time() - m0, time.process_time() - c0
+            worker_cpu = _children_cpu() - w0  # the sensor worker process, waited for when the run ends
         writer_cpu = threads.writer[-1] if threads.writer else 0.0
         digests.add(hashlib.sha256(path.read_bytes()).hexdigest())
         floor_wall, pose = floor_run(
@@ -263,13 +274,15 @@ def clean_runs(args, work: Path) -> dict:
             ("cpu", cpu),
             ("main_cpu", main_cpu),
             ("writer_cpu", writer_cpu),
+            ("worker_cpu", worker_cpu),
             ("floor", floor_wall),
             ("floor_ratio", res.wall_s / floor_wall),
         ):
             out[key].append(v)
         print(
             f"  run {i + 1}: sim {res.sim_s:.2f} s, wall {res.wall_s:.2f} s, {res.real_time_factor:.1f}x real time; "
-            f"CPU {cpu:.2f} s (simulation thread {main_cpu:.2f} s, writer thread {writer_cpu:.2f} s); "
+            f"CPU {cpu + worker_cpu:.2f} s (simulation thread {main_cpu:.2f} s, writer thread {writer_cpu:.2f} s, "
+            f"sensor worker process {worker_cpu:.2f} s); "
             f"floor {floor_wall:.2f} s ({res.sim_s / floor_wall:.1f}x), record / floor {res.wall_s / floor_wall:.2f}; "
             f"{res.size_bytes / 1e6:.1f} MB ({load()})",
             flush=True,
@@ -313,8 +326,8 @@ def instrumented_run(args, work: Path):
     proxy = types.SimpleNamespace(**{k: getattr(real_mujoco, k) for k in dir(real_mujoco) if not k.startswith("__")})
     proxy.mj_step = tm.wrap("physics", real_mujoco.mj_step)
     proxy.mj_kinematics = tm.wrap("physics", real_mujoco.mj_kinematics)
-    # sensor models (their ray casting is timed separately and subtracted)
-    real_sensors = sim_mod.sensors
+    # sensor models (their ray casting is timed separately and subtracted), as the laser and LiDAR call them
+    real_sensors = range_mod.sensors
     sproxy = types.SimpleNamespace(**{k: getattr(real_sensors, k) for k in dir(real_sensors) if not k.startswith("__")})
     sproxy.laser_ranges = tm.wrap("sensor models", real_sensors.laser_ranges)
     sproxy.lidar_sweep = tm.wrap("sensor models", real_sensors.lidar_sweep)
@@ -365,8 +378,8 @@ def instrumented_run(args, work: Path):
     zproxy = types.SimpleNamespace(compress=tm.wrap("compression", real_zstd.compress))
     real_scenario_timer = record_mod.ScenarioNode._on_timer
 
-    saved = (sim_mod.mujoco, sim_mod.sensors, record_mod.McapLogWriter, mcap.writer.zstandard)
-    sim_mod.mujoco, sim_mod.sensors, record_mod.McapLogWriter, mcap.writer.zstandard = (
+    saved = (sim_mod.mujoco, range_mod.sensors, record_mod.McapLogWriter, mcap.writer.zstandard)
+    sim_mod.mujoco, range_mod.sensors, record_mod.McapLogWriter, mcap.writer.zstandard = (
         proxy,
         sproxy,
         TimedWriter,
@@ -375,9 +388,16 @@ def instrumented_run(args, work: Path):
     sim_mod.SimNode.__init__ = sim_init
     record_mod.ScenarioNode._on_timer = tm.wrap("scenario node", real_scenario_timer)
     try:
-        res = record(setup_for(args.seed, args.duration), work / "instrumented.mcap", force=True, progress=False)
+        # in one process, so that every stage is timed (a worker process would hide the sensors' stages)
+        res = record(
+            setup_for(args.seed, args.duration),
+            work / "instrumented.mcap",
+            force=True,
+            progress=False,
+            sensor_worker=False,
+        )
     finally:
-        sim_mod.mujoco, sim_mod.sensors, record_mod.McapLogWriter, mcap.writer.zstandard = saved
+        sim_mod.mujoco, range_mod.sensors, record_mod.McapLogWriter, mcap.writer.zstandard = saved
         sim_mod.SimNode.__init__ = real_sim_init
         record_mod.ScenarioNode._on_timer = real_scenario_timer
     return tm, res, captured, writer_args
@@ -424,7 +444,7 @@ def chunk_size_default() -> int:
 def write_ceiling(path: Path, prepared, metadata) -> float:
     """The raw mcap Writer given pre-serialized messages, laid out as McapLogWriter lays them out."""
     t0 = time.perf_counter()
-    with open(path, "wb") as f:
+    with open(path, "wb") as f, logwriter._compressing_at(logwriter.ZSTD_LEVEL):  # navlog's zstd level
         w = Writer(f, compression=CompressionType.ZSTD, chunk_size=chunk_size_default())
         w.start(profile="ros2", library=f"navlog {__version__}")
         schemas: dict[str, int] = {}
@@ -515,6 +535,9 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--pin", action="store_true", help="pin the process to the idlest CPU (one core for both threads)")
     ap.add_argument("--keep", type=Path, help="keep the outputs in this folder")
+    ap.add_argument(
+        "--in-process", action="store_true", help="recordings with the laser and LiDAR in the simulation's process"
+    )
     args = ap.parse_args()
     if args.pin:
         cpu = idlest_cpu()
@@ -532,7 +555,8 @@ def main() -> int:
             f"target {TARGET_STARTUP_S:.1f} s: ratio {su / TARGET_STARTUP_S:.2f}; loaded at the first step: "
             f"{loaded.replace(',', ', ') or 'none of scipy, open3d, mujoco, rosbags'}"
         )
-        print(f"recording: {cmd}, {args.runs} runs, each followed by a floor run ({load()})", flush=True)
+        where = "the laser and LiDAR in the simulation's process" if args.in_process else "as `navlog record` does"
+        print(f"recording: {cmd} ({where}), {args.runs} runs, each followed by a floor run ({load()})", flush=True)
         r = clean_runs(args, work)
         rtf, ratio = statistics.median(r["rtf"]), statistics.median(r["floor_ratio"])
         med = statistics.median
@@ -547,7 +571,8 @@ def main() -> int:
         )
         print(
             f"CPU time per recording (median): simulation thread {med(r['main_cpu']):.2f} s, writer thread "
-            f"{med(r['writer_cpu']):.2f} s, process {med(r['cpu']):.2f} s (wall {med(r['wall']):.2f} s)"
+            f"{med(r['writer_cpu']):.2f} s, process {med(r['cpu']):.2f} s; sensor worker process "
+            f"{med(r['worker_cpu']):.2f} s (its start-up included) (wall {med(r['wall']):.2f} s)"
         )
         print(f"sha256 {r['digest'][0]}")
         tm, res, captured, writer_args = instrumented_run(args, work)

@@ -9,15 +9,18 @@ that filters velocity commands (``Pipeline.commands``: the safety filters take /
 A run ends early, with a whole file of what was recorded, when its
 ``stop`` event is set (the command line sets it on Ctrl-C; the library installs no signal handler).
 
-Both cores work: the simulation runs in the caller's thread, and the MCAP writer's thread compresses
-and writes beside it (``McapLogWriter(background=True)``: a bounded queue, the same bytes). MuJoCo
-and Open3D are imported in the caller's thread when first needed: imports hold the GIL, so importing
-Open3D in a second thread only made the two imports contend (start-up was slower, measured).
+Both cores work: the simulation runs in the caller's thread, the MCAP writer's thread compresses
+and writes beside it (``McapLogWriter(background=True)``: a bounded queue, the same bytes), and the
+laser and the LiDAR (ray casting with Open3D, which holds the GIL, their sensor models and CDR) run
+in a worker process (``navlog.recorder.range_sensors``) when this process may use more than one CPU:
+the same file as in one process. The worker is started first and imports Open3D and builds the
+world mesh while this process compiles the MuJoCo model; this process then never imports Open3D.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import threading
 import time
 from collections.abc import Sequence
@@ -25,6 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from navlog.errors import ConfigError
+from navlog.recorder.range_sensors import InOrderSink, start_range_sensors
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, load_robot
 from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
 from navlog.recorder.world import World, load_world
@@ -151,6 +155,7 @@ def record(
     pipeline: Pipeline | None = None,
     navigation: Pipeline | None = None,
     stop: threading.Event | None = None,
+    sensor_worker: bool | None = None,
 ) -> RecordResult:
     """Simulate ``setup`` and write every topic to ``out`` (MCAP); see the module docstring.
 
@@ -163,70 +168,89 @@ def record(
 
     ``stop``, when set (from another thread or a signal handler), ends the run within a second of sim
     time; the file is then closed cleanly with what was recorded and the result says ``interrupted``.
+
+    ``sensor_worker``: cast the laser and the LiDAR in a worker process beside the simulation (the
+    same file either way; ``navlog.recorder.range_sensors``); None: when this process may use more
+    than one CPU (on one, the worker's start-up and messages would only add to the same core's work).
     """
     out = Path(out)
     check_output(out, force)
     command_topic = scenario_command_topic(pipeline)
-    from navlog.recorder.sim import SimNode, SimOptions
+    # the sensor worker first, so that its start-up runs beside MuJoCo's import and model compilation
+    if sensor_worker is None:
+        cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else range(os.cpu_count() or 1)
+        sensor_worker = len(cpus) > 1
+    ranges = start_range_sensors(setup.world, setup.robot, setup.seed, setup.noise, worker=sensor_worker)
+    try:
+        from navlog.recorder.sim import SimNode, SimOptions
 
-    options = SimOptions(
-        seed=setup.seed,
-        noise=setup.noise,
-        start=setup.scenario.start,
-        localization="perfect" if setup.localization == "perfect" else "none",
-    )
-    sim = SimNode(setup.world, setup.robot, options)
-    nodes: list[Node] = []
-    if setup.scenario.kind == "navigate":
-        from navlog.recorder.navigation import navigation_pipeline, world_map_node
+        options = SimOptions(
+            seed=setup.seed,
+            noise=setup.noise,
+            start=setup.scenario.start,
+            localization="perfect" if setup.localization == "perfect" else "none",
+        )
+        sim = SimNode(setup.world, setup.robot, options, ranges=ranges)
+    except BaseException:
+        if ranges is not None:
+            ranges.close()
+        raise
+    try:
+        nodes: list[Node] = []
+        if setup.scenario.kind == "navigate":
+            from navlog.recorder.navigation import navigation_pipeline, world_map_node
 
-        if navigation is None:
-            navigation = navigation_pipeline(setup.scenario, setup.seed)
-        map_server = world_map_node(setup.scenario, setup.world)
-        nodes += [map_server] if map_server is not None else []
-    if setup.localization == "amcl":
-        from navlog.recorder.navigation import amcl_node
+            if navigation is None:
+                navigation = navigation_pipeline(setup.scenario, setup.seed)
+            map_server = world_map_node(setup.scenario, setup.world)
+            nodes += [map_server] if map_server is not None else []
+        if setup.localization == "amcl":
+            from navlog.recorder.navigation import amcl_node
 
-        nodes.append(amcl_node(setup.scenario, setup.world, setup.seed))
-    done = navigation.done if navigation is not None else None
-    driver = ScenarioNode(setup.scenario, setup.robot, command_topic=command_topic, navigation_done=done)
-    ex = Executor()
-    ex.add_node(sim, source=True)
-    collisions = CollisionCounter()
-    nodes += [driver, collisions]
-    nodes += navigation.nodes if navigation is not None else []
-    for node in [*nodes, *live_nodes, *(pipeline.nodes if pipeline is not None else [])]:
-        ex.add_node(node)
-    meta = setup.metadata()
-    max_ns = int(setup.scenario.max_duration * 1e9)
-    stop = stop if stop is not None else threading.Event()
-    start = time.perf_counter()
-    with Progress(expected_duration(setup), "recording", "sim s", enabled=progress) as bar:
-        with McapLogWriter(out, force=force, metadata={"navlog": meta}, background=True) as writer:
-            ex.add_sink(writer)
-            t = 0
-            while not stop.is_set():  # looked at after every second of sim time
-                t += 1_000_000_000
-                ex.run(until_ns=min(t, max_ns))
-                bar.update(ex.now / 1e9)
-                end = driver.finished_ns
-                if end is not None and ex.now >= end:
-                    break
-                if ex.now >= max_ns:
-                    break
-            ex.finish()
-        interrupted = stop.is_set()
-        if not interrupted:  # the run is complete: the estimated length becomes the real one
-            bar.update(ex.now / 1e9, total=ex.now / 1e9)
-    wall = time.perf_counter() - start
-    counts = {}
-    types = writer.topic_types
-    for topic, n in sorted(ex.stats.published.items()):
-        counts[topic] = (types.get(topic, ""), n)
-    report = navigation.report() if navigation is not None and navigation.report is not None else None
-    return RecordResult(
-        out, ex.now / 1e9, wall, out.stat().st_size, counts, interrupted, meta, collisions.count, report
-    )
+            nodes.append(amcl_node(setup.scenario, setup.world, setup.seed))
+        done = navigation.done if navigation is not None else None
+        driver = ScenarioNode(setup.scenario, setup.robot, command_topic=command_topic, navigation_done=done)
+        ex = Executor()
+        ex.add_node(sim, source=True)
+        collisions = CollisionCounter()
+        nodes += [driver, collisions]
+        nodes += navigation.nodes if navigation is not None else []
+        for node in [*nodes, *live_nodes, *(pipeline.nodes if pipeline is not None else [])]:
+            ex.add_node(node)
+        meta = setup.metadata()
+        max_ns = int(setup.scenario.max_duration * 1e9)
+        stop = stop if stop is not None else threading.Event()
+        start = time.perf_counter()
+        with Progress(expected_duration(setup), "recording", "sim s", enabled=progress) as bar:
+            with McapLogWriter(out, force=force, metadata={"navlog": meta}, background=True) as writer:
+                sink = InOrderSink(writer)  # the worker's scans and sweeps in their places
+                ex.add_sink(sink)
+                t = 0
+                while not stop.is_set():  # looked at after every second of sim time
+                    t += 1_000_000_000
+                    ex.run(until_ns=min(t, max_ns))
+                    bar.update(ex.now / 1e9)
+                    end = driver.finished_ns
+                    if end is not None and ex.now >= end:
+                        break
+                    if ex.now >= max_ns:
+                        break
+                ex.finish()
+                sink.close()
+            interrupted = stop.is_set()
+            if not interrupted:  # the run is complete: the estimated length becomes the real one
+                bar.update(ex.now / 1e9, total=ex.now / 1e9)
+        wall = time.perf_counter() - start
+        counts = {}
+        types = writer.topic_types
+        for topic, n in sorted(ex.stats.published.items()):
+            counts[topic] = (types.get(topic, ""), n)
+        report = navigation.report() if navigation is not None and navigation.report is not None else None
+        return RecordResult(
+            out, ex.now / 1e9, wall, out.stat().st_size, counts, interrupted, meta, collisions.count, report
+        )
+    finally:
+        sim.close()  # the sensor worker ends with the run, however it ends
 
 
 class CollisionCounter(Node):

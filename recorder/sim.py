@@ -17,6 +17,18 @@ The messages (clock, IMU, odometry, TF, scan, cloud) of a topic no node subscrib
 their CDR bytes, encoded directly from the values (``navlog.replay.io.cdr``): the recorder writes
 the same bytes the message objects would serialize to, without building them.
 
+The 2D laser and the 3D LiDAR (ray casting, sensor models, noise, CDR) are a ``RangeSensors``
+(``navlog.recorder.range_sensors``), in this process or in a worker process beside it
+(``SimOptions.sensor_worker``). When a node subscribes to their topic, the simulator waits for the
+result and publishes it at its tick, as every other sensor. When only sinks see it, the worker's
+result is not waited for: a ``PendingMessage`` is published at the tick in its place, and filled with
+the CDR bytes at a later tick, once they have come (at the latest when ``MAX_AHEAD`` newer requests
+of that sensor wait, or when the run finishes), while the simulation went on; the recorder's sink
+(``InOrderSink``) writes every message in the order published, holding those behind a pending one
+until it is filled. So the file does not depend on when a result came: it is the same with or
+without the worker, however fast it was. Sinks of a simulator with a worker must be wrapped in an
+``InOrderSink``.
+
 Odometry model (documented in the README):
 - legged: the true body-frame velocity, scaled by ``1 + linear_scale_error``, plus ``yaw_rate_bias``
   and white noise, integrated at the odometry rate: it drifts like CHAMP's leg odometry.
@@ -39,8 +51,16 @@ from typing import Literal
 import numpy as np
 
 from navlog.recorder import sensors
+from navlog.recorder.range_sensors import (
+    LIDAR,
+    SCAN,
+    InProcessSensors,
+    PendingMessage,
+    RangeSensorsLike,
+    start_range_sensors,
+)
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, add_to_spec
-from navlog.recorder.world import World, build_spec, import_mujoco, world_mesh
+from navlog.recorder.world import World, build_spec, import_mujoco
 from navlog.replay import messages
 from navlog.replay.geometry import (
     planar_matrix,
@@ -60,6 +80,10 @@ TICK_NS = 5_000_000  # 200 Hz
 EVENTS_TOPIC = "/navlog/events"
 CONTACT_GAP_NS = 100_000_000  # a contact episode ends after this long without touching (pressing on a wall flickers)
 CLOCK_PERIOD_NS = 10_000_000  # /clock at 100 Hz
+# raw scans or sweeps of a sensor the simulation may have asked the worker for and not received (module
+# docstring): 2 s of sim time at 10 Hz, so that it runs ahead while the worker starts or falls behind for a
+# moment, and the messages held behind them stay few (about what the MCAP writer holds for its chunks)
+MAX_AHEAD = 20
 _ZEROS36 = (0.0,) * 36  # the covariances of the simulator's odometry
 _HOMOGENEOUS_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
@@ -70,6 +94,7 @@ class SimOptions:
     noise: bool = True
     start: tuple[float, float, float] = (0.0, 0.0, 0.0)
     localization: Literal["perfect", "none"] = "perfect"  # none: no map -> odom on /tf
+    sensor_worker: bool = False  # the laser and the LiDAR in a worker process (module docstring)
 
 
 def mat_to_quat(mat: np.ndarray) -> tuple[float, float, float, float]:
@@ -120,19 +145,32 @@ def _period_ns(rate: float) -> int:
 class SimNode(Node):
     name = "sim"
 
-    def __init__(self, world: World, robot: RobotSpec, options: SimOptions) -> None:
+    def __init__(
+        self, world: World, robot: RobotSpec, options: SimOptions, ranges: RangeSensorsLike | None = None
+    ) -> None:
+        """``ranges``: the laser and the LiDAR, already started (``start_range_sensors``, for the same
+        world, robot, seed and noise); by default they are started here, per ``options.sensor_worker``."""
         super().__init__()
         self.world = world
         self.robot = robot
         self.options = options
-        spec = build_spec(world)
-        add_to_spec(spec, robot, options.start)
-        self.model = spec.compile()
+        # the laser and the LiDAR first: a worker process builds its scene while MuJoCo compiles here
+        if ranges is None:
+            ranges = start_range_sensors(world, robot, options.seed, options.noise, worker=options.sensor_worker)
+        self._ranges = ranges
+        try:
+            spec = build_spec(world)
+            add_to_spec(spec, robot, options.start)
+            self.model = spec.compile()
+        except BaseException:
+            self.close()  # the worker ends with the simulator that could not be built
+            raise
         self.data = mujoco.MjData(self.model)
         self.substeps = max(1, int(round(TICK_NS / 1e9 / self.model.opt.timestep)))
-        self.caster = sensors.RayCaster(world_mesh(world))
-        streams = np.random.SeedSequence(options.seed).spawn(4)
-        self.rng_odom, self.rng_imu, self.rng_scan, self.rng_lidar = (np.random.default_rng(s) for s in streams)
+        streams = np.random.SeedSequence(options.seed).spawn(4)  # odometry, IMU, laser, LiDAR (range_sensors)
+        self.rng_odom, self.rng_imu = (np.random.default_rng(s) for s in streams[:2])
+        # raw scans and sweeps of the worker published before their bytes came (module docstring): (ticket, message)
+        self._late: dict[str, deque[tuple[int, PendingMessage]]] = {SCAN: deque(), LIDAR: deque()}
         self.legged = robot.drive.type == "legged"
         self._bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "base_link")
         # contacts: which geoms are the robot's, which are world obstacles (static, not the floor)
@@ -211,6 +249,8 @@ class SimNode(Node):
             )
         f = robot.frames
         self._frame_names = {
+            "scan": robot.frame(robot.scan.frame) if robot.scan else "",
+            "lidar": robot.frame(robot.lidar.frame) if robot.lidar else "",
             "world": f.world,
             "map": f.map,
             "odom": robot.frame(f.odom),
@@ -239,6 +279,13 @@ class SimNode(Node):
                 for n in ("left", "right")
             ]
         mujoco.mj_forward(m, d)
+
+    @property
+    def caster(self) -> sensors.RayCaster:
+        """The ray caster of the laser and the LiDAR, when they run in this process."""
+        if not isinstance(self._ranges, InProcessSensors):
+            raise RuntimeError("the laser and the LiDAR run in a worker process (SimOptions.sensor_worker)")
+        return self._ranges.caster
 
     def base_pose(self) -> np.ndarray:
         """True 4x4 pose of base_link in the world frame."""
@@ -506,19 +553,58 @@ class SimNode(Node):
 
     def _publish_scan(self, t_ns: int, base: np.ndarray) -> None:
         cfg = self.robot.scan
-        assert cfg is not None  # scheduled only for a configured sensor
+        assert cfg is not None and self._ranges is not None  # scheduled only for a configured sensor
         pose = self.sensor_pose(base, cfg.frame)
-        ranges = sensors.laser_ranges(self.caster, cfg, pose, self.rng_scan if self.options.noise else None)
-        build = sensors.scan_cdr if self._raw(cfg.topic) else sensors.scan_message
-        self.publish(cfg.topic, messages.LASER_SCAN, build(t_ns, self.robot.frame(cfg.frame), cfg, ranges))
+        raw = self._raw(cfg.topic)
+        ticket = self._ranges.request(SCAN, (t_ns, pose, raw))
+        if raw:
+            self._publish_raw(SCAN, cfg.topic, messages.LASER_SCAN, ticket)
+        else:
+            ranges = self._ranges.result(ticket)
+            self.publish(
+                cfg.topic, messages.LASER_SCAN, sensors.scan_message(t_ns, self._frame_names["scan"], cfg, ranges)
+            )
 
     def _publish_lidar(self, t_ns: int) -> None:
         cfg = self.robot.lidar
-        assert cfg is not None  # scheduled only for a configured sensor
-        window = [((tp - t_ns) / 1e9, self.sensor_pose(b, cfg.frame)) for tp, b in self._pose_history]
-        cols = sensors.lidar_sweep(
-            self.caster, cfg, self._lidar_frames, window, self.rng_lidar if self.options.noise else None
-        )
+        assert cfg is not None and self._ranges is not None  # scheduled only for a configured sensor
+        times = tuple((tp - t_ns) / 1e9 for tp, _ in self._pose_history)
+        poses = np.stack([self.sensor_pose(b, cfg.frame) for _, b in self._pose_history])
+        raw = self._raw(cfg.topic)
+        ticket = self._ranges.request(LIDAR, (t_ns, self._lidar_frames, times, poses, raw))
         self._lidar_frames += 1
-        build = sensors.cloud_cdr if self._raw(cfg.topic) else make_cloud
-        self.publish(cfg.topic, messages.POINT_CLOUD2, build(t_ns, self.robot.frame(cfg.frame), cols))
+        if raw:
+            self._publish_raw(LIDAR, cfg.topic, messages.POINT_CLOUD2, ticket)
+        else:
+            cols = self._ranges.result(ticket)
+            self.publish(cfg.topic, messages.POINT_CLOUD2, make_cloud(t_ns, self._frame_names["lidar"], cols))
+
+    def _publish_raw(self, kind: str, topic: str, typename: str, ticket: int) -> None:
+        """Publish the CDR bytes of request ``ticket`` now (in this process), or a ``PendingMessage`` in their
+        place, filled once they have come (module docstring)."""
+        ranges = self._ranges
+        if isinstance(ranges, InProcessSensors):
+            self.publish(topic, typename, ranges.result(ticket))
+            return
+        assert ranges is not None
+        pending = PendingMessage()
+        self.publish(topic, typename, pending)
+        held = self._late[kind]
+        held.append((ticket, pending))
+        while held and (len(held) > MAX_AHEAD or ranges.ready(held[0][0])):
+            ticket, pending = held.popleft()
+            pending.fill(ranges.result(ticket))
+
+    def finish(self) -> None:
+        """Fill the raw results still to come, in request order, and end the sensor worker."""
+        if self._ranges is not None:
+            for ticket, pending in sorted((*self._late[SCAN], *self._late[LIDAR]), key=lambda h: h[0]):
+                pending.fill(self._ranges.result(ticket))
+        for held in self._late.values():
+            held.clear()
+        self.close()
+
+    def close(self) -> None:
+        """End the sensor worker, if any (``finish`` does; call it when a run ends otherwise)."""
+        if self._ranges is not None:
+            self._ranges.close()

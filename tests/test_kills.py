@@ -341,3 +341,63 @@ def test_record_over_an_existing_output_on_a_full_disk_keeps_it(tmp_path, workbe
     assert _digest(out) == commands["record"].reference
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap"]
     assert os.path.getsize(out) > 20_000_000
+
+
+# --- the sensor worker of a recording -------------------------------------------------------------------------
+
+
+def _children(pid: int) -> list[int]:
+    try:
+        return [int(c) for c in Path(f"/proc/{pid}/task/{pid}/children").read_text().split()]
+    except FileNotFoundError:
+        return []
+
+
+def _running(pid: int) -> bool:
+    """True while ``pid`` runs (a zombie has ended: only its exit status waits to be collected)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads child processes from /proc")
+@pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="on one CPU a recording starts no worker")
+@pytest.mark.parametrize("how", ["kill -9", "Ctrl-C"])
+def test_a_stopped_recording_leaves_no_sensor_worker(tmp_path, how):
+    """The laser and LiDAR worker process ends with its recording: killed (its request pipe closes) or
+    interrupted (the recording closes its file, then ends the worker and waits for it)."""
+    out = tmp_path / "run.mcap"
+    argv = ["record", "--world", "indoor_room", "--scenario", "mapping", "--seed", "3", "-o", str(out)]
+    proc = subprocess.Popen([str(NAVLOG), "-q", *argv], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    while not (workers := _children(proc.pid)) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert workers, "no sensor worker process was started"
+    (worker,) = workers
+    cmdline = Path(f"/proc/{worker}/cmdline")
+    while "range_sensors" not in cmdline.read_text() and time.monotonic() < deadline:
+        time.sleep(0.01)  # forked, not yet the new program
+    assert "navlog.recorder.range_sensors" in cmdline.read_text()
+    part = out.with_name(out.name + ".part")
+    while proc.poll() is None and time.monotonic() < deadline and (not part.exists() or part.stat().st_size < 2e6):
+        time.sleep(0.01)  # well into the run: its first chunks are written
+    proc.send_signal(signal.SIGKILL if how == "kill -9" else signal.SIGINT)
+    code = proc.wait(timeout=60)
+    deadline = time.monotonic() + 10
+    while _running(worker) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert not _running(worker)
+    if how == "Ctrl-C":
+        assert code == 130, proc.stderr.read().decode() if proc.stderr else ""
+        _mcap_complete_any(out)
+    else:
+        assert code == -signal.SIGKILL and not out.exists()
+
+
+def _mcap_complete_any(path: Path) -> None:
+    from navlog.replay.io import open_log
+
+    with open_log(path) as reader:
+        assert not reader.report.truncated
+        assert reader.topics["/scan"].count > 5 and reader.topics["/livox/lidar"].count > 5

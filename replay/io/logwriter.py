@@ -17,6 +17,10 @@ messages as another. A replay that reads only scans, TF, odometry and commands t
 decompresses the clouds (MCAP chunks may overlap in time; readers merge them through the chunk and
 message indexes, and at equal log times the rest comes before the bulk data, so the transform of a
 cloud's stamp arrives before the cloud). A log without bulk channels is chunked as before.
+
+Chunks are compressed with zstd at level 2 (``ZSTD_LEVEL``), not mcap's default 3: on recorded logs
+level 2 compresses about 1.75x faster for a file under 1 % larger (measured: level 3 116 MB/s, ratio
+0.629; level 2 204 MB/s, ratio 0.633; level 1 274 MB/s, ratio 0.766). Readers need nothing new.
 """
 
 from __future__ import annotations
@@ -24,9 +28,12 @@ from __future__ import annotations
 import os
 import queue
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import mcap.writer
 from mcap.writer import CompressionType, Writer
 
 from navlog.errors import NavlogError
@@ -44,6 +51,50 @@ def check_output(path: Path, force: bool) -> None:
         raise NavlogError(f"{path}: already exists; choose another name or pass --force to overwrite it")
     if not path.parent.exists():
         raise NavlogError(f"{path.parent}: output folder does not exist")
+
+
+ZSTD_LEVEL = 2  # zstd level of the chunks (module docstring)
+
+
+class _ZstdLevel(threading.local):
+    """The zstd level of the chunks a thread compresses: zstandard's default unless a navlog writer
+    is writing in that thread (``McapLogWriter._level``)."""
+
+    level = 3
+
+
+_LEVEL = _ZstdLevel()
+
+
+class _LeveledZstd:
+    """Stands in for the ``zstandard`` module inside ``mcap.writer``, whose ``Writer`` compresses every
+    chunk with ``zstandard.compress(data)`` (level 3) and offers no option for the level: that module
+    global, looked up at each chunk, is the only hook (the chunk code is in a private method). The
+    stand-in compresses at the level of the calling thread, which is 3 except while a ``McapLogWriter``
+    writes in it, so that other users of mcap's writer in the process get mcap's bytes as before."""
+
+    def __init__(self, module: Any) -> None:
+        self._module = module
+
+    def compress(self, data: bytes, level: int | None = None) -> bytes:
+        return self._module.compress(data, _LEVEL.level if level is None else level)  # type: ignore[no-any-return]
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._module, name)
+
+
+if mcap.writer.zstandard is not None and not isinstance(mcap.writer.zstandard, _LeveledZstd):
+    mcap.writer.zstandard = _LeveledZstd(mcap.writer.zstandard)  # type: ignore[assignment]
+
+
+@contextmanager
+def _compressing_at(level: int) -> Iterator[None]:
+    """Chunks compressed in this thread inside the block use zstd level ``level``."""
+    saved, _LEVEL.level = _LEVEL.level, level
+    try:
+        yield
+    finally:
+        _LEVEL.level = saved
 
 
 # message types whose chunks hold nothing else (they are most of a log's bytes and few replays read them)
@@ -158,10 +209,13 @@ class McapLogWriter:
         if (topic, typename) not in self._checked:
             self._check(topic, typename)
         if self._thread is None:
+            saved, _LEVEL.level = _LEVEL.level, ZSTD_LEVEL
             try:
                 self._put(topic, typename, time_ns, data, self.count)
             except OSError as exc:
                 raise write_error(self.path, exc) from None
+            finally:
+                _LEVEL.level = saved
         else:
             self._batch.append((topic, typename, time_ns, data, self.count))
             self._batch_size += len(data)
@@ -218,6 +272,7 @@ class McapLogWriter:
             self._batch_size = 0
 
     def _drain(self) -> None:
+        _LEVEL.level = ZSTD_LEVEL  # the writer's own thread
         put = self._put
         while (batch := self._queue.get()) is not None:
             if self._error is not None:
@@ -252,10 +307,11 @@ class McapLogWriter:
             self.abort()
             raise
         try:
-            self._release()
-            for name in sorted(self._metadata):
-                self._writer.add_metadata(name, {k: str(v) for k, v in self._metadata[name].items()})
-            self._writer.finish()
+            with _compressing_at(ZSTD_LEVEL):
+                self._release()
+                for name in sorted(self._metadata):
+                    self._writer.add_metadata(name, {k: str(v) for k, v in self._metadata[name].items()})
+                self._writer.finish()
             self._file.flush()
             os.fsync(self._file.fileno())
             self._file.close()

@@ -192,3 +192,47 @@ def test_a_log_without_bulk_channels_is_chunked_by_size(tmp_path: Path) -> None:
     assert len(chunks) == 3  # about 650 kB of messages in 256 kB chunks, not one chunk per second of log
     assert all(ci.uncompressed_size > 256 << 10 for ci in chunks[:-1])
     assert all(ci.message_end_time - ci.message_start_time > 4_000_000_000 for ci in chunks[:-1])
+
+
+def _chunks(path: Path) -> list:
+    from mcap.records import Chunk
+    from mcap.stream_reader import StreamReader
+
+    with open(path, "rb") as f:
+        return [r for r in StreamReader(f, emit_chunks=True).records if isinstance(r, Chunk)]
+
+
+@pytest.mark.parametrize("background", [False, True])
+def test_chunks_are_zstd_level_2_and_read_back_through_both_readers(tmp_path: Path, background: bool) -> None:
+    import zstandard
+    from mcap.reader import make_reader
+    from mcap.writer import CompressionType, Writer
+
+    envs = _envelopes(3000)
+    path = tmp_path / "run.mcap"
+    _write(path, envs, background=background)
+    chunks = _chunks(path)
+    assert len(chunks) >= 3 and all(c.compression == "zstd" for c in chunks)
+    for c in chunks:
+        raw = zstandard.decompress(c.data)
+        assert len(raw) == c.uncompressed_size
+        assert c.data == zstandard.compress(raw, 2) != zstandard.compress(raw, 3)
+    # a plain mcap Writer in the same process keeps mcap's own level 3
+    plain = tmp_path / "plain.mcap"
+    with open(plain, "wb") as f:
+        w = Writer(f, compression=CompressionType.ZSTD, chunk_size=1 << 18)
+        w.start(profile="ros2", library="test")
+        cid = w.register_channel("/x", "cdr", w.register_schema("X", "ros2msg", b""))
+        for i in range(3000):
+            w.add_message(cid, log_time=i, publish_time=i, data=bytes(range(i % 200)) * 20)
+        w.finish()
+    assert all(c.data == zstandard.compress(zstandard.decompress(c.data), 3) for c in _chunks(plain))
+    # every message back, in time order, the same bytes, through navlog's reader and mcap's
+    expected = [
+        (e.topic, e.time_ns, e.msg if isinstance(e.msg, bytes) else messages.serialize(e.msg, e.typename)) for e in envs
+    ]
+    with open_log(path) as reader:
+        assert [(e.topic, e.time_ns, bytes(e.msg)) for e in reader.messages(decode=False)] == expected
+    with open(path, "rb") as f:
+        got = [(ch.topic, m.log_time, m.data) for _, ch, m in make_reader(f).iter_messages(log_time_order=True)]
+    assert got == expected

@@ -1,0 +1,176 @@
+"""The laser and the LiDAR in a worker process: the same log as in one process, and failures named."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navlog.errors import NavlogError
+from navlog.recorder import sim
+from navlog.recorder.range_sensors import SCAN, InOrderSink, PendingMessage, SensorWorker, start_range_sensors
+from navlog.recorder.record import prepare, record
+from navlog.recorder.robot import load_robot
+from navlog.recorder.world import load_world
+from navlog.replay.io import open_log
+from navlog.replay.runtime.executor import Envelope, Node
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+class _Listen(Node):
+    """Subscribes to the scan and the cloud, so that the simulator waits for them and builds their objects."""
+
+    name = "listen"
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.got: list[tuple[str, int, int]] = []  # (topic, time, ranges or points)
+
+    def setup(self) -> None:
+        self.subscribe("/scan", lambda msg, t: self.got.append(("/scan", t, len(msg.ranges))))
+        self.subscribe("/livox/lidar", lambda msg, t: self.got.append(("/livox/lidar", t, msg.width)))
+
+
+def _setup(scenario: str, seconds: float):
+    setup = prepare("indoor_room", "go2", scenario, seed=11)
+    setup.scenario = dataclasses.replace(setup.scenario, max_duration=seconds)
+    return setup
+
+
+@pytest.mark.parametrize("subscribed", [False, True], ids=["only-recorded", "subscribed"])
+def test_the_worker_writes_the_bytes_of_one_process(tmp_path: Path, subscribed: bool, monkeypatch) -> None:
+    logs, heard = [], []
+    ahead_default = sim.MAX_AHEAD
+    # the worker with room to fall behind, the worker waited for at once, and no worker
+    for worker, ahead in ((True, ahead_default), (True, 1), (False, 0)):
+        if subscribed and ahead == 1:
+            continue  # nothing is published before it is computed
+        monkeypatch.setattr(sim, "MAX_AHEAD", ahead)
+        listen = _Listen()
+        out = tmp_path / f"{worker}-{ahead}.mcap"
+        res = record(
+            _setup("mapping", 2.0),
+            out,
+            progress=False,
+            sensor_worker=worker,
+            live_nodes=[listen] if subscribed else (),
+        )
+        assert res.sim_s == 2.0
+        logs.append(out.read_bytes())
+        heard.append(listen.got)
+    assert all(log == logs[-1] for log in logs)
+    with open_log(tmp_path / f"True-{ahead_default}.mcap") as reader:
+        scans = [(e.time_ns, len(e.msg.ranges)) for e in reader.messages(["/scan"])]
+        clouds = [e.time_ns for e in reader.messages(["/livox/lidar"])]
+    assert scans == [(t * 100_000_000, 720) for t in range(21)]  # 10 Hz from t = 0, 720 beams
+    assert clouds == [t * 100_000_000 for t in range(1, 21)]  # a sweep ends every 100 ms after the first
+    if subscribed:  # the listener heard every scan and sweep at its stamp, the same in both runs
+        assert heard[0] == heard[-1]
+        assert [(t, n) for topic, t, n in heard[0] if topic == "/scan"] == scans
+        assert [t for topic, t, _ in heard[0] if topic == "/livox/lidar"] == clouds
+        assert all(n == 16 * 720 for topic, _, n in heard[0] if topic == "/livox/lidar")  # every ray returns indoors
+    else:
+        assert heard == [[], [], []]
+
+
+@pytest.mark.parametrize("cpus", [2, 1])
+def test_the_simulators_process_never_imports_open3d_unless_on_one_cpu(tmp_path: Path, cpus: int) -> None:
+    """By default the worker is used when the process may run on more than one CPU: on one, it would only
+    add its start-up and messages to that CPU's work, so the sensors stay in the simulator's process."""
+    allowed = sorted(os.sched_getaffinity(0))
+    if len(allowed) < cpus:
+        pytest.skip(f"needs {cpus} CPUs")
+    code = (
+        "import dataclasses, os, sys\n"
+        f"os.sched_setaffinity(0, {set(allowed[:cpus])!r})\n"
+        "from navlog.recorder.record import prepare, record\n"
+        "s = prepare('indoor_room', 'go2', 'mapping', seed=11)\n"
+        "s.scenario = dataclasses.replace(s.scenario, max_duration=0.5)\n"
+        f"record(s, {str(tmp_path / 'x.mcap')!r}, progress=False)\n"
+        "print('open3d' in sys.modules, 'mujoco' in sys.modules)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == [str(cpus == 1), "True"]
+
+
+def _worker() -> SensorWorker:
+    ranges = start_range_sensors(load_world("indoor_room"), load_robot("go2"), 3, False, worker=True)
+    assert isinstance(ranges, SensorWorker)
+    return ranges
+
+
+def _scan_from_the_origin(ranges) -> np.ndarray:
+    pose = np.eye(4)
+    pose[2, 3] = 0.3
+    return ranges.result(ranges.request(SCAN, (0, pose, False)))
+
+
+def test_a_scan_from_the_worker_equals_one_cast_here() -> None:
+    here = start_range_sensors(load_world("indoor_room"), load_robot("go2"), 3, False, worker=False)
+    worker = _worker()
+    try:
+        got = _scan_from_the_origin(worker)
+    finally:
+        worker.close()
+    assert worker._process.returncode == 0  # ended by the closed pipe, and waited for: no zombie
+    expected = _scan_from_the_origin(here)
+    assert got.dtype == np.float32 and len(got) == 720
+    np.testing.assert_array_equal(got, expected)
+    assert np.min(got) > 0.12 and np.isfinite(got).sum() > 300  # walls and obstacles around, none inside the body
+
+
+def test_an_error_in_the_worker_is_raised_with_its_traceback() -> None:
+    worker = _worker()
+    with pytest.raises(NavlogError, match=r"sensor worker \(the laser and LiDAR process, pid \d+\) failed:") as info:
+        worker.result(worker.request("lidar", (0, "not a frame index")))
+    assert "Traceback" in str(info.value) and "TypeError" in str(info.value)
+    assert worker._process.returncode is not None
+
+
+def test_a_worker_killed_mid_recording_is_an_error_naming_it(tmp_path: Path, monkeypatch) -> None:
+    real = SensorWorker.request
+    killed: list[SensorWorker] = []
+
+    def request(self: SensorWorker, kind: str, args: tuple) -> int:
+        ticket = real(self, kind, args)
+        if ticket == 10:
+            os.kill(self._process.pid, signal.SIGKILL)
+            killed.append(self)
+        return ticket
+
+    monkeypatch.setattr(SensorWorker, "request", request)
+    with pytest.raises(NavlogError, match=r"sensor worker .* ended unexpectedly \(exit code -9\)"):
+        record(_setup("mapping", 3.0), tmp_path / "run.mcap", progress=False, sensor_worker=True)
+    assert killed and killed[0]._process.returncode == -9
+    assert list(tmp_path.iterdir()) == []  # the partial file is removed, as for any failed recording
+
+
+def test_the_in_order_sink_holds_messages_behind_a_pending_one() -> None:
+    class Collect:
+        def __init__(self) -> None:
+            self.got: list[tuple[str, int, object]] = []
+
+        def write(self, env: Envelope) -> None:
+            self.got.append((env.topic, env.time_ns, env.msg))
+
+    out = Collect()
+    sink = InOrderSink(out)
+    pending = PendingMessage()
+    sink.write(Envelope("/clock", "c", 0, b"a"))
+    sink.write(Envelope("/scan", "s", 0, pending))
+    sink.write(Envelope("/clock", "c", 10, b"b"))
+    assert out.got == [("/clock", 0, b"a")]
+    pending.fill(b"scan")
+    sink.write(Envelope("/clock", "c", 20, b"c"))
+    assert out.got == [("/clock", 0, b"a"), ("/scan", 0, b"scan"), ("/clock", 10, b"b"), ("/clock", 20, b"c")]
+    sink.write(Envelope("/scan", "s", 100, PendingMessage()))
+    with pytest.raises(NavlogError, match="1 message"):
+        sink.close()
