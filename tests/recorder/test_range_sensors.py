@@ -174,3 +174,31 @@ def test_the_in_order_sink_holds_messages_behind_a_pending_one() -> None:
     sink.write(Envelope("/scan", "s", 100, PendingMessage()))
     with pytest.raises(NavlogError, match="1 message"):
         sink.close()
+
+
+def test_the_command_line_chooses_where_the_sensors_run_and_the_log_is_the_same(tmp_path: Path) -> None:
+    scenario = tmp_path / "short.yaml"
+    scenario.write_text("name: short\nkind: teleop\ncommands: [{duration: 1.0, cmd: [0.2, 0, 0.1]}]\n")
+    logs = []
+    for where in ("worker", "in-process"):
+        out = tmp_path / f"{where}.mcap"
+        proc = subprocess.run(
+            [sys.executable, "-m", "navlog.cli", "-q", "record", "--scenario", str(scenario), "--seed", "4"]
+            + ["--sensors", where, "-o", str(out)],
+            cwd=REPO,
+            capture_output=True,
+            text=True,
+        )
+        assert proc.returncode == 0, proc.stderr
+        logs.append(out.read_bytes())
+    assert logs[0] == logs[1]
+    with open_log(tmp_path / "worker.mcap") as reader:
+        # 2 s of sim time (the 1 s command, then the stop): scans from t = 0 at 10 Hz, sweeps after the first
+        assert reader.topics["/scan"].count == 21 and reader.topics["/livox/lidar"].count == 20
+    bad = subprocess.run(
+        [sys.executable, "-m", "navlog.cli", "record", "--sensors", "gpu", "-o", str(tmp_path / "x.mcap")],
+        cwd=REPO,
+        capture_output=True,
+        text=True,
+    )
+    assert bad.returncode == 2 and "invalid choice: 'gpu'" in bad.stderr and "Traceback" not in bad.stderr
