@@ -30,8 +30,9 @@ without the file depending on when it came (``navlog.recorder.sim``).
 from __future__ import annotations
 
 import fcntl
+import json
 import os
-import pickle
+import struct
 import subprocess
 import sys
 import threading
@@ -39,6 +40,7 @@ import traceback
 from collections import deque
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -46,15 +48,18 @@ import numpy as np
 from navlog.errors import NavlogError
 from navlog.recorder import sensors
 from navlog.recorder.robot import LaserConfig, LidarConfig, RobotSpec
-from navlog.recorder.world import World, world_mesh
+from navlog.recorder.world import Solid, World, WorldSpec, world_mesh
+from navlog.replay.config import from_mapping, to_mapping
 from navlog.replay.runtime.executor import Envelope, Sink
 
 SCAN, LIDAR = "scan", "lidar"
 _PIPE_BYTES = 1 << 20  # room for whole sweeps in the pipes (Linux caps it at pipe-max-size, 1 MiB by default)
 _F_SETPIPE_SZ = getattr(fcntl, "F_SETPIPE_SZ", 1031)
 # a result's first byte tells what it is, without a tag to copy a sweep for: CDR bytes (of little-endian
-# CDR, whose header starts with a zero byte), a pickled object (the pickle protocol's marker), an error
-_CDR, _PICKLE, _ERROR = 0x00, 0x80, b"E"
+# CDR, whose header starts with a zero byte), arrays (``_pack_arrays``), an error
+_CDR, _ARRAYS, _ERROR = 0x00, ord("A"), b"E"
+_SCAN_REQUEST = struct.Struct("<qB")  # stamp, raw; then the 4x4 pose (float64)
+_LIDAR_REQUEST = struct.Struct("<qqIB")  # stamp, frame index, pose count, raw; then the times and poses
 
 
 @dataclass(frozen=True)
@@ -68,6 +73,87 @@ class RangeSensorSpec:
     lidar_frame: str
     scan_seed: np.random.SeedSequence | None  # None: no noise
     lidar_seed: np.random.SeedSequence | None
+
+
+def _spec_bytes(spec: RangeSensorSpec) -> bytes:
+    """The spec as JSON for the worker (plain data only: nothing the worker reads is unpickled or evaluated)."""
+
+    def seed(s: np.random.SeedSequence | None) -> dict | None:
+        return None if s is None else {"entropy": s.entropy, "spawn_key": list(s.spawn_key), "pool_size": s.pool_size}
+
+    return json.dumps(
+        {
+            "world": {"name": spec.world.name, "floor": spec.world.spec.floor, "path": str(spec.world.path)},
+            "solids": [to_mapping(s) for s in spec.world.solids],
+            "scan": None if spec.scan is None else to_mapping(spec.scan),
+            "lidar": None if spec.lidar is None else to_mapping(spec.lidar),
+            "scan_frame": spec.scan_frame,
+            "lidar_frame": spec.lidar_frame,
+            "scan_seed": seed(spec.scan_seed),
+            "lidar_seed": seed(spec.lidar_seed),
+        }
+    ).encode()
+
+
+def _spec_from_bytes(data: bytes) -> RangeSensorSpec:
+    d = json.loads(data)
+
+    def seed(s: dict | None) -> np.random.SeedSequence | None:
+        if s is None:
+            return None
+        return np.random.SeedSequence(s["entropy"], spawn_key=tuple(s["spawn_key"]), pool_size=s["pool_size"])
+
+    w = d["world"]
+    solids = [Solid(s["name"], s["shape"], tuple(s["center"]), s["yaw"], tuple(s["size"])) for s in d["solids"]]
+    return RangeSensorSpec(
+        World(WorldSpec(w["name"], floor=w["floor"]), solids, Path(w["path"])),
+        None if d["scan"] is None else from_mapping(LaserConfig, d["scan"]),
+        None if d["lidar"] is None else from_mapping(LidarConfig, d["lidar"]),
+        d["scan_frame"],
+        d["lidar_frame"],
+        seed(d["scan_seed"]),
+        seed(d["lidar_seed"]),
+    )
+
+
+def _request_bytes(kind: str, args: tuple) -> bytes:
+    """A scan's or a sweep's request as bytes: a fixed header, then the float64 times and poses."""
+    if kind == SCAN:
+        t_ns, pose, raw = args
+        return b"S" + _SCAN_REQUEST.pack(t_ns, raw) + np.ascontiguousarray(pose, dtype=np.float64).tobytes()
+    t_ns, frame_index, times, poses, raw = args
+    head = _LIDAR_REQUEST.pack(t_ns, frame_index, len(times), raw)
+    return b"L" + head + np.asarray(times, dtype=np.float64).tobytes() + np.asarray(poses, np.float64).tobytes()
+
+
+def _request_from_bytes(data: bytes) -> tuple[str, tuple]:
+    if data[:1] == b"S":
+        t_ns, raw = _SCAN_REQUEST.unpack_from(data, 1)
+        pose = np.frombuffer(data, np.float64, 16, 1 + _SCAN_REQUEST.size).reshape(4, 4)
+        return SCAN, (t_ns, pose, bool(raw))
+    t_ns, frame_index, n, raw = _LIDAR_REQUEST.unpack_from(data, 1)
+    at = 1 + _LIDAR_REQUEST.size
+    times = tuple(np.frombuffer(data, np.float64, n, at).tolist())
+    poses = np.frombuffer(data, np.float64, 16 * n, at + 8 * n).reshape(n, 4, 4)
+    return LIDAR, (t_ns, frame_index, times, poses, bool(raw))
+
+
+def _pack_arrays(arrays: dict[str, np.ndarray]) -> bytes:
+    """Named arrays as bytes: a JSON header (name, dtype, shape of each), then their data in that order."""
+    arrays = {k: np.ascontiguousarray(v) for k, v in arrays.items()}
+    head = json.dumps([[k, v.dtype.str, list(v.shape)] for k, v in arrays.items()]).encode()
+    return bytes([_ARRAYS]) + struct.pack("<I", len(head)) + head + b"".join(v.tobytes() for v in arrays.values())
+
+
+def _unpack_arrays(data: bytes) -> dict[str, np.ndarray]:
+    (n,) = struct.unpack_from("<I", data, 1)
+    at = 5 + n
+    out = {}
+    for name, dtype, shape in json.loads(data[5:at]):
+        a = np.frombuffer(data, np.dtype(dtype), int(np.prod(shape)), at).reshape(shape).copy()
+        out[name] = a
+        at += a.nbytes
+    return out
 
 
 class RangeSensors:
@@ -157,16 +243,16 @@ class SensorWorker:
         self._arrived = threading.Condition()
         self._reader = threading.Thread(target=self._read, name="navlog-sensor-results", daemon=True)
         self._reader.start()
-        self._send(spec)
+        self._send(_spec_bytes(spec))
 
-    def _send(self, obj: object) -> None:
+    def _send(self, data: bytes) -> None:
         try:
-            self._requests.send_bytes(pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL))
+            self._requests.send_bytes(data)
         except OSError:
             raise self._died() from None
 
     def request(self, kind: str, args: tuple) -> int:
-        self._send((kind, args))
+        self._send(_request_bytes(kind, args))
         ticket = self._next
         self._next += 1
         return ticket
@@ -200,8 +286,9 @@ class SensorWorker:
             raise self._died()
         if data[0] == _CDR:
             return data
-        if data[0] == _PICKLE:
-            return pickle.loads(data)
+        if data[0] == _ARRAYS:
+            arrays = _unpack_arrays(data)
+            return arrays[""] if list(arrays) == [""] else arrays  # a scan's ranges, or a sweep's columns
         self.close()
         raise NavlogError(
             f"sensor worker (the laser and LiDAR process, pid {self._process.pid}) failed:\n"
@@ -243,14 +330,16 @@ def serve(req_fd: int, res_fd: int) -> None:
     requests = Connection(req_fd, writable=False)
     results = Connection(res_fd, readable=False)
     try:
-        ranges = RangeSensors(pickle.loads(requests.recv_bytes()))
+        ranges = RangeSensors(_spec_from_bytes(requests.recv_bytes()))
         while True:
             try:
-                kind, args = pickle.loads(requests.recv_bytes())
+                kind, args = _request_from_bytes(requests.recv_bytes())
             except EOFError:
                 return
             out = ranges.compute(kind, args)
-            results.send_bytes(out if isinstance(out, bytes) else pickle.dumps(out, protocol=pickle.HIGHEST_PROTOCOL))
+            if not isinstance(out, bytes):
+                out = _pack_arrays(out if isinstance(out, dict) else {"": out})
+            results.send_bytes(out)
     except (EOFError, BrokenPipeError, ConnectionResetError):  # the simulator is gone
         return
     except Exception:

@@ -130,8 +130,9 @@ def test_a_scan_from_the_worker_equals_one_cast_here() -> None:
 def test_an_error_in_the_worker_is_raised_with_its_traceback() -> None:
     worker = _worker()
     with pytest.raises(NavlogError, match=r"sensor worker \(the laser and LiDAR process, pid \d+\) failed:") as info:
-        worker.result(worker.request("lidar", (0, "not a frame index")))
-    assert "Traceback" in str(info.value) and "TypeError" in str(info.value)
+        # a sweep with one time and no pose: the worker cannot read the poses it is told of
+        worker.result(worker.request("lidar", (0, 0, (0.0,), np.zeros((0, 4, 4)), True)))
+    assert "Traceback" in str(info.value) and "ValueError" in str(info.value)
     assert worker._process.returncode is not None
 
 
