@@ -104,8 +104,8 @@ def _spec_from_bytes(data: bytes) -> RangeSensorSpec:
         return np.random.SeedSequence(s["entropy"], spawn_key=tuple(s["spawn_key"]), pool_size=s["pool_size"])
 
     w = d["world"]
-    solids = [Solid(s["name"], s["shape"], tuple(s["center"]), s["yaw"], tuple(s["size"])) for s in d["solids"]]
-    return RangeSensorSpec(
+    solids = [from_mapping(Solid, s) for s in d["solids"]]
+    return RangeSensorSpec(  # the world as world_mesh reads it: its solids and whether it has a floor
         World(WorldSpec(w["name"], floor=w["floor"]), solids, Path(w["path"])),
         None if d["scan"] is None else from_mapping(LaserConfig, d["scan"]),
         None if d["lidar"] is None else from_mapping(LidarConfig, d["lidar"]),

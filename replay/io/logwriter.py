@@ -209,13 +209,11 @@ class McapLogWriter:
         if (topic, typename) not in self._checked:
             self._check(topic, typename)
         if self._thread is None:
-            saved, _LEVEL.level = _LEVEL.level, ZSTD_LEVEL
             try:
-                self._put(topic, typename, time_ns, data, self.count)
+                with _compressing_at(ZSTD_LEVEL):
+                    self._put(topic, typename, time_ns, data, self.count)
             except OSError as exc:
                 raise write_error(self.path, exc) from None
-            finally:
-                _LEVEL.level = saved
         else:
             self._batch.append((topic, typename, time_ns, data, self.count))
             self._batch_size += len(data)

@@ -44,7 +44,6 @@ class McapLogReader(LogReader):
         self.size_bytes = path.stat().st_size
         self._fast_store: Any = None  # the store the fast decoders below were made for
         self._fast: dict[tuple[str, bool], Any] = {}  # (type, light form) -> fast decoder or None
-        self._light: frozenset[str] = frozenset()  # topics on which the light form may be given
         self._recover = recover
         with open(path, "rb") as f:
             head = f.read(8)
@@ -148,13 +147,13 @@ class McapLogReader(LogReader):
         wanted = self._wanted(topics)
         if not wanted:
             return
-        self._light = frozenset(light)
+        light = frozenset(light)
         if self.report.truncated:
-            yield from self._messages_truncated(wanted, decode, start_ns, end_ns)
+            yield from self._messages_truncated(wanted, decode, light, start_ns, end_ns)
             return
         try:
             for topic, typename, t, data in self._indexed(wanted, start_ns, end_ns):
-                env = self._envelope(topic, typename, t, data, decode)
+                env = self._envelope(topic, typename, t, data, decode, topic in light)
                 if env is not None:
                     yield env
         except LogError:
@@ -270,7 +269,7 @@ class McapLogReader(LogReader):
                 out.append((t, pos, cid, bytes(buf[pos + 31 : pos + 9 + length])))
         return out
 
-    def _messages_truncated(self, wanted, decode, start_ns, end_ns) -> Iterator[Envelope]:
+    def _messages_truncated(self, wanted, decode, light, start_ns, end_ns) -> Iterator[Envelope]:
         from mcap.records import Channel, Message, Schema
 
         schemas: dict[int, str] = {}
@@ -293,27 +292,27 @@ class McapLogReader(LogReader):
                     batch.append((rec.log_time, seq, topic, schemas.get(sid, ""), rec.data))
         # a truncated file has no index: order what could be read by log time (file order breaks ties)
         for t, _, topic, typename, data in sorted(batch, key=lambda b: (b[0], b[1])):
-            env = self._envelope(topic, typename, t, data, decode)
+            env = self._envelope(topic, typename, t, data, decode, topic in light)
             if env is not None:
                 yield env
 
-    def _envelope(self, topic: str, typename: str, t: int, data: bytes, decode: bool) -> Envelope | None:
+    def _envelope(self, topic: str, typename: str, t: int, data: bytes, decode: bool, light: bool) -> Envelope | None:
         self.report.read += 1
         if not decode:
             return Envelope(topic, typename, t, data)
-        msg = self._decode(data, typename, topic)
+        msg = self._decode(data, typename, topic, light)
         return None if msg is None else Envelope(topic, typename, t, msg)
 
-    def _decode(self, data: bytes, typename: str, topic: str) -> Any:
-        """The fast decoder of a hot type (``cdr_decode``; its light form on the ``light`` topics of
-        ``messages``) where it applies, else the type store's."""
+    def _decode(self, data: bytes, typename: str, topic: str, light: bool = False) -> Any:
+        """The fast decoder of a hot type (``cdr_decode``; with ``light``, its light form) where it applies,
+        else the type store's."""
         store = self._types.store
         if store is not self._fast_store:  # a schema gave this reader a store of its own
             self._fast_store, self._fast = store, {}
-        key = (typename, topic in self._light)
+        key = (typename, light)
         fast = self._fast.get(key, _UNSET)
         if fast is _UNSET:
-            fast = self._fast[key] = cdr_decode.decoder(typename, store, light=key[1])
+            fast = self._fast[key] = cdr_decode.decoder(typename, store, light=light)
         if fast is not None:
             try:
                 return fast(data)
