@@ -29,7 +29,7 @@ otherwise the latest transform. Where Nav2 would wait up to ``transform_toleranc
 transform, a replay cannot: the node uses the newest time within that tolerance at which the
 transform exists. A message's points in its own frame, and its transform into ``odom_frame_id``
 at its stamp, are computed once and kept while the TF received since leaves them unchanged
-(``TFHistory``); a command's transform out of ``odom_frame_id`` is looked up once for all
+(``TFBuffer.holds``); a command's transform out of ``odom_frame_id`` is looked up once for all
 sources. A source with no message yet, older than its ``source_timeout``, without a transform or
 with a range reading out of bounds is unusable: Nav2's "invalid source" stop; each such case is
 counted in ``skipped_counts()``. ``summary()`` gives commands acted on per polygon,
@@ -132,55 +132,6 @@ def polygon_stamped(ns: int, frame: str, xy: np.ndarray) -> Any:
     return m.msg_class(POLYGON_STAMPED)(header=m.header(ns, frame), polygon=polygon)
 
 
-class TFHistory:
-    """Which transforms a ``TFBuffer`` can still give as before, so a lookup made earlier can be reused.
-
-    Every /tf and /tf_static message goes through ``add_message``, which adds it to the buffer and
-    notes, per child frame, its parent and its newest stamp. A lookup at time ``t`` that succeeded
-    interpolated between samples around ``t`` on each dynamic edge of its chain; appending a sample
-    newer than an edge's newest changes none of those, so the result holds while ``epoch`` is the
-    same and ``t`` is not older than the buffer's cache window before ``newest``. Anything else, a
-    static transform, a new or re-parented edge, a sample at or before an edge's newest stamp, starts a
-    new ``epoch``. ``added`` counts the messages (a lookup of the latest transforms holds while it is
-    the same)."""
-
-    def __init__(self, tf: TFBuffer) -> None:
-        self.tf = tf
-        self.epoch = 0
-        self.added = 0
-        self.newest: int | None = None
-        self._edges: dict[str, tuple[str, bool, int]] = {}  # child -> (parent, static, newest stamp)
-        self._names: dict[str, str] = {}  # frame id as sent -> as the buffer stores it
-
-    def _name(self, frame_id: str) -> str:
-        name = self._names.get(frame_id)
-        if name is None:
-            name = self._names[frame_id] = self.tf.name(frame_id)
-        return name
-
-    def add_message(self, msg: Any, static: bool) -> None:
-        """Add a tf2_msgs/TFMessage (object or light form) to the buffer, noting whether it rewrites what the buffer held."""
-        add, name = self.tf.add, self._name
-        for parent, child, t, tx, ty, tz, qx, qy, qz, qw in m.tf_entries(msg):
-            parent, child = name(parent), name(child)
-            prev = self._edges.get(child)
-            if static or prev is None or prev[0] != parent or prev[1]:
-                self.epoch += 1  # a new edge (the buffer starts it again) or a static one
-                self._edges[child] = (parent, static, t)
-            elif t <= prev[2]:
-                self.epoch += 1  # a sample inside the edge's history: interpolations may change
-            else:
-                self._edges[child] = (parent, False, t)
-            if not static and (self.newest is None or t > self.newest):
-                self.newest = t
-            add(parent, child, t, (tx, ty, tz), (qx, qy, qz, qw), static)
-        self.added += 1
-
-    def holds(self, epoch: int, t_ns: int) -> bool:
-        """Whether a lookup at ``t_ns`` that succeeded at ``epoch`` gives the same transform now."""
-        return epoch == self.epoch and (self.newest is None or t_ns >= self.newest - self.tf.cache_ns)
-
-
 class CollisionMonitorNode(Node):
     """Nav2's collision monitor on the executor (see the module docstring)."""
 
@@ -209,11 +160,10 @@ class CollisionMonitorNode(Node):
         self.input_topic = input_topic
         self.output_topic = output_topic
         self.tf = TFBuffer()
-        self.tf_history = TFHistory(self.tf)
         # per source: (message, its sensor-frame points) and (message, TF epoch, odom <- sensor at its stamp)
         self._sensor_points: dict[str, tuple[Any, Any]] = {}
         self._sensor_tf: dict[str, tuple[Any, int, np.ndarray]] = {}
-        self._latest_tf: dict[str, tuple[int, np.ndarray]] = {}  # frame -> (TF messages added, base <- frame)
+        self._latest_tf: dict[str, tuple[int, np.ndarray]] = {}  # frame -> (transforms added, base <- frame)
         self._base_now: tuple[int, int, np.ndarray | None] | None = None  # (now, added, base <- odom at now)
         self.sources: dict[str, CollisionSourceParams] = {
             n: params.source_params[n]
@@ -246,7 +196,7 @@ class CollisionMonitorNode(Node):
 
     # ------------------------------------------------------------------ wiring
     def setup(self) -> None:
-        add = self.tf_history.add_message
+        add = self.tf.add_message
         self.subscribe("/tf", lambda msg, t: add(msg, static=False), (m.TF_MESSAGE,), light=True)
         self.subscribe("/tf_static", lambda msg, t: add(msg, static=True), (m.TF_MESSAGE,), light=True)
         topics: dict[str, list[str]] = {}
@@ -296,7 +246,7 @@ class CollisionMonitorNode(Node):
 
     def _odom_to_base(self, now: int) -> np.ndarray:
         """base <- odom at ``now``: looked up once per decision, whichever sources need it."""
-        added = self.tf_history.added
+        added = self.tf.added
         if self._base_now is None or self._base_now[:2] != (now, added):
             try:  # odom <- base inverted: a rigid transform's inverse, without a general matrix inverse
                 T: np.ndarray | None = rigid_inverse(
@@ -313,9 +263,9 @@ class CollisionMonitorNode(Node):
         """odom <- sensor at the message's stamp, kept per message while the TF history gives it unchanged
         (a transform found only at an earlier time within the tolerance is looked up again)."""
         hit = self._sensor_tf.get(name)
-        if hit is not None and hit[0] is msg and self.tf_history.holds(hit[1], stamp):
+        if hit is not None and hit[0] is msg and self.tf.holds(hit[1], stamp):
             return hit[2]
-        epoch = self.tf_history.epoch
+        epoch = self.tf.epoch
         T, exact = self._lookup_at(self.params.odom_frame_id, frame, stamp)
         if exact:
             self._sensor_tf[name] = (msg, epoch, T)
@@ -325,7 +275,7 @@ class CollisionMonitorNode(Node):
         p = self.params
         if p.base_shift_correction:
             return self._odom_to_base(now) @ self._sensor_to_odom(name, msg, frame, stamp)
-        added = self.tf_history.added
+        added = self.tf.added
         hit = self._latest_tf.get(frame)
         if hit is None or hit[0] != added:
             hit = (added, self.tf.lookup(p.base_frame_id, frame, None))

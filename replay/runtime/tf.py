@@ -6,6 +6,12 @@ nearest samples (linear translation, slerp rotation). A time outside an edge's b
 raises ``TransformError`` (no extrapolation), which callers count as a skipped message.
 The frames between two frames, and each static edge's matrix, are computed once and kept until the
 tree changes; a lookup's matrix is always the caller's own.
+
+A caller may keep a lookup's result while the buffer would give it unchanged (``holds``): a lookup at
+``t`` interpolated between samples around ``t`` on each dynamic edge of its chain, and appending a
+sample newer than an edge's newest changes none of those. Anything else (a static transform, a new or
+re-parented edge, a sample at or before an edge's newest stamp) starts a new ``epoch``; ``added``
+counts the transforms added (a lookup of the latest transforms holds while it is the same).
 """
 
 from __future__ import annotations
@@ -46,6 +52,9 @@ class TFBuffer:
         self._chains: dict[str, list[str]] = {}  # frame -> it and its ancestors, while the tree is unchanged
         # (target, source) as given -> the frames from each up to their common ancestor, while the tree is unchanged
         self._paths: dict[tuple[str, str], tuple[list[str], list[str]]] = {}
+        self.epoch = 0  # see the module docstring
+        self.added = 0  # transforms added
+        self.newest: int | None = None  # the newest dynamic stamp added
 
     def _name(self, frame: str) -> str:
         name = self._names.get(frame)
@@ -74,12 +83,14 @@ class TFBuffer:
         return skipped
 
     def add(self, parent: str, child: str, t_ns: int, xyz, q_xyzw, static: bool = False) -> None:
+        self.added += 1
         edge = self._edges.get(child)
         if edge is None or edge.parent != parent or edge.static != static:
             edge = _Edge(parent, static)
             self._edges[child] = edge
             self._chains.clear()
             self._paths.clear()
+            self.epoch += 1
         x, y, z, w = q_xyzw
         x, y, z, w = float(x), float(y), float(z), float(w)
         n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
@@ -87,13 +98,17 @@ class TFBuffer:
         p = (float(xyz[0]), float(xyz[1]), float(xyz[2]))
         if static:
             edge.times, edge.trans, edge.quats, edge.matrix = [0], [p], [q], None
+            self.epoch += 1
             return
+        if self.newest is None or t_ns > self.newest:
+            self.newest = t_ns
         times = edge.times
         if not times or t_ns > times[-1]:  # the usual case: a newer sample
             times.append(t_ns)
             edge.trans.append(p)
             edge.quats.append(q)
         else:
+            self.epoch += 1  # a sample inside the edge's history: interpolations may change
             i = bisect.bisect_right(times, t_ns)
             if i > 0 and times[i - 1] == t_ns:
                 edge.trans[i - 1], edge.quats[i - 1] = p, q
@@ -107,6 +122,10 @@ class TFBuffer:
         drop = bisect.bisect_left(times, cutoff)
         if drop > 1:
             del edge.times[: drop - 1], edge.trans[: drop - 1], edge.quats[: drop - 1]
+
+    def holds(self, epoch: int, t_ns: int) -> bool:
+        """Whether a lookup at ``t_ns`` that succeeded at ``epoch`` gives the same transform now."""
+        return epoch == self.epoch and (self.newest is None or t_ns >= self.newest - self.cache_ns)
 
     def name(self, frame: str) -> str:
         """A frame's name as the buffer stores it (leading slash and prefix removed)."""

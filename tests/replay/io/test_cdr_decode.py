@@ -1,4 +1,4 @@
-"""The fast decoders of /tf and odometry against the type store's deserializer: equal objects, or a refusal."""
+"""The fast decoders (/tf, odometry, scans, commands) against the type store's deserializer: equal objects, or a refusal."""
 
 from __future__ import annotations
 
@@ -108,17 +108,77 @@ def test_a_known_transform_reads_back_its_numbers():
     assert (t.transform.translation.x, t.transform.translation.y, t.transform.rotation.w) == (1.0, -2.0, 0.8)
 
 
-@pytest.mark.parametrize("typename", [messages.TF_MESSAGE, messages.ODOMETRY])
+def laser_scan(rng: np.random.Generator, n: int):
+    c = messages.msg_class
+    ranges = rng.uniform(0.1, 30.0, n).astype(np.float32)
+    ranges[: min(n, 3)] = [np.nan, np.inf, -0.0][: min(n, 3)]
+    return c(messages.LASER_SCAN)(
+        header=messages.header(int(rng.integers(0, 2**31 * 10**9)), str(rng.choice(NAMES))),
+        **{k: float(np.float32(rng.normal())) for k in ("angle_min", "angle_max", "angle_increment")},
+        time_increment=0.0,
+        scan_time=float(np.float32(0.1)),
+        range_min=float(np.float32(0.12)),
+        range_max=float(np.float32(30.0)),
+        ranges=ranges,
+        intensities=rng.uniform(0, 100, n if rng.random() < 0.5 else 0).astype(np.float32),
+    )
+
+
+def twist(rng: np.random.Generator, stamped: bool):
+    v = [float(rng.choice(EDGE)) if rng.random() < 0.3 else float(rng.normal()) for _ in range(3)]
+    msg = messages.twist(*v)
+    if not stamped:
+        return msg
+    stamp = int(rng.integers(0, 2**31 * 10**9))
+    return messages.msg_class(messages.TWIST_STAMPED)(messages.header(stamp, str(rng.choice(NAMES))), msg)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_scans_and_commands_decode_to_the_stores_objects(seed):
+    rng = np.random.default_rng(seed)
+    cases = [(messages.LASER_SCAN, laser_scan(rng, n)) for n in (0, 1, 5, 720)]
+    cases += [(messages.TWIST, twist(rng, False)), (messages.TWIST_STAMPED, twist(rng, True))]
+    for typename, msg in cases:
+        data = messages.serialize(msg, typename)
+        got, want = cdr_decode.decoder(typename, STORE)(data), STORE.deserialize_cdr(data, typename)
+        assert same(got, want)
+        if typename == messages.LASER_SCAN:
+            assert not got.ranges.flags.writeable and len(got.ranges) == len(msg.ranges)
+
+
+def test_tf_messages_of_one_size_with_other_frames_read_their_own_frames():
+    """The kept layout of a message size is used only when the frame strings are the same bytes."""
+    light = cdr_decode.decoder(messages.TF_MESSAGE, STORE, light=True)
+    objects = cdr_decode.decoder(messages.TF_MESSAGE, STORE)
+    pairs = [("odom", "base"), ("map", "odom"), ("odom", "base"), ("abcd", "efgh"), ("odom", "base")]
+    for k, (parent, child) in enumerate(pairs):
+        q = (0.0, 0.0, math.sin(k / 2), math.cos(k / 2))
+        msg = messages.tf_message([messages.transform_stamped(10**9 * k + 7, parent, child, (k, -k, 0.5), q)])
+        data = messages.serialize(msg, messages.TF_MESSAGE)
+        assert len(data) == 100 or parent == "map"
+        assert light(data).entries == [(parent, child, 10**9 * k + 7, float(k), float(-k), 0.5, *q)]
+        assert same(objects(data), STORE.deserialize_cdr(data, messages.TF_MESSAGE))
+
+
+CASES = {
+    messages.TF_MESSAGE: (lambda rng: tf_message(rng, 2), 16),
+    messages.ODOMETRY: (odometry, 12),
+    messages.LASER_SCAN: (lambda rng: laser_scan(rng, 10), 12),
+    messages.TWIST_STAMPED: (lambda rng: twist(rng, True), 12),
+}
+
+
+@pytest.mark.parametrize("typename", sorted(CASES))
 def test_bytes_the_decoder_does_not_accept_are_refused(typename):
     rng = np.random.default_rng(1)
-    msg = tf_message(rng, 2) if typename == messages.TF_MESSAGE else odometry(rng)
-    data = messages.serialize(msg, typename)
+    make, string_at = CASES[typename]
+    data = messages.serialize(make(rng), typename)
     decode = cdr_decode.decoder(typename, STORE)
     big_endian = b"\x00\x00" + data[2:]
     trailing = data + bytes(8)
     cut = data[: len(data) - 9]
     bad_string = bytearray(data)
-    struct.pack_into("<I", bad_string, 12 if typename == messages.ODOMETRY else 16, 10**6)
+    struct.pack_into("<I", bad_string, string_at, 10**6)
     for bad in (big_endian, trailing, cut, bytes(bad_string), b"\x00"):
         with pytest.raises((ValueError, struct.error)):
             decode(bad)
@@ -128,7 +188,7 @@ def test_bytes_the_decoder_does_not_accept_are_refused(typename):
 
 
 def test_only_types_with_their_standard_definition_get_a_decoder():
-    assert cdr_decode.decoder(messages.LASER_SCAN, STORE) is None
+    assert cdr_decode.decoder(messages.IMU, STORE) is None
     other = messages.new_typestore()
     assert cdr_decode.decoder(messages.ODOMETRY, other) is not None
     # a store whose Vector3 is float32 (not ROS 2's) decodes with its own deserializer
@@ -142,7 +202,7 @@ def test_only_types_with_their_standard_definition_get_a_decoder():
 def test_a_recorded_log_reads_the_same_objects_as_the_stores_deserializer(teleop_log):
     from navlog.replay.io.mcap_reader import McapLogReader
 
-    topics = ["/tf", "/tf_static", "/odom", "/odom/ground_truth", "/scan"]
+    topics = ["/tf", "/tf_static", "/odom", "/odom/ground_truth", "/scan", "/cmd_vel"]
     with McapLogReader(teleop_log) as reader:
         fast = list(reader.messages(topics))
     with McapLogReader(teleop_log) as reader:
@@ -154,6 +214,7 @@ def test_a_recorded_log_reads_the_same_objects_as_the_stores_deserializer(teleop
         assert same(a.msg, STORE.deserialize_cdr(b.msg, b.typename))
         counts[a.typename] = counts.get(a.typename, 0) + 1
     assert counts[messages.TF_MESSAGE] > 500 and counts[messages.ODOMETRY] > 1000
+    assert counts[messages.LASER_SCAN] > 100 and counts[messages.TWIST] > 100
 
 
 @pytest.mark.parametrize("seed", range(3))

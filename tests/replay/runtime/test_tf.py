@@ -88,3 +88,27 @@ def test_old_samples_are_dropped_once_the_next_one_is_older_than_the_cache():
     assert tf.lookup("odom", "base_link", 175)[0, 3] == pytest.approx(1.75)
     with pytest.raises(TransformError, match="buffer holds 0.000..0.000 s"):
         tf.lookup("odom", "base_link", 100)
+
+
+def test_a_lookup_holds_while_only_newer_samples_arrive():
+    """``holds``: newer samples keep a past lookup valid; a sample inside the history, a static transform,
+    a re-parented edge or the cache window moving past the lookup's time do not."""
+    tf = buffer()
+    epoch, before = tf.epoch, tf.lookup("map", "laser", 5).copy()
+    added = tf.added
+    tf.add("odom", "base_link", 20, (9.0, 9.0, 0.0), messages.quat_from_yaw(1.0))  # newer: 5 still interpolates
+    tf.add("map", "odom", 20, (7.0, 0.0, 0.0), messages.quat_from_yaw(0.0))
+    assert tf.added == added + 2 and tf.newest == 20
+    assert tf.holds(epoch, 5) and np.array_equal(tf.lookup("map", "laser", 5), before)
+    tf.add("odom", "base_link", 5, (3.0, 0.0, 0.0), (0, 0, 0, 1))  # inside the history: 5 gives another pose
+    assert not tf.holds(epoch, 5) and not np.array_equal(tf.lookup("map", "laser", 5), before)
+    for change in (
+        lambda: tf.add("base_link", "laser", 0, (0.6, 0.0, 0.2), (0, 0, 0, 1), static=True),
+        lambda: tf.add("map", "base_link", 30, (0.0, 0.0, 0.0), (0, 0, 0, 1)),  # re-parented
+    ):
+        epoch = tf.epoch
+        change()
+        assert tf.epoch == epoch + 1 and not tf.holds(epoch, 25)
+    epoch = tf.epoch
+    tf.add("map", "base_link", 30 + tf.cache_ns, (0.0, 0.0, 0.0), (0, 0, 0, 1))
+    assert tf.holds(epoch, 30) and not tf.holds(epoch, 29)  # older than the cache window before the newest
