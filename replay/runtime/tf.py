@@ -73,16 +73,24 @@ class TFBuffer:
         """Add every transform of a tf2_msgs/TFMessage except those into ``skip_child`` (a frame whose
         parent the caller publishes itself, e.g. a localiser's odom frame); returns how many were skipped."""
         skipped = 0
-        name = self._name
+        name, insert = self._name, self._insert
         for parent, child, t_ns, tx, ty, tz, qx, qy, qz, qw in messages.tf_entries(msg):
             child = name(child)
             if child == skip_child:
                 skipped += 1
                 continue
-            self.add(name(parent), child, t_ns, (tx, ty, tz), (qx, qy, qz, qw), static)
+            insert(name(parent), child, t_ns, (tx, ty, tz), qx, qy, qz, qw, static)  # a message's fields are floats
         return skipped
 
     def add(self, parent: str, child: str, t_ns: int, xyz, q_xyzw, static: bool = False) -> None:
+        """Add one transform: ``xyz`` and ``q_xyzw`` (normalised here) as any numbers."""
+        x, y, z, w = q_xyzw
+        p = (float(xyz[0]), float(xyz[1]), float(xyz[2]))
+        self._insert(parent, child, t_ns, p, float(x), float(y), float(z), float(w), static)
+
+    def _insert(
+        self, parent: str, child: str, t_ns: int, p: tuple, x: float, y: float, z: float, w: float, static: bool
+    ) -> None:
         self.added += 1
         edge = self._edges.get(child)
         if edge is None or edge.parent != parent or edge.static != static:
@@ -91,11 +99,8 @@ class TFBuffer:
             self._chains.clear()
             self._paths.clear()
             self.epoch += 1
-        x, y, z, w = q_xyzw
-        x, y, z, w = float(x), float(y), float(z), float(w)
         n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
         q = (x / n, y / n, z / n, w / n)
-        p = (float(xyz[0]), float(xyz[1]), float(xyz[2]))
         if static:
             edge.times, edge.trans, edge.quats, edge.matrix = [0], [p], [q], None
             self.epoch += 1
