@@ -12,11 +12,17 @@ Readings with no return (``inf``, ``>= range_max``), too close, or NaN mark and 
 A scan without a pose or transform at its stamp is skipped and counted; so are scans inserted
 before the robot has moved ``minimum_travel_distance`` or turned ``minimum_travel_heading`` since
 the last inserted one (slam_toolbox's throttle; 0 inserts every scan).
+
+The scans go into the grid in a child process once it has started (``GridWorker``; on a machine with
+one CPU, or with ``grid_process=False``, in this one): the node's thread goes on with the next messages
+meanwhile. A scan's outcome (taken, or refused as far off) is collected with the next /map, in order,
+and the trajectory and skip counts follow it; ``grid`` is the grid of every scan so far.
 """
 
 from __future__ import annotations
 
 import math
+import os
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -25,7 +31,8 @@ import numpy as np
 
 from navlog.replay import messages
 from navlog.replay.geometry import yaw_from_matrix
-from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams, ScanAngles
+from navlog.replay.mapping.grid_process import GridWorker
+from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams, ScanAngles
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
 
@@ -55,10 +62,14 @@ DEFAULT_POSE_TOPICS = {"ground_truth": "/odom/ground_truth", "odom": "/odom", "l
 class OccupancyMapperNode(Node):
     name = "occupancy_mapper"
 
-    def __init__(self, params: OccupancyMapperParams) -> None:
+    def __init__(self, params: OccupancyMapperParams, *, grid_process: bool | None = None) -> None:
+        """``grid_process``: insert scans in a child process (None: when this process may use two CPUs)."""
         super().__init__()
         self.p = params
-        self.grid = OccupancyGrid2D(params.grid)
+        self._grid_process = len(os.sched_getaffinity(0)) > 1 if grid_process is None else grid_process
+        self._updates = GridWorker(params.grid, spawn=False)  # started with the run (``setup``)
+        self._final: OccupancyGrid2D | None = None  # the grid after ``finish``
+        self._pending: list[tuple[int, np.ndarray]] = []  # (stamp, robot pose) of scans sent, outcome not known
         self.tf = TFBuffer(frame_prefix=params.frame_prefix)
         self.poses = TFBuffer(frame_prefix=params.frame_prefix)
         self.skipped: Counter = Counter()
@@ -78,7 +89,14 @@ class OccupancyMapperNode(Node):
             topics.append(self.pose_topic)
         return topics
 
+    @property
+    def grid(self) -> OccupancyGrid2D:
+        """The grid of every scan inserted so far."""
+        return self._final if self._final is not None else self._updates.snapshot()
+
     def setup(self) -> None:
+        if self._grid_process:
+            self._updates = GridWorker(self.p.grid)
         self.subscribe("/tf", lambda m, t: self.tf.add_message(m), (messages.TF_MESSAGE,), light=True)
         self.subscribe(
             "/tf_static", lambda m, t: self.tf.add_message(m, static=True), (messages.TF_MESSAGE,), light=True
@@ -154,20 +172,31 @@ class OccupancyMapperNode(Node):
                 self.skipped["scans within minimum travel (not inserted)"] += 1
                 return
         self._last_pose = pose
-        try:
-            self.grid.insert_scan(pose, angles, np.asarray(msg.ranges), float(msg.range_min), float(msg.range_max))
-        except GridTooLarge:
-            self.skipped[f"{self.p.scan_topic}: pose or ranges too far off (the map would exceed its cell budget)"] += 1
-            return
-        self.trajectory.append((stamp, base))
+        self._updates.insert_scan(pose, angles, np.asarray(msg.ranges), float(msg.range_min), float(msg.range_max))
+        self._pending.append((stamp, base))
+
+    def _settle(self) -> None:
+        """The scans whose outcome came: into the trajectory if the grid took them, else counted."""
+        for entry, taken in zip(self._pending, self._updates.outcomes(), strict=True):
+            if taken:
+                self.trajectory.append(entry)
+            else:
+                self.skipped[
+                    f"{self.p.scan_topic}: pose or ranges too far off (the map would exceed its cell budget)"
+                ] += 1
+        self._pending.clear()
 
     def _publish(self, t_ns: int) -> None:
-        if self.grid.logodds.size:
-            self.publish(self.p.map_topic, messages.OCCUPANCY_GRID, self.grid.to_map(self.p.map_frame).to_msg(t_ns))
+        grid_map = self._updates.to_map(self.p.map_frame)
+        self._settle()
+        if grid_map is not None:
+            self.publish(self.p.map_topic, messages.OCCUPANCY_GRID, grid_map.to_msg(t_ns))
 
     def finish(self) -> None:
         self._drain(self.now(), final=True)
         self._publish(self.now())
+        self._final = self._updates.snapshot()
+        self._updates.close()
 
     def counts(self) -> dict[str, int]:
         st = self.grid.stats
