@@ -34,7 +34,7 @@ import struct
 import subprocess
 import sys
 import traceback
-from typing import Any, BinaryIO
+from typing import IO, Any, BinaryIO
 
 import numpy as np
 
@@ -230,7 +230,7 @@ class GridWorker:
         )
 
 
-def _read(stream: BinaryIO, n: int) -> bytes | None:
+def _read(stream: IO[bytes] | BinaryIO, n: int) -> bytes | None:
     """Exactly ``n`` bytes from ``stream``; None at its end."""
     parts, left = [], n
     while left:
