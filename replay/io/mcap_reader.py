@@ -195,7 +195,8 @@ class McapLogReader(LogReader):
                 continue
             chunks.append(ci)
         chunks.sort(key=lambda ci: (ci.message_start_time, ci.chunk_start_offset))
-        # a chunk is opened when the stream reaches its first message time; sorted, the list is a heap
+        # a chunk is opened when the stream reaches its first message time; sorted, the list is a heap.
+        # An open chunk is in the heap by its next message: (time, chunk offset, position, (messages, index))
         queue: list[tuple] = [(ci.message_start_time, ci.chunk_start_offset, -1, None) for ci in chunks]
         buffers = _ChunkBuffers(
             max((ci.chunk_length for ci in chunks), default=0), max((ci.uncompressed_size for ci in chunks), default=0)
@@ -204,19 +205,34 @@ class McapLogReader(LogReader):
         try:
             while queue:
                 t, chunk_offset, pos, item = heapq.heappop(queue)
-                if pos >= 0:
-                    cid, data = item
-                    topic, typename = channels[cid]
-                    yield topic, typename, t, data
+                if pos < 0:
+                    msgs = [
+                        m
+                        for m in loader.next()
+                        if (start_ns is None or m[0] >= start_ns) and (end_ns is None or m[0] <= end_ns)
+                    ]
+                    if msgs:
+                        heapq.heappush(queue, (msgs[0][0], chunk_offset, msgs[0][1], (msgs, 0)))
                     continue
-                for t, pos, cid, data in loader.next():
-                    if (start_ns is None or t >= start_ns) and (end_ns is None or t <= end_ns):
-                        heapq.heappush(queue, (t, chunk_offset, pos, (cid, data)))
+                msgs, i = item
+                while True:  # the chunk's messages while they come before every other chunk's next one
+                    cid = msgs[i][2]
+                    topic, typename = channels[cid]
+                    yield topic, typename, t, msgs[i][3]
+                    i += 1
+                    if i == len(msgs):
+                        break
+                    t, pos = msgs[i][0], msgs[i][1]
+                    if queue:
+                        qt, qoffset, qpos = queue[0][:3]
+                        if t > qt or (t == qt and (chunk_offset > qoffset or (chunk_offset == qoffset and pos > qpos))):
+                            heapq.heappush(queue, (t, chunk_offset, pos, (msgs, i)))
+                            break
         finally:
             loader.close()
 
     def _chunk_messages(self, ci: Any, channels: dict, buffers: _ChunkBuffers) -> list[tuple[int, int, int, bytes]]:
-        """(log time, position, channel id, bytes) of the wanted messages in one chunk.
+        """(log time, position, channel id, bytes) of the wanted messages in one chunk, sorted.
 
         Reads with ``os.preadv`` (no shared file position), so it may run in another thread; one
         call at a time per ``buffers``.
@@ -249,6 +265,7 @@ class McapLogReader(LogReader):
                     if cid in channels:
                         out.append((t, pos, cid, bytes(buf[pos + 31 : pos + 9 + length])))
                 pos += 9 + length
+            out.sort()  # by time, then position (unique: the bytes are never compared)
             return out
         first = min(ci.message_index_offsets.values())
         index = os.pread(fd, ci.chunk_start_offset + ci.chunk_length + ci.message_index_length - first, first)
@@ -267,6 +284,7 @@ class McapLogReader(LogReader):
                         f"{self.path}: message index of channel {cid} points at no message of it; try --recover"
                     )
                 out.append((t, pos, cid, bytes(buf[pos + 31 : pos + 9 + length])))
+        out.sort()  # by time, then position (unique: the bytes are never compared)
         return out
 
     def _messages_truncated(self, wanted, decode, light, start_ns, end_ns) -> Iterator[Envelope]:
