@@ -31,7 +31,9 @@ Where the time goes: after (a) and (b), one more replay of each runs instrumente
 (deserialization, the 2D mapper's pose lookups and map updates, the 3D mapper's deskew, voxel filter,
 ICP source covariances, ICP, map updates; the rest is the executor, TF buffers and outgoing
 messages) and by thread for the others (decompression, the replay.mcap writer, the input hash, the
-3D global map). CPU time, not wall time: on a shared machine the figures stay comparable.
+3D global map; small_gicp's OpenMP threads, which share the scan covariances with the main thread,
+are not Python threads: their CPU time counts in the process CPU only). CPU time, not wall time: on
+a shared machine the figures stay comparable.
 
     .venv/bin/python benchmarks/bench_replay.py [--repeat 3] [--repeat-3d 1] [--workdir DIR] [--skip-3d]
         [--skip-memory] [--no-stages]
@@ -74,6 +76,7 @@ MAIN_STAGES = [  # (stage, module, attribute path); inclusive times, summed per 
     ("3D:   deskew", "navlog.replay.mapping.lidar_odometry.odometry", "deskew_points"),
     ("3D:   voxel filter at save_voxel", "navlog.replay.mapping.lidar_odometry.odometry", "reduced"),
     ("3D:   ICP source: voxel filter + covariances", "navlog.replay.mapping.lidar_odometry.voxel_map", "GaussianRegistrar.source"),
+    ("3D:     of which covariances (covariance_threads)", "small_gicp", "estimate_covariances"),
     ("3D:   ICP: small_gicp VGICP", "navlog.replay.mapping.lidar_odometry.voxel_map", "GaussianRegistrar.register"),
     ("3D:   map updates (voxel map, global map)", "navlog.replay.mapping.lidar_odometry.voxel_map", "GaussianLocalMap.update"),
     ("3D:   map updates (voxel map, global map)", "navlog.replay.mapping.lidar_odometry.local_map", "GlobalMap.add"),

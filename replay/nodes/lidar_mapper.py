@@ -245,9 +245,12 @@ class LidarMapperNode(Node):
         if mount is None:
             self._skip("cloud_missing_extrinsic")
             return
-        pts = np.stack([arr["x"], arr["y"], arr["z"]], axis=1).astype(np.float64)
+        from navlog.replay.mapping.lidar_odometry.preprocess import finite_rows  # loaded with the odometry
+
+        pts = np.empty((len(arr), 3))  # float64, filled field by field: one copy
+        pts[:, 0], pts[:, 1], pts[:, 2] = arr["x"], arr["y"], arr["z"]
         times = self._times(arr, names, stamp_ns, pts)
-        finite = np.isfinite(pts).all(axis=1)
+        finite = finite_rows(pts)
         if not finite.all():
             self._skip("points_not_finite", int((~finite).sum()))
         if times is not None:

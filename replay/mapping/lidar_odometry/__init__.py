@@ -31,14 +31,23 @@ Parameters are ``LidarOdometryParams`` (``params.py``), from a preset (``preset`
 or sized from the first sweep (``for_sweep``: voxel = max range / 100, KISS-ICP's rule). Poses are base_link in the map frame (4x4);
 the map frame is the first frame's base_link unless an initial pose is given. Open3D runs on
 ``threads`` threads (1 by default) during each call, so the same input gives the same bytes; the
-previous limit is restored afterwards; small_gicp runs on ``threads`` threads, its voxel filter on one.
+previous limit is restored afterwards; small_gicp's registration runs on ``threads`` threads, its
+voxel filter on one, the scan's covariances on ``covariance_threads`` (2 by default: each point's
+covariance is its own, so the count changes no bit).
+
+Importing the package sets ``OMP_WAIT_POLICY=PASSIVE`` unless it is set: small_gicp's OpenMP threads
+then sleep between calls instead of spinning for milliseconds after each one on the core the log
+reader and the writers need (OpenMP reads it once, when small_gicp is first loaded).
 """
 
 from __future__ import annotations
 
+import os
 from typing import TYPE_CHECKING
 
 from navlog.replay import lazy_exports
+
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")  # before any module here loads small_gicp (see above)
 
 if TYPE_CHECKING:
     from navlog.replay.mapping.lidar_odometry.deskew import ConstantVelocity, GyroTrack, MotionPrior, PoseTrack

@@ -163,7 +163,8 @@ class LidarOdometry:
                 return None
         # 1. preprocess: finite points within the range limits, in base_link
         keep = valid_points(pts, times, p.min_range, p.max_range)
-        pts = pts[keep]
+        every = bool(keep.all())  # the usual sweep: nothing to copy out
+        pts = pts if every else pts[keep]
         if len(pts) < max(p.min_points, 1):
             self._skip("too_few_points")
             return None
@@ -174,7 +175,7 @@ class LidarOdometry:
         # 2. deskew into base_link at the middle of the sweep
         ref_ns = stamp_ns
         if p.deskew and times is not None:
-            t = times[keep]
+            t = times if every else times[keep]
             ref_ns = stamp_ns + int(round(0.5 * (float(t.min()) + float(t.max())) * 1e9))
             if self._ref is not None and ref_ns <= self._ref[0]:  # times that put this sweep before the last
                 self._skip("sweep_time_not_increasing")

@@ -27,6 +27,9 @@ class LidarOdometryParams:
     method: Method = "vgicp"
     gaussian_voxel: float = 0.3  # vgicp: the Gaussian voxel map's resolution
     covariance_nn: int = 10  # vgicp: neighbours of a scan point's covariance
+    # vgicp: threads of the scan's covariances and their k-d tree; each point's covariance is computed
+    # on its own, so any count gives the same bits (unlike ``threads``)
+    covariance_threads: int = 2
     max_correspondence: float = 0.3
     max_iterations: int = 30
     convergence: float = 1e-6  # relative fitness and RMSE change that stops ICP
@@ -72,6 +75,7 @@ class LidarOdometryParams:
             "max_iterations",
             "normal_max_nn",
             "covariance_nn",
+            "covariance_threads",
             "local_map_max_points",
             "deskew_slots",
             "threads",

@@ -12,7 +12,9 @@
   Mahalanobis error of the inliers (VGICP's cost), not a distance.
 
 The voxel filter runs on one thread (small_gicp's multi-threaded filter varies from run to run); the
-covariances and the registration on ``threads`` threads.
+covariances and their k-d tree on ``covariance_threads`` threads (each point's covariance is computed
+on its own from its exact nearest neighbours: the same bits on any count); the registration on
+``threads`` threads (its sums are reduced in an order that depends on the count).
 """
 
 from __future__ import annotations
@@ -70,7 +72,8 @@ class GaussianRegistrar:
         """The scan (N, 3) in base_link, voxel-filtered at ``scan_voxel``, with covariances."""
         p = self.params
         cloud = small_gicp.PointCloud(reduced(points, p.scan_voxel))
-        small_gicp.estimate_covariances(cloud, small_gicp.KdTree(cloud, p.threads), p.covariance_nn, p.threads)
+        n = p.covariance_threads
+        small_gicp.estimate_covariances(cloud, small_gicp.KdTree(cloud, n), p.covariance_nn, n)
         return cloud
 
     def register(

@@ -17,6 +17,8 @@ def test_parameters_are_validated_with_names():
         from_mapping(LidarMapperParams, {"odometry": {"method": "gicpp"}})
     with pytest.raises(ConfigError, match="scan_voxel must be positive"):
         from_mapping(LidarOdometryParams, {"scan_voxel": 0.0})
+    with pytest.raises(ConfigError, match="covariance_threads must be at least 1"):
+        from_mapping(LidarOdometryParams, {"covariance_threads": 0})
     params = from_mapping(
         LidarMapperParams, {"cloud_every_n_frames": 5, "odometry": {"method": "gicp", "deskew": False}}
     )

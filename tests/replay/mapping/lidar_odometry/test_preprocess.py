@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from navlog.replay.mapping.lidar_odometry import sorted_points, voxel_keys, voxel_sums
-from navlog.replay.mapping.lidar_odometry.preprocess import downsample, valid_points
+from navlog.replay.mapping.lidar_odometry.preprocess import downsample, finite_rows, valid_points
 
 
 def test_valid_points_keeps_finite_points_within_the_range_limits():
@@ -21,6 +21,17 @@ def test_valid_points_keeps_finite_points_within_the_range_limits():
     np.testing.assert_array_equal(valid_points(pts, None, 0.3, 30.0), [False, True, False, False, True])
     times = np.array([0.0, np.inf, 0.0, 0.0, 0.05])  # a point without a finite time is dropped too
     np.testing.assert_array_equal(valid_points(pts, times, 0.3, 30.0), [False, False, False, False, True])
+    # all finite (the usual sweep): the same ranges without the masked copy
+    np.testing.assert_array_equal(valid_points(pts[[0, 1, 3, 4]], None, 0.3, 30.0), [False, True, False, True])
+
+
+def test_finite_rows_is_a_row_wise_isfinite():
+    pts = np.zeros((6, 3))
+    pts[1, 0], pts[2, 1], pts[3, 2], pts[4] = np.nan, np.inf, -np.inf, np.nan
+    pts[5] = 1e308  # finite, however large
+    np.testing.assert_array_equal(finite_rows(pts), [True, False, False, False, False, True])
+    np.testing.assert_array_equal(finite_rows(pts), np.isfinite(pts).all(axis=1))
+    assert finite_rows(np.zeros((0, 3))).shape == (0,)
 
 
 def test_voxels_are_centred_on_the_origin():

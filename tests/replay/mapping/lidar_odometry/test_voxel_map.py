@@ -1,6 +1,6 @@
 """The ``vgicp`` method (small_gicp): a known offset of a synthetic corner is recovered, a scan far
-from the map is rejected, keyframes feed the Gaussian voxel map, and a run over the test room's
-sweeps keeps to the true trajectory."""
+from the map is rejected, keyframes feed the Gaussian voxel map, a run over the test room's sweeps
+keeps to the true trajectory, and the scan covariances give the same bits on any thread count."""
 
 from __future__ import annotations
 
@@ -80,3 +80,50 @@ def test_same_input_same_poses(room):
             odo.process(f.stamp_ns, f.points, f.times)
         runs.append(odo.poses()[1])
     np.testing.assert_array_equal(runs[0], runs[1])
+
+
+def _room_sweep(room) -> np.ndarray:
+    """The first sweep of the test room's loop, in base_link (N, 3)."""
+    seq = scene.make_sequence(scene.loop_trajectory(), 1, scene=room)
+    return seq.frames[0].points.astype(np.float64) @ seq.extrinsic[:3, :3].T + seq.extrinsic[:3, 3]
+
+
+def test_covariances_are_the_same_bits_on_any_thread_count(room):
+    # each point's covariance comes from its own exact nearest neighbours: the thread count of the
+    # covariances and of their k-d tree changes no bit (unlike the registration's reductions)
+    sweep = _room_sweep(room)
+    clouds = [GaussianRegistrar(LidarOdometryParams(covariance_threads=n)).source(sweep) for n in (1, 2, 3)]
+    assert clouds[0].size() > 2000
+    covs = np.asarray(clouds[0].covs())
+    # a wall point's covariance is flat: its smallest eigenvalue far below its largest
+    eig = np.linalg.eigvalsh(covs[:, :3, :3])
+    assert np.median(eig[:, 0] / eig[:, 2]) < 0.05
+    for cloud in clouds[1:]:
+        assert np.asarray(cloud.points()).tobytes() == np.asarray(clouds[0].points()).tobytes()
+        assert np.asarray(cloud.covs()).tobytes() == covs.tobytes()
+
+
+def test_covariance_threads_leave_the_poses_and_the_map_unchanged(room):
+    seq = scene.make_sequence(scene.loop_trajectory(), 8, scene=room)
+    runs = []
+    for n in (1, 2):
+        odo = LidarOdometry(LidarOdometryParams(covariance_threads=n), seq.extrinsic, seq.ground_truth([0])[0])
+        for f in seq.frames:
+            odo.process(f.stamp_ns, f.points, f.times)
+        runs.append((odo.poses()[1].tobytes(), odo.global_map().tobytes()))
+    assert odo.registrations == 7 and not odo.skipped
+    assert runs[0] == runs[1]
+
+
+def test_openmp_threads_wait_passively_unless_told_otherwise():
+    # set before small_gicp loads its OpenMP runtime; a value the user gave is kept
+    import os
+    import subprocess
+    import sys
+
+    code = "import os, navlog.replay.mapping.lidar_odometry.voxel_map; print(os.environ['OMP_WAIT_POLICY'])"
+    env = {k: v for k, v in os.environ.items() if k != "OMP_WAIT_POLICY"}
+    for given, expected in ((None, "PASSIVE"), ("ACTIVE", "ACTIVE")):
+        run_env = env if given is None else {**env, "OMP_WAIT_POLICY": given}
+        out = subprocess.run([sys.executable, "-c", code], env=run_env, capture_output=True, text=True, check=True)
+        assert out.stdout.strip() == expected
