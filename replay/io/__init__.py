@@ -4,7 +4,7 @@
   (``McapLogReader``, ``SplitMcapLogReader``, ``RosbagLogReader``), each with its own ``typestore``;
 - ``McapLogWriter`` writes ROS 2 MCAP logs; ``recover_mcap`` salvages a truncated one;
 - ``load_map`` / ``save_map`` read and write map_server YAML + image (an ``OccupancyMap``);
-- ``read_pcd`` / ``write_pcd`` read and write point-cloud maps (PCD, through Open3D);
+- ``read_pcd`` / ``write_pcd`` read and write point-cloud maps (PCD: read through Open3D, written with pypcd4);
 - ``write_poses`` writes a TUM trajectory.
 
 Names are imported on first use, so importing the package stays cheap.

@@ -107,7 +107,7 @@ class LidarMapperNode(Node):
         if params.deskew == "off":
             odometry = replace(odometry, deskew=False)
         self._sized = params.preset != "auto"  # auto: sized from the first usable sweep
-        from navlog.replay.mapping.lidar_odometry.odometry import LidarOdometry  # Open3D: loaded when the mapper runs
+        from navlog.replay.mapping.lidar_odometry.odometry import LidarOdometry  # loaded when the mapper runs
 
         self.odometry = LidarOdometry(odometry, np.eye(4), pose6_matrix(params.initial_pose))
         self.notes: dict[str, str] = {}  # what the node decided from the data, said once each (for the manifest)
@@ -419,7 +419,7 @@ class LidarMapperNode(Node):
     def save_pcd(self, path: Path) -> dict[str, Path]:
         """Write the global map (binary float32 PCD, deterministic order) to ``path``, and the
         chunks of ``save_every_n_frames`` frames beside it as ``<stem>_<k>.pcd``; returns what was written."""
-        from navlog.replay.io.pcd import write_pcd  # Open3D
+        from navlog.replay.io.pcd import write_pcd
 
         path = Path(path)
         written = {"map_pcd": path}
