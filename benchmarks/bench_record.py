@@ -330,7 +330,7 @@ def instrumented_run(args, work: Path):
     real_sensors = range_mod.sensors
     sproxy = types.SimpleNamespace(**{k: getattr(real_sensors, k) for k in dir(real_sensors) if not k.startswith("__")})
     sproxy.laser_ranges = tm.wrap("sensor models", real_sensors.laser_ranges)
-    sproxy.lidar_sweep = tm.wrap("sensor models", real_sensors.lidar_sweep)
+    sproxy.lidar_returns = tm.wrap("sensor models", real_sensors.lidar_returns)
 
     real_sim_init = sim_mod.SimNode.__init__
 

@@ -8,18 +8,25 @@ their message objects are built from (the ranges; the cloud's columns).
 ``SensorWorker`` runs a ``RangeSensors`` in a child process: a new Python interpreter (never a fork
 of a process with threads) that imports only this module, so that the caller's main module is not
 run again (multiprocessing's "spawn" and "forkserver" import it: a script without a ``__main__``
-guard would fail); ``multiprocessing.connection`` frames the messages. The child imports Open3D and
-builds the world mesh itself, so it is started before the simulator compiles its MuJoCo model and
-the two start-ups overlap, and the simulator's process never imports Open3D. Requests go through
-one pipe and results come back through another, in request order (both enlarged to 1 MiB where the
-system allows); a thread of the simulator's process reads the results as they come, so the child
-never waits to write one (a sweep is about 300 kB) and goes on with the next request, and the
-simulator takes them when it needs them (``ready``, ``result``). The noise streams are the child's,
-drawn in request order: the same numbers, so the same bytes, as in the simulator's process. The
-child is in a process group of its own and ignores SIGINT (Ctrl-C stops the recording, which then
-ends the child), and it ends when its request pipe closes, also when the simulator's process is
-killed. An error in the child, or its death, is raised in the simulator as a ``NavlogError``
-naming the worker.
+guard would fail). The child imports Open3D and builds the world mesh itself, so it is started before
+the simulator compiles its MuJoCo model and the two start-ups overlap, and the simulator's process
+never imports Open3D. Requests (a few kB: the stamp and poses) go through a pipe, framed as
+``multiprocessing.connection`` frames them. Results (a sweep is about 250 kB) come back through
+shared memory: a ring of ``RING_RESULTS`` of the largest results, in a memory file both processes
+map. The child writes each result into the ring, in request order and in one piece, and then a
+16-byte note (where, how long) into a result pipe; the simulator takes a result by copying it out
+of the ring when it looks for results (``ready``, ``result``, and while a request waits for room in
+its pipe), and stores the count of results taken in the shared memory's first 8 bytes, so the
+child never writes over a result not yet taken. A result that finds no room (the simulator fell
+far behind, or a result larger than the ring) comes through the result pipe after its note
+instead. So the child never waits on the simulator's process to write a result (no thread there has
+to take the GIL to read it), and the simulator never waits on the child while a result is due: each
+side only waits for work to do. The noise streams are the child's, drawn in request order: the same
+numbers, so the same bytes, as in the simulator's process. The child is in a process group of its
+own and ignores SIGINT (Ctrl-C stops the recording, which then ends the child), and it ends when its
+request pipe closes, also when the simulator's process is killed (the memory file goes with the
+last process that maps it). An error in the child, or its death, is raised in the simulator as a
+``NavlogError`` naming the worker.
 
 ``PendingMessage`` and ``InOrderSink`` let the simulator publish a result before it has come
 without the file depending on when it came (``navlog.recorder.sim``).
@@ -31,13 +38,16 @@ from __future__ import annotations
 
 import fcntl
 import json
+import mmap
 import os
+import select
 import struct
 import subprocess
 import sys
-import threading
+import tempfile
 import traceback
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -53,13 +63,55 @@ from navlog.replay.config import from_mapping, to_mapping
 from navlog.replay.runtime.executor import Envelope, Sink
 
 SCAN, LIDAR = "scan", "lidar"
-_PIPE_BYTES = 1 << 20  # room for whole sweeps in the pipes (Linux caps it at pipe-max-size, 1 MiB by default)
+_PIPE_BYTES = 1 << 20  # room for many requests in the pipe (Linux caps it at pipe-max-size, 1 MiB by default)
 _F_SETPIPE_SZ = getattr(fcntl, "F_SETPIPE_SZ", 1031)
+_FRAME = struct.Struct("!i")  # a request's length, as ``multiprocessing.connection`` frames it
 # a result's first byte tells what it is, without a tag to copy a sweep for: CDR bytes (of little-endian
 # CDR, whose header starts with a zero byte), arrays (``_pack_arrays``), an error
 _CDR, _ARRAYS, _ERROR = 0x00, ord("A"), b"E"
 _SCAN_REQUEST = struct.Struct("<qB")  # stamp, raw; then the 4x4 pose (float64)
 _LIDAR_REQUEST = struct.Struct("<qqIB")  # stamp, frame index, pose count, raw; then the times and poses
+# the result pipe carries a note per result: where it is (in the ring, or the bytes follow in the pipe), its
+# length, its offset in the ring
+_NOTE = struct.Struct("<IIQ")
+_IN_RING, _INLINE = 0, 1
+# the shared file: the count of results the simulator has taken (uint64, at offset 0: an aligned 8-byte store
+# and load, never seen half-written), then the ring
+_RING_AT = 64
+RING_RESULTS = 8  # the ring holds this many of the largest results the sensors can give (go2: 2 MB)
+# the worker's numpy on one thread: its small matrix products gain nothing from more, and OpenBLAS's idle
+# threads spin for a while after each, taking CPU time from the simulator's process (Open3D casts on one)
+_ONE_THREAD = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
+def _ring_size(spec: RangeSensorSpec) -> int:
+    """Bytes of the result ring: ``RING_RESULTS`` of the largest scan or sweep (CDR, or its arrays: at most
+    22 bytes a point either way, with a few kB of header), in whole pages."""
+    largest = 0
+    if spec.scan is not None:
+        largest = 4 * spec.scan.samples + 4096
+    if spec.lidar is not None:
+        lidar = spec.lidar
+        rays = lidar.lines * lidar.columns if lidar.pattern == "velodyne" else lidar.points
+        largest = max(largest, 22 * rays + 4096)
+    size = RING_RESULTS * largest
+    return -(-size // mmap.PAGESIZE) * mmap.PAGESIZE
+
+
+def _shared_file(size: int) -> int | None:
+    """A file descriptor of ``size`` bytes of memory to share with the worker, gone with its last descriptor;
+    None where there is no room for it (a file-size limit, ``ulimit -f``, counts it as a file)."""
+    if hasattr(os, "memfd_create"):
+        fd = os.memfd_create("navlog-range-sensors", os.MFD_CLOEXEC)
+    else:  # pragma: no cover - every Linux has memfd_create; an unlinked temporary file elsewhere
+        with tempfile.TemporaryFile() as f:
+            fd = os.dup(f.fileno())
+    try:
+        os.ftruncate(fd, size)
+    except OSError:
+        os.close(fd)
+        return None
+    return fd
 
 
 @dataclass(frozen=True)
@@ -179,8 +231,8 @@ class RangeSensors:
         its CDR bytes (``raw``) or its columns."""
         cfg = self.spec.lidar
         assert cfg is not None  # requested only for a configured sensor
-        cols = sensors.lidar_sweep(self.caster, cfg, frame_index, list(zip(times, poses)), self.rng_lidar)
-        return sensors.cloud_cdr(t_ns, self.spec.lidar_frame, cols) if raw else cols
+        returns = sensors.lidar_returns(self.caster, cfg, frame_index, list(zip(times, poses)), self.rng_lidar)
+        return sensors.returns_cdr(t_ns, self.spec.lidar_frame, returns) if raw else returns.columns()
 
     def compute(self, kind: str, args: tuple) -> Any:
         return self.scan(*args) if kind == SCAN else self.lidar(*args)
@@ -210,46 +262,72 @@ class InProcessSensors:
 
 
 class SensorWorker:
-    """``RangeSensors`` in a child process (module docstring); the same ``request`` / ``result`` interface."""
+    """``RangeSensors`` in a child process (module docstring); the same ``request`` / ``result`` interface.
 
-    def __init__(self, spec: RangeSensorSpec) -> None:
+    ``ring_bytes``: the size of the shared result ring (default: ``RING_RESULTS`` of the largest result the
+    spec can give); results that do not fit come through the pipe instead."""
+
+    def __init__(self, spec: RangeSensorSpec, *, ring_bytes: int | None = None) -> None:
+        ring = _ring_size(spec) if ring_bytes is None else int(ring_bytes)
+        shared = _shared_file(_RING_AT + ring)  # None: no ring, every result comes through the pipe
+        passed = () if shared is None else (shared,)
         req_r, req_w = os.pipe()
         res_r, res_w = os.pipe()
-        for fd in (req_w, res_w):
-            try:
-                fcntl.fcntl(fd, _F_SETPIPE_SZ, _PIPE_BYTES)
-            except OSError:  # not allowed here: the child then waits while a sweep is read
-                pass
         try:
+            try:
+                fcntl.fcntl(req_w, _F_SETPIPE_SZ, _PIPE_BYTES)
+            except OSError:  # not allowed here: the simulator then waits sooner for the worker to read
+                pass
             # a new interpreter (never a fork of this process and its threads), in a process group of its own
             # (a Ctrl-C in the terminal stops the recording, which then ends the worker), that imports only
             # this module: not the caller's main module, as multiprocessing's "spawn" would
             self._process = subprocess.Popen(
-                [sys.executable, "-c", _CHILD.format(req=req_r, res=res_w)],
-                pass_fds=(req_r, res_w),
+                [sys.executable, "-c", _CHILD.format(req=req_r, res=res_w, shm=-1 if shared is None else shared)],
+                pass_fds=(req_r, res_w, *passed),
                 stdin=subprocess.DEVNULL,
                 stdout=subprocess.DEVNULL,
                 process_group=0,
+                env={**os.environ, **_ONE_THREAD},
             )
+            self._shared = mmap.mmap(-1, _RING_AT) if shared is None else mmap.mmap(shared, _RING_AT + ring)
+        except BaseException:
+            for fd in (req_w, res_r):
+                os.close(fd)
+            raise
         finally:
-            os.close(req_r)  # the child's ends: only its own copies keep them open now
-            os.close(res_w)
-        self._requests = Connection(req_w, readable=False)
-        self._results = Connection(res_r, writable=False)
+            for fd in (req_r, res_w, *passed):  # the child's ends: only its own copies keep them open now
+                os.close(fd)
+        self._copied_count = np.frombuffer(self._shared, np.uint64, 1)  # read by the worker (module docstring)
+        self._req, self._res = req_w, res_r
+        os.set_blocking(req_w, False)  # a full request pipe is waited on beside the results (``_send``)
+        self._poll = select.poll()
+        self._poll.register(res_r, select.POLLIN)
         self._next = 0  # ticket of the next request
-        # results as they come out of the pipe, read by a thread (so the worker never waits to write one)
-        self._ready: dict[int, bytes] = {}
-        self._ended = False  # the pipe closed: the worker is gone
-        self._arrived = threading.Condition()
-        self._reader = threading.Thread(target=self._read, name="navlog-sensor-results", daemon=True)
-        self._reader.start()
+        self._copied = 0  # results taken out of the ring or the pipe, in request order
+        self._ready: dict[int, bytes] = {}  # taken, not yet asked for
+        self.piped = 0  # results that came through the pipe, not the ring (it had no room for them)
+        self._ended = False  # the result pipe closed: the worker is gone
+        self._closed = False
         self._send(_spec_bytes(spec))
 
     def _send(self, data: bytes) -> None:
-        try:
-            self._requests.send_bytes(data)
-        except OSError:
-            raise self._died() from None
+        """One request, framed as ``multiprocessing.connection`` frames it (the worker reads it so). While the
+        pipe is full the results are taken meanwhile, so that the worker, writing one, never waits on this."""
+        view = memoryview(_FRAME.pack(len(data)) + data)
+        ends = select.poll()
+        ends.register(self._req, select.POLLOUT)
+        ends.register(self._res, select.POLLIN)
+        while view:
+            try:
+                view = view[os.write(self._req, view) :]
+                continue
+            except BlockingIOError:
+                pass
+            except OSError:  # the worker is gone (EPIPE)
+                raise self._died() from None
+            for fd, _ in ends.poll():
+                if fd == self._res and not self._take():
+                    raise self._died()
 
     def request(self, kind: str, args: tuple) -> int:
         self._send(_request_bytes(kind, args))
@@ -257,31 +335,51 @@ class SensorWorker:
         self._next += 1
         return ticket
 
-    def _read(self) -> None:
-        """The reader thread: every result into ``_ready`` under its ticket (they come in request order)."""
-        ticket = 0
-        try:
-            while True:
-                data = self._results.recv_bytes()  # waits without the GIL
-                with self._arrived:
-                    self._ready[ticket] = data
-                    self._arrived.notify()
-                ticket += 1
-        except (EOFError, OSError):
-            with self._arrived:
+    def _take(self) -> bool:
+        """Take the next result (waiting for it) out of the ring or the pipe; False when the worker is gone."""
+        note = self._read(_NOTE.size)
+        if note is None:
+            self._ended = True
+            return False
+        how, n, at = _NOTE.unpack(note)
+        if how == _IN_RING:
+            data = self._shared[_RING_AT + at : _RING_AT + at + n]  # a copy: the worker may reuse the place now
+        else:
+            inline = self._read(n)
+            if inline is None:
                 self._ended = True
-                self._arrived.notify()
+                return False
+            data = inline
+            self.piped += 1
+        self._ready[self._copied] = data
+        self._copied += 1
+        self._copied_count[0] = self._copied
+        return True
+
+    def _read(self, n: int) -> bytes | None:
+        parts, left = [], n
+        while left:
+            try:
+                chunk = os.read(self._res, left)
+            except OSError:
+                return None
+            if not chunk:
+                return None
+            parts.append(chunk)
+            left -= len(chunk)
+        return parts[0] if len(parts) == 1 else b"".join(parts)
 
     def ready(self, ticket: int) -> bool:
         """True when the result of request ``ticket`` has come (``result`` returns it without waiting)."""
+        while ticket not in self._ready and not self._ended and self._poll.poll(0):
+            self._take()
         return ticket in self._ready or self._ended
 
     def result(self, ticket: int) -> Any:
         """The result of request ``ticket``, waiting for it."""
-        with self._arrived:
-            while ticket not in self._ready and not self._ended:
-                self._arrived.wait()
-            data = self._ready.pop(ticket, None)
+        while ticket not in self._ready and not self._ended and ticket < self._next:
+            self._take()
+        data = self._ready.pop(ticket, None)
         if data is None:
             raise self._died()
         if data[0] == _CDR:
@@ -303,34 +401,74 @@ class SensorWorker:
         )
 
     def close(self) -> None:
-        """End the child: close its request pipe (it exits on that), wait for it and for the reader thread."""
-        if self._requests.closed:
+        """End the child: close its pipes (it exits on that, also when writing a result) and wait for it."""
+        if self._closed:
             return
-        self._requests.close()
+        self._closed = True
+        os.close(self._req)
+        os.close(self._res)
         try:
             self._process.wait(timeout=10)
         except subprocess.TimeoutExpired:
             self._process.kill()
             self._process.wait()
-        self._reader.join()  # the child's end of the result pipe closed with it: the reader saw the end
-        self._results.close()
         self._ready.clear()
+        del self._copied_count  # the last view of the mapping, which can then be closed
+        self._shared.close()
 
 
 # the worker process's program: SIGINT ignored before anything else (module docstring)
 _CHILD = (
     "import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "
-    "from navlog.recorder.range_sensors import serve; serve({req}, {res})"
+    "from navlog.recorder.range_sensors import serve; serve({req}, {res}, {shm})"
 )
 
 
-def serve(req_fd: int, res_fd: int) -> None:
+class _Ring:
+    """Where the worker puts each result in the shared ring: in request order, each in one piece, never over
+    a result the simulator has not taken yet (those of tickets from ``copied`` on)."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self._live: deque[tuple[int, int, int]] = deque()  # (ticket, start, end) of results maybe not taken
+
+    def place(self, ticket: int, n: int, copied: int) -> int | None:
+        """The offset for result ``ticket`` of ``n`` bytes, or None when it does not fit now."""
+        live = self._live
+        while live and live[0][0] < copied:
+            live.popleft()
+        at: int | None
+        if not live:
+            at = 0 if n <= self.size else None
+        else:
+            tail, head = live[0][1], live[-1][2]
+            if tail < head:  # the results in the ring do not wrap: after them, else from the start
+                at = head if head + n <= self.size else (0 if n <= tail else None)
+            else:  # they wrap: between the newest and the oldest
+                at = head if head + n <= tail else None
+        if at is not None:
+            live.append((ticket, at, at + n))
+        return at
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view) :]
+
+
+def serve(req_fd: int, res_fd: int, shm_fd: int) -> None:
     """The worker process: build the sensors from the first request, then answer requests in order until
-    the request pipe closes."""
+    the request pipe closes (each result in the shared ring, or through the result pipe when it has no room)."""
     requests = Connection(req_fd, writable=False)
-    results = Connection(res_fd, readable=False)
+    shared = bytearray(_RING_AT) if shm_fd < 0 else mmap.mmap(shm_fd, 0)  # no shared memory: no ring
+    if shm_fd >= 0:
+        os.close(shm_fd)
+    copied = np.frombuffer(shared, np.uint64, 1)  # results the simulator has taken
+    ring = _Ring(len(shared) - _RING_AT)
     try:
         ranges = RangeSensors(_spec_from_bytes(requests.recv_bytes()))
+        ticket = 0
         while True:
             try:
                 kind, args = _request_from_bytes(requests.recv_bytes())
@@ -339,26 +477,38 @@ def serve(req_fd: int, res_fd: int) -> None:
             out = ranges.compute(kind, args)
             if not isinstance(out, bytes):
                 out = _pack_arrays(out if isinstance(out, dict) else {"": out})
-            results.send_bytes(out)
+            at = ring.place(ticket, len(out), int(copied[0]))
+            if at is None:
+                _write_all(res_fd, _NOTE.pack(_INLINE, len(out), 0))
+                _write_all(res_fd, out)
+            else:
+                shared[_RING_AT + at : _RING_AT + at + len(out)] = out
+                _write_all(res_fd, _NOTE.pack(_IN_RING, len(out), at))
+            ticket += 1
     except (EOFError, BrokenPipeError, ConnectionResetError):  # the simulator is gone
         return
     except Exception:
+        error = _ERROR + traceback.format_exc().encode()
         try:
-            results.send_bytes(_ERROR + traceback.format_exc().encode())
+            _write_all(res_fd, _NOTE.pack(_INLINE, len(error), 0) + error)
         except OSError:
             pass
 
 
 class PendingMessage:
-    """The place of a raw scan or sweep published before the worker computed it; ``fill`` gives its bytes."""
+    """The place of a raw scan or sweep published before the worker computed it; ``fill`` gives its bytes
+    (and calls ``on_fill``: the ``InOrderSink`` holding it passes on what waited behind it)."""
 
-    __slots__ = ("data",)
+    __slots__ = ("data", "on_fill")
 
     def __init__(self) -> None:
         self.data: bytes | None = None
+        self.on_fill: Callable[[], None] | None = None
 
     def fill(self, data: bytes) -> None:
         self.data = data
+        if self.on_fill is not None:
+            self.on_fill()
 
 
 class InOrderSink:
@@ -370,6 +520,10 @@ class InOrderSink:
         self._held: deque[Envelope] = deque()
 
     def write(self, env: Envelope) -> None:
+        if isinstance(env.msg, PendingMessage):
+            # filled, it passes on what waits behind it at once: also while the simulator waits for the last
+            # results at the end of a run, so that the writer works beside the worker then too
+            env.msg.on_fill = self.flush
         if self._held or isinstance(env.msg, PendingMessage):
             self._held.append(env)
             self.flush()

@@ -4,8 +4,9 @@ Everything here is pure given poses and a random generator: the simulator node d
 sensor fires and at which poses. Ray casting uses Open3D's RaycastingScene on the world's static
 mesh (the robot is not in it, so sensors never see their own body).
 
-A scan and a cloud are built either as message objects (``scan_message``, ``make_cloud``) for nodes
-that subscribe, or as their CDR bytes directly (``scan_cdr``, ``cloud_cdr``, through
+A scan and a cloud are built either as message objects (``scan_message``, ``make_cloud`` of
+``LidarReturns.columns()``) for nodes that subscribe, or as their CDR bytes directly (``scan_cdr``,
+``cloud_cdr``; ``returns_cdr`` packs a sweep's points straight from its returns; through
 ``navlog.replay.io.cdr``) for the recorder alone: the same bytes, without the objects.
 """
 
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 
@@ -197,31 +199,74 @@ def _sweep_timing(cfg: LidarConfig, frame_index: int, pose_times: tuple[float, .
     return t32, runs, idx
 
 
-def lidar_sweep(
+def _run_rays(
+    dirs: np.ndarray, runs: list[tuple[int, int, int]], poses: list[tuple[float, np.ndarray]], *, at_once: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """World directions (float64) and Open3D's rays (float32 origin, direction) of the rays ``dirs`` (sensor
+    frame) grouped in runs (pose index, start, end) cast from one pose each: one matrix product per run, or,
+    ``at_once`` and the runs of one length (a velodyne sweep), all in one call, with the same results."""
+    world_dirs = np.empty_like(dirs)
+    rays = np.empty((len(dirs), 6), dtype=np.float32)
+    length = runs[0][2] - runs[0][1]
+    if at_once and all(b - a == length for _, a, b in runs):
+        k, start, end = len(runs), runs[0][1], runs[-1][2]
+        stack = np.stack([poses[i][1] for i, _, _ in runs])
+        # the same BLAS product for each run as one call per run gives (a stack is multiplied item by item), the
+        # transposed rotations made contiguous, which BLAS multiplies several times faster
+        rot_t = np.ascontiguousarray(stack[:, :3, :3].transpose(0, 2, 1))
+        np.matmul(dirs[start:end].reshape(k, length, 3), rot_t, out=world_dirs[start:end].reshape(k, length, 3))
+        rays[start:end, :3].reshape(k, length, 3)[:] = stack[:, None, :3, 3].astype(np.float32)
+    else:
+        for i, a, b in runs:
+            pose = poses[i][1]
+            np.matmul(dirs[a:b], pose[:3, :3].T, out=world_dirs[a:b])
+            rays[a:b, :3] = pose[:3, 3]
+    rays[:, 3:] = world_dirs.astype(np.float32)  # rounded where it is contiguous: faster than while strided
+    return world_dirs, rays
+
+
+class LidarReturns(NamedTuple):
+    """The returns of a sweep (``lidar_returns``): every ray that returned within range."""
+
+    distance: np.ndarray  # m (float64)
+    directions: np.ndarray  # unit directions in the sensor frame at each ray's time (N, 3)
+    intensity: np.ndarray  # 255 |cos(incidence)| exp(-distance / 20) (float64)
+    ring: np.ndarray  # uint16; may be a read-only cached array
+    time: np.ndarray  # s from the stamp (float32); may be a read-only cached array
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The cloud's columns (``navlog.replay.pointcloud.make_cloud``): the points in float32, new arrays."""
+        d, dirs = self.distance, self.directions
+        return {
+            "x": (dirs[:, 0] * d).astype(np.float32),
+            "y": (dirs[:, 1] * d).astype(np.float32),
+            "z": (dirs[:, 2] * d).astype(np.float32),
+            "intensity": self.intensity.astype(np.float32),
+            "ring": self.ring.copy(),
+            "time": self.time.copy(),
+        }
+
+
+def lidar_returns(
     caster: RayCaster,
     cfg: LidarConfig,
     frame_index: int,
     poses: list[tuple[float, np.ndarray]],
     rng: np.random.Generator | None,
-) -> dict[str, np.ndarray]:
+) -> LidarReturns:
     """One sweep: each ray is cast from the sensor pose at its own time (motion distortion included).
 
     ``poses`` are (time offset from the stamp in s, 4x4 sensor pose) spanning the sweep, oldest first;
     the stamp is the end of the sweep, so point times are in [-1/rate, 0]. Points are expressed in
-    the sensor frame at their capture time, as a real spinning sensor reports them.
+    the sensor frame at their capture time, as a real spinning sensor reports them. ``.columns()`` gives
+    the cloud's columns, ``returns_cdr`` its CDR bytes.
     """
     dirs, ring, _ = lidar_pattern(cfg, frame_index)
     pattern_index = 0 if cfg.pattern == "velodyne" else frame_index
     t32, runs, idx = _sweep_timing(cfg, pattern_index, tuple(p[0] for p in poses))
     # rays are grouped by the pose they are cast from: one matrix product per pose
     if runs is not None:
-        world_dirs = np.empty_like(dirs)
-        rays = np.empty((len(dirs), 6), dtype=np.float32)
-        for i, a, b in runs:
-            pose = poses[i][1]
-            np.matmul(dirs[a:b], pose[:3, :3].T, out=world_dirs[a:b])
-            rays[a:b, :3] = pose[:3, 3]
-        rays[:, 3:] = world_dirs
+        world_dirs, rays = _run_rays(dirs, runs, poses)
         dist, normals = caster.cast_rays(rays)
     else:
         rots = np.stack([p[1][:3, :3] for p in poses])
@@ -235,7 +280,7 @@ def lidar_sweep(
     ok = (dist >= cfg.range_min) & (dist <= cfg.range_max)
     cos = np.einsum("ij,ij->i", normals, world_dirs)
     if ok.all():  # the usual case indoors: every ray returns; no selection copies
-        d, dirs_ok, ring_ok, t_ok = dist, dirs, ring.copy(), t32.copy()
+        d, dirs_ok, ring_ok, t_ok = dist, dirs, ring, t32
     else:
         sel = np.flatnonzero(ok)  # ``take``: the same copies as fancy indexing, several times faster for rows
         d, dirs_ok, cos, ring_ok, t_ok = (
@@ -251,14 +296,7 @@ def lidar_sweep(
     fade = d / 20.0
     np.negative(fade, out=fade)
     cos *= np.exp(fade)
-    return {
-        "x": (dirs_ok[:, 0] * d).astype(np.float32),
-        "y": (dirs_ok[:, 1] * d).astype(np.float32),
-        "z": (dirs_ok[:, 2] * d).astype(np.float32),
-        "intensity": cos.astype(np.float32),
-        "ring": ring_ok,
-        "time": t_ok,
-    }
+    return LidarReturns(d, dirs_ok, cos, ring_ok, t_ok)
 
 
 @lru_cache(maxsize=1)
@@ -272,14 +310,32 @@ def _cloud_layout() -> tuple[np.dtype, tuple[tuple[str, int, int, int], ...]]:
 def cloud_cdr(ns: int, frame: str, columns: dict[str, np.ndarray]) -> bytes:
     """The CDR bytes of ``navlog.replay.pointcloud.make_cloud(ns, frame, columns)`` (the Velodyne layout),
     encoded without building the message: the points are packed once and copied once into the bytes."""
-    dtype, fields = _cloud_layout()
+    dtype, _ = _cloud_layout()
     n = len(next(iter(columns.values()))) if columns else 0
     points = np.zeros(n, dtype=dtype)
     for name, _, _ in VELODYNE_FIELDS:
         if name in columns:
             points[name] = columns[name]
+    return _points_cdr(ns, frame, points)
+
+
+def returns_cdr(ns: int, frame: str, returns: LidarReturns) -> bytes:
+    """``cloud_cdr(ns, frame, returns.columns())``: the same bytes, the points packed straight from the returns."""
+    dtype, _ = _cloud_layout()
+    points = np.empty(len(returns.distance), dtype=dtype)  # the fields fill every byte of a point
+    for i, name in enumerate("xyz"):  # float64 products rounded to float32 as they are stored, as astype does
+        np.multiply(returns.directions[:, i], returns.distance, out=points[name], casting="same_kind")
+    points["intensity"] = returns.intensity
+    points["ring"] = returns.ring
+    points["time"] = returns.time
+    return _points_cdr(ns, frame, points)
+
+
+def _points_cdr(ns: int, frame: str, points: np.ndarray) -> bytes:
+    """The CDR bytes of a cloud of ``points`` (of the Velodyne layout's dtype), copied once into them."""
+    _, fields = _cloud_layout()
     sec, nsec = divmod(ns, _NS)
-    step = VELODYNE_POINT_STEP
+    step, n = VELODYNE_POINT_STEP, len(points)
     return layout(messages.POINT_CLOUD2).encode(
         (sec, nsec, frame, 1, n, fields, False, step, step * n, points.view(np.uint8), True)
     )

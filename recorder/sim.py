@@ -81,9 +81,12 @@ EVENTS_TOPIC = "/navlog/events"
 CONTACT_GAP_NS = 100_000_000  # a contact episode ends after this long without touching (pressing on a wall flickers)
 CLOCK_PERIOD_NS = 10_000_000  # /clock at 100 Hz
 # raw scans or sweeps of a sensor the simulation may have asked the worker for and not received (module
-# docstring): 2 s of sim time at 10 Hz, so that it runs ahead while the worker starts or falls behind for a
-# moment, and the messages held behind them stay few (about what the MCAP writer holds for its chunks)
-MAX_AHEAD = 20
+# docstring): 20 s of sim time at 10 Hz, so that the simulation runs on while the worker starts (it imports
+# Open3D: about 0.7 s, 20-30 s of sim time) or falls behind for a while. What that holds is bounded by it:
+# the messages published behind the oldest pending one (about 500 a second of sim time, 0.1 MB of CDR, with
+# the IMU at 200 Hz: at most 10000 and 2 MB; measured on the mapping tour: at most 4000, 0.9 MB) and the
+# requests in their pipe (3 kB a sweep: at most the pipe's 1 MiB, then the simulation waits for the worker)
+MAX_AHEAD = 200
 _ZEROS36 = (0.0,) * 36  # the covariances of the simulator's odometry
 _HOMOGENEOUS_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 

@@ -7,14 +7,23 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from navlog.errors import NavlogError
-from navlog.recorder import sim
-from navlog.recorder.range_sensors import SCAN, InOrderSink, PendingMessage, SensorWorker, start_range_sensors
+from navlog.recorder import range_sensors, sim
+from navlog.recorder.range_sensors import (
+    LIDAR,
+    SCAN,
+    InOrderSink,
+    PendingMessage,
+    SensorWorker,
+    _Ring,
+    start_range_sensors,
+)
 from navlog.recorder.record import prepare, record
 from navlog.recorder.robot import load_robot
 from navlog.recorder.world import load_world
@@ -169,7 +178,8 @@ def test_the_in_order_sink_holds_messages_behind_a_pending_one() -> None:
     sink.write(Envelope("/scan", "s", 0, pending))
     sink.write(Envelope("/clock", "c", 10, b"b"))
     assert out.got == [("/clock", 0, b"a")]
-    pending.fill(b"scan")
+    pending.fill(b"scan")  # passes on what waited behind it, without waiting for the next message
+    assert out.got == [("/clock", 0, b"a"), ("/scan", 0, b"scan"), ("/clock", 10, b"b")]
     sink.write(Envelope("/clock", "c", 20, b"c"))
     assert out.got == [("/clock", 0, b"a"), ("/scan", 0, b"scan"), ("/clock", 10, b"b"), ("/clock", 20, b"c")]
     sink.write(Envelope("/scan", "s", 100, PendingMessage()))
@@ -203,3 +213,66 @@ def test_the_command_line_chooses_where_the_sensors_run_and_the_log_is_the_same(
         text=True,
     )
     assert bad.returncode == 2 and "invalid choice: 'gpu'" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_the_ring_puts_results_in_order_and_never_over_one_not_taken() -> None:
+    ring = _Ring(100)
+    assert [ring.place(t, 30, 0) for t in range(3)] == [0, 30, 60]
+    assert ring.place(3, 30, 0) is None  # 10 bytes left at the end, none at the start: nothing taken yet
+    assert ring.place(3, 10, 0) == 90  # fits exactly at the end
+    assert ring.place(4, 25, 1) == 0  # result 0 taken: its 30 bytes at the start are free again
+    assert ring.place(5, 6, 1) is None  # 5 bytes before result 1 (at 30) is all there is
+    assert ring.place(5, 35, 3) == 25  # 1 and 2 taken: room from 25 to the start of 3 (at 90)
+    assert ring.place(6, 31, 6) == 0  # all taken: from the start again
+    assert ring.place(7, 101, 7) is None  # larger than the ring
+
+
+def _sweep_request(t_ns: int, frame: int, x: float) -> tuple:
+    pose = np.eye(4)
+    pose[:3, 3] = (x, 0.0, 0.3)
+    n = 22  # the poses of a 10 Hz sweep: 20 ticks and two around it
+    times = tuple((k - n + 1) * 0.005 for k in range(n))
+    return (t_ns, frame, times, np.repeat(pose[None], n, axis=0), True)
+
+
+@pytest.mark.parametrize(
+    "ring_bytes", [None, 8192, 0, "no shared memory"], ids=["ring", "scans-only", "no-ring", "no-shared-memory"]
+)
+def test_results_come_through_the_ring_or_the_pipe_with_the_same_bytes(ring_bytes, monkeypatch) -> None:
+    """Scans (3 kB) and sweeps (250 kB) in the default ring, scans only in a ring of 8 kB, and everything
+    through the pipe with no ring, or no shared memory at all (a file-size limit of 0 forbids it); the
+    requests sent without waiting fill the request pipe (400 sweeps of 2.8 kB: more than its 1 MiB), so
+    the results must be taken while they are sent."""
+    if ring_bytes == "no shared memory":
+        monkeypatch.setattr(range_sensors, "_shared_file", lambda size: None)
+        ring_bytes = None
+        piped = 800
+    else:
+        piped = {None: 0, 8192: 400, 0: 800}[ring_bytes]
+    world, robot = load_world("indoor_room"), load_robot("go2")
+    here = start_range_sensors(world, robot, 5, True, worker=False)
+    spec = here.sensors.spec  # type: ignore[union-attr]
+    worker = SensorWorker(spec, ring_bytes=ring_bytes)
+    requests = []
+    for k in range(400):
+        requests.append((LIDAR, _sweep_request(k * 100_000_000, k, 0.001 * k)))
+        scan_pose = np.eye(4)
+        scan_pose[:3, 3] = (0.001 * k, 0.0, 0.3)
+        requests.append((SCAN, (k * 100_000_000, scan_pose, True)))
+    got: list = []
+
+    def run() -> None:
+        tickets = [worker.request(kind, args) for kind, args in requests]
+        got.extend(worker.result(t) for t in tickets)
+
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(timeout=120)
+    stuck = thread.is_alive()
+    worker.close()  # also ends a stuck thread: its pipes close
+    assert not stuck, "the worker and this process wait on each other"
+    expected = [here.result(here.request(kind, args)) for kind, args in requests]
+    assert all(isinstance(g, bytes) for g in got) and got == expected
+    assert len(got[0]) > 200_000 and len(got[1]) < 4000  # a sweep of 16 x 720 points, a scan of 720 ranges
+    assert worker.piped == piped
+    assert worker._process.returncode == 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 from navlog.recorder import sensors
 from navlog.recorder.robot import load_robot
 from navlog.recorder.sim import SimNode, SimOptions
-from navlog.recorder.world import load_world
+from navlog.recorder.world import load_world, world_mesh
 from navlog.replay import messages
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.pointcloud import make_cloud
@@ -107,3 +108,39 @@ def test_scan_and_cloud_bytes_equal_their_messages_serialized():
             data = sensors.cloud_cdr(100_000_001, frame, cols)
             assert data == messages.serialize(make_cloud(100_000_001, frame, cols), messages.POINT_CLOUD2)
             assert data[-1:] == b"\x01" and len(data) > 22 * n  # the points, then is_dense
+
+
+@pytest.mark.parametrize(
+    ("pattern", "shift"),
+    [("velodyne", 0.0), ("velodyne", 0.0013), ("livox_mid360", 0.0)],
+    ids=["velodyne", "velodyne-uneven-runs", "livox"],
+)
+def test_a_sweep_packed_from_its_returns_equals_its_columns_packed(pattern: str, shift: float) -> None:
+    """``returns_cdr`` (the raw path: the points packed straight from the returns) gives the bytes
+    ``cloud_cdr`` gives for the returns' columns, from a moving sensor near a wall, for runs of one length
+    (their ray products all at once) and of unequal lengths (one product per run)."""
+    lidar = dataclasses.replace(load_robot("go2").lidar, pattern=pattern, points=3000)
+    caster = sensors.RayCaster(world_mesh(load_world("indoor_room")))
+    n = 22  # the poses of a 10 Hz sweep: 20 ticks and two around it
+    poses = []
+    for k in range(n):
+        pose = np.eye(4)
+        yaw = 0.02 * k
+        pose[:2, :2] = [[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]]
+        pose[:3, 3] = (1.0 + 0.01 * k, -0.5, 0.3)
+        poses.append(((k - n + 1) * 0.005 + shift, pose))
+    runs = sensors._sweep_timing(lidar, 0, tuple(t for t, _ in poses))[1]
+    if pattern == "velodyne":
+        assert (len({b - a for _, a, b in runs}) == 1) == (shift == 0)  # the two paths of the ray products
+        dirs = sensors.lidar_pattern(lidar, 0)[0]
+        at_once, one_by_one = (sensors._run_rays(dirs, runs, poses, at_once=flag) for flag in (True, False))
+        assert all(np.array_equal(x, y) for x, y in zip(at_once, one_by_one))
+    for frame_index in (0, 3):
+        returns = sensors.lidar_returns(caster, lidar, frame_index, poses, np.random.default_rng(5))
+        cols = returns.columns()
+        assert sensors.returns_cdr(700_000_000, "livox_frame", returns) == sensors.cloud_cdr(
+            700_000_000, "livox_frame", cols
+        )
+        returned = len(cols["x"])
+        # some velodyne rays miss (the sky): the selected returns; every livox ray returns: no selection
+        assert 0 < returned < 16 * 720 if pattern == "velodyne" else returned == 3000
