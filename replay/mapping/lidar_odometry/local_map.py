@@ -201,6 +201,11 @@ class GlobalMap:
             error, self._error = self._error, None
             raise error
 
+    @property
+    def chunk_open(self) -> bool:
+        """True while frames wait in a chunk not yet closed (``close_chunk`` then filters them with Open3D)."""
+        return bool(self._chunk)
+
     def close_chunk(self) -> None:
         """End the current chunk (if it holds any frame): voxel-filtered at ``save_voxel``, sorted."""
         if self._chunk:

@@ -248,7 +248,7 @@ class LidarOdometry:
 
     def finish_chunks(self) -> list[np.ndarray]:
         """The chunks of ``save_every_n_frames`` frames, the last partial one included."""
-        with _Threads(self.params.threads):
+        with _Threads(self.params.threads, self.global_store.chunk_open):  # Open3D only for a chunk to close
             self.global_store.close_chunk()
         return list(self.global_store.chunks)
 
