@@ -1,11 +1,11 @@
 """Fast CDR decoders of the types a replay reads most: ``tf2_msgs/msg/TFMessage``, ``nav_msgs/msg/Odometry``,
-``sensor_msgs/msg/LaserScan``, ``geometry_msgs/msg/Twist`` and ``TwistStamped``.
+``sensor_msgs/msg/Imu``, ``sensor_msgs/msg/LaserScan``, ``geometry_msgs/msg/Twist`` and ``TwistStamped``.
 
-The type store's generated deserializer calls one function per nested type and unpacks field by field:
-about 36 us per /tf message, 26 us per odometry message, 24 us per scan and 8 us per command, about
-0.4 s of a 2D mapping replay of the 138 s tour. These decoders read the same little-endian CDR with a
-few ``struct`` calls and build the same message objects (the store's own classes; arrays as read-only
-NumPy arrays over the bytes, as the store makes them). A TFMessage also has a light form,
+The type store's generated deserializer calls one function per nested type and unpacks field by field.
+These decoders read the same little-endian CDR with a few ``struct`` calls and build the same message
+objects (the store's own classes; arrays as read-only NumPy arrays over the bytes, as the store makes
+them), 1.5 to 4 times faster (a /tf message 3.7 against 9 us, a scan 9 against 24 us, an IMU message 5.6
+against 8.8 us, measured on the mapping log's messages). A TFMessage also has a light form,
 ``messages.TFTransforms``: the same numbers as tuples, no objects, for the subscribers that accept it
 (TF buffers).
 
@@ -35,6 +35,8 @@ _U32 = struct.Struct("<I")
 _TIME = struct.Struct("<iI")  # builtin_interfaces/Time: sec, nanosec
 _D6 = struct.Struct("<6d")
 _D7 = struct.Struct("<7d")
+_D4 = struct.Struct("<4d")
+_D3 = struct.Struct("<3d")
 _F7 = struct.Struct("<7f")
 _COV = 36  # float64 values of a 6x6 covariance
 _HEADER = 4  # CDR encapsulation header (alignment counts from the end of it)
@@ -60,6 +62,13 @@ USES = {
         "geometry_msgs/msg/Quaternion",
         "geometry_msgs/msg/TwistWithCovariance",
         "geometry_msgs/msg/Twist",
+        "geometry_msgs/msg/Vector3",
+    ),
+    messages.IMU: (
+        "sensor_msgs/msg/Imu",
+        "std_msgs/msg/Header",
+        "builtin_interfaces/msg/Time",
+        "geometry_msgs/msg/Quaternion",
         "geometry_msgs/msg/Vector3",
     ),
     messages.LASER_SCAN: ("sensor_msgs/msg/LaserScan", "std_msgs/msg/Header", "builtin_interfaces/msg/Time"),
@@ -199,6 +208,37 @@ def _tf_light_decoder(store: Any) -> Callable[[bytes], Any]:
     return decode
 
 
+def _imu_decoder(store: Any) -> Callable[[bytes], Any]:
+    c = store.types
+    imu, header, time = c["sensor_msgs/msg/Imu"], c["std_msgs/msg/Header"], c["builtin_interfaces/msg/Time"]
+    quaternion, vector3 = c["geometry_msgs/msg/Quaternion"], c["geometry_msgs/msg/Vector3"]
+
+    def decode(data: bytes) -> Any:
+        _check(data)
+        sec, nanosec = _TIME.unpack_from(data, _HEADER)
+        frame_id, pos = _string(data, 8)
+        at = _HEADER + ((pos + 7) & -8)
+        if at + 8 * 37 + 3 < len(data) or at + 8 * 37 > len(data):  # 4 + 9 + 3 + 9 + 3 + 9 doubles, as the store checks
+            raise ValueError("CDR message size mismatch")
+        qx, qy, qz, qw = _D4.unpack_from(data, at)
+        cov_q = np.frombuffer(data, dtype=np.float64, count=9, offset=at + 32)
+        wx, wy, wz = _D3.unpack_from(data, at + 104)
+        cov_w = np.frombuffer(data, dtype=np.float64, count=9, offset=at + 128)
+        ax, ay, az = _D3.unpack_from(data, at + 200)
+        cov_a = np.frombuffer(data, dtype=np.float64, count=9, offset=at + 224)
+        return imu(
+            header(time(sec, nanosec), frame_id),
+            quaternion(qx, qy, qz, qw),
+            cov_q,
+            vector3(wx, wy, wz),
+            cov_w,
+            vector3(ax, ay, az),
+            cov_a,
+        )
+
+    return decode
+
+
 def _f32_sequence(data: bytes, pos: int, max_len: int) -> tuple[np.ndarray, int]:
     """A CDR float32 sequence at payload offset ``pos`` (aligned to 4 here): a read-only array over the bytes."""
     pos = (pos + 3) & -4
@@ -305,6 +345,7 @@ def _odometry_decoder(store: Any) -> Callable[[bytes], Any]:
 _FACTORIES = {
     messages.TF_MESSAGE: _tf_decoder,
     messages.ODOMETRY: _odometry_decoder,
+    messages.IMU: _imu_decoder,
     messages.LASER_SCAN: _laser_scan_decoder,
     messages.TWIST: _twist_decoder,
     messages.TWIST_STAMPED: _twist_stamped_decoder,

@@ -124,6 +124,23 @@ def laser_scan(rng: np.random.Generator, n: int):
     )
 
 
+def imu(rng: np.random.Generator):
+    c = messages.msg_class
+    v = [float(rng.choice(EDGE)) if rng.random() < 0.3 else float(rng.normal()) for _ in range(10)]
+    cov = rng.normal(size=(3, 9))
+    cov[0, :3] = [math.nan, -math.inf, -0.0]
+    stamp = int(rng.integers(0, 2**31 * 10**9))
+    return c(messages.IMU)(
+        header=messages.header(stamp, str(rng.choice(NAMES))),
+        orientation=c("geometry_msgs/msg/Quaternion")(x=v[0], y=v[1], z=v[2], w=v[3]),
+        orientation_covariance=cov[0],
+        angular_velocity=c("geometry_msgs/msg/Vector3")(x=v[4], y=v[5], z=v[6]),
+        angular_velocity_covariance=cov[1],
+        linear_acceleration=c("geometry_msgs/msg/Vector3")(x=v[7], y=v[8], z=v[9]),
+        linear_acceleration_covariance=cov[2],
+    )
+
+
 def twist(rng: np.random.Generator, stamped: bool):
     v = [float(rng.choice(EDGE)) if rng.random() < 0.3 else float(rng.normal()) for _ in range(3)]
     msg = messages.twist(*v)
@@ -134,10 +151,11 @@ def twist(rng: np.random.Generator, stamped: bool):
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_scans_and_commands_decode_to_the_stores_objects(seed):
+def test_scans_commands_and_imu_decode_to_the_stores_objects(seed):
     rng = np.random.default_rng(seed)
     cases = [(messages.LASER_SCAN, laser_scan(rng, n)) for n in (0, 1, 5, 720)]
     cases += [(messages.TWIST, twist(rng, False)), (messages.TWIST_STAMPED, twist(rng, True))]
+    cases += [(messages.IMU, imu(rng)) for _ in range(5)]
     for typename, msg in cases:
         data = messages.serialize(msg, typename)
         got, want = cdr_decode.decoder(typename, STORE)(data), STORE.deserialize_cdr(data, typename)
@@ -165,6 +183,7 @@ CASES = {
     messages.ODOMETRY: (odometry, 12),
     messages.LASER_SCAN: (lambda rng: laser_scan(rng, 10), 12),
     messages.TWIST_STAMPED: (lambda rng: twist(rng, True), 12),
+    messages.IMU: (imu, 12),
 }
 
 
@@ -188,7 +207,7 @@ def test_bytes_the_decoder_does_not_accept_are_refused(typename):
 
 
 def test_only_types_with_their_standard_definition_get_a_decoder():
-    assert cdr_decode.decoder(messages.IMU, STORE) is None
+    assert cdr_decode.decoder(messages.POINT_CLOUD2, STORE) is None
     other = messages.new_typestore()
     assert cdr_decode.decoder(messages.ODOMETRY, other) is not None
     # a store whose Vector3 is float32 (not ROS 2's) decodes with its own deserializer
@@ -202,7 +221,7 @@ def test_only_types_with_their_standard_definition_get_a_decoder():
 def test_a_recorded_log_reads_the_same_objects_as_the_stores_deserializer(teleop_log):
     from navlog.replay.io.mcap_reader import McapLogReader
 
-    topics = ["/tf", "/tf_static", "/odom", "/odom/ground_truth", "/scan", "/cmd_vel"]
+    topics = ["/tf", "/tf_static", "/odom", "/odom/ground_truth", "/scan", "/cmd_vel", "/imu/data"]
     with McapLogReader(teleop_log) as reader:
         fast = list(reader.messages(topics))
     with McapLogReader(teleop_log) as reader:
@@ -214,7 +233,7 @@ def test_a_recorded_log_reads_the_same_objects_as_the_stores_deserializer(teleop
         assert same(a.msg, STORE.deserialize_cdr(b.msg, b.typename))
         counts[a.typename] = counts.get(a.typename, 0) + 1
     assert counts[messages.TF_MESSAGE] > 500 and counts[messages.ODOMETRY] > 1000
-    assert counts[messages.LASER_SCAN] > 100 and counts[messages.TWIST] > 100
+    assert counts[messages.LASER_SCAN] > 100 and counts[messages.TWIST] > 100 and counts[messages.IMU] > 1000
 
 
 @pytest.mark.parametrize("seed", range(3))
