@@ -94,3 +94,35 @@ def test_input_digests_are_sha256_of_the_whole_file(tmp_path):
         data = bytes(range(256)) * (size // 256) + bytes(size % 256)
         p.write_bytes(data)
         assert sha256_file(p) == hashlib.sha256(data).hexdigest()
+
+
+def test_hashing_a_log_keeps_memory_flat(tmp_path, monkeypatch):
+    """The digest is read block by block (block edges included): hashing a 96 MiB file raises the process's
+    peak resident size by about a block, not by the file (a memory map of it would count it all)."""
+    import hashlib
+    import subprocess
+    import sys
+
+    from navlog.replay import session
+
+    monkeypatch.setattr(session, "HASH_BLOCK", 4096)
+    for size in (4095, 4096, 4097, 3 * 4096 + 5):
+        p = tmp_path / f"g{size}"
+        data = bytes((i * 7) % 251 for i in range(size))
+        p.write_bytes(data)
+        assert session.sha256_file(p) == hashlib.sha256(data).hexdigest()
+    big = tmp_path / "big.bin"
+    with open(big, "wb") as f:
+        for k in range(96):
+            f.write(bytes([k]) * (1 << 20))
+    code = (
+        "import resource, sys; from navlog.replay.session import sha256_file; "
+        "before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss; "
+        "digest = sha256_file(sys.argv[1]) if sys.argv[2] == '1' else ''; "
+        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before, digest)"
+    )
+    grew, digest = subprocess.run(
+        [sys.executable, "-c", code, str(big), "1"], capture_output=True, text=True, check=True
+    ).stdout.split()
+    assert digest == hashlib.sha256(big.read_bytes()).hexdigest()
+    assert int(grew) < 40 * 1024  # KiB: a 16 MiB block and the interpreter's own, far from 96 MiB
