@@ -15,11 +15,17 @@ The voxel filter runs on one thread (small_gicp's multi-threaded filter varies f
 covariances and their k-d tree on ``covariance_threads`` threads (each point's covariance is computed
 on its own from its exact nearest neighbours: the same bits on any count); the registration on
 ``threads`` threads (its sums are reduced in an order that depends on the count).
+
+GNU OpenMP's thread pool does not survive a fork: a process forked from one whose small_gicp calls
+have started OpenMP threads would wait forever for threads it does not have. ``omp_threads`` gives
+such a process one thread (the covariances are the same bits on any count; registration runs on one
+thread by default).
 """
 
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 import small_gicp
@@ -28,6 +34,20 @@ from navlog.replay.mapping.lidar_odometry.local_map import keyframe_due
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
 from navlog.replay.mapping.lidar_odometry.preprocess import reduced
 from navlog.replay.mapping.lidar_odometry.registration import Registration
+
+_omp_process: int | None = None  # the process whose small_gicp calls have started OpenMP threads
+
+
+def omp_threads(n: int) -> int:
+    """``n`` threads for a small_gicp call, or 1 in a process forked from one whose OpenMP runtime has
+    started threads (see the module docstring)."""
+    global _omp_process
+    if n <= 1:
+        return 1
+    pid = os.getpid()
+    if _omp_process is None:
+        _omp_process = pid
+    return n if _omp_process == pid else 1
 
 
 def lru_horizon(params: LidarOdometryParams) -> int:
@@ -72,7 +92,7 @@ class GaussianRegistrar:
         """The scan (N, 3) in base_link, voxel-filtered at ``scan_voxel``, with covariances."""
         p = self.params
         cloud = small_gicp.PointCloud(reduced(points, p.scan_voxel))
-        n = p.covariance_threads
+        n = omp_threads(p.covariance_threads)
         small_gicp.estimate_covariances(cloud, small_gicp.KdTree(cloud, n), p.covariance_nn, n)
         return cloud
 
@@ -92,7 +112,7 @@ class GaussianRegistrar:
             source,
             np.asarray(guess, dtype=np.float64),
             max_correspondence_distance=distance,
-            num_threads=p.threads,
+            num_threads=omp_threads(p.threads),
             max_iterations=p.max_iterations,
         )
         self.count += 1

@@ -127,3 +127,30 @@ def test_openmp_threads_wait_passively_unless_told_otherwise():
         run_env = env if given is None else {**env, "OMP_WAIT_POLICY": given}
         out = subprocess.run([sys.executable, "-c", code], env=run_env, capture_output=True, text=True, check=True)
         assert out.stdout.strip() == expected
+
+
+def _covariances_in_a_fork(sweep: np.ndarray, queue) -> None:
+    cloud = GaussianRegistrar(LidarOdometryParams(covariance_threads=2)).source(sweep)
+    queue.put(np.asarray(cloud.covs()).tobytes())
+
+
+def test_a_process_forked_after_openmp_threads_started_computes_on_one_thread(room):
+    # GNU OpenMP's pool does not survive a fork: on two threads the forked process would wait forever
+    import multiprocessing
+
+    from navlog.replay.mapping.lidar_odometry import voxel_map
+
+    sweep = _room_sweep(room)
+    here = np.asarray(GaussianRegistrar(LidarOdometryParams(covariance_threads=2)).source(sweep).covs()).tobytes()
+    assert voxel_map.omp_threads(2) == 2 and voxel_map.omp_threads(1) == 1
+    ctx = multiprocessing.get_context("fork")
+    queue = ctx.Queue()
+    child = ctx.Process(target=_covariances_in_a_fork, args=(sweep, queue))
+    child.start()
+    try:
+        got = queue.get(timeout=60)  # read before joining: the child's queue flushes its bytes at exit
+    finally:
+        child.join(10)
+        if child.is_alive():
+            child.kill()
+    assert child.exitcode == 0 and got == here
