@@ -273,9 +273,17 @@ def _handle(params: OccupancyParams, grid: OccupancyGrid2D, outcomes: bytearray,
 
 def serve(stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
     """The child's loop: say it is ready, then answer requests until the input ends; an exception goes
-    back as an error reply and ends the loop."""
+    back as an error reply and ends the loop. A parent gone (its pipes closed, e.g. an interrupted
+    replay) ends it quietly."""
     inp = stdin or sys.stdin.buffer
-    out = stdout or sys.stdout.buffer
+    out = stdout or open(sys.stdout.fileno(), "wb", buffering=0, closefd=False)  # nothing held back at exit
+    try:
+        _serve(inp, out)
+    except OSError:  # BrokenPipeError and its kin: nobody is listening any more
+        return
+
+
+def _serve(inp: BinaryIO, out: BinaryIO) -> None:
     out.write(_FRAME.pack(_READY, 0))
     out.flush()
     params: OccupancyParams | None = None

@@ -145,3 +145,23 @@ def test_closing_ends_the_child_and_mismatched_beams_are_refused_either_way():
                 worker.insert_scan(pose(0, 0), ANGLES, np.ones(3), 0.1, 8.0)
         finally:
             worker.close()
+
+
+def test_a_child_whose_parent_is_gone_ends_quietly():
+    """An interrupted replay closes the pipes before the child has even said it is ready: no traceback."""
+    import subprocess
+    import sys
+
+    from navlog.replay.mapping import grid_process
+
+    child = subprocess.Popen(
+        [sys.executable, "-c", grid_process._CHILD],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert child.stdout is not None and child.stdin is not None and child.stderr is not None
+    child.stdout.close()  # the child's "ready" then meets a closed pipe
+    err = child.stderr.read()
+    child.stdin.close()
+    assert child.wait(timeout=30) == 0 and err == b""
