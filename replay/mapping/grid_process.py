@@ -14,7 +14,8 @@ Python (``serve``, which imports only this module and the grid's) and takes the 
 Until the child has started (an interpreter and NumPy: a few tenths of a second, longer on a busy
 machine) the scans go into a grid in this process; once the child says it is ready, that grid is
 handed to it and the scans go there. A caller never waits for the child's start-up, and with
-``spawn=False`` (one CPU) every scan stays in this process. Either way the grid's own code runs on the
+``spawn=False`` (one CPU), or when no child could be started or it ended before it was ready, every
+scan stays in this process. Either way the grid's own code runs on the
 same arrays in the same order, so the maps and statistics are the same bits (tested).
 
 The processes exchange plain bytes: a frame is one opcode byte, a little-endian uint32 length and the
@@ -92,15 +93,21 @@ class GridWorker:
         self._sent = 0  # scans sent to the child whose outcome has not come back yet
         self._process: subprocess.Popen | None = None
         if spawn:
-            self._process = subprocess.Popen(
-                [sys.executable, "-c", _CHILD], stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0
-            )
+            try:
+                self._process = subprocess.Popen(
+                    [sys.executable, "-c", _CHILD], stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0
+                )
+            except OSError:  # no child here (a process limit, no interpreter to run): the grid stays here
+                return
             try:
                 assert self._process.stdin is not None
                 fcntl.fcntl(self._process.stdin.fileno(), _F_SETPIPE_SZ, _PIPE_BYTES)
             except OSError:  # not allowed here: the caller then waits sooner for the child to read
                 pass
-            self._send(_PARAMS, json.dumps(dataclasses.asdict(params)).encode())
+            try:
+                self._send(_PARAMS, json.dumps(dataclasses.asdict(params)).encode())
+            except NavlogError:  # the child ended at once: the grid stays here
+                pass
 
     @property
     def in_child(self) -> bool:
@@ -181,7 +188,10 @@ class GridWorker:
             return False
         if not select.select([process.stdout], [], [], 0)[0]:
             return False
-        code, _ = self._read_frame()
+        try:
+            code, _ = self._read_frame()
+        except NavlogError:  # the child ended before it was ready (it is closed now): the grid stays here
+            return False
         if code != _READY:
             raise NavlogError(f"occupancy grid process (pid {process.pid}): unexpected reply {code} at start-up")
         return True

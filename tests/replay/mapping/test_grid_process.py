@@ -165,3 +165,26 @@ def test_a_child_whose_parent_is_gone_ends_quietly():
     err = child.stderr.read()
     child.stdin.close()
     assert child.wait(timeout=30) == 0 and err == b""
+
+
+@pytest.mark.parametrize("how", ["no interpreter", "ends at once"])
+def test_without_a_child_the_grid_stays_in_the_process(monkeypatch, how):
+    """The child process is an optimisation: when it cannot start, or ends before it is ready, the scans go
+    into the grid in this process and give the same grid."""
+    from navlog.replay.mapping import grid_process
+
+    if how == "no interpreter":
+        monkeypatch.setattr(grid_process.sys, "executable", "/nonexistent/python")
+    else:
+        monkeypatch.setattr(grid_process, "_CHILD", "import sys; sys.exit(3)")
+    want, want_taken = reference()
+    worker = GridWorker(PARAMS)
+    if worker._process is not None:  # it ends at once: wait for that, so the next scan sees it
+        assert worker._process.wait(timeout=30) == 3
+    try:
+        for T, r in SCANS:
+            worker.insert_scan(T, ANGLES, r, 0.1, 8.0)
+        assert not worker.in_child and worker._process is None
+        assert worker.outcomes() == want_taken and same_grid(worker.snapshot(), want)
+    finally:
+        worker.close()
