@@ -20,7 +20,6 @@ world mesh while this process compiles the MuJoCo model; this process then never
 from __future__ import annotations
 
 import math
-import os
 import threading
 import time
 from collections.abc import Sequence
@@ -34,6 +33,7 @@ from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario
 from navlog.recorder.world import World, load_world
 from navlog.replay.config import config_hash, to_mapping
 from navlog.replay.io.logwriter import McapLogWriter, check_output
+from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Executor, Node
 from navlog.replay.runtime.pipeline import Pipeline
 from navlog.replay.runtime.progress import Progress, format_table
@@ -178,8 +178,7 @@ def record(
     command_topic = scenario_command_topic(pipeline)
     # the sensor worker first, so that its start-up runs beside MuJoCo's import and model compilation
     if sensor_worker is None:
-        cpus = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else range(os.cpu_count() or 1)
-        sensor_worker = len(cpus) > 1
+        sensor_worker = usable_cpus() > 1
     ranges = start_range_sensors(setup.world, setup.robot, setup.seed, setup.noise, worker=sensor_worker)
     try:
         from navlog.recorder.sim import SimNode, SimOptions

@@ -22,7 +22,6 @@ and the trajectory and skip counts follow it; ``grid`` is the grid of every scan
 from __future__ import annotations
 
 import math
-import os
 from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -33,6 +32,7 @@ from navlog.replay import messages
 from navlog.replay.geometry import yaw_from_matrix
 from navlog.replay.mapping.grid_process import GridWorker
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams, ScanAngles
+from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
 
@@ -66,7 +66,7 @@ class OccupancyMapperNode(Node):
         """``grid_process``: insert scans in a child process (None: when this process may use two CPUs)."""
         super().__init__()
         self.p = params
-        self._grid_process = len(os.sched_getaffinity(0)) > 1 if grid_process is None else grid_process
+        self._grid_process = usable_cpus() > 1 if grid_process is None else grid_process
         self._updates = GridWorker(params.grid, spawn=False)  # started with the run (``setup``)
         self._final: OccupancyGrid2D | None = None  # the grid after ``finish``
         self._pending: list[tuple[int, np.ndarray]] = []  # (stamp, robot pose) of scans sent, outcome not known

@@ -3,7 +3,8 @@
 - ``Executor`` delivers ``Envelope``\\ s to ``Node``\\ s in one deterministic order and fires their timers;
 - ``TFBuffer`` looks transforms up by sim time;
 - ``Pipeline`` is what a replay pipeline module builds (``navlog.replay.session`` runs one over a log);
-- ``Progress`` shows progress on stderr; ``format_table`` renders summary tables.
+- ``Progress`` shows progress on stderr; ``format_table`` renders summary tables;
+- ``usable_cpus`` counts the CPUs this process may run on (whether a helper process beside it pays).
 
 Names are imported on first use, so importing the package stays cheap.
 """
@@ -15,6 +16,7 @@ from typing import TYPE_CHECKING
 from navlog.replay import lazy_exports
 
 if TYPE_CHECKING:
+    from navlog.replay.runtime.cpus import usable_cpus
     from navlog.replay.runtime.executor import Envelope, Executor, Node, Sink, Stats
     from navlog.replay.runtime.pipeline import Pipeline
     from navlog.replay.runtime.progress import Progress, format_table
@@ -32,6 +34,7 @@ __all__ = [
     "TransformError",
     "WaitingForTransforms",
     "format_table",
+    "usable_cpus",
 ]
 
 # the module, below this package, that defines each public name
@@ -47,5 +50,6 @@ _MODULES = {
     "Pipeline": "pipeline",
     "Progress": "progress",
     "format_table": "progress",
+    "usable_cpus": "cpus",
 }
 __getattr__, __dir__ = lazy_exports(__name__, _MODULES)
