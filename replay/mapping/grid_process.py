@@ -253,10 +253,8 @@ def _read(stream: IO[bytes] | BinaryIO, n: int) -> bytes | None:
 
 
 # ------------------------------------------------------------ the child's side
-def _handle(params: OccupancyParams, grid: OccupancyGrid2D, outcomes: bytearray, code: int, body: bytes) -> Any:
-    """One request: a new grid (``_GRID``), None (a scan inserted), or a reply ``(code, payload)``."""
-    if code == _GRID:
-        return _grid_from_bytes(params, body)
+def _handle(grid: OccupancyGrid2D, outcomes: bytearray, code: int, body: bytes) -> tuple[int, bytes] | None:
+    """One request on the grid: None for a scan inserted (its outcome noted), else the reply ``(code, payload)``."""
     if code == _INSERT:
         pose = np.frombuffer(body, np.float64, 16).reshape(4, 4)
         range_min, range_max, n = _LIMITS.unpack_from(body, 128)
@@ -308,14 +306,15 @@ def _serve(inp: BinaryIO, out: BinaryIO) -> None:
             if code == _PARAMS:
                 params = OccupancyParams(**_params(json.loads(body)))
                 continue
-            if params is None or (grid is None and code != _GRID):
+            if params is not None and code == _GRID:
+                grid = _grid_from_bytes(params, body)
+                continue
+            if grid is None:
                 raise ValueError(f"request {code} before the parameters and the grid")
-            reply = _handle(params, grid if grid is not None else OccupancyGrid2D(params), outcomes, code, body)
+            reply = _handle(grid, outcomes, code, body)
         except Exception:
             reply = (_ERROR, traceback.format_exc().encode())
-        if isinstance(reply, OccupancyGrid2D):
-            grid = reply
-        elif reply is not None:
+        if reply is not None:
             out.write(_FRAME.pack(reply[0], len(reply[1])) + reply[1])
             out.flush()
             if reply[0] == _ERROR:
