@@ -13,6 +13,7 @@ import hashlib
 import importlib
 import json
 import logging
+import os
 import shutil
 import threading
 import time
@@ -77,14 +78,14 @@ HASH_BLOCK = 16 << 20  # bytes hashed per call: the interpreter lock is taken on
 
 
 def sha256_file(path: Path) -> str:
-    """The file's SHA-256, read into one reused 16 MiB buffer: the memory stays flat whatever the file's
+    """The file's SHA-256, read into one reused buffer of up to 16 MiB: the memory stays flat whatever the file's
     size (a memory map of the whole file would count it all in the process's resident size), and the
     interpreter lock is released for each block's read and hash, so hashing beside a replay
     (``_hash_inputs``) takes the replay's thread a few dozen lock hand-offs for a 1 GB log."""
     h = hashlib.sha256()
-    buf = bytearray(HASH_BLOCK)
-    view = memoryview(buf)
     with open(path, "rb", buffering=0) as f:
+        buf = bytearray(max(1, min(HASH_BLOCK, os.fstat(f.fileno()).st_size)))  # a small file: a small buffer
+        view = memoryview(buf)
         while n := f.readinto(buf):
             h.update(view[:n])
     return h.hexdigest()
