@@ -223,11 +223,9 @@ class McapLogReader(LogReader):
                     if i == len(msgs):
                         break
                     t, pos = msgs[i][0], msgs[i][1]
-                    if queue:
-                        qt, qoffset, qpos = queue[0][:3]
-                        if t > qt or (t == qt and (chunk_offset > qoffset or (chunk_offset == qoffset and pos > qpos))):
-                            heapq.heappush(queue, (t, chunk_offset, pos, (msgs, i)))
-                            break
+                    if queue and (t, chunk_offset, pos) > queue[0][:3]:  # another chunk's message comes first
+                        heapq.heappush(queue, (t, chunk_offset, pos, (msgs, i)))
+                        break
         finally:
             loader.close()
 
