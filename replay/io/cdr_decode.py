@@ -217,15 +217,15 @@ def _imu_decoder(store: Any) -> Callable[[bytes], Any]:
         _check(data)
         sec, nanosec = _TIME.unpack_from(data, _HEADER)
         frame_id, pos = _string(data, 8)
-        at = _HEADER + ((pos + 7) & -8)
-        if at + 8 * 37 + 3 < len(data) or at + 8 * 37 > len(data):  # 4 + 9 + 3 + 9 + 3 + 9 doubles, as the store checks
-            raise ValueError("CDR message size mismatch")
+        pos = (pos + 7) & -8
+        at = _HEADER + pos
         qx, qy, qz, qw = _D4.unpack_from(data, at)
         cov_q = np.frombuffer(data, dtype=np.float64, count=9, offset=at + 32)
         wx, wy, wz = _D3.unpack_from(data, at + 104)
         cov_w = np.frombuffer(data, dtype=np.float64, count=9, offset=at + 128)
         ax, ay, az = _D3.unpack_from(data, at + 200)
         cov_a = np.frombuffer(data, dtype=np.float64, count=9, offset=at + 224)
+        _check_end(data, pos + 296)  # 37 doubles: 4 + 9 + 3 + 9 + 3 + 9
         return imu(
             header(time(sec, nanosec), frame_id),
             quaternion(qx, qy, qz, qw),
