@@ -28,8 +28,8 @@ request pipe closes, also when the simulator's process is killed (the memory fil
 last process that maps it). An error in the child, or its death, is raised in the simulator as a
 ``NavlogError`` naming the worker.
 
-``PendingMessage`` and ``InOrderSink`` let the simulator publish a result before it has come
-without the file depending on when it came (``navlog.recorder.sim``).
+The simulator takes a result's place in the order before it has come (``Node.defer``), so the file
+does not depend on when it came (``navlog.recorder.sim``).
 
 ``InProcessSensors`` has the same interface and computes each request as it is made.
 """
@@ -47,7 +47,6 @@ import sys
 import tempfile
 import traceback
 from collections import deque
-from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -60,7 +59,6 @@ from navlog.recorder import sensors
 from navlog.recorder.robot import LaserConfig, LidarConfig, RobotSpec
 from navlog.recorder.world import Solid, World, WorldSpec, world_mesh
 from navlog.replay.config import from_mapping, to_mapping
-from navlog.replay.runtime.executor import Envelope, Sink
 
 SCAN, LIDAR = "scan", "lidar"
 _PIPE_BYTES = 1 << 20  # room for many requests in the pipe (Linux caps it at pipe-max-size, 1 MiB by default)
@@ -493,60 +491,6 @@ def serve(req_fd: int, res_fd: int, shm_fd: int) -> None:
             _write_all(res_fd, _NOTE.pack(_INLINE, len(error), 0) + error)
         except OSError:
             pass
-
-
-class PendingMessage:
-    """The place of a raw scan or sweep published before the worker computed it; ``fill`` gives its bytes
-    (and calls ``on_fill``: the ``InOrderSink`` holding it passes on what waited behind it)."""
-
-    __slots__ = ("data", "on_fill")
-
-    def __init__(self) -> None:
-        self.data: bytes | None = None
-        self.on_fill: Callable[[], None] | None = None
-
-    def fill(self, data: bytes) -> None:
-        self.data = data
-        if self.on_fill is not None:
-            self.on_fill()
-
-
-class InOrderSink:
-    """A sink that passes every message to ``sink`` in the order it is given them, its bytes in place of a
-    ``PendingMessage``: the messages after a pending one are held until it is filled (a few sensor periods)."""
-
-    def __init__(self, sink: Sink) -> None:
-        self.sink = sink
-        self._held: deque[Envelope] = deque()
-
-    def write(self, env: Envelope) -> None:
-        if isinstance(env.msg, PendingMessage):
-            # filled, it passes on what waits behind it at once: also while the simulator waits for the last
-            # results at the end of a run, so that the writer works beside the worker then too
-            env.msg.on_fill = self.flush
-        if self._held or isinstance(env.msg, PendingMessage):
-            self._held.append(env)
-            self.flush()
-        else:
-            self.sink.write(env)
-
-    def flush(self) -> None:
-        """Pass on the held messages up to the first pending one still unfilled."""
-        held, write = self._held, self.sink.write
-        while held:
-            env = held[0]
-            if isinstance(env.msg, PendingMessage):
-                if env.msg.data is None:
-                    return
-                env = Envelope(env.topic, env.typename, env.time_ns, env.msg.data)
-            held.popleft()
-            write(env)
-
-    def close(self) -> None:
-        """Pass on everything held; every pending message must have been filled (the simulator's ``finish``)."""
-        self.flush()
-        if self._held:
-            raise NavlogError(f"{len(self._held)} message(s) held behind a scan or sweep never computed")
 
 
 RangeSensorsLike = InProcessSensors | SensorWorker

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from navlog.errors import ConfigError
-from navlog.recorder.range_sensors import InOrderSink, start_range_sensors
+from navlog.recorder.range_sensors import start_range_sensors
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, load_robot
 from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
 from navlog.recorder.world import World, load_world
@@ -222,8 +222,7 @@ def record(
         start = time.perf_counter()
         with Progress(expected_duration(setup), "recording", "sim s", enabled=progress) as bar:
             with McapLogWriter(out, force=force, metadata={"navlog": meta}, background=True) as writer:
-                sink = InOrderSink(writer)  # the worker's scans and sweeps in their places
-                ex.add_sink(sink)
+                ex.add_sink(writer)  # the worker's scans and sweeps in their places (``Node.defer``)
                 t = 0
                 while not stop.is_set():  # looked at after every second of sim time
                     t += 1_000_000_000
@@ -235,7 +234,6 @@ def record(
                     if ex.now >= max_ns:
                         break
                 ex.finish()
-                sink.close()
             interrupted = stop.is_set()
             if not interrupted:  # the run is complete: the estimated length becomes the real one
                 bar.update(ex.now / 1e9, total=ex.now / 1e9)

@@ -21,13 +21,12 @@ The 2D laser and the 3D LiDAR (ray casting, sensor models, noise, CDR) are a ``R
 (``navlog.recorder.range_sensors``), in this process or in a worker process beside it
 (``SimOptions.sensor_worker``). When a node subscribes to their topic, the simulator waits for the
 result and publishes it at its tick, as every other sensor. When only sinks see it, the worker's
-result is not waited for: a ``PendingMessage`` is published at the tick in its place, and filled with
-the CDR bytes at a later tick, once they have come (at the latest when ``MAX_AHEAD`` newer requests
-of that sensor wait, or when the run finishes), while the simulation went on; the recorder's sink
-(``InOrderSink``) writes every message in the order published, holding those behind a pending one
-until it is filled. So the file does not depend on when a result came: it is the same with or
-without the worker, however fast it was. Sinks of a simulator with a worker must be wrapped in an
-``InOrderSink``.
+result is not waited for: its place is taken at the tick (``Node.defer``), and filled with the CDR
+bytes at a later tick, once they have come (at the latest when ``MAX_AHEAD`` newer requests of that
+sensor wait, or when the run finishes), while the simulation went on; the executor writes every
+message to the sinks in the order published, holding those behind a place until it is filled. So
+the file does not depend on when a result came: it is the same with or without the worker, however
+fast it was.
 
 Odometry model (documented in the README):
 - legged: the true body-frame velocity, scaled by ``1 + linear_scale_error``, plus ``yaw_rate_bias``
@@ -55,7 +54,6 @@ from navlog.recorder.range_sensors import (
     LIDAR,
     SCAN,
     InProcessSensors,
-    PendingMessage,
     RangeSensorsLike,
     start_range_sensors,
 )
@@ -72,7 +70,7 @@ from navlog.replay.geometry import (
 )
 from navlog.replay.io.cdr import layout
 from navlog.replay.pointcloud import make_cloud
-from navlog.replay.runtime.executor import Node
+from navlog.replay.runtime.executor import Deferred, Node
 
 mujoco = import_mujoco()
 
@@ -172,8 +170,9 @@ class SimNode(Node):
         self.substeps = max(1, int(round(TICK_NS / 1e9 / self.model.opt.timestep)))
         streams = np.random.SeedSequence(options.seed).spawn(4)  # odometry, IMU, laser, LiDAR (range_sensors)
         self.rng_odom, self.rng_imu = (np.random.default_rng(s) for s in streams[:2])
-        # raw scans and sweeps of the worker published before their bytes came (module docstring): (ticket, message)
-        self._late: dict[str, deque[tuple[int, PendingMessage]]] = {SCAN: deque(), LIDAR: deque()}
+        # the places of the worker's raw scans and sweeps whose bytes have not come (module docstring):
+        # (ticket, topic, type name, place)
+        self._late: dict[str, deque[tuple[int, str, str, Deferred]]] = {SCAN: deque(), LIDAR: deque()}
         self.legged = robot.drive.type == "legged"
         self._bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "base_link")
         # contacts: which geoms are the robot's, which are world obstacles (static, not the floor)
@@ -583,26 +582,28 @@ class SimNode(Node):
             self.publish(cfg.topic, messages.POINT_CLOUD2, make_cloud(t_ns, self._frame_names["lidar"], cols))
 
     def _publish_raw(self, kind: str, topic: str, typename: str, ticket: int) -> None:
-        """Publish the CDR bytes of request ``ticket`` now (in this process), or a ``PendingMessage`` in their
-        place, filled once they have come (module docstring)."""
+        """Publish the CDR bytes of request ``ticket`` now (in this process), or take their place, filled
+        once they have come (module docstring)."""
         ranges = self._ranges
         if isinstance(ranges, InProcessSensors):
             self.publish(topic, typename, ranges.result(ticket))
             return
         assert ranges is not None
-        pending = PendingMessage()
-        self.publish(topic, typename, pending)
         held = self._late[kind]
-        held.append((ticket, pending))
+        held.append((ticket, topic, typename, self.defer()))
         while held and (len(held) > MAX_AHEAD or ranges.ready(held[0][0])):
-            ticket, pending = held.popleft()
-            pending.fill(ranges.result(ticket))
+            self._fill(*held.popleft())
+
+    def _fill(self, ticket: int, topic: str, typename: str, place: Deferred) -> None:
+        assert self._ranges is not None
+        place.publish(topic, typename, self._ranges.result(ticket))
+        place.close()
 
     def finish(self) -> None:
         """Fill the raw results still to come, in request order, and end the sensor worker."""
         if self._ranges is not None:
-            for ticket, pending in sorted((*self._late[SCAN], *self._late[LIDAR]), key=lambda h: h[0]):
-                pending.fill(self._ranges.result(ticket))
+            for late in sorted((*self._late[SCAN], *self._late[LIDAR]), key=lambda h: h[0]):
+                self._fill(*late)
         for held in self._late.values():
             held.clear()
         self.close()

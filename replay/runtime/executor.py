@@ -11,11 +11,18 @@ Every delivery and every timer firing is an event with the key (time, rank, sequ
 A node publishes at the current time only, so outputs never overtake inputs. Replaying a log
 through the same nodes delivers their inputs in the same order as the live run did, which is why
 their outputs come out bit for bit the same.
+
+A node may also give outputs that only sinks read later (computed by a worker process or thread):
+``Node.defer()`` takes their place in the order now, as a ``Deferred``, and the sinks receive them
+there once the node fills and closes it; what comes after it waits for it. The sinks see the same
+messages in the same order whenever the outputs came, as if the node had published them at once.
 """
 
 from __future__ import annotations
 
 import heapq
+import threading
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -33,6 +40,30 @@ class Envelope:
     typename: str
     time_ns: int
     msg: Any
+
+
+class Deferred:
+    """A node's outputs of one instant, filled later (on any thread) and written to the sinks in the
+    place ``Node.defer`` took for them (see the module docstring)."""
+
+    __slots__ = ("_release", "_thread", "closed", "outputs", "time_ns")
+
+    def __init__(self, time_ns: int, release: Callable[[], None] | None = None) -> None:
+        self.time_ns = time_ns
+        self.outputs: list[tuple[str, str, Any]] = []  # (topic, type name, message or CDR bytes), in order
+        self.closed = False
+        self._release = release  # the executor's: what waited behind this goes to the sinks
+        self._thread = threading.get_ident()
+
+    def publish(self, topic: str, typename: str, msg: Any) -> None:
+        self.outputs.append((topic, typename, msg))
+
+    def close(self) -> None:
+        """Every output is in: the sinks may have them (at once when closed on the executor's thread,
+        else from the executor's next step)."""
+        self.closed = True
+        if self._release is not None and threading.get_ident() == self._thread:
+            self._release()
 
 
 class Sink(Protocol):
@@ -85,6 +116,11 @@ class Node:
     def create_timer(self, period_ns: int, callback: Callable[[int], None], start_ns: int | None = None) -> None:
         self.executor.add_timer(period_ns, callback, self.rank, start_ns)
 
+    def defer(self) -> Deferred:
+        """The place, now, of outputs the node fills in later (only sinks may read them: see
+        ``Executor.read_by_nodes``)."""
+        return self.executor.defer(self.rank)
+
 
 @dataclass
 class _Timer:
@@ -122,6 +158,7 @@ class Executor:
         self.stats = Stats()
         self._stopped = False
         self._pending_sources = 0  # source events in the queue (at most one per source)
+        self._held: deque[Envelope | Deferred] = deque()  # sink writes behind a Deferred still open
 
     # ------------------------------------------------------------ wiring
     def add_node(self, node: Node, *, source: bool = False) -> Node:
@@ -149,6 +186,10 @@ class Executor:
     def light_topics(self) -> set[str]:
         """The topics every subscriber of which takes the light form of its messages."""
         return {topic for topic, light in self._light.items() if light}
+
+    def read_by_nodes(self, topics: Iterable[str]) -> bool:
+        """True when a node subscribes to one of ``topics`` (outputs that cannot be deferred)."""
+        return any(t in self._subs for t in topics)
 
     def has_subscribers(self, topic: str) -> bool:
         """True when a node subscribes to ``topic`` (else only sinks see it: raw CDR bytes will do)."""
@@ -183,9 +224,45 @@ class Executor:
         self.stats.published[env.topic] = self.stats.published.get(env.topic, 0) + 1
         self._push(env.time_ns, rank, "msg", env)
 
+    def defer(self, rank: int) -> Deferred:
+        """A ``Deferred`` at the current time, in ``rank``'s place among the events (``Node.defer``)."""
+        slot = Deferred(self.now, self._release)
+        self._push(self.now, rank, "deferred", slot)
+        return slot
+
+    def _write(self, item: Envelope | Deferred) -> None:
+        """To the sinks, in order: behind an open ``Deferred``, held until it closes."""
+        if self._held or (isinstance(item, Deferred) and not item.closed):
+            self._held.append(item)
+            self._release()
+        else:
+            self._emit(item)
+
+    def _emit(self, item: Envelope | Deferred) -> None:
+        """A message, or a closed ``Deferred``'s messages at its time, to every sink."""
+        if isinstance(item, Deferred):
+            published = self.stats.published
+            envs = [Envelope(topic, typename, item.time_ns, msg) for topic, typename, msg in item.outputs]
+            for env in envs:
+                published[env.topic] = published.get(env.topic, 0) + 1
+        else:
+            envs = [item]
+        for env in envs:
+            for sink in self._sinks:
+                sink.write(env)
+
+    def _release(self) -> None:
+        """Write what is held up to the first ``Deferred`` still open."""
+        held = self._held
+        while held and not (isinstance(held[0], Deferred) and not held[0].closed):
+            self._emit(held.popleft())
+
     def _deliver(self, env: Envelope) -> None:
-        for sink in self._sinks:
-            sink.write(env)
+        if self._held:
+            self._write(env)
+        else:
+            for sink in self._sinks:
+                sink.write(env)
         callbacks = self._subs.get(env.topic)
         if callbacks:
             self.stats.delivered[env.topic] = self.stats.delivered.get(env.topic, 0) + 1
@@ -216,6 +293,8 @@ class Executor:
             self.now = t
             if kind == "msg":
                 self._deliver(payload)
+            elif kind == "deferred":
+                self._write(payload)
             elif kind == "source":
                 index, env = payload
                 self._pending_sources -= 1
@@ -229,12 +308,24 @@ class Executor:
             if on_step is not None:
                 on_step(t)
         # deliver what is still in flight at the last time processed
-        while self._queue and self._queue[0][3] == "msg" and self._queue[0][0] <= self.now:
-            self._deliver(heapq.heappop(self._queue)[4])
+        while self._queue and self._queue[0][3] in _OUTPUTS and self._queue[0][0] <= self.now:
+            self._output(heapq.heappop(self._queue))
+
+    def _output(self, event: tuple) -> None:
+        if event[3] == "msg":
+            self._deliver(event[4])
+        else:
+            self._write(event[4])
 
     def finish(self) -> None:
-        """Let every node flush its final outputs, and deliver them."""
+        """Let every node flush its final outputs (closing what it deferred), and deliver them."""
         for node in self._nodes:
             node.finish()
-        while self._queue and self._queue[0][3] == "msg":
-            self._deliver(heapq.heappop(self._queue)[4])
+        while self._queue and self._queue[0][3] in _OUTPUTS:
+            self._output(heapq.heappop(self._queue))
+        self._release()
+        if self._held:
+            raise NavlogError(f"{len(self._held)} message(s) held behind outputs a node deferred and never gave")
+
+
+_OUTPUTS = ("msg", "deferred")  # the events that are nodes' outputs

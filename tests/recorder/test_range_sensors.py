@@ -18,8 +18,6 @@ from navlog.recorder import range_sensors, sim
 from navlog.recorder.range_sensors import (
     LIDAR,
     SCAN,
-    InOrderSink,
-    PendingMessage,
     SensorWorker,
     _Ring,
     start_range_sensors,
@@ -28,7 +26,7 @@ from navlog.recorder.record import prepare, record
 from navlog.recorder.robot import load_robot
 from navlog.recorder.world import load_world
 from navlog.replay.io import open_log
-from navlog.replay.runtime.executor import Envelope, Node
+from navlog.replay.runtime.executor import Node
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -161,30 +159,6 @@ def test_a_worker_killed_mid_recording_is_an_error_naming_it(tmp_path: Path, mon
         record(_setup("mapping", 3.0), tmp_path / "run.mcap", progress=False, sensor_worker=True)
     assert killed and killed[0]._process.returncode == -9
     assert list(tmp_path.iterdir()) == []  # the partial file is removed, as for any failed recording
-
-
-def test_the_in_order_sink_holds_messages_behind_a_pending_one() -> None:
-    class Collect:
-        def __init__(self) -> None:
-            self.got: list[tuple[str, int, object]] = []
-
-        def write(self, env: Envelope) -> None:
-            self.got.append((env.topic, env.time_ns, env.msg))
-
-    out = Collect()
-    sink = InOrderSink(out)
-    pending = PendingMessage()
-    sink.write(Envelope("/clock", "c", 0, b"a"))
-    sink.write(Envelope("/scan", "s", 0, pending))
-    sink.write(Envelope("/clock", "c", 10, b"b"))
-    assert out.got == [("/clock", 0, b"a")]
-    pending.fill(b"scan")  # passes on what waited behind it, without waiting for the next message
-    assert out.got == [("/clock", 0, b"a"), ("/scan", 0, b"scan"), ("/clock", 10, b"b")]
-    sink.write(Envelope("/clock", "c", 20, b"c"))
-    assert out.got == [("/clock", 0, b"a"), ("/scan", 0, b"scan"), ("/clock", 10, b"b"), ("/clock", 20, b"c")]
-    sink.write(Envelope("/scan", "s", 100, PendingMessage()))
-    with pytest.raises(NavlogError, match="1 message"):
-        sink.close()
 
 
 def test_the_command_line_chooses_where_the_sensors_run_and_the_log_is_the_same(tmp_path: Path) -> None:

@@ -158,3 +158,151 @@ def test_a_topic_is_read_light_only_when_every_subscriber_takes_the_light_form()
     assert ex.light_topics() == {"/tf", "/tf_static"}
     ex.add_node(Objects())
     assert ex.light_topics() == {"/tf"}
+
+
+class _Writes:
+    """A sink: every message written, as (topic, time, message)."""
+
+    def __init__(self) -> None:
+        self.items: list = []
+
+    def write(self, env):
+        self.items.append((env.topic, env.time_ns, env.msg))
+
+
+def _sink_order(deferred: bool, close_from_thread: bool = False) -> tuple[list, Executor]:
+    """/in at 5, 5, 7, 9; a node (rank 1) answers each with two /out messages, at once or deferred and
+    filled one input later (the last at finish); a node of rank 2 answers each with /later at the same time,
+    and one of rank 1's timers ticks /tick every 2 ns."""
+    import threading
+
+    ex = Executor()
+    ex.add_source([Envelope("/in", "x", t, k) for k, t in enumerate((5, 5, 7, 9))])
+
+    class Answer(Node):
+        def setup(self):
+            self.open = []
+            self.threads = []
+            self.subscribe("/in", self.on_in)
+            self.create_timer(2, lambda t: self.publish("/tick", "x", t), start_ns=4)
+
+        def on_in(self, m, t):
+            if not deferred:
+                self.publish("/out", "x", (m, "a"))
+                self.publish("/out", "x", (m, "b"))
+                return
+            self.fill_open()
+            slot = self.defer()
+            slot.publish("/out", "x", (m, "a"))
+            slot.publish("/out", "x", (m, "b"))
+            self.open.append(slot)
+
+        def fill_open(self):
+            for slot in self.open:
+                if close_from_thread:
+                    th = threading.Thread(target=slot.close)
+                    th.start()
+                    self.threads.append(th)
+                else:
+                    slot.close()
+            self.open = []
+
+        def finish(self):
+            self.fill_open()
+            for th in self.threads:
+                th.join()
+
+    class Later(Node):
+        def setup(self):
+            self.subscribe("/in", lambda m, t: self.publish("/later", "x", m))
+
+    ex.add_node(Answer())
+    ex.add_node(Later())
+    sink = _Writes()
+    ex.add_sink(sink)
+    ex.run()
+    ex.finish()
+    return sink.items, ex
+
+
+def test_deferred_outputs_reach_the_sinks_where_published_outputs_would():
+    now, stats_now = _sink_order(deferred=False)
+    later, stats_later = _sink_order(deferred=True)
+    assert later == now
+    assert stats_later.stats.published == stats_now.stats.published == {"/out": 8, "/later": 4, "/tick": 3}
+    # the order itself: inputs first at equal time, then rank 1's outputs, then rank 2's
+    assert now[:8] == [
+        ("/tick", 4, 4),
+        ("/in", 5, 0),
+        ("/in", 5, 1),
+        ("/out", 5, (0, "a")),
+        ("/out", 5, (0, "b")),
+        ("/out", 5, (1, "a")),
+        ("/out", 5, (1, "b")),
+        ("/later", 5, 0),
+    ]
+    assert _sink_order(deferred=True, close_from_thread=True)[0] == now
+
+
+def test_an_open_deferred_holds_later_writes_until_it_closes():
+    import threading
+
+    import pytest
+
+    from navlog.errors import NavlogError
+
+    ex = Executor()
+    ex.add_source([Envelope("/in", "x", t, t) for t in (1, 2, 3, 4)])
+    slots = []
+
+    class Slow(Node):
+        def setup(self):
+            self.subscribe("/in", lambda m, t: slots.append(self.defer()) if m in (1, 4) else None)
+
+    ex.add_node(Slow())
+    sink = _Writes()
+    ex.add_sink(sink)
+    ex.run(until_ns=3)
+    assert sink.items == [("/in", 1, 1)]  # /in at 2 and 3 wait behind the open deferred
+    slots[0].publish("/out", "x", "late")
+    closing = threading.Thread(target=slots[0].close)  # closed on another thread: written at the next step
+    closing.start()
+    closing.join()
+    assert sink.items == [("/in", 1, 1)]
+    ex.run()
+    assert sink.items == [("/in", 1, 1), ("/out", 1, "late"), ("/in", 2, 2), ("/in", 3, 3), ("/in", 4, 4)]
+    slots[1].publish("/out", "x", "never")  # the node never closes it: finish says so
+    with pytest.raises(NavlogError, match="1 message"):
+        ex.finish()
+
+
+def test_a_deferred_closed_on_the_executors_thread_passes_on_what_waited_at_once():
+    ex = Executor()
+    ex.add_source([Envelope("/in", "x", t, t) for t in (1, 2)])
+    slots = []
+
+    class Later(Node):
+        def setup(self):
+            self.subscribe("/in", self.on_in)
+
+        def on_in(self, m, t):
+            if slots:
+                slots[0].publish("/out", "x", "filled")
+                slots[0].close()
+                assert sink.items == [("/in", 1, 1), ("/out", 1, "filled"), ("/in", 2, 2)]  # before this callback returns
+            else:
+                slots.append(self.defer())
+
+    ex.add_node(Later())
+    sink = _Writes()
+    ex.add_sink(sink)
+    ex.run()
+    assert sink.items == [("/in", 1, 1), ("/out", 1, "filled"), ("/in", 2, 2)]
+    ex.finish()
+
+
+def test_read_by_nodes_names_outputs_a_node_subscribes_to():
+    ex = Executor()
+    ex.add_node(Recorder(["/odom"], [], "r"))
+    assert ex.read_by_nodes(["/map", "/odom"])
+    assert not ex.read_by_nodes(["/map", "/cloud"])
