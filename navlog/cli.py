@@ -10,6 +10,8 @@ command has closed its files.
 from __future__ import annotations
 
 import argparse
+import atexit
+import gc
 import importlib
 import logging
 import os
@@ -59,7 +61,9 @@ class Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser of ``navlog``; with ``command`` (a name in ``COMMANDS``) holding that command's parser
+    only, which parses that command's arguments alike without importing and building the others'."""
     parser = Parser(
         prog="navlog",
         description="Record, replay, test and inspect mobile-robot navigation logs without ROS.",
@@ -68,13 +72,34 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"navlog {__version__}")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars or warnings")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMANDS:
+    for name in COMMANDS if command is None else [command]:
         importlib.import_module(f"navlog.commands.{name.replace('-', '_')}").register(sub)
     return parser
 
 
+def _command(words: list[str]) -> str | None:
+    """The command a command line runs when only ``-q`` may come before it (then its parser alone parses it
+    alike), else None (``navlog --help COMMAND`` lists every command)."""
+    for word in words:
+        if word not in ("-q", "--quiet"):
+            return word if word in COMMANDS else None
+    return None
+
+
+def _exit_without_teardown_collections() -> None:
+    """At the exit of a ``navlog`` process: collect the garbage there is (its finalizers run as they always
+    did), then freeze the rest. Tearing the modules down turns every class, function and module the imports
+    made into cyclic garbage, and the interpreter's last collections would walk and free all of it one by
+    one; frozen, it is left to the operating system with the process (the end of a 2D mapping replay: ~60 ms
+    before, ~30 ms with the collection and the freeze)."""
+    gc.collect()
+    gc.freeze()
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    if argv is None:  # the process's own command line (`navlog ...`, `python -m navlog ...`): it ends after this
+        atexit.register(_exit_without_teardown_collections)
+    parser = build_parser(_command(sys.argv[1:] if argv is None else argv))
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR if args.quiet else logging.WARNING, format="navlog: warning: %(message)s")
     if not getattr(args, "func", None):

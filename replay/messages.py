@@ -7,12 +7,15 @@ Time is integer nanoseconds everywhere; ``stamp(ns)`` and ``to_ns(stamp)`` conve
 from __future__ import annotations
 
 import sys
+import threading
+from collections.abc import Callable, Iterator, MutableMapping
 from functools import cache, lru_cache
 from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosbags.typesys.store import Typestore
 
 # re-exported for the message builders' callers; the implementations live in navlog.replay.geometry
 from navlog.replay.geometry import make_transform as make_transform
@@ -77,14 +80,267 @@ def qos_for(topic: str) -> str:
     return QOS_TRANSIENT_LOCAL if topic in LATCHED_TOPICS else QOS_VOLATILE
 
 
+# The ROS 2 (Humble) definitions of the types navlog writes and reads and of the types they use, as
+# rosbags' Humble store defines them (tested equal, schema text included). A type store starts with
+# these and navlog's own: making them takes ~20 ms, where rosbags' Humble store takes ~110 ms of
+# imports (its module chain defines every type of five ROS 2 releases). Any other type loads the
+# Humble store the first time it is asked for.
+BASE_TYPES = {
+    "builtin_interfaces/msg/Time": """\
+int32 sec
+uint32 nanosec
+""",
+    "rosgraph_msgs/msg/Clock": """\
+builtin_interfaces/Time clock
+""",
+    "std_msgs/msg/Header": """\
+builtin_interfaces/Time stamp
+string frame_id
+""",
+    "sensor_msgs/msg/LaserScan": """\
+std_msgs/Header header
+float32 angle_min
+float32 angle_max
+float32 angle_increment
+float32 time_increment
+float32 scan_time
+float32 range_min
+float32 range_max
+float32[] ranges
+float32[] intensities
+""",
+    "sensor_msgs/msg/PointField": """\
+uint8 INT8=1
+uint8 UINT8=2
+uint8 INT16=3
+uint8 UINT16=4
+uint8 INT32=5
+uint8 UINT32=6
+uint8 FLOAT32=7
+uint8 FLOAT64=8
+string name
+uint32 offset
+uint8 datatype
+uint32 count
+""",
+    "sensor_msgs/msg/PointCloud2": """\
+std_msgs/Header header
+uint32 height
+uint32 width
+sensor_msgs/PointField[] fields
+bool is_bigendian
+uint32 point_step
+uint32 row_step
+uint8[] data
+bool is_dense
+""",
+    "geometry_msgs/msg/Quaternion": """\
+float64 x
+float64 y
+float64 z
+float64 w
+""",
+    "geometry_msgs/msg/Vector3": """\
+float64 x
+float64 y
+float64 z
+""",
+    "sensor_msgs/msg/Imu": """\
+std_msgs/Header header
+geometry_msgs/Quaternion orientation
+float64[9] orientation_covariance
+geometry_msgs/Vector3 angular_velocity
+float64[9] angular_velocity_covariance
+geometry_msgs/Vector3 linear_acceleration
+float64[9] linear_acceleration_covariance
+""",
+    "geometry_msgs/msg/Point": """\
+float64 x
+float64 y
+float64 z
+""",
+    "geometry_msgs/msg/Pose": """\
+geometry_msgs/Point position
+geometry_msgs/Quaternion orientation
+""",
+    "geometry_msgs/msg/PoseWithCovariance": """\
+geometry_msgs/Pose pose
+float64[36] covariance
+""",
+    "geometry_msgs/msg/Twist": """\
+geometry_msgs/Vector3 linear
+geometry_msgs/Vector3 angular
+""",
+    "geometry_msgs/msg/TwistWithCovariance": """\
+geometry_msgs/Twist twist
+float64[36] covariance
+""",
+    "nav_msgs/msg/Odometry": """\
+std_msgs/Header header
+string child_frame_id
+geometry_msgs/PoseWithCovariance pose
+geometry_msgs/TwistWithCovariance twist
+""",
+    "geometry_msgs/msg/PoseStamped": """\
+std_msgs/Header header
+geometry_msgs/Pose pose
+""",
+    "nav_msgs/msg/Path": """\
+std_msgs/Header header
+geometry_msgs/PoseStamped[] poses
+""",
+    "nav_msgs/msg/MapMetaData": """\
+builtin_interfaces/Time map_load_time
+float32 resolution
+uint32 width
+uint32 height
+geometry_msgs/Pose origin
+""",
+    "nav_msgs/msg/OccupancyGrid": """\
+std_msgs/Header header
+nav_msgs/MapMetaData info
+int8[] data
+""",
+    "geometry_msgs/msg/Transform": """\
+geometry_msgs/Vector3 translation
+geometry_msgs/Quaternion rotation
+""",
+    "geometry_msgs/msg/TransformStamped": """\
+std_msgs/Header header
+string child_frame_id
+geometry_msgs/Transform transform
+""",
+    "tf2_msgs/msg/TFMessage": """\
+geometry_msgs/TransformStamped[] transforms
+""",
+    "geometry_msgs/msg/TwistStamped": """\
+std_msgs/Header header
+geometry_msgs/Twist twist
+""",
+    "geometry_msgs/msg/PoseWithCovarianceStamped": """\
+std_msgs/Header header
+geometry_msgs/PoseWithCovariance pose
+""",
+    "geometry_msgs/msg/PoseArray": """\
+std_msgs/Header header
+geometry_msgs/Pose[] poses
+""",
+    "geometry_msgs/msg/Point32": """\
+float32 x
+float32 y
+float32 z
+""",
+    "geometry_msgs/msg/Polygon": """\
+geometry_msgs/Point32[] points
+""",
+    "geometry_msgs/msg/PolygonStamped": """\
+std_msgs/Header header
+geometry_msgs/Polygon polygon
+""",
+    "sensor_msgs/msg/Range": """\
+uint8 ULTRASOUND=0
+uint8 INFRARED=1
+std_msgs/Header header
+uint8 radiation_type
+float32 field_of_view
+float32 min_range
+float32 max_range
+float32 range
+""",
+}
+
+
+# the base classes are made once and a store is completed once, whichever thread asks first
+_LOCK = threading.Lock()
+
+
+def _base_types() -> tuple[dict[str, Any], dict[str, Any]]:
+    """(fielddefs, classes) of ``BASE_TYPES`` and ``NAVLOG_TYPES``, made once: every store shares the classes."""
+    with _LOCK:
+        return _make_base_types()
+
+
+@lru_cache(maxsize=1)
+def _make_base_types() -> tuple[dict[str, Any], dict[str, Any]]:
+    parsed: dict[str, Any] = {}
+    for name, text in (BASE_TYPES | NAVLOG_TYPES).items():
+        parsed.update(get_types_from_msg(text, name))
+    store = Typestore()
+    store.register(parsed)
+    return dict(store.fielddefs), dict(store.types)
+
+
+@lru_cache(maxsize=1)
+def _humble() -> Any:
+    """rosbags' whole ROS 2 Humble store (Humble = Jazzy for the common types)."""
+    return get_typestore(Stores.ROS2_HUMBLE)
+
+
+class _OnDemand(MutableMapping[str, Any]):
+    """A store's ``types`` or ``fielddefs``: the base types, completed with the Humble store's (the
+    entries it has keep theirs) the first time a name it lacks is looked up or the mapping is listed.
+
+    So a store answers every question as a Humble store would, and a replay of navlog's own types never
+    loads the Humble store.
+    """
+
+    def __init__(self, data: dict[str, Any], humble: Callable[[], dict[str, Any]]) -> None:
+        self._data = data
+        self._humble: Callable[[], dict[str, Any]] | None = humble  # None once completed
+
+    @property
+    def complete(self) -> bool:
+        """True once the Humble store's entries are in."""
+        return self._humble is None
+
+    def _complete(self) -> None:
+        if self._humble is None:
+            return
+        with _LOCK:  # a second thread waits until every entry is in
+            if self._humble is not None:
+                for name, value in self._humble().items():
+                    self._data.setdefault(name, value)
+                self._humble = None
+
+    def __getitem__(self, name: str) -> Any:
+        try:
+            return self._data[name]
+        except KeyError:
+            if self._humble is None:
+                raise
+        self._complete()
+        return self._data[name]
+
+    def __setitem__(self, name: str, value: Any) -> None:
+        self._data[name] = value
+
+    def __delitem__(self, name: str) -> None:
+        self._complete()
+        del self._data[name]
+
+    def __iter__(self) -> Iterator[str]:
+        self._complete()
+        return iter(self._data)
+
+    def __len__(self) -> int:
+        self._complete()
+        return len(self._data)
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self._data!r}{'' if self.complete else ', Humble on demand'})"
+
+
 def new_typestore():
     """A new type store of the ROS 2 types (Humble = Jazzy for the common types) and navlog's own.
 
-    A log reader that meets types the shared store lacks registers them into one of these.
+    It holds ``BASE_TYPES`` and ``NAVLOG_TYPES`` at first and loads the rest of rosbags' Humble store
+    on demand (``_OnDemand``); the message classes of a type are the same in every store. A log reader
+    that meets types the shared store lacks registers them into one of these.
     """
-    store = get_typestore(Stores.ROS2_HUMBLE)
-    for name, text in NAVLOG_TYPES.items():
-        store.register(get_types_from_msg(text, name))
+    fielddefs, types = _base_types()
+    store = Typestore()
+    store.fielddefs = _OnDemand(dict(fielddefs), lambda: _humble().fielddefs)
+    store.types = _OnDemand(dict(types), lambda: _humble().types)
     return store
 
 
