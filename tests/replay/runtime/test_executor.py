@@ -289,7 +289,11 @@ def test_a_deferred_closed_on_the_executors_thread_passes_on_what_waited_at_once
             if slots:
                 slots[0].publish("/out", "x", "filled")
                 slots[0].close()
-                assert sink.items == [("/in", 1, 1), ("/out", 1, "filled"), ("/in", 2, 2)]  # before this callback returns
+                assert sink.items == [
+                    ("/in", 1, 1),
+                    ("/out", 1, "filled"),
+                    ("/in", 2, 2),
+                ]  # before this callback returns
             else:
                 slots.append(self.defer())
 
