@@ -217,10 +217,10 @@ class VelocitySmoother:
     # -- inputs
     def set_command(self, values: Sequence[float], now_ns: int, stamp_ns: int = 0, frame_id: str = "") -> bool:
         """A new command received at ``now_ns`` (stamped ``stamp_ns``; 0 = unstamped); False if not finite."""
-        vals = tuple(float(v) for v in values)
+        vals = tuple(map(float, values))
         if len(vals) != self.n_axes:
             raise ValueError(f"velocity_smoother: a command of {len(vals)} axes, expected {self.n_axes}")
-        if not all(math.isfinite(v) for v in vals):
+        if not all(map(math.isfinite, vals)):
             return False
         self.command = vals
         self.last_command_time_ns = stamp_ns if stamp_ns != 0 else now_ns
@@ -248,12 +248,15 @@ class VelocitySmoother:
                 if e > 0.0 and abs(1.0 - e) > abs(1.0 - eta):
                     eta = e
         return tuple(
-            apply_constraints(current[i], c, p.max_accel[i], p.max_decel[i], eta, f) for i, c in enumerate(cmd)
+            [
+                apply_constraints(cur, c, accel, decel, eta, f)
+                for cur, c, accel, decel in zip(current, cmd, p.max_accel, p.max_decel, strict=False)
+            ]
         )
 
     def deadband(self, values: Sequence[float]) -> tuple[float, ...]:
         """The published copy: each axis below its deadband (strictly) becomes 0."""
-        return tuple(0.0 if abs(v) < db else v for v, db in zip(values, self.params.deadband_velocity, strict=True))
+        return tuple([0.0 if abs(v) < db else v for v, db in zip(values, self.params.deadband_velocity, strict=True)])
 
     def tick(self, now_ns: int) -> SmoothedCommand | None:
         """The timer: the command to publish at ``now_ns``, or None (no command yet, or stopped after a timeout)."""

@@ -30,10 +30,13 @@ transform, a replay cannot: the node uses the newest time within that tolerance 
 transform exists. A message's points in its own frame, and its transform into ``odom_frame_id``
 at its stamp, are computed once and kept while the TF received since leaves them unchanged
 (``TFBuffer.holds``); a command's transform out of ``odom_frame_id`` is looked up once for all
-sources. A source with no message yet, older than its ``source_timeout``, without a transform or
-with a range reading out of bounds is unusable: Nav2's "invalid source" stop; each such case is
-counted in ``skipped_counts()``. ``summary()`` gives commands acted on per polygon,
-the minimum predicted time to collision and the time spent stopped.
+sources. A scan or range whose points all lie beyond the monitor's ``points_reach`` for the command
+(``planar_points_beyond``: a bound from their least distance to the sensor, kept per message) is
+not transformed: it gives no points, which decide as its points would. A source with no message
+yet, older than its ``source_timeout``, without a transform or with a range reading out of bounds
+is unusable: Nav2's "invalid source" stop; each such case is counted in ``skipped_counts()``.
+``summary()`` gives commands acted on per polygon, the minimum predicted time to collision and the
+time spent stopped.
 """
 
 from __future__ import annotations
@@ -59,9 +62,10 @@ from navlog.replay.nav2.collision_monitor import (
     Polygon,
     Velocity,
     cloud_points,
+    planar_points_beyond,
     project_state,
     range_points,
-    scan_points,
+    scan_points_nearest,
     source_fresh,
     to_base,
 )
@@ -160,11 +164,13 @@ class CollisionMonitorNode(Node):
         self.input_topic = input_topic
         self.output_topic = output_topic
         self.tf = TFBuffer()
-        # per source: (message, its sensor-frame points) and (message, TF epoch, odom <- sensor at its stamp)
-        self._sensor_points: dict[str, tuple[Any, Any]] = {}
+        # per source: (message, its sensor-frame points, their least distance from the sensor when planar)
+        # and (message, TF epoch, odom <- sensor at its stamp)
+        self._sensor_points: dict[str, tuple[Any, Any, float | None]] = {}
         self._sensor_tf: dict[str, tuple[Any, int, np.ndarray]] = {}
         self._latest_tf: dict[str, tuple[int, np.ndarray]] = {}  # frame -> (transforms added, base <- frame)
         self._base_now: tuple[int, int, np.ndarray | None] | None = None  # (now, added, base <- odom at now)
+        self._tolerance_ns = round(params.transform_tolerance * 1e9)
         self.sources: dict[str, CollisionSourceParams] = {
             n: params.source_params[n]
             for n in params.observation_sources
@@ -236,7 +242,7 @@ class CollisionMonitorNode(Node):
         # the newest time every edge of the chain reaches: the transform is taken there when it is
         # before ``t`` within the tolerance
         latest = self.tf.latest_common_time(target, source)
-        if latest is not None and t - round(self.params.transform_tolerance * 1e9) <= latest < t:
+        if latest is not None and t - self._tolerance_ns <= latest < t:
             return self.tf.lookup(target, source, latest), False
         return self.tf.lookup(target, source, t), True
 
@@ -282,25 +288,35 @@ class CollisionMonitorNode(Node):
             self._latest_tf[frame] = hit
         return hit[1]
 
-    def _sensor_frame_points(self, name: str, msg: Any) -> Any:
+    def _sensor_frame_points(self, name: str, msg: Any) -> tuple[Any, float | None]:
         """A source message's points in its own frame (an (N, 3) array; a cloud's raw xyz; None for a
-        range reading out of bounds), computed once per message."""
+        range reading out of bounds) and, for a scan's or a range's points (z = 0), their least distance
+        from the sensor (inf for none; None for a cloud), computed once per message."""
         hit = self._sensor_points.get(name)
         if hit is not None and hit[0] is msg:
-            return hit[1]
+            return hit[1], hit[2]
         sp = self.sources[name]
         pts: Any
+        nearest: float | None = None
         if sp.type == "scan":
-            pts = scan_points(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
+            pts, nearest = scan_points_nearest(
+                msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max
+            )
         elif sp.type == "pointcloud":
             pts = xyz(msg)
         else:
             pts = range_points(msg.range, msg.min_range, msg.max_range, msg.field_of_view, sp.obstacles_angle)
-        self._sensor_points[name] = (msg, pts)
-        return pts
+            if pts is not None:
+                nearest = float(np.hypot(pts[:, 0], pts[:, 1]).min()) if len(pts) else math.inf
+        self._sensor_points[name] = (msg, pts, nearest)
+        return pts, nearest
 
-    def source_points(self, name: str, now: int) -> np.ndarray | None:
-        """A source's (N, 2) base-frame points at ``now``, or None (counted) when it cannot be used."""
+    def source_points(self, name: str, now: int, reach: float | None = None) -> np.ndarray | None:
+        """A source's (N, 2) base-frame points at ``now``, or None (counted) when it cannot be used.
+
+        With ``reach`` (the monitor's ``points_reach`` for the command), a scan or range whose points all
+        lie farther than that from the base origin (``planar_points_beyond``) gives no points (0, 2),
+        untransformed: no shape could count them, so the decision is the same."""
         sp = self.sources[name]
         msg = self.latest.get(name)
         if msg is None:
@@ -316,27 +332,30 @@ class CollisionMonitorNode(Node):
         except TransformError:
             self.skipped[f"{name}: no transform {self.params.base_frame_id} <- {frame}"] += 1
             return None
-        pts = self._sensor_frame_points(name, msg)
+        pts, nearest = self._sensor_frame_points(name, msg)
         if sp.type == "pointcloud":
             return cloud_points(pts, T, sp.min_height, sp.max_height, sp.min_range)
         if pts is None:
             self.skipped[f"{name}: range reading outside [min_range, max_range]"] += 1
             return None
+        if reach is not None and nearest is not None and planar_points_beyond(T, nearest, reach):
+            return np.empty((0, 2))
         return to_base(pts, T)[:, :2]
 
     # ------------------------------------------------------------------ one command
     def _on_command(self, msg: Any, t: int) -> None:
         twist = msg.twist if hasattr(msg, "twist") else msg
         lin, ang = twist.linear, twist.angular
-        if not all(math.isfinite(v) for v in (lin.x, lin.y, lin.z, ang.x, ang.y, ang.z)):
+        if not all(map(math.isfinite, (lin.x, lin.y, lin.z, ang.x, ang.y, ang.z))):
             self.skipped["command with NaN or infinity (ignored, as Nav2 does)"] += 1
             return
         for topic, shapes in self.shape_topics.items():
             for shape in shapes:
                 if not shape.is_set():
                     self.skipped[f"{shape.name}: no shape on {topic} yet (the polygon cannot act)"] += 1
-        points = {name: self.source_points(name, t) for name in self.sources}
         cmd = Velocity(*m.twist_values(msg))
+        reach = self.monitor.points_reach(cmd)
+        points = {name: self.source_points(name, t, reach) for name in self.sources}
         decision = self.monitor.process(cmd, t, points)
         self._record(decision, t)
         if decision.changed:

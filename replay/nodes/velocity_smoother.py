@@ -39,7 +39,7 @@ def twist_axes(twist: Any, n_axes: int) -> tuple[float, ...]:
 def _finite(twist: Any) -> bool:
     """All six components finite (Nav2's ``validateTwist``)."""
     lin, ang = twist.linear, twist.angular
-    return all(math.isfinite(v) for v in (lin.x, lin.y, lin.z, ang.x, ang.y, ang.z))
+    return all(map(math.isfinite, (lin.x, lin.y, lin.z, ang.x, ang.y, ang.z)))
 
 
 def twist_msg(values: tuple[float, ...]) -> Any:

@@ -5,7 +5,9 @@ Frames form a tree; ``lookup(target, source, t_ns)`` returns the 4x4 matrix that
 nearest samples (linear translation, slerp rotation). A time outside an edge's buffered range
 raises ``TransformError`` (no extrapolation), which callers count as a skipped message.
 The frames between two frames, and each static edge's matrix, are computed once and kept until the
-tree changes; a lookup's matrix is always the caller's own.
+tree changes; each dynamic edge keeps its matrix at the time it was last asked for, for the next lookup
+at that time in the same ``epoch`` (a command and a scan stamped alike share their edges); a lookup's
+matrix is always the caller's own.
 
 A caller may keep a lookup's result while the buffer would give it unchanged (``holds``): a lookup at
 ``t`` interpolated between samples around ``t`` on each dynamic edge of its chain, and appending a
@@ -40,7 +42,11 @@ class _Edge:
     times: list[int] = field(default_factory=list)
     trans: list[tuple[float, float, float]] = field(default_factory=list)
     quats: list[tuple[float, float, float, float]] = field(default_factory=list)  # unit, x y z w
+    # samples before index ``start`` have left the cache: they are removed from the lists in batches
+    start: int = 0
     matrix: np.ndarray | None = None  # a static edge's matrix, once computed (read-only)
+    # a dynamic edge's last matrix (read-only): (time, the buffer's epoch then, matrix)
+    last: tuple[int, int, np.ndarray] | None = None
 
 
 class TFBuffer:
@@ -73,13 +79,14 @@ class TFBuffer:
         """Add every transform of a tf2_msgs/TFMessage except those into ``skip_child`` (a frame whose
         parent the caller publishes itself, e.g. a localiser's odom frame); returns how many were skipped."""
         skipped = 0
-        name, insert = self._name, self._insert
+        known, name, insert = self._names.get, self._name, self._insert
         for parent, child, t_ns, tx, ty, tz, qx, qy, qz, qw in messages.tf_entries(msg):
-            child = name(child)
+            child = known(child) or name(child)  # (a name stored as "" is looked up again: "" again)
             if child == skip_child:
                 skipped += 1
                 continue
-            insert(name(parent), child, t_ns, (tx, ty, tz), qx, qy, qz, qw, static)  # a message's fields are floats
+            # a message's fields are floats
+            insert(known(parent) or name(parent), child, t_ns, (tx, ty, tz), qx, qy, qz, qw, static)
         return skipped
 
     def add(self, parent: str, child: str, t_ns: int, xyz, q_xyzw, static: bool = False) -> None:
@@ -102,31 +109,34 @@ class TFBuffer:
         n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
         q = (x / n, y / n, z / n, w / n)
         if static:
-            edge.times, edge.trans, edge.quats, edge.matrix = [0], [p], [q], None
+            edge.times, edge.trans, edge.quats, edge.start, edge.matrix = [0], [p], [q], 0, None
             self.epoch += 1
             return
         if self.newest is None or t_ns > self.newest:
             self.newest = t_ns
-        times = edge.times
+        times, start = edge.times, edge.start
         if not times or t_ns > times[-1]:  # the usual case: a newer sample
             times.append(t_ns)
             edge.trans.append(p)
             edge.quats.append(q)
         else:
             self.epoch += 1  # a sample inside the edge's history: interpolations may change
-            i = bisect.bisect_right(times, t_ns)
-            if i > 0 and times[i - 1] == t_ns:
+            i = bisect.bisect_right(times, t_ns, start)
+            if i > start and times[i - 1] == t_ns:
                 edge.trans[i - 1], edge.quats[i - 1] = p, q
                 return
             times.insert(i, t_ns)
             edge.trans.insert(i, p)
             edge.quats.insert(i, q)
         cutoff = times[-1] - self.cache_ns
-        if times[1 if len(times) > 1 else 0] >= cutoff:
+        if times[start + 1 if len(times) - start > 1 else start] >= cutoff:
             return  # nothing to drop (the usual case: a sample is dropped once the one after it is too old)
-        drop = bisect.bisect_left(times, cutoff)
-        if drop > 1:
-            del edge.times[: drop - 1], edge.trans[: drop - 1], edge.quats[: drop - 1]
+        keep = bisect.bisect_left(times, cutoff, start) - 1  # the last sample at or before the cutoff stays
+        if keep > start:
+            if keep > len(times) // 2:  # remove the dropped samples once they are half the lists
+                del times[:keep], edge.trans[:keep], edge.quats[:keep]
+                keep = 0
+            edge.start = keep
 
     def holds(self, epoch: int, t_ns: int) -> bool:
         """Whether a lookup at ``t_ns`` that succeeded at ``epoch`` gives the same transform now."""
@@ -148,7 +158,7 @@ class TFBuffer:
     def time_range(self, child: str) -> tuple[int, int] | None:
         """First and last stamp buffered for the edge into ``child`` (None when there is none)."""
         e = self._edges.get(self._name(child))
-        return (e.times[0], e.times[-1]) if e is not None and e.times else None
+        return (e.times[e.start], e.times[-1]) if e is not None and e.times else None
 
     def frames(self) -> list[str]:
         out = set(self._edges)
@@ -162,22 +172,30 @@ class TFBuffer:
                 e.matrix = unit_quat_transform(e.trans[-1], e.quats[-1])
                 e.matrix.flags.writeable = False
             return e.matrix
-        if t_ns is None:
-            return unit_quat_transform(e.trans[-1], e.quats[-1])
         times = e.times
-        if t_ns < times[0] or t_ns > times[-1]:
+        if t_ns is None:
+            t_ns = times[-1]
+        elif t_ns < times[e.start] or t_ns > times[-1]:
             raise TransformError(
                 f"no transform {e.parent} -> {child} at {t_ns / 1e9:.3f} s "
-                f"(buffer holds {times[0] / 1e9:.3f}..{times[-1] / 1e9:.3f} s)"
+                f"(buffer holds {times[e.start] / 1e9:.3f}..{times[-1] / 1e9:.3f} s)"
             )
-        i = bisect.bisect_left(times, t_ns)
+        # the same time again with the same samples around it (no new epoch): the same matrix
+        last = e.last
+        if last is not None and last[0] == t_ns and last[1] == self.epoch:
+            return last[2]
+        i = bisect.bisect_left(times, t_ns, e.start)
         if times[i] == t_ns:
-            return unit_quat_transform(e.trans[i], e.quats[i])
-        t0, t1 = times[i - 1], times[i]
-        a = (t_ns - t0) / (t1 - t0)
-        p0, p1 = e.trans[i - 1], e.trans[i]
-        xyz = ((1 - a) * p0[0] + a * p1[0], (1 - a) * p0[1] + a * p1[1], (1 - a) * p0[2] + a * p1[2])
-        return unit_quat_transform(xyz, slerp(np.array(e.quats[i - 1]), np.array(e.quats[i]), a))
+            m = unit_quat_transform(e.trans[i], e.quats[i])
+        else:
+            t0, t1 = times[i - 1], times[i]
+            a = (t_ns - t0) / (t1 - t0)
+            p0, p1 = e.trans[i - 1], e.trans[i]
+            xyz = ((1 - a) * p0[0] + a * p1[0], (1 - a) * p0[1] + a * p1[1], (1 - a) * p0[2] + a * p1[2])
+            m = unit_quat_transform(xyz, slerp(np.array(e.quats[i - 1]), np.array(e.quats[i]), a))
+        m.flags.writeable = False
+        e.last = (t_ns, self.epoch, m)
+        return m
 
     def _chain(self, frame: str) -> list[str]:
         chain = self._chains.get(frame)
@@ -234,7 +252,7 @@ class TFBuffer:
             m = self._edge_matrix(f, t_ns)
             out = m if out is None else m @ out
         if out is not None and len(frames) == 1 and not out.flags.writeable:
-            out = out.copy()  # a static edge's kept matrix: the caller gets its own
+            out = out.copy()  # an edge's kept matrix: the caller gets its own
         return out
 
     def latest_common_time(self, target: str, source: str) -> int | None:
@@ -248,8 +266,13 @@ class TFBuffer:
             except TransformError:
                 return None
         edges = self._edges
-        ends = [e.times[-1] for e in (edges[f] for frames in path for f in frames) if not e.static]
-        return min(ends) if ends else None
+        latest = None
+        for frames in path:
+            for f in frames:
+                e = edges[f]
+                if not e.static and (latest is None or e.times[-1] < latest):
+                    latest = e.times[-1]
+        return latest
 
     def can_transform(self, target: str, source: str, t_ns: int | None) -> bool:
         try:

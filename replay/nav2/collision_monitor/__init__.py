@@ -9,7 +9,8 @@ stops, slows down, limits, or scales the command by the predicted time to collis
 - ``polygons``: the shapes (``Polygon``, ``Circle``, ``VelocityPolygon``, ``make_shape``),
   ``Velocity``, the approach kinematics (``project_state``, ``transform_points``) and Nav2's ray casting
   (``points_in_polygon``, over a polygon's ``polygon_edges``: a ``PolygonEdges`` table kept per shape);
-- ``sources``: scans, point clouds and range readings as base-frame points, the staleness rule;
+- ``sources``: scans, point clouds and range readings as base-frame points, the staleness rule, and
+  ``planar_points_beyond``, the test that lets a scan too far from every shape go untransformed;
 - ``monitor``: ``CollisionMonitor.process``, one ``Decision`` per command.
 
 The executor node is ``navlog.replay.nodes.collision_monitor.CollisionMonitorNode``.
@@ -47,7 +48,15 @@ from navlog.replay.nav2.collision_monitor.polygons import (
     project_state,
     transform_points,
 )
-from navlog.replay.nav2.collision_monitor.sources import cloud_points, range_points, scan_points, source_fresh, to_base
+from navlog.replay.nav2.collision_monitor.sources import (
+    cloud_points,
+    planar_points_beyond,
+    range_points,
+    scan_points,
+    scan_points_nearest,
+    source_fresh,
+    to_base,
+)
 
 __all__ = [
     "ACTION_CODES",
@@ -70,12 +79,14 @@ __all__ = [
     "limit_ratio",
     "make_shape",
     "parse_polygon_points",
+    "planar_points_beyond",
     "points_in_polygon",
     "polygon_edges",
     "project_state",
     "range_points",
     "read_collision_monitor",
     "scan_points",
+    "scan_points_nearest",
     "source_fresh",
     "to_base",
     "transform_points",

@@ -86,24 +86,33 @@ class CollisionMonitor:
         ]
         self.previous = Action(NONE, Velocity(-1.0, -1.0, -1.0))  # Nav2's initial "previous" action
         self.stop_stamp_ns = 0
+        # the enabled sources in order, each with whether its loss stops the robot (source_timeout != 0)
+        self._sources = [
+            (name, params.source_timeout_of(name) != 0.0)
+            for name in params.observation_sources
+            if name in params.source_params and params.source_params[name].enabled
+        ]
+        self._stop_pub_timeout_ns = round(params.stop_pub_timeout * 1e9)
 
     def footprint_shapes(self) -> list[Polygon]:
         """The polygons without ``points`` whose shape comes from a topic (footprint or polygon_sub_topic)."""
         return [s for s in self.shapes if type(s) is Polygon and not s.params.points]
 
+    def points_reach(self, cmd: Velocity) -> float:
+        """How far from the base origin a point can be and still count in the decision on ``cmd`` (m): the
+        largest ``Shape.decision_reach`` of the enabled shapes. Points all farther away decide as no
+        points do, so a caller may leave them out."""
+        return max([s.decision_reach(cmd) for s in self.shapes if s.params.enabled], default=0.0)
+
     def process(self, cmd: Velocity, now_ns: int, points: Mapping[str, np.ndarray | None]) -> Decision:
         """One decision for command ``cmd`` at ``now_ns`` given each source's (N, 2) points or None."""
-        p = self.params
         action = Action(NONE, cmd)
         usable: dict[str, np.ndarray] = {}
         invalid = ""
-        for name in p.observation_sources:
-            sp = p.source_params.get(name)
-            if sp is None or not sp.enabled:
-                continue
+        for name, stops in self._sources:
             pts = points.get(name)
             if pts is None:
-                if p.source_timeout_of(name) != 0.0:
+                if stops:
                     action, invalid = Action(STOP, ZERO, INVALID_SOURCE), name
                     break
                 continue
@@ -145,7 +154,7 @@ class CollisionMonitor:
         if action.velocity.is_zero():
             if not self.previous.velocity.is_zero():
                 self.stop_stamp_ns = now_ns
-            elif now_ns - self.stop_stamp_ns > round(p.stop_pub_timeout * 1e9):
+            elif now_ns - self.stop_stamp_ns > self._stop_pub_timeout_ns:
                 publish = False
         decision = Decision(action, self.previous, publish, times, invalid, counts)
         self.previous = action

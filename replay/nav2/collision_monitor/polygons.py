@@ -141,6 +141,23 @@ class Shape:
         """The farthest any point of the shape is from the base origin (m)."""
         raise NotImplementedError
 
+    def max_reach(self) -> float:
+        """The farthest any point of the shape can be from the base origin whatever the command (m)."""
+        return self.reach()
+
+    def _travel(self, cmd: Velocity) -> float:
+        """A bound on how far the approach simulation moves the shape for ``cmd``: |v| * dt * steps (m)."""
+        dt, horizon = self.params.simulation_time_step, self.params.time_before_collision
+        return math.hypot(cmd.vx, cmd.vy) * dt * (int(horizon / dt) + 2)
+
+    def decision_reach(self, cmd: Velocity) -> float:
+        """How far from the base origin a point can be and still count in this shape's decision on ``cmd``
+        (m): its ``max_reach``, plus for approach how far the simulation moves it (as
+        ``collision_time`` bounds it). A point farther away is outside the shape and never counted."""
+        if self.action_type == "approach":
+            return self.max_reach() + self._travel(cmd) + 1e-9
+        return self.max_reach()
+
     def gather(self, source_points: dict[str, np.ndarray]) -> np.ndarray:
         """This shape's sources' points, in the shape's source order."""
         parts = [source_points[s] for s in self.sources if s in source_points and len(source_points[s])]
@@ -175,12 +192,11 @@ class Shape:
 
     def collision_time(self, points: np.ndarray, cmd: Velocity) -> float:
         """Seconds before the shape, moving with ``cmd``, holds ``min_points`` points (0: already; -1: never)."""
-        dt, horizon = self.params.simulation_time_step, self.params.time_before_collision
         # only points the moving shape can reach matter: |pose| <= |v| * dt * steps, shape within reach()
         # (the points inside it now among them: the shape lies within reach() of the origin)
-        steps = int(horizon / dt) + 2
-        reach = self.reach() + math.hypot(cmd.vx, cmd.vy) * dt * steps + 1e-9
-        points = points[np.hypot(points[:, 0], points[:, 1]) <= reach]
+        if len(points):
+            reach = self.reach() + self._travel(cmd) + 1e-9
+            points = points[np.hypot(points[:, 0], points[:, 1]) <= reach]
         if self.count_inside(points) >= self.min_points:
             return 0.0
         if len(points) < self.min_points:
@@ -284,6 +300,18 @@ class VelocityPolygon(Polygon):
         ]
         self.current = ""  # the sub-polygon in use ("" before the first match)
         self.unmatched = 0  # commands no sub-polygon covered (the previous shape was kept)
+        # the farthest vertex of any sub-polygon (inf for a sub-polygon that is no (N, 2) array: no bound)
+        self._subs_reach = max(
+            (
+                float(np.hypot(v[:, 0], v[:, 1]).max()) if v.ndim == 2 and v.shape[1] == 2 and len(v) else math.inf
+                for _, _, v in self.subs
+            ),
+            default=0.0,
+        )
+
+    def max_reach(self) -> float:
+        """The farthest vertex of the current shape and of every sub-polygon it may switch to."""
+        return max(self.reach(), self._subs_reach)
 
     def update(self, cmd: Velocity) -> None:
         for sub_name, sub, vertices in self.subs:

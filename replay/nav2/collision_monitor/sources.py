@@ -18,6 +18,7 @@ used returns ``None``; the monitor then stops the robot ("invalid source") unles
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
@@ -32,6 +33,20 @@ def to_base(points: np.ndarray, transform: np.ndarray) -> np.ndarray:
     out = points @ transform[:3, :3].T
     out += transform[:3, 3]
     return out
+
+
+def planar_points_beyond(transform: np.ndarray, nearest: float, reach: float) -> bool:
+    """True when every sensor point in its z = 0 plane at least ``nearest`` from the sensor origin lies
+    farther than ``reach`` from the base origin in x, y once ``transform`` (base <- sensor) maps it,
+    by a margin (1 um, 1e-9 relative) far above the rounding of ``to_base`` and of a distance.
+
+    A point p of the plane maps to ``A p + t`` (A the 2x2 block of the transform, t its x, y shift),
+    at least ``s |p| - |t|`` from the base origin, s the smaller singular value of A; False when that
+    bound says nothing (a sensor tilted so that s < 0.5, NaN). ``nearest`` may be off by rounding (a
+    least range for the computed points' least distance): the margin covers it."""
+    (a, b, _, tx), (c, d, _, ty) = transform[:2].tolist()
+    s = 0.5 * (math.hypot(a + d, c - b) - math.hypot(a - d, b + c))
+    return s > 0.5 and s * nearest * (1.0 - 1e-9) - math.hypot(tx, ty) * (1.0 + 1e-9) > reach + 1e-6
 
 
 @functools.lru_cache(maxsize=16)
@@ -52,6 +67,14 @@ def scan_points(
     ranges: np.ndarray, angle_min: float, angle_increment: float, range_min: float, range_max: float
 ) -> np.ndarray:
     """A LaserScan's kept beams as (N, 3) points in the sensor frame (z = 0)."""
+    return scan_points_nearest(ranges, angle_min, angle_increment, range_min, range_max)[0]
+
+
+def scan_points_nearest(
+    ranges: np.ndarray, angle_min: float, angle_increment: float, range_min: float, range_max: float
+) -> tuple[np.ndarray, float]:
+    """``scan_points`` and the least range kept (inf when none is): the points' least distance from the
+    sensor, to rounding (1e-15 relative; ``planar_points_beyond``'s margin is far wider)."""
     r = np.asarray(ranges, dtype=np.float32)
     cos, sin = _beam_directions(len(r), float(angle_min), float(angle_increment))
     keep = (r >= np.float32(range_min)) & (r <= np.float32(range_max))  # NaN compares False, quietly
@@ -59,7 +82,7 @@ def scan_points(
     out = np.zeros((len(rk), 3))
     np.multiply(rk, cos[keep], out=out[:, 0])
     np.multiply(rk, sin[keep], out=out[:, 1])
-    return out
+    return out, float(rk.min()) if len(rk) else math.inf
 
 
 def cloud_points(

@@ -18,10 +18,13 @@ from navlog.replay.nav2.collision_monitor import (
     Velocity,
     cloud_points,
     make_shape,
+    planar_points_beyond,
     project_state,
     range_points,
     scan_points,
+    scan_points_nearest,
     source_fresh,
+    to_base,
     transform_points,
 )
 from navlog.replay.nav2.costmap import robot_footprint
@@ -275,6 +278,15 @@ def test_scan_range_max_is_inclusive_and_range_out_of_bounds_is_invalid():
     assert np.hypot(arc_pts[:, 0], arc_pts[:, 1]) == pytest.approx(np.ones(21))
 
 
+def test_scan_points_nearest_is_the_least_range_kept():
+    ranges = np.array([2.5, 0.05, np.nan, 0.3, np.inf, 4.0], dtype=np.float32)
+    pts, nearest = scan_points_nearest(ranges, 0.0, 0.1, 0.1, 4.0)
+    assert pts.tobytes() == scan_points(ranges, 0.0, 0.1, 0.1, 4.0).tobytes() and len(pts) == 3
+    assert nearest == float(np.float32(0.3)) == pytest.approx(np.hypot(pts[:, 0], pts[:, 1]).min(), rel=1e-15)
+    none, nowhere = scan_points_nearest(np.array([np.nan, 9.0], dtype=np.float32), 0.0, 0.1, 0.1, 4.0)
+    assert none.shape == (0, 3) and nowhere == math.inf
+
+
 def test_polygon_edges_follow_nav2_ray_casting():
     p = monitor_params(STOP_SLOWDOWN_LIMIT)
     shape = make_shape("Stop", p.polygon_params["Stop"], ("scan",))
@@ -438,3 +450,46 @@ def test_a_new_footprint_replaces_the_kept_edges_and_reach():
     far = np.vstack([near, [[9.0, 0.0], [-9.0, 3.0], [np.nan, 0.0], [np.inf, 0.0]]])
     assert shape.collision_time(far, Velocity(0.5, 0.0, 0.0)) == 0.0
     assert shape.collision_time(far[2:], Velocity(0.5, 0.0, 0.0)) == -1.0
+
+
+def test_points_reach_is_the_farthest_a_point_can_count_for_the_command():
+    # stop, slowdown, limit: the largest polygon's farthest vertex, whatever the command
+    cm = CollisionMonitor(monitor_params(STOP_SLOWDOWN_LIMIT))
+    assert cm.points_reach(Velocity(0.0, 0.0, 0.0)) == cm.points_reach(Velocity(0.5, 0.0, 1.0)) == math.hypot(3, 3)
+    # a velocity polygon: its largest sub-polygon (square(4)), before any command picked one and after
+    cm = CollisionMonitor(monitor_params(VELOCITY_POLYGON))
+    assert cm.points_reach(Velocity(-0.4, 0.0, 0.0)) == math.hypot(4, 4)
+    cm.process(Velocity(-0.4, 0.0, 0.0), 0, {"pointcloud": np.zeros((0, 2))})  # Backward (square(2)) now
+    assert cm.shapes[0].reach() == math.hypot(2, 2) and cm.points_reach(Velocity(-0.4, 0.0, 0.0)) == math.hypot(4, 4)
+    # approach: the footprint's reach plus |v| * dt * (int(T / dt) + 2): 0.5 m/s * 0.1 s * 12 steps
+    body = "    polygons: [Footprint]\n    observation_sources: [scan]\n    scan: {type: scan}\n"
+    body += "    Footprint: {type: polygon, action_type: approach, min_points: 2, time_before_collision: 1.0, "
+    body += f"simulation_time_step: 0.1, points: {square(0.5)}}}\n"
+    cm = CollisionMonitor(monitor_params(body))
+    assert cm.points_reach(Velocity(0.3, 0.4, 2.0)) == pytest.approx(math.sqrt(0.5) + 0.6, abs=1e-8)
+    assert cm.points_reach(Velocity(0.0, 0.0, 2.0)) == pytest.approx(math.sqrt(0.5), abs=1e-8)
+    # points just beyond it are left out of the simulation; 0.5 m in front of the footprint, the last
+    # step (loop time 1.0 s, the 11th pose, 0.55 m ahead) meets them
+    reach = cm.points_reach(Velocity(0.5, 0.0, 0.0))
+    shape = cm.shapes[0]
+    assert shape.collision_time(np.array([[reach + 1e-6, 0.0]] * 2), Velocity(0.5, 0.0, 0.0)) == -1.0
+    assert shape.collision_time(np.array([[0.5 + 0.5 + 1e-6, 0.0]] * 2), Velocity(0.5, 0.0, 0.0)) == pytest.approx(1.0)
+
+
+def test_planar_points_beyond_is_a_true_bound_with_a_margin():
+    yaw = math.radians(30.0)
+    c, s = math.cos(yaw), math.sin(yaw)
+    base_sensor = np.array([[c, -s, 0.0, 0.3], [s, c, 0.0, 0.4], [0.0, 0.0, 1.0, 0.2], [0.0, 0.0, 0.0, 1.0]])
+    ring2 = scan_points(np.full(3600, 2.0), -math.pi, 2 * math.pi / 3600, 0.1, 10.0)  # 2 m all around
+    nearest = float(np.hypot(ring2[:, 0], ring2[:, 1]).min())
+    # the sensor 0.5 m from the base origin: the ring's nearest point in the base frame is 2 - 0.5 = 1.5 m away
+    closest = float(np.hypot(*to_base(ring2, base_sensor)[:, :2].T).min())
+    assert closest == pytest.approx(1.5, abs=1e-6)
+    assert planar_points_beyond(base_sensor, nearest, 1.499)
+    assert not planar_points_beyond(base_sensor, nearest, 1.5 - 1e-7)  # within the 1 um margin: no answer
+    assert not planar_points_beyond(base_sensor, nearest, 1.6)
+    # a sensor rolled 90 degrees (its scan plane vertical) gives no bound in x, y; nor does a NaN
+    rolled = base_sensor @ np.array([[1.0, 0, 0, 0], [0, 0.0, -1.0, 0], [0, 1.0, 0.0, 0], [0, 0, 0, 1]])
+    assert not planar_points_beyond(rolled, nearest, 0.1)
+    assert not planar_points_beyond(np.full((4, 4), np.nan), nearest, 0.1)
+    assert planar_points_beyond(base_sensor, math.inf, 100.0)  # no points at all

@@ -95,6 +95,37 @@ def test_kibot_node_slows_the_robot_before_the_wall():
     assert node.skipped_counts() == {}
 
 
+def test_scans_beyond_the_shapes_reach_go_untransformed_and_decide_the_same():
+    """A scan whose points all lie beyond ``points_reach`` gives the monitor no points: the robot driving
+    at the wall from 3 m away gets, bit for bit, the commands and events of a node that transforms
+    every scan, and both kinds of command occur."""
+    p = load_nav2_params(DATA / "kibot_nav2_fragments.yaml")
+    fp = robot_footprint(p.global_costmap)
+    counted: list[int] = []
+
+    class Counting(CollisionMonitorNode):
+        def source_points(self, name: str, now: int, reach: float | None = None) -> np.ndarray | None:
+            pts = super().source_points(name, now, reach)
+            counted.append(-1 if pts is None else len(pts))
+            return pts
+
+    class Every(CollisionMonitorNode):
+        def source_points(self, name: str, now: int, reach: float | None = None) -> np.ndarray | None:
+            return super().source_points(name, now)
+
+    robots = []
+    for node in (Counting(p.collision_monitor, footprint=fp), Every(p.collision_monitor, footprint=fp)):
+        robot = WallRobot("base_link")
+        robot.x = -2.0
+        run(node, robot, 8.0)
+        robots.append((robot, node.summary()))
+    (cut, cut_summary), (every, every_summary) = robots
+    assert cut.outputs == every.outputs and cut.events == every.events and cut_summary == every_summary
+    assert [e[1] for e in cut.events] == ["collision_monitor_approach"] and cut.outputs[-1][2] < 0.05
+    # the wall 3 m ahead at first: no points; within reach (1.2 s at 0.45 m/s ahead of the footprint): all
+    assert counted[0] == 0 and counted.count(0) > 20 and counted[-1] > 100 and -1 not in counted
+
+
 def test_node_decisions_match_the_algorithm_at_the_same_pose():
     p = load_nav2_params(DATA / "kibot_nav2_fragments.yaml")
     fp = robot_footprint(p.global_costmap)
@@ -358,8 +389,8 @@ def test_cached_scan_points_and_transforms_equal_a_fresh_computation_for_every_c
     seen: list[tuple[int, np.ndarray | None]] = []
 
     class Recording(CollisionMonitorNode):
-        def source_points(self, name: str, now: int) -> np.ndarray | None:
-            pts = super().source_points(name, now)
+        def source_points(self, name: str, now: int, reach: float | None = None) -> np.ndarray | None:
+            pts = super().source_points(name, now)  # every point, however far (no reach)
             seen.append((now, pts))
             return pts
 

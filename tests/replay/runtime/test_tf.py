@@ -112,3 +112,37 @@ def test_a_lookup_holds_while_only_newer_samples_arrive():
     epoch = tf.epoch
     tf.add("map", "base_link", 30 + tf.cache_ns, (0.0, 0.0, 0.0), (0, 0, 0, 1))
     assert tf.holds(epoch, 30) and not tf.holds(epoch, 29)  # older than the cache window before the newest
+
+
+def test_a_long_stream_keeps_exactly_the_cache_window_and_late_samples_land_in_it():
+    """Dropped samples leave the lists in batches; what a lookup sees is the window all along: the last
+    sample at or before newest - cache_ns and those after it."""
+    tf = TFBuffer(cache_ns=100)
+    sent: list[int] = []
+    for t in range(0, 5000, 7):
+        tf.add("odom", "base_link", t, (t / 100, 0.0, 0.0), (0, 0, 0, 1))
+        sent.append(t)
+        first = max(s for s in sent if s <= t - 100) if t >= 100 else 0
+        assert tf.time_range("base_link") == (first, t)
+    assert len(tf._edges["base_link"].times) < 2 * 16  # (15 samples in the window)
+    with pytest.raises(TransformError, match=r"buffer holds 0.000..0.000 s"):
+        tf.lookup("odom", "base_link", 4800)
+    # late samples: one older than the window is dropped at once; one after the window's first sample
+    # (4893), still before the cutoff (4898), becomes that first sample
+    tf.add("odom", "base_link", 4850, (99.0, 0.0, 0.0), (0, 0, 0, 1))
+    assert tf.time_range("base_link") == (4893, 4998)
+    tf.add("odom", "base_link", 4895, (99.0, 0.0, 0.0), (0, 0, 0, 1))
+    assert tf.time_range("base_link") == (4895, 4998)
+    assert tf.lookup("odom", "base_link", 4896)[0, 3] == pytest.approx(99.0 + (49.0 - 99.0) / 5)
+
+
+def test_an_edge_matrix_asked_again_at_the_same_time_is_shared_until_the_sample_changes():
+    tf = buffer()
+    first = tf.lookup("map", "base_link", 10)
+    first[0, 3] = -1.0  # the caller's own copy: the next lookup is not affected
+    again = tf.lookup("odom", "base_link", 10)  # one edge, kept from the lookup above
+    assert again[0, 3] == 2.0 and again.flags.writeable
+    assert np.array_equal(tf.lookup("map", "base_link", 10)[:3, 3], [3.0, 0.0, 0.0])
+    tf.add("odom", "base_link", 10, (5.0, 0.0, 0.0), messages.quat_from_yaw(math.pi / 2))  # rewritten: new epoch
+    assert tf.lookup("odom", "base_link", 10)[0, 3] == 5.0
+    assert tf.lookup("odom", "base_link", None)[0, 3] == 5.0  # the latest is the same sample
