@@ -9,7 +9,9 @@ Python (``serve``, which imports only this module and the grid's) and takes the 
 - ``outcomes`` tells, per scan inserted since its last call, whether the grid took it or refused it
   (``GridTooLarge``: a pose or ranges far off), in order;
 - ``to_map`` and ``snapshot`` wait for every scan sent so far, then give the trinary map, or the whole
-  grid (log-odds, seen cells, origin, statistics) as an in-process ``OccupancyGrid2D``.
+  grid (log-odds, seen cells, origin, statistics) as an in-process ``OccupancyGrid2D``;
+- ``request_map`` asks for the map without waiting: its reply (and the outcomes before it) is taken
+  by a later ``poll``, or by any call that waits, in the order asked.
 
 Until the child has started (an interpreter and NumPy: a few tenths of a second, longer on a busy
 machine) the scans go into a grid in this process; once the child says it is ready, that grid is
@@ -30,11 +32,14 @@ from __future__ import annotations
 import dataclasses
 import fcntl
 import json
+import os
 import select
 import struct
 import subprocess
 import sys
 import traceback
+from collections import deque
+from collections.abc import Callable
 from typing import IO, Any, BinaryIO
 
 import numpy as np
@@ -90,7 +95,9 @@ class GridWorker:
         self.params = params
         self.local: OccupancyGrid2D | None = OccupancyGrid2D(params)  # the grid until the child takes it
         self._outcomes: list[bool] = []
-        self._sent = 0  # scans sent to the child whose outcome has not come back yet
+        self._sent = 0  # scans sent to the child since the last request
+        # map requests whose reply has not been taken: (scans sent before it, frame id, what takes the map)
+        self._requests: deque[tuple[int, str, Callable[[OccupancyMap | None], None]]] = deque()
         self._process: subprocess.Popen | None = None
         if spawn:
             try:
@@ -137,9 +144,10 @@ class GridWorker:
         self._send(_INSERT, b"".join((pose_bytes, limits, a.tobytes(), r.tobytes())))
         self._sent += 1
 
-    def outcomes(self) -> list[bool]:
-        """Per scan inserted since the last call, in order: True if the grid took it, False if it refused it."""
-        if self._sent:
+    def outcomes(self, wait: bool = True) -> list[bool]:
+        """Per scan inserted since the last call, in order: True if the grid took it, False if it refused it
+        (without ``wait``: those that have come, the first ones)."""
+        if wait and (self._sent or self._requests):
             self._ask(_OUTCOMES)
         out, self._outcomes = self._outcomes, []
         return out
@@ -148,7 +156,32 @@ class GridWorker:
         """The trinary map of every scan so far (``OccupancyGrid2D.to_map``); None while the grid is empty."""
         if self.local is not None:
             return self.local.to_map(frame_id) if self.local.logodds.size else None
-        body = self._ask(_MAP)
+        return self._map(self._ask(_MAP), frame_id)
+
+    def request_map(self, frame_id: str, reply: Callable[[OccupancyMap | None], None]) -> None:
+        """``to_map`` without waiting for the child: ``reply`` gets the map when a later ``poll`` (or a
+        call that waits) takes it, after the outcomes of the scans before it; at once while the grid is
+        in this process."""
+        if self.local is not None:
+            reply(self.to_map(frame_id))
+            return
+        self._send(_MAP, b"")
+        self._requests.append((self._sent, frame_id, reply))
+        self._sent = 0
+
+    def poll(self) -> None:
+        """Take the replies to ``request_map`` that have come, in order, without waiting."""
+        out = self._process.stdout if self._process is not None else None
+        while self._requests and out is not None and select.select([out], [], [], 0)[0]:
+            self._take_request()
+
+    def _take_request(self) -> None:
+        sent, frame_id, reply = self._requests.popleft()
+        _, body = self._read_frame()
+        self._outcomes.extend(bool(b) for b in body[:sent])
+        reply(self._map(body[sent:], frame_id))
+
+    def _map(self, body: bytes, frame_id: str) -> OccupancyMap | None:
         ox, oy, ny, nx = _SHAPE.unpack_from(body)
         if not ny * nx:
             return None
@@ -203,9 +236,21 @@ class GridWorker:
 
     def _send(self, op: int, payload: bytes) -> None:
         process = self._process
-        assert process is not None and process.stdin is not None
+        assert process is not None and process.stdin is not None and process.stdout is not None
+        data = _FRAME.pack(op, len(payload)) + payload
         try:
-            process.stdin.write(_FRAME.pack(op, len(payload)) + payload)
+            if not self._requests:
+                process.stdin.write(data)
+                return
+            # a map asked for may be in the way: the child writes its reply, we write to it; take the
+            # reply while the pipe to the child is full, and write no more than it takes without waiting
+            view, fd = memoryview(data), process.stdin.fileno()
+            while view:
+                readable, writable, _ = select.select([process.stdout], [fd], [])
+                if readable and self._requests:
+                    self._take_request()
+                elif writable:
+                    view = view[os.write(fd, view[: select.PIPE_BUF]) :]
         except OSError:  # the child is gone (EPIPE)
             raise self._died() from None
 
@@ -224,8 +269,11 @@ class GridWorker:
         return code, body
 
     def _ask(self, op: int) -> bytes:
-        """Send request ``op``; its reply (after every scan sent), without the outcomes it starts with."""
+        """Send request ``op``; its reply (after every scan sent, and the replies asked for before), without
+        the outcomes it starts with."""
         self._send(op, b"")
+        while self._requests:
+            self._take_request()
         _, body = self._read_frame()
         self._outcomes.extend(bool(b) for b in body[: self._sent])
         body, self._sent = body[self._sent :], 0

@@ -16,7 +16,9 @@ the last inserted one (slam_toolbox's throttle; 0 inserts every scan).
 The scans go into the grid in a child process once it has started (``GridWorker``; on a machine with
 one CPU, or with ``grid_process=False``, in this one): the node's thread goes on with the next messages
 meanwhile. A scan's outcome (taken, or refused as far off) is collected with the next /map, in order,
-and the trajectory and skip counts follow it; ``grid`` is the grid of every scan so far.
+and the trajectory and skip counts follow it; ``grid`` is the grid of every scan so far. When no node
+reads /map, the node does not wait for the child's map either: it takes the map's place in the output
+order (``Node.defer``) and fills it when the map has come, at the next /map at the latest.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from navlog.replay import messages
 from navlog.replay.geometry import yaw_from_matrix
 from navlog.replay.mapping.grid_process import GridWorker
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams, ScanAngles
+from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
@@ -78,6 +81,7 @@ class OccupancyMapperNode(Node):
         self._last_pose: np.ndarray | None = None
         self._angles = ScanAngles()
         self._waiting = WaitingForTransforms(int(params.transform_timeout * 1e9))  # scans waiting for their pose
+        self._defer_maps: bool | None = None  # /map filled in later (no node reads it); decided at the first
 
     @property
     def pose_topic(self) -> str:
@@ -175,27 +179,44 @@ class OccupancyMapperNode(Node):
         self._updates.insert_scan(pose, angles, np.asarray(msg.ranges), float(msg.range_min), float(msg.range_max))
         self._pending.append((stamp, base))
 
-    def _settle(self) -> None:
-        """The scans whose outcome came: into the trajectory if the grid took them, else counted."""
-        for entry, taken in zip(self._pending, self._updates.outcomes(), strict=True):
+    def _settle(self, wait: bool = True) -> None:
+        """The scans whose outcome came (``wait``: every scan's): into the trajectory if the grid took them,
+        else counted."""
+        outcomes = self._updates.outcomes(wait)
+        for entry, taken in zip(self._pending, outcomes):
             if taken:
                 self.trajectory.append(entry)
             else:
                 self.skipped[
                     f"{self.p.scan_topic}: pose or ranges too far off (the map would exceed its cell budget)"
                 ] += 1
-        self._pending.clear()
+        del self._pending[: len(outcomes)]
 
     def _publish(self, t_ns: int) -> None:
-        grid_map = self._updates.to_map(self.p.map_frame)
-        self._settle()
-        if grid_map is not None:
-            self.publish(self.p.map_topic, messages.OCCUPANCY_GRID, grid_map.to_msg(t_ns))
+        if self._defer_maps is None:
+            self._defer_maps = not self.executor.read_by_nodes([self.p.map_topic])
+        if not (self._defer_maps and self._updates.in_child):
+            grid_map = self._updates.to_map(self.p.map_frame)
+            self._settle()
+            if grid_map is not None:
+                self.publish(self.p.map_topic, messages.OCCUPANCY_GRID, grid_map.to_msg(t_ns))
+            return
+        self._updates.poll()  # the maps asked for before, into their places
+        place = self.defer()
+
+        def fill(grid_map: OccupancyMap | None) -> None:
+            self._settle(wait=False)
+            if grid_map is not None:
+                place.publish(self.p.map_topic, messages.OCCUPANCY_GRID, grid_map.to_msg(t_ns))
+            place.close()
+
+        self._updates.request_map(self.p.map_frame, fill)
 
     def finish(self) -> None:
         self._drain(self.now(), final=True)
         self._publish(self.now())
-        self._final = self._updates.snapshot()
+        self._final = self._updates.snapshot()  # (every map asked for is filled in first)
+        self._settle()
         self._updates.close()
 
     def counts(self) -> dict[str, int]:

@@ -66,3 +66,74 @@ def test_a_scan_far_off_is_counted_and_left_out_of_the_trajectory(grid_process):
     assert [round(float(p[0, 3]), 3) for _, p in node.trajectory] == [0.0, 0.5, 1.0]
     assert node.counts()["/scan: pose or ranges too far off (the map would exceed its cell budget)"] == 1
     assert node.grid.stats.scans == 4 and (node.grid.to_map().data == 100).sum() > 50
+
+
+def _scan_run(read_map: bool, beams: int, seconds: float) -> tuple[list, occupancy_mapper.OccupancyMapperNode]:
+    """A robot driving 0.5 m/s along x in a ring of range 8 m, scans at 10 Hz with ``beams`` beams, the grid in
+    a child process; every message the sink saw (topic, time, CDR bytes of /map). With ``read_map`` a node
+    subscribes to /map (the mapper then publishes each map as it asks for it)."""
+    from navlog.replay.runtime.executor import Node
+
+    node = occupancy_mapper.OccupancyMapperNode(
+        occupancy_mapper.OccupancyMapperParams(minimum_travel_distance=0.0), grid_process=True
+    )
+    ex = Executor()
+    ex.add_node(node)
+    if read_map:
+
+        class Reader(Node):
+            def setup(self):
+                self.subscribe("/map", lambda msg, t: None)
+
+        ex.add_node(Reader())
+    seen: list = []
+
+    class Sink:
+        def write(self, env):
+            seen.append((env.topic, env.time_ns, m.serialize(env.msg, env.typename) if env.topic == "/map" else b""))
+
+    ex.add_sink(Sink())
+    envs = []
+    for k in range(int(seconds * 10)):
+        t = (k + 1) * 100_000_000
+        odom = m.odometry(t, "map", "base_link", (0.05 * k, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), (0, 0, 0), (0, 0, 0))
+        envs.append(Envelope("/odom/ground_truth", m.ODOMETRY, t, odom))
+        scan = m.msg_class(m.LASER_SCAN)(
+            header=m.header(t, "base_link"),
+            angle_min=-math.pi,
+            angle_max=math.pi,
+            angle_increment=2 * math.pi / beams,
+            time_increment=0.0,
+            scan_time=0.1,
+            range_min=0.1,
+            range_max=20.0,
+            ranges=np.full(beams, 8.0, dtype=np.float32),
+            intensities=np.zeros(0, dtype=np.float32),
+        )
+        envs.append(Envelope("/scan", m.LASER_SCAN, t, scan))
+    ex.add_source(envs)
+    ex.run()
+    ex.finish()
+    return seen, node
+
+
+def test_maps_filled_in_later_reach_the_sink_as_maps_waited_for():
+    waited, node_waited = _scan_run(read_map=True, beams=360, seconds=9.0)
+    later, node_later = _scan_run(read_map=False, beams=360, seconds=9.0)
+    assert [t for t, _, _ in later].count("/map") == 5  # every 2 s and at the end
+    assert later == waited
+    assert len(node_later.trajectory) == len(node_waited.trajectory) == 90
+
+
+def test_a_map_reply_larger_than_the_pipe_does_not_stall_the_scans_behind_it():
+    # 2 s of 3600-beam scans between maps is more than the 1 MiB pipe to the child holds, and each map of the
+    # 16 m ring is more than its reply pipe holds: the mapper takes a reply whenever the child writes one
+    import threading
+
+    done: list = []
+    run = threading.Thread(target=lambda: done.append(_scan_run(read_map=False, beams=3600, seconds=5.0)), daemon=True)
+    run.start()
+    run.join(timeout=120)
+    assert done, "the replay stalled: the mapper and its grid process each waited for the other"
+    seen, node = done[0]
+    assert [t for t, _, _ in seen].count("/map") == 3 and len(node.trajectory) == 50
