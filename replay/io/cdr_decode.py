@@ -98,6 +98,15 @@ def _check(data: bytes) -> None:
         raise ValueError("not little-endian CDR")
 
 
+def _header(data: bytes, header: Any, time: Any) -> tuple[Any, int]:
+    """A message's leading ``std_msgs/Header`` (the encapsulation checked first), as the store's ``header``
+    and ``time`` classes make it, and the payload offset after it."""
+    _check(data)
+    sec, nanosec = _TIME.unpack_from(data, _HEADER)
+    frame_id, pos = _string(data, 8)
+    return header(time(sec, nanosec), frame_id), pos
+
+
 def _check_end(data: bytes, pos: int) -> None:
     if pos + _HEADER + 3 < len(data):  # the store's rule: at most 3 bytes of padding after the message
         raise ValueError("CDR message size mismatch")
@@ -214,9 +223,7 @@ def _imu_decoder(store: Any) -> Callable[[bytes], Any]:
     quaternion, vector3 = c["geometry_msgs/msg/Quaternion"], c["geometry_msgs/msg/Vector3"]
 
     def decode(data: bytes) -> Any:
-        _check(data)
-        sec, nanosec = _TIME.unpack_from(data, _HEADER)
-        frame_id, pos = _string(data, 8)
+        head, pos = _header(data, header, time)
         pos = (pos + 7) & -8
         at = _HEADER + pos
         qx, qy, qz, qw = _D4.unpack_from(data, at)
@@ -227,7 +234,7 @@ def _imu_decoder(store: Any) -> Callable[[bytes], Any]:
         cov_a = np.frombuffer(data, dtype=np.float64, count=9, offset=at + 224)
         _check_end(data, pos + 296)  # 37 doubles: 4 + 9 + 3 + 9 + 3 + 9
         return imu(
-            header(time(sec, nanosec), frame_id),
+            head,
             quaternion(qx, qy, qz, qw),
             cov_q,
             vector3(wx, wy, wz),
@@ -255,15 +262,13 @@ def _laser_scan_decoder(store: Any) -> Callable[[bytes], Any]:
     max_len = store.max_sequence_length
 
     def decode(data: bytes) -> Any:
-        _check(data)
-        sec, nanosec = _TIME.unpack_from(data, _HEADER)
-        frame_id, pos = _string(data, 8)
+        head, pos = _header(data, header, time)
         pos = (pos + 3) & -4
         values = _F7.unpack_from(data, _HEADER + pos)  # angle_min .. range_max
         ranges, pos = _f32_sequence(data, pos + 28, max_len)
         intensities, pos = _f32_sequence(data, pos, max_len)
         _check_end(data, pos)
-        return scan(header(time(sec, nanosec), frame_id), *values, ranges, intensities)
+        return scan(head, *values, ranges, intensities)
 
     return decode
 
@@ -291,13 +296,11 @@ def _twist_stamped_decoder(store: Any) -> Callable[[bytes], Any]:
     twist, vector3 = c["geometry_msgs/msg/Twist"], c["geometry_msgs/msg/Vector3"]
 
     def decode(data: bytes) -> Any:
-        _check(data)
-        sec, nanosec = _TIME.unpack_from(data, _HEADER)
-        frame_id, pos = _string(data, 8)
+        head, pos = _header(data, header, time)
         pos = (pos + 7) & -8
         lx, ly, lz, ax, ay, az = _D6.unpack_from(data, _HEADER + pos)
         _check_end(data, pos + 48)
-        return stamped(header(time(sec, nanosec), frame_id), twist(vector3(lx, ly, lz), vector3(ax, ay, az)))
+        return stamped(head, twist(vector3(lx, ly, lz), vector3(ax, ay, az)))
 
     return decode
 
@@ -318,9 +321,7 @@ def _odometry_decoder(store: Any) -> Callable[[bytes], Any]:
     )
 
     def decode(data: bytes) -> Any:
-        _check(data)
-        sec, nanosec = _TIME.unpack_from(data, _HEADER)
-        frame_id, pos = _string(data, 8)
+        head, pos = _header(data, header, time)
         child, pos = _string(data, pos)
         pos = (pos + 7) & -8
         px, py, pz, qx, qy, qz, qw = _D7.unpack_from(data, _HEADER + pos)
@@ -333,7 +334,7 @@ def _odometry_decoder(store: Any) -> Callable[[bytes], Any]:
         pos += 8 * _COV
         _check_end(data, pos)
         return odometry(
-            header(time(sec, nanosec), frame_id),
+            head,
             child,
             pose_cov(pose(point(px, py, pz), quaternion(qx, qy, qz, qw)), pcov),
             twist_cov(twist(vector3(lx, ly, lz), vector3(ax, ay, az)), tcov),
