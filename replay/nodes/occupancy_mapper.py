@@ -179,11 +179,11 @@ class OccupancyMapperNode(Node):
         self._updates.insert_scan(pose, angles, np.asarray(msg.ranges), float(msg.range_min), float(msg.range_max))
         self._pending.append((stamp, base))
 
-    def _settle(self, wait: bool = True) -> None:
-        """The scans whose outcome came (``wait``: every scan's): into the trajectory if the grid took them,
-        else counted."""
-        outcomes = self._updates.outcomes(wait)
-        for entry, taken in zip(self._pending, outcomes):
+    def _settle(self) -> None:
+        """The scans whose outcome has come (every scan's after a map or the final grid): into the
+        trajectory if the grid took them, else counted."""
+        outcomes = self._updates.outcomes(wait=False)
+        for entry, taken in zip(self._pending[: len(outcomes)], outcomes, strict=True):
             if taken:
                 self.trajectory.append(entry)
             else:
@@ -193,24 +193,27 @@ class OccupancyMapperNode(Node):
         del self._pending[: len(outcomes)]
 
     def _publish(self, t_ns: int) -> None:
+        """/map of every scan so far: at once, or, when no node reads /map and the grid is in the child,
+        in its place once the child has sent it (the module docstring)."""
         if self._defer_maps is None:
             self._defer_maps = not self.executor.read_by_nodes([self.p.map_topic])
-        if not (self._defer_maps and self._updates.in_child):
-            grid_map = self._updates.to_map(self.p.map_frame)
-            self._settle()
-            if grid_map is not None:
-                self.publish(self.p.map_topic, messages.OCCUPANCY_GRID, grid_map.to_msg(t_ns))
-            return
-        self._updates.poll()  # the maps asked for before, into their places
-        place = self.defer()
+        later = self._defer_maps and self._updates.in_child
+        if later:
+            self._updates.poll()  # the maps asked for before, into their places
+        place = self.defer() if later else None
+        publish = self.publish if place is None else place.publish
 
         def fill(grid_map: OccupancyMap | None) -> None:
-            self._settle(wait=False)
+            self._settle()  # the outcomes of the scans before this map came with it
             if grid_map is not None:
-                place.publish(self.p.map_topic, messages.OCCUPANCY_GRID, grid_map.to_msg(t_ns))
-            place.close()
+                publish(self.p.map_topic, messages.OCCUPANCY_GRID, grid_map.to_msg(t_ns))
+            if place is not None:
+                place.close()
 
-        self._updates.request_map(self.p.map_frame, fill)
+        if later:
+            self._updates.request_map(self.p.map_frame, fill)
+        else:
+            fill(self._updates.to_map(self.p.map_frame))
 
     def finish(self) -> None:
         self._drain(self.now(), final=True)
