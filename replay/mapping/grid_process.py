@@ -20,49 +20,36 @@ handed to it and the scans go there. A caller never waits for the child's start-
 scan stays in this process. Either way the grid's own code runs on the
 same arrays in the same order, so the maps and statistics are the same bits (tested).
 
-The processes exchange plain bytes: a frame is one opcode byte, a little-endian uint32 length and the
-payload (arrays as raw bytes, the parameters as JSON); nothing is unpickled. The child ignores SIGINT
-(a Ctrl-C stops the replay, which closes the pipes) and exits when its input closes, so an interrupted
-or failed replay leaves no process behind. An error in the child comes back as ``NavlogError`` with
-its traceback; a child that died is named with its exit code.
+The two processes talk through ``navlog.replay.child`` (frames of raw bytes, errors and a dead
+child named, nothing left behind after a Ctrl-C).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import fcntl
 import json
-import os
-import select
 import struct
 import subprocess
-import sys
-import traceback
 from collections import deque
 from collections.abc import Callable
-from typing import IO, Any, BinaryIO
+from typing import Any
 
 import numpy as np
 
 from navlog.errors import NavlogError
+from navlog.replay.child import ChildProcess
+from navlog.replay.child import serve as serve_requests
 from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams, ScanStats
 from navlog.replay.occupancy_map import OccupancyMap
 
 __all__ = ["GridWorker", "serve"]
 
-_FRAME = struct.Struct("<BI")  # opcode, payload length
 # parent -> child: parameters, the grid handed over, a scan, requests (outcomes only, map, whole grid)
 _PARAMS, _GRID, _INSERT, _OUTCOMES, _MAP, _SNAPSHOT = (ord(c) for c in "PGIOMS")
-_READY, _ERROR = ord("R"), ord("E")  # child -> parent, besides the replies
 _LIMITS = struct.Struct("<ddI")  # range_min, range_max, beam count
 _SHAPE = struct.Struct("<ddII")  # origin x, y; ny, nx
 _STATS = [f.name for f in dataclasses.fields(ScanStats)]
-_PIPE_BYTES = 1 << 20  # scans the caller may send ahead (Linux caps a pipe at pipe-max-size, 1 MiB by default)
-_F_SETPIPE_SZ = getattr(fcntl, "F_SETPIPE_SZ", 1031)
-_CHILD = (
-    "import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "
-    "from navlog.replay.mapping.grid_process import serve; serve()"
-)
+_CHILD = "from navlog.replay.mapping.grid_process import serve; serve()"
 
 
 def _state_bytes(grid: OccupancyGrid2D, outcomes: bytes = b"", with_grid: bool = True) -> bytes:
@@ -98,19 +85,12 @@ class GridWorker:
         self._sent = 0  # scans sent to the child since the last request
         # map requests whose reply has not been taken: (scans sent before it, frame id, what takes the map)
         self._requests: deque[tuple[int, str, Callable[[OccupancyMap | None], None]]] = deque()
-        self._process: subprocess.Popen | None = None
+        self._child: ChildProcess | None = None
         if spawn:
             try:
-                self._process = subprocess.Popen(
-                    [sys.executable, "-c", _CHILD], stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0
-                )
+                self._child = ChildProcess("occupancy grid process", _CHILD)
             except OSError:  # no child here (a process limit, no interpreter to run): the grid stays here
                 return
-            try:
-                assert self._process.stdin is not None
-                fcntl.fcntl(self._process.stdin.fileno(), _F_SETPIPE_SZ, _PIPE_BYTES)
-            except OSError:  # not allowed here: the caller then waits sooner for the child to read
-                pass
             try:
                 self._send(_PARAMS, json.dumps(dataclasses.asdict(params)).encode())
             except NavlogError:  # the child ended at once: the grid stays here
@@ -121,6 +101,10 @@ class GridWorker:
         """True once the child holds the grid."""
         return self.local is None
 
+    @property
+    def _process(self) -> subprocess.Popen | None:
+        return self._child.process if self._child is not None else None
+
     # ------------------------------------------------------------ the caller's side
     def insert_scan(
         self, pose: np.ndarray, angles: np.ndarray, ranges: np.ndarray, range_min: float, range_max: float
@@ -130,8 +114,9 @@ class GridWorker:
         r = np.ascontiguousarray(ranges, dtype=np.float64)
         if len(a) != len(r):
             raise ValueError(f"{len(a)} beam angles for {len(r)} ranges")
-        if self.local is not None and self._child_ready():
-            self._hand_over()
+        if self.local is not None and self._child is not None and self._child.started():
+            self._send(_GRID, _state_bytes(self.local))  # handed over
+            self.local = None
         if self.local is not None:
             try:
                 self.local.insert_scan(pose, a, r, range_min, range_max)
@@ -165,19 +150,20 @@ class GridWorker:
         if self.local is not None:
             reply(self.to_map(frame_id))
             return
-        self._send(_MAP, b"")
+        assert self._child is not None
+        self._child.ask(_MAP)
         self._requests.append((self._sent, frame_id, reply))
         self._sent = 0
 
     def poll(self) -> None:
         """Take the replies to ``request_map`` that have come, in order, without waiting."""
-        out = self._process.stdout if self._process is not None else None
-        while self._requests and out is not None and select.select([out], [], [], 0)[0]:
+        while self._requests and self._child is not None and self._child.reply_ready():
             self._take_request()
 
     def _take_request(self) -> None:
+        assert self._child is not None
         sent, frame_id, reply = self._requests.popleft()
-        _, body = self._read_frame()
+        body = self._child.reply()
         self._outcomes.extend(bool(b) for b in body[:sent])
         reply(self._map(body[sent:], frame_id))
 
@@ -196,108 +182,29 @@ class GridWorker:
 
     def close(self) -> None:
         """End the child: close its input (it exits on that) and wait for it."""
-        process, self._process = self._process, None
-        if process is None:
-            return
-        for stream in (process.stdin, process.stdout):
-            if stream is not None:
-                try:
-                    stream.close()
-                except OSError:
-                    pass
-        try:
-            process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+        if self._child is not None:
+            self._child.close()
 
     def __del__(self) -> None:
         self.close()
 
     # ------------------------------------------------------------ talking to the child
-    def _child_ready(self) -> bool:
-        process = self._process
-        if process is None or process.stdout is None:
-            return False
-        if not select.select([process.stdout], [], [], 0)[0]:
-            return False
-        try:
-            code, _ = self._read_frame()
-        except NavlogError:  # the child ended before it was ready (it is closed now): the grid stays here
-            return False
-        if code != _READY:
-            raise NavlogError(f"occupancy grid process (pid {process.pid}): unexpected reply {code} at start-up")
-        return True
-
-    def _hand_over(self) -> None:
-        assert self.local is not None
-        self._send(_GRID, _state_bytes(self.local))
-        self.local = None
-
     def _send(self, op: int, payload: bytes) -> None:
-        process = self._process
-        assert process is not None and process.stdin is not None and process.stdout is not None
-        data = _FRAME.pack(op, len(payload)) + payload
-        try:
-            if not self._requests:
-                process.stdin.write(data)
-                return
-            # a map asked for may be in the way: the child writes its reply, we write to it; take the
-            # reply while the pipe to the child is full, and write no more than it takes without waiting
-            view, fd = memoryview(data), process.stdin.fileno()
-            while view:
-                readable, writable, _ = select.select([process.stdout], [fd], [])
-                if readable and self._requests:
-                    self._take_request()
-                elif writable:
-                    view = view[os.write(fd, view[: select.PIPE_BUF]) :]
-        except OSError:  # the child is gone (EPIPE)
-            raise self._died() from None
-
-    def _read_frame(self) -> tuple[int, bytes]:
-        process = self._process
-        assert process is not None and process.stdout is not None
-        head = _read(process.stdout, _FRAME.size)
-        body = None if head is None else _read(process.stdout, _FRAME.unpack(head)[1])
-        if head is None or body is None:
-            raise self._died()
-        code = _FRAME.unpack(head)[0]
-        if code == _ERROR:
-            pid = process.pid
-            self.close()
-            raise NavlogError(f"occupancy grid process (pid {pid}) failed:\n{body.decode(errors='replace')}")
-        return code, body
+        if self._child is None:
+            raise NavlogError("occupancy grid process: not started")
+        self._child.send(op, payload)
 
     def _ask(self, op: int) -> bytes:
         """Send request ``op``; its reply (after every scan sent, and the replies asked for before), without
         the outcomes it starts with."""
-        self._send(op, b"")
+        assert self._child is not None
+        self._child.ask(op)
         while self._requests:
             self._take_request()
-        _, body = self._read_frame()
+        body = self._child.reply()
         self._outcomes.extend(bool(b) for b in body[: self._sent])
         body, self._sent = body[self._sent :], 0
         return body
-
-    def _died(self) -> NavlogError:
-        process = self._process
-        self.close()
-        pid, code = (process.pid, process.returncode) if process is not None else ("?", "?")
-        return NavlogError(
-            f"occupancy grid process (pid {pid}) ended unexpectedly (exit code {code}); the replay stops here"
-        )
-
-
-def _read(stream: IO[bytes] | BinaryIO, n: int) -> bytes | None:
-    """Exactly ``n`` bytes from ``stream``; None at its end."""
-    parts, left = [], n
-    while left:
-        chunk = stream.read(left)
-        if not chunk:
-            return None
-        parts.append(chunk)
-        left -= len(chunk)
-    return b"".join(parts)
 
 
 # ------------------------------------------------------------ the child's side
@@ -327,46 +234,29 @@ def _handle(grid: OccupancyGrid2D, outcomes: bytearray, code: int, body: bytes) 
     raise ValueError(f"unknown request {code}")
 
 
-def serve(stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
-    """The child's loop: say it is ready, then answer requests until the input ends; an exception goes
-    back as an error reply and ends the loop. A parent gone (its pipes closed, e.g. an interrupted
-    replay) ends it quietly."""
-    inp = stdin or sys.stdin.buffer
-    out = stdout or open(sys.stdout.fileno(), "wb", buffering=0, closefd=False)  # nothing held back at exit
-    try:
-        _serve(inp, out)
-    except OSError:  # BrokenPipeError and its kin: nobody is listening any more
-        return
+class _GridServer:
+    """The child's grid: the parameters, then the grid handed over, then scans and requests."""
+
+    def __init__(self) -> None:
+        self.params: OccupancyParams | None = None
+        self.grid: OccupancyGrid2D | None = None
+        self.outcomes = bytearray()
+
+    def __call__(self, code: int, body: bytes) -> tuple[int, bytes] | None:
+        if code == _PARAMS:
+            self.params = OccupancyParams(**_params(json.loads(body)))
+            return None
+        if self.params is not None and code == _GRID:
+            self.grid = _grid_from_bytes(self.params, body)
+            return None
+        if self.grid is None:
+            raise ValueError(f"request {code} before the parameters and the grid")
+        return _handle(self.grid, self.outcomes, code, body)
 
 
-def _serve(inp: BinaryIO, out: BinaryIO) -> None:
-    out.write(_FRAME.pack(_READY, 0))
-    out.flush()
-    params: OccupancyParams | None = None
-    grid: OccupancyGrid2D | None = None
-    outcomes = bytearray()
-    while (head := _read(inp, _FRAME.size)) is not None:
-        code, n = _FRAME.unpack(head)
-        body = _read(inp, n) if n else b""
-        if body is None:
-            return
-        try:
-            if code == _PARAMS:
-                params = OccupancyParams(**_params(json.loads(body)))
-                continue
-            if params is not None and code == _GRID:
-                grid = _grid_from_bytes(params, body)
-                continue
-            if grid is None:
-                raise ValueError(f"request {code} before the parameters and the grid")
-            reply = _handle(grid, outcomes, code, body)
-        except Exception:
-            reply = (_ERROR, traceback.format_exc().encode())
-        if reply is not None:
-            out.write(_FRAME.pack(reply[0], len(reply[1])) + reply[1])
-            out.flush()
-            if reply[0] == _ERROR:
-                return
+def serve() -> None:
+    """The child's loop (``navlog.replay.child.serve``) over the grid's requests."""
+    serve_requests(_GridServer())
 
 
 def _params(values: dict[str, Any]) -> dict[str, Any]:

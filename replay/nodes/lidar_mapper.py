@@ -13,14 +13,24 @@ when the next cloud arrives, whichever is first, so the same message order alway
 (map -> base_link, stamped at the cloud's header stamp), `/cloud_registered` (the deskewed frame in
 `map`, every ``cloud_every_n_frames`` frames) and the path of all poses (every
 ``path_every_n_frames`` frames and at the end). Inputs that cannot be used are counted by reason.
+
+Sweeps prepared ahead: when no node reads those outputs and this process may use two CPUs, a sweep
+whose motion the odometry track gives (``LidarOdometry.plan``) is moved into base_link, deskewed
+and voxel-filtered in a child process (``sweep_process.SweepWorker``) while the sweep before
+registers; its outputs take their place in the order when it is planned (``Node.defer``) and are
+filled in when it completes, so the outputs are the same bytes in the same order as one sweep after
+another (tested). A sweep whose motion needs the constant velocity (no odometry over it) waits for
+the sweeps before it and is prepared here.
 """
 
 from __future__ import annotations
 
 import logging
+from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -30,8 +40,13 @@ from navlog.replay.geometry import make_transform, matrix_to_quat, quat_from_rpy
 from navlog.replay.mapping.lidar_odometry.deskew import GyroTrack, MotionPrior, PoseTrack
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams, Preset, for_sweep, preset
 from navlog.replay.pointcloud import azimuth_times, point_times, read_points, time_field_name, xyz_cloud
-from navlog.replay.runtime.executor import Node
+from navlog.replay.runtime.cpus import usable_cpus
+from navlog.replay.runtime.executor import Deferred, Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError
+
+if TYPE_CHECKING:
+    from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, SweepPlan
+    from navlog.replay.mapping.lidar_odometry.sweep_process import SweepWorker
 
 logger = logging.getLogger("navlog")
 Pose6 = tuple[float, float, float, float, float, float]  # x y z roll pitch yaw
@@ -100,9 +115,15 @@ class _Pending:
 class LidarMapperNode(Node):
     name = "lidar_mapper"
 
-    def __init__(self, params: LidarMapperParams = LidarMapperParams()) -> None:
+    def __init__(self, params: LidarMapperParams = LidarMapperParams(), *, sweep_process: bool | None = None) -> None:
+        """``sweep_process``: prepare sweeps in a child process while the one before registers, when no
+        node reads the outputs (None: when this process may use two CPUs); see the module docstring."""
         super().__init__()
         self.params = params
+        self._sweep_process = usable_cpus() > 1 if sweep_process is None else sweep_process
+        self._sweeps: SweepWorker | None = None  # started with the first sweep, when sweeps go ahead
+        self._ahead: bool | None = None  # sweeps prepared ahead (decided at the first)
+        self._inflight: deque[tuple[SweepPlan, Deferred]] = deque()  # planned and submitted, not completed
         odometry = preset(params.odometry, params.preset)
         if params.deskew == "off":
             odometry = replace(odometry, deskew=False)
@@ -372,25 +393,72 @@ class LidarMapperNode(Node):
 
     def _process(self, item: _Pending) -> None:
         p = self.params
-        if not self.odometry.stamps:
+        if not self.odometry.stamps and not self._inflight:
             self._first_frame(item)
         self.odometry.extrinsic = item.extrinsic
         prior = MotionPrior(self.gyro if p.use_imu else None, self.odom if p.use_odom else None)
-        result = self.odometry.process(item.stamp_ns, item.points, item.times, prior)
-        if result is None:
+        sweeps = self._sweep_worker()
+        if sweeps is None or not self.odometry.stamps:  # the first frame sizes the odometry: here, now
+            result = self.odometry.process(item.stamp_ns, item.points, item.times, prior)
+            if result is not None:
+                self._publish_frame(result, self.publish)
             return
+        from navlog.replay.mapping.lidar_odometry.odometry import Unsettled
+        from navlog.replay.mapping.lidar_odometry.sweep_process import prepare_sweep
+
+        n = len(self.odometry.stamps) + len(self._inflight) + 1  # this frame's number
+        keep = bool(p.cloud_every_n_frames) and (n - 1) % p.cloud_every_n_frames == 0
+        args = (item.stamp_ns, item.points, item.times, prior)
+        plan = self.odometry.plan(*args, settled=not self._inflight, keep_base=keep)
+        if isinstance(plan, Unsettled):  # its motion needs the constant velocity: every frame before, then it
+            self._complete(len(self._inflight))
+            plan = self.odometry.plan(*args, settled=True, keep_base=keep)
+            if plan is not None and not isinstance(plan, Unsettled):
+                self._publish_frame(self.odometry.complete(plan, prepare_sweep(plan.job), prior), self.publish)
+            return
+        if plan is None:
+            return
+        sweeps.submit(plan.job)  # prepared beside the registration of the frame before
+        self._inflight.append((plan, self.defer()))
+        self._complete(len(self._inflight) - 1)
+
+    def _sweep_worker(self) -> SweepWorker | None:
+        """The sweep process, when sweeps are prepared ahead: a child to run it, and no node reading the
+        outputs (they take their place when planned and are filled in when the frame completes)."""
+        if self._ahead is None:
+            p = self.params
+            self._ahead = self._sweep_process and not self.executor.read_by_nodes(
+                [p.odometry_topic, p.cloud_topic, p.path_topic]
+            )
+            if self._ahead:
+                from navlog.replay.mapping.lidar_odometry.sweep_process import SweepWorker
+
+                self._sweeps = SweepWorker()
+        return self._sweeps
+
+    def _complete(self, count: int) -> None:
+        """Complete the ``count`` oldest frames in flight, their outputs into their places."""
+        for _ in range(count):
+            assert self._sweeps is not None  # frames are in flight only with a sweep process
+            plan, place = self._inflight.popleft()
+            self._publish_frame(self.odometry.complete(plan, self._sweeps.take()), place.publish)
+            place.close()
+
+    def _publish_frame(self, result: FrameResult, publish: Callable[[str, str, Any], None]) -> None:
+        """/Odometry of a registered frame, and /cloud_registered and the path when due."""
+        p = self.params
         n = len(self.odometry.stamps)
         xyz = result.pose[:3, 3]
         q = matrix_to_quat(result.pose[:3, :3])
         v = result.velocity
-        odom = messages.odometry(item.stamp_ns, p.map_frame, p.base_frame, xyz, q, v[:3], v[3:])
-        self.publish(p.odometry_topic, messages.ODOMETRY, odom)
+        odom = messages.odometry(result.stamp_ns, p.map_frame, p.base_frame, xyz, q, v[:3], v[3:])
+        publish(p.odometry_topic, messages.ODOMETRY, odom)
         if p.cloud_every_n_frames and (n - 1) % p.cloud_every_n_frames == 0:
-            self.publish(p.cloud_topic, messages.POINT_CLOUD2, xyz_cloud(item.stamp_ns, p.map_frame, result.points_map))
+            publish(p.cloud_topic, messages.POINT_CLOUD2, xyz_cloud(result.stamp_ns, p.map_frame, result.points_map))
         if p.path_every_n_frames and n % p.path_every_n_frames == 0:
-            self._publish_path()
+            self._publish_path(publish)
 
-    def _publish_path(self) -> None:
+    def _publish_path(self, publish: Callable[[str, str, Any], None]) -> None:
         stamps, poses = self.odometry.poses()
         if len(stamps) == 0:
             return
@@ -402,11 +470,14 @@ class LidarMapperNode(Node):
             for t, m in zip(stamps[len(items) :], poses[len(items) :])
         )
         path = messages.msg_class(messages.PATH)(header=messages.header(int(stamps[-1]), frame), poses=list(items))
-        self.publish(self.params.path_topic, messages.PATH, path)
+        publish(self.params.path_topic, messages.PATH, path)
 
     def finish(self) -> None:
         self._drain(force=True)
-        self._publish_path()
+        self._complete(len(self._inflight))
+        if self._sweeps is not None:
+            self._sweeps.close()
+        self._publish_path(self.publish)
 
     # ------------------------------------------------------------ results
     def poses(self) -> tuple[np.ndarray, np.ndarray]:

@@ -158,16 +158,19 @@ class ConstantVelocity:
         return out
 
 
-def relative_motion(
-    t_ref_ns: int, query_ns: np.ndarray, prior: MotionPrior | None, velocity: ConstantVelocity
-) -> np.ndarray:
+def prior_motion(
+    t_ref_ns: int, query_ns: np.ndarray, prior: MotionPrior | None, velocity: ConstantVelocity | None
+) -> np.ndarray | None:
     """(K, 4, 4): base_link at ``t_ref`` <- base_link at each query time, from the best prior: the
-    odometry track (else the constant ``velocity``), with its rotation replaced by the gyro's."""
+    odometry track (else the constant ``velocity``), with its rotation replaced by the gyro's; None
+    when the odometry track does not cover the times and no ``velocity`` is given."""
     q_ns = np.asarray(query_ns, dtype=np.int64)
     rel = None
     if prior is not None and prior.odom is not None:
         rel = prior.odom.relative(t_ref_ns, q_ns)
     if rel is None:
+        if velocity is None:
+            return None
         rel = velocity.relative((q_ns - t_ref_ns) * 1e-9)
     if prior is not None and prior.gyro is not None:
         rot = prior.gyro.relative_rotations(t_ref_ns, q_ns)
@@ -175,6 +178,50 @@ def relative_motion(
             rel = rel.copy()
             rel[:, :3, :3] = rot
     return rel
+
+
+def relative_motion(
+    t_ref_ns: int, query_ns: np.ndarray, prior: MotionPrior | None, velocity: ConstantVelocity
+) -> np.ndarray:
+    """``prior_motion`` with the constant ``velocity`` where the odometry track does not reach."""
+    rel = prior_motion(t_ref_ns, query_ns, prior, velocity)
+    assert rel is not None
+    return rel
+
+
+def sweep_span(times: np.ndarray) -> tuple[float, float]:
+    """The first and last per-point time of a sweep (seconds after its stamp)."""
+    return float(times.min()), float(times.max())
+
+
+def slot_times(span: tuple[float, float], slots: int) -> np.ndarray:
+    """The times (seconds after the stamp) at which the motion over a sweep spanning ``span`` is sampled."""
+    t_lo, t_hi = span
+    return np.array([t_lo]) if t_hi - t_lo <= 0 else np.linspace(t_lo, t_hi, slots)
+
+
+def move_by_slot(points: np.ndarray, times: np.ndarray, motions: np.ndarray) -> np.ndarray:
+    """Points (base_link at their own ``times``) moved by the motion (``motions`` (K, 4, 4), sampled at
+    ``slot_times``) of the slot nearest each point's time."""
+    slots = len(motions)
+    t_lo, t_hi = sweep_span(times)
+    if slots == 1:
+        idx = np.zeros(len(times), dtype=np.int64)
+    else:
+        idx = np.clip(np.round((times - t_lo) / (t_hi - t_lo) * (slots - 1)).astype(np.int64), 0, slots - 1)
+    out = np.empty_like(points)
+    order = np.argsort(idx, kind="stable")
+    bounds = np.searchsorted(idx[order], np.arange(slots + 1))
+    for k in range(slots):
+        sel = order[bounds[k] : bounds[k + 1]]
+        if len(sel):
+            out[sel] = points[sel] @ motions[k, :3, :3].T + motions[k, :3, 3]
+    return out
+
+
+def slot_query_ns(stamp_ns: int, slot_t: np.ndarray) -> np.ndarray:
+    """The slots' times in nanoseconds."""
+    return stamp_ns + np.round(slot_t * 1e9).astype(np.int64)
 
 
 def deskew_points(
@@ -189,19 +236,5 @@ def deskew_points(
     """Points (base_link at their own times: ``stamp_ns`` + ``times`` seconds) moved into base_link at
     ``ref_ns``; the motion is sampled at ``slots`` times spread over the sweep and each point takes
     the nearest slot's."""
-    t_lo, t_hi = float(times.min()), float(times.max())
-    if t_hi - t_lo <= 0:
-        slot_t = np.array([t_lo])
-        idx = np.zeros(len(times), dtype=np.int64)
-    else:
-        slot_t = np.linspace(t_lo, t_hi, slots)
-        idx = np.clip(np.round((times - t_lo) / (t_hi - t_lo) * (slots - 1)).astype(np.int64), 0, slots - 1)
-    rel = relative_motion(ref_ns, stamp_ns + np.round(slot_t * 1e9).astype(np.int64), prior, velocity)
-    out = np.empty_like(points)
-    order = np.argsort(idx, kind="stable")
-    bounds = np.searchsorted(idx[order], np.arange(len(slot_t) + 1))
-    for k in range(len(slot_t)):
-        sel = order[bounds[k] : bounds[k + 1]]
-        if len(sel):
-            out[sel] = points[sel] @ rel[k, :3, :3].T + rel[k, :3, 3]
-    return out
+    slot_t = slot_times(sweep_span(times), slots)
+    return move_by_slot(points, times, relative_motion(ref_ns, slot_query_ns(stamp_ns, slot_t), prior, velocity))

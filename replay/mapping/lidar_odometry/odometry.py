@@ -10,10 +10,19 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from navlog.replay.geometry import matrix_to_rotvec, rotation_angle
-from navlog.replay.mapping.lidar_odometry.deskew import ConstantVelocity, MotionPrior, deskew_points, relative_motion
+from navlog.replay.mapping.lidar_odometry.deskew import (
+    ConstantVelocity,
+    MotionPrior,
+    prior_motion,
+    relative_motion,
+    slot_query_ns,
+    slot_times,
+    sweep_span,
+)
 from navlog.replay.mapping.lidar_odometry.local_map import GlobalMap, LocalMap
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
-from navlog.replay.mapping.lidar_odometry.preprocess import reduced, valid_points
+from navlog.replay.mapping.lidar_odometry.preprocess import valid_points
+from navlog.replay.mapping.lidar_odometry.sweep_process import PreparedSweep, SweepJob, prepare_sweep
 from navlog.replay.mapping.lidar_odometry.voxel_map import GaussianLocalMap, GaussianRegistrar
 
 if TYPE_CHECKING:
@@ -24,7 +33,8 @@ if TYPE_CHECKING:
 class FrameResult:
     stamp_ns: int
     pose: np.ndarray  # base_link in map, 4x4
-    points_base: np.ndarray  # (N, 3) deskewed points of the frame in base_link at the registration time
+    points_base: np.ndarray | None  # (N, 3) deskewed points of the frame in base_link at the registration
+    # time (None: not kept, see ``LidarOdometry.plan``)
     registered: np.ndarray  # 4x4: base_link in map at the registration time (the middle of the sweep)
     fitness: float
     rmse: float
@@ -35,7 +45,29 @@ class FrameResult:
     def points_map(self) -> np.ndarray:
         """(N, 3) the deskewed points of the frame in the map frame (computed when asked: a sweep's
         worth of points is not moved for frames nobody publishes)."""
+        if self.points_base is None:
+            raise ValueError("the frame's points were not kept (planned with keep_base=False)")
         return self.points_base @ self.registered[:3, :3].T + self.registered[:3, 3]
+
+
+@dataclass(frozen=True)
+class SweepPlan:
+    """A frame checked and its motions known (``LidarOdometry.plan``): the sweep's preparation (``job``)
+    and the motions its registration needs from the prior (None: from the constant velocity, when
+    completed)."""
+
+    stamp_ns: int
+    ref_ns: int  # the registration time (the middle of the sweep when deskewed)
+    job: SweepJob
+    before: np.ndarray | None  # 4x4: base_link at the last registration time (first frame: the stamp) <- at ref
+    after: np.ndarray | None  # (1, 4, 4): base_link at ref <- at the stamp (ref == stamp: None)
+
+
+class Unsettled:
+    """``LidarOdometry.plan``'s answer for a frame whose motion needs frames not yet completed."""
+
+
+UNSETTLED = Unsettled()
 
 
 class _Threads:
@@ -127,6 +159,7 @@ class LidarOdometry:
             else None
         )
         self._ref: tuple[int, np.ndarray] | None = None  # (time, pose) of the last registration
+        self._planned: tuple[int, int] | None = None  # (stamp, registration time) of the last frame planned
 
     @property
     def registrations(self) -> int:
@@ -154,6 +187,25 @@ class LidarOdometry:
         velocity used for deskewing stretches the scan symmetrically instead of shifting it, which
         would feed back into the next velocity estimate); the reported pose is moved to the stamp.
         """
+        plan = self.plan(stamp_ns, points, times, prior)  # settled: never UNSETTLED
+        if not isinstance(plan, SweepPlan):
+            return None
+        return self.complete(plan, prepare_sweep(plan.job), prior)
+
+    def plan(
+        self,
+        stamp_ns: int,
+        points: np.ndarray,
+        times: np.ndarray | None = None,
+        prior: MotionPrior | None = None,
+        *,
+        settled: bool = True,
+        keep_base: bool = True,
+    ) -> SweepPlan | Unsettled | None:
+        """The frame's checks and its motions; None (counted) when the frame cannot be used. Every plan
+        returned must be completed (``complete``), in order. Without ``settled`` (frames planned and not
+        yet completed), a frame whose motion needs the constant velocity (the odometry track does not
+        cover it) is ``UNSETTLED``: nothing is counted, complete the frames before and plan it again."""
         p = self.params
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         if times is not None:
@@ -161,47 +213,77 @@ class LidarOdometry:
             if len(times) != len(pts):
                 self._skip("time_field_length_mismatch")
                 return None
-        # 1. preprocess: finite points within the range limits, in base_link
+        # 1. preprocess: finite points within the range limits
         keep = valid_points(pts, times, p.min_range, p.max_range)
         every = bool(keep.all())  # the usual sweep: nothing to copy out
         pts = pts if every else pts[keep]
         if len(pts) < max(p.min_points, 1):
             self._skip("too_few_points")
             return None
-        if self.stamps and stamp_ns <= self.stamps[-1]:
+        if self._planned is not None and stamp_ns <= self._planned[0]:
             self._skip("stamp_not_increasing")
             return None
-        base = pts @ self.extrinsic[:3, :3].T + self.extrinsic[:3, 3]
         # 2. deskew into base_link at the middle of the sweep
         ref_ns = stamp_ns
+        t = None
         if p.deskew and times is not None:
             t = times if every else times[keep]
-            ref_ns = stamp_ns + int(round(0.5 * (float(t.min()) + float(t.max())) * 1e9))
-            if self._ref is not None and ref_ns <= self._ref[0]:  # times that put this sweep before the last
+            span = sweep_span(t)
+            ref_ns = stamp_ns + int(round(0.5 * (span[0] + span[1]) * 1e9))
+            if self._planned is not None and ref_ns <= self._planned[1]:  # times that put this sweep before the last
                 self._skip("sweep_time_not_increasing")
                 return None
-            base = deskew_points(base, t, stamp_ns, ref_ns, p.deskew_slots, prior, self._velocity)
-        # one point per save_voxel voxel: what the maps and the registration use
-        fine = reduced(base, p.save_voxel)
-        with _Threads(p.threads, p.method != "vgicp"):  # vgicp: Open3D is not called per frame
+        # the motions from the prior (the constant velocity, where needed, when completed)
+        velocity = self._velocity if settled else None
+        deskew = None
+        if t is not None:
+            deskew = prior_motion(ref_ns, slot_query_ns(stamp_ns, slot_times(span, p.deskew_slots)), prior, velocity)
+            if deskew is None:
+                return UNSETTLED
+        last = self._planned[1] if self._planned is not None else None
+        moved = ref_ns != stamp_ns
+        # the motion to the registration time from the last one (the first frame: from its stamp), and back
+        before = self._motion(last, stamp_ns, ref_ns, prior) if last is not None or moved else None
+        after = prior_motion(ref_ns, np.array([stamp_ns]), prior, None) if moved else None
+        if not settled and ((before is None and (last is not None or moved)) or (after is None and moved)):
+            return UNSETTLED
+        self._planned = (stamp_ns, ref_ns)
+        scan_voxel = p.scan_voxel if p.method == "vgicp" else 0.0
+        job = SweepJob(pts, self.extrinsic.copy(), t, deskew, p.save_voxel, scan_voxel, keep_base)
+        return SweepPlan(stamp_ns, ref_ns, job, before, after)
+
+    @staticmethod
+    def _motion(last: int | None, stamp_ns: int, ref_ns: int, prior: MotionPrior | None) -> np.ndarray | None:
+        """The prior's motion to the registration time from the last one (the first frame: from the stamp)."""
+        rel = prior_motion(stamp_ns if last is None else last, np.array([ref_ns]), prior, None)
+        return None if rel is None else rel[0]
+
+    def complete(self, plan: SweepPlan, prepared: PreparedSweep, prior: MotionPrior | None = None) -> FrameResult:
+        """Register a planned frame from its prepared sweep and update the maps (``prior``: where the plan
+        left a motion to the constant velocity; the same prior as when planned)."""
+        with _Threads(self.params.threads, self.params.method != "vgicp"):  # vgicp: Open3D is not called per frame
             # 3. register against the local map (the first frame defines it)
-            pose, fitness, rmse, source = self._register(stamp_ns, ref_ns, fine, prior)
+            pose, fitness, rmse, source = self._register(plan, prepared, prior)
             # 4. update the pose history and the maps
-            return self._update(stamp_ns, ref_ns, pose, base, fine, source, fitness, rmse, prior)
+            return self._update(plan, pose, prepared, source, fitness, rmse, prior)
 
     def _register(
-        self, stamp_ns: int, ref_ns: int, base: np.ndarray, prior: MotionPrior | None
+        self, plan: SweepPlan, prepared: PreparedSweep, prior: MotionPrior | None
     ) -> tuple[np.ndarray, float, float, Any]:
-        """The pose of base_link at ``ref_ns``, with ICP's fitness and RMSE and the registered source
-        cloud; updates the constant velocity."""
-        source = self.registrar.source(base)
+        """The pose of base_link at the registration time, with ICP's fitness and RMSE and the registered
+        source cloud; updates the constant velocity."""
+        stamp_ns, ref_ns = plan.stamp_ns, plan.ref_ns
+        if prepared.scan is not None and isinstance(self.registrar, GaussianRegistrar):
+            source = self.registrar.source_of_reduced(prepared.scan)
+        else:
+            source = self.registrar.source(prepared.fine)
         if self._ref is None:
             pose = self.initial_pose.copy()
             if ref_ns != stamp_ns:  # the initial pose is given at the stamp
-                pose = pose @ self._relative(stamp_ns, np.array([ref_ns]), prior)[0]
+                pose = pose @ self._before(plan, stamp_ns, prior)
             return pose, 1.0, 0.0, source
         last_ns, last = self._ref
-        guess = last @ self._relative(last_ns, np.array([ref_ns]), prior)[0]
+        guess = last @ self._before(plan, last_ns, prior)
         distance = self.threshold.value if self.threshold is not None else None
         result = self.registrar.register(source, self.local_map.target, guess, distance)
         if not result.accepted:
@@ -215,20 +297,30 @@ class LidarOdometry:
         self._velocity = ConstantVelocity(rel[:3, 3] / dt, matrix_to_rotvec(rel[:3, :3]) / dt)
         return pose, result.fitness, result.rmse, source
 
+    def _before(self, plan: SweepPlan, from_ns: int, prior: MotionPrior | None) -> np.ndarray:
+        """base_link at ``from_ns`` <- base_link at the registration time: the plan's, else now."""
+        if plan.before is not None:
+            return plan.before
+        return self._relative(from_ns, np.array([plan.ref_ns]), prior)[0]
+
     def _update(
         self,
-        stamp_ns: int,
-        ref_ns: int,
+        plan: SweepPlan,
         pose: np.ndarray,
-        base: np.ndarray,
-        fine: np.ndarray,
+        prepared: PreparedSweep,
         source: Any,
         fitness: float,
         rmse: float,
         prior: MotionPrior | None,
     ) -> FrameResult:
+        stamp_ns, ref_ns, fine = plan.stamp_ns, plan.ref_ns, prepared.fine
         self._ref = (ref_ns, pose)
-        out = pose if ref_ns == stamp_ns else pose @ self._relative(ref_ns, np.array([stamp_ns]), prior)[0]
+        if ref_ns == stamp_ns:
+            out = pose
+        elif plan.after is not None:
+            out = pose @ plan.after[0]
+        else:
+            out = pose @ self._relative(ref_ns, np.array([stamp_ns]), prior)[0]
         self.stamps.append(int(stamp_ns))
         self.trajectory.append(out)
         fine_map = fine @ pose[:3, :3].T + pose[:3, 3]
@@ -238,7 +330,7 @@ class LidarOdometry:
             keyframe = self.local_map.update(pose, fine_map)
         self.global_store.add(fine_map)
         velocity = np.concatenate([self._velocity.v, self._velocity.w])
-        return FrameResult(int(stamp_ns), out, base, pose, fitness, rmse, keyframe, velocity)
+        return FrameResult(int(stamp_ns), out, prepared.base, pose, fitness, rmse, keyframe, velocity)
 
     # -------------------------------------------------- results
     def global_map(self) -> np.ndarray:

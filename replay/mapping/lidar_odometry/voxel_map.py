@@ -90,8 +90,12 @@ class GaussianRegistrar:
 
     def source(self, points: np.ndarray) -> small_gicp.PointCloud:
         """The scan (N, 3) in base_link, voxel-filtered at ``scan_voxel``, with covariances."""
+        return self.source_of_reduced(reduced(points, self.params.scan_voxel))
+
+    def source_of_reduced(self, points: np.ndarray) -> small_gicp.PointCloud:
+        """``source`` of points already voxel-filtered at ``scan_voxel`` (``reduced``)."""
         p = self.params
-        cloud = small_gicp.PointCloud(reduced(points, p.scan_voxel))
+        cloud = small_gicp.PointCloud(points)
         n = omp_threads(p.covariance_threads)
         small_gicp.estimate_covariances(cloud, small_gicp.KdTree(cloud, n), p.covariance_nn, n)
         return cloud

@@ -171,10 +171,12 @@ def test_a_child_whose_parent_is_gone_ends_quietly():
 def test_without_a_child_the_grid_stays_in_the_process(monkeypatch, how):
     """The child process is an optimisation: when it cannot start, or ends before it is ready, the scans go
     into the grid in this process and give the same grid."""
+    import sys
+
     from navlog.replay.mapping import grid_process
 
     if how == "no interpreter":
-        monkeypatch.setattr(grid_process.sys, "executable", "/nonexistent/python")
+        monkeypatch.setattr(sys, "executable", "/nonexistent/python")
     else:
         monkeypatch.setattr(grid_process, "_CHILD", "import sys; sys.exit(3)")
     want, want_taken = reference()

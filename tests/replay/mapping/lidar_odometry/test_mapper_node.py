@@ -11,11 +11,11 @@ from scipy.spatial.transform import Rotation
 from navlog.replay import messages
 from navlog.replay.io.pcd import read_pcd
 from navlog.replay.mapping.lidar_odometry import LidarOdometryParams
-from navlog.replay.nodes.lidar_mapper import LidarMapperParams
+from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
 from navlog.replay.pointcloud import make_cloud, xyz
-from navlog.replay.runtime.executor import Envelope
+from navlog.replay.runtime.executor import Envelope, Executor, Node
 from tests.replay import lidar_scene as scene
-from tests.replay.mapping.lidar_odometry.helpers import ate_rmse, initial_pose_params, run_node, share_within
+from tests.replay.mapping.lidar_odometry.helpers import Recorder, ate_rmse, initial_pose_params, run_node, share_within
 
 cloud_msg = scene.cloud_msg
 
@@ -134,26 +134,78 @@ def test_bad_clouds_are_counted_not_fatal(room):
     assert ate_rmse(stamps, poses, seq) <= 0.03
 
 
-def test_node_uses_drifting_odom_without_imu(room):
-    seq = scene.make_sequence(scene.loop_trajectory(), 30, scene=room)
-    drift = Rotation.from_euler("z", 0.1).as_matrix()
+def odom_envelopes(seq: scene.Sequence, until_ns: int, yaw: float = 0.1) -> list[Envelope]:
+    """/odom at 50 Hz up to ``until_ns``: odom -> base_footprint, rotated by ``yaw`` and offset from the truth."""
+    drift = Rotation.from_euler("z", yaw).as_matrix()
     odom = []
-    for k in range(0, 3100_000_000 + 1, 20_000_000):
+    for k in range(0, until_ns + 1, 20_000_000):
         g = seq.ground_truth([k])[0]
-        p, r = drift @ g[:3, 3] + [0.5, -0.2, -0.32], drift @ g[:3, :3]  # odom -> base_footprint, rotated and offset
+        p, r = drift @ g[:3, 3] + [0.5, -0.2, -0.32], drift @ g[:3, :3]
         msg = messages.odometry(
             k, "odom", "base_footprint", p, messages.matrix_to_quat(r), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
         )
         odom.append(Envelope("/odom", messages.ODOMETRY, k, msg))
-    params = initial_pose_params(seq)
-    params = LidarMapperParams(initial_pose=params.initial_pose, use_imu=False)
-    node, rec = run_node(
-        scene.Sequence(seq.frames, seq.imu_ns[:0], seq.gyro[:0], seq.accel[:0], seq.trajectory, seq.extrinsic),
-        params,
-        odom,
-    )
+    return odom
+
+
+def without_imu(seq: scene.Sequence) -> scene.Sequence:
+    return scene.Sequence(seq.frames, seq.imu_ns[:0], seq.gyro[:0], seq.accel[:0], seq.trajectory, seq.extrinsic)
+
+
+def test_node_uses_drifting_odom_without_imu(room):
+    seq = scene.make_sequence(scene.loop_trajectory(), 30, scene=room)
+    params = LidarMapperParams(initial_pose=initial_pose_params(seq).initial_pose, use_imu=False)
+    node, rec = run_node(without_imu(seq), params, odom_envelopes(seq, 3_100_000_000))
     assert node.skipped_counts() == {"odom_base_transform_assumed_identity": 1}
     assert node.odom.last_ns == 3_100_000_000
     stamps, poses = node.poses()
     assert len(stamps) == 30
     assert ate_rmse(stamps, poses, seq) <= 0.03
+
+
+@pytest.mark.parametrize("odom_until_ns", [3_100_000_000, 1_500_000_000])
+def test_sweeps_prepared_ahead_give_the_same_bytes(room, tmp_path, odom_until_ns):
+    """With the odometry's motion known when a sweep is ready, the sweep is prepared in the sweep process
+    while the one before registers, and its outputs take their place when planned: the same messages,
+    in the same order, and the same map as one sweep after another. Where /odom stops (half-way), the
+    motion needs the constant velocity of the frames before: they complete first."""
+    seq = scene.make_sequence(scene.loop_trajectory(), 30, scene=room)
+    params = LidarMapperParams(initial_pose=initial_pose_params(seq).initial_pose, use_imu=False, path_every_n_frames=7)
+    runs = []
+    for ahead in (False, True):
+        ex = Executor()
+        node = LidarMapperNode(params, sweep_process=ahead)
+        ex.add_node(node)
+        rec = Recorder()
+        ex.add_sink(rec)
+        ex.add_source(scene.envelopes(without_imu(seq), odom_envelopes(seq, odom_until_ns)))
+        ex.run()
+        ex.finish()
+        node.save_pcd(tmp_path / f"{ahead}.pcd")
+        runs.append((node, rec, (tmp_path / f"{ahead}.pcd").read_bytes()))
+    (one, rec_one, pcd_one), (two, rec_two, pcd_two) = runs
+    assert not one._ahead and two._ahead and not two._inflight
+    assert len(one.poses()[0]) == 30
+    assert [(t, n) for t, n, _ in rec_one.items] == [(t, n) for t, n, _ in rec_two.items]
+    assert rec_one.digest() == rec_two.digest() and pcd_one == pcd_two
+
+
+def test_outputs_a_node_reads_are_published_when_the_sweep_is_registered(room):
+    """A node reading /Odometry gets it at once: sweeps are then not prepared ahead."""
+    seq = scene.make_sequence(scene.loop_trajectory(), 10, scene=room)
+    params = LidarMapperParams(initial_pose=initial_pose_params(seq).initial_pose, use_imu=False)
+    ex = Executor()
+    node = LidarMapperNode(params, sweep_process=True)
+    ex.add_node(node)
+    heard: list[int] = []
+
+    class Listener(Node):
+        def setup(self) -> None:
+            self.subscribe("/Odometry", lambda msg, t: heard.append(messages.to_ns(msg.header.stamp)))
+
+    ex.add_node(Listener())
+    ex.add_source(scene.envelopes(without_imu(seq), odom_envelopes(seq, 1_100_000_000)))
+    ex.run()
+    ex.finish()
+    assert node._ahead is False and node._sweeps is None
+    assert heard == [f.stamp_ns for f in seq.frames]

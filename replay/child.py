@@ -1,0 +1,205 @@
+"""A child Python that answers requests over its pipes: what the replay's helper processes share.
+
+A replay hands NumPy work to a child process where it can run beside the replay's thread (the
+occupancy grid's scan updates, ``navlog.replay.mapping.grid_process``; the 3D mapper's sweep
+preprocessing, ``navlog.replay.mapping.lidar_odometry.sweep_process``). Both sides speak in frames:
+one opcode byte, a little-endian uint32 length and the payload (arrays as raw bytes, parameters as
+JSON); nothing is unpickled.
+
+- ``ChildProcess`` (the parent's side) starts ``python -c CODE`` and sends requests; every request
+  that is ``ask``-ed gets one reply, in order. While replies are owed, a send that would block takes
+  the replies that have come (kept for ``reply``), so a child writing a large reply and a parent
+  writing a large request never wait for each other.
+- ``serve`` (the child's side) says it is ready, then passes each request to a handler and writes
+  the handler's reply, if any, until its input ends.
+
+The child ignores SIGINT (a Ctrl-C stops the replay, which closes the pipes) and exits when its input
+closes, so an interrupted or failed replay leaves no process behind. An exception in the handler
+comes back as ``NavlogError`` with its traceback; a child that died is named with its exit code.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import select
+import struct
+import subprocess
+import sys
+import traceback
+from collections import deque
+from collections.abc import Callable
+from typing import IO, BinaryIO
+
+from navlog.errors import NavlogError
+
+__all__ = ["ChildProcess", "read_exactly", "serve"]
+
+FRAME = struct.Struct("<BI")  # opcode, payload length
+READY, ERROR = ord("R"), ord("E")  # child -> parent, besides the replies
+_PIPE_BYTES = 1 << 20  # what each pipe holds (Linux caps a pipe at pipe-max-size, 1 MiB by default)
+_F_SETPIPE_SZ = getattr(fcntl, "F_SETPIPE_SZ", 1031)
+_QUIET = "import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "
+
+
+class ChildProcess:
+    """``python -c code`` (whose code calls ``serve``), and the requests sent to it (module docstring).
+    Raises ``OSError`` when no child can be started."""
+
+    def __init__(self, name: str, code: str) -> None:
+        self.name = name  # how errors name it: "occupancy grid process"
+        self.process: subprocess.Popen | None = subprocess.Popen(
+            [sys.executable, "-c", _QUIET + code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0
+        )
+        self.owed = 0  # replies asked for and not yet given by ``reply``
+        self._early: deque[tuple[int, bytes]] = deque()  # replies read while sending
+        self._started = False
+        for stream in (self.process.stdin, self.process.stdout):
+            try:
+                assert stream is not None
+                fcntl.fcntl(stream.fileno(), _F_SETPIPE_SZ, _PIPE_BYTES)
+            except OSError:  # not allowed here: the sides then wait sooner for each other
+                pass
+
+    @property
+    def pid(self) -> int | None:
+        return self.process.pid if self.process is not None else None
+
+    def started(self) -> bool:
+        """True once the child has said it is ready (without waiting); False while it starts, and after
+        it ended before it was ready (it is closed then)."""
+        if self._started:
+            return True
+        process = self.process
+        if process is None or process.stdout is None or not select.select([process.stdout], [], [], 0)[0]:
+            return False
+        try:
+            code, _ = self._read_frame()
+        except NavlogError:
+            return False
+        if code != READY:
+            raise NavlogError(f"{self.name} (pid {process.pid}): unexpected reply {code} at start-up")
+        self._started = True
+        return True
+
+    def send(self, op: int, payload: bytes) -> None:
+        """Send request ``op`` (no reply expected)."""
+        process = self.process
+        if process is None or process.stdin is None or process.stdout is None:
+            raise self._died()
+        data = FRAME.pack(op, len(payload)) + payload
+        try:
+            if self.owed <= len(self._early):
+                process.stdin.write(data)
+                return
+            # a reply may be in the way: the child writes it, we write to it; take replies while the pipe
+            # to the child is full, and write no more than it takes without waiting
+            view, fd = memoryview(data), process.stdin.fileno()
+            while view:
+                readable, writable, _ = select.select([process.stdout], [fd], [])
+                if readable and self.owed > len(self._early):
+                    self._early.append(self._read_frame())
+                elif writable:
+                    view = view[os.write(fd, view[: select.PIPE_BUF]) :]
+        except OSError:  # the child is gone (EPIPE)
+            raise self._died() from None
+
+    def ask(self, op: int, payload: bytes = b"") -> None:
+        """Send request ``op``, whose reply a later ``reply`` gives (in the order asked)."""
+        self.send(op, payload)
+        self.owed += 1
+
+    def reply_ready(self) -> bool:
+        """True when the next owed reply can be taken without waiting."""
+        if self._early:
+            return True
+        out = self.process.stdout if self.process is not None else None
+        return self.owed > 0 and out is not None and bool(select.select([out], [], [], 0)[0])
+
+    def reply(self) -> bytes:
+        """The payload of the next owed reply, in the order asked (waits for it)."""
+        if not self.owed:
+            raise RuntimeError(f"{self.name}: no reply is owed")
+        body = self._early.popleft()[1] if self._early else self._read_frame()[1]
+        self.owed -= 1
+        return body
+
+    def close(self) -> None:
+        """End the child: close its input (it exits on that) and wait for it."""
+        process, self.process = self.process, None
+        if process is None:
+            return
+        for stream in (process.stdin, process.stdout):
+            if stream is not None:
+                try:
+                    stream.close()
+                except OSError:
+                    pass
+        try:
+            process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+    def _read_frame(self) -> tuple[int, bytes]:
+        process = self.process
+        if process is None or process.stdout is None:
+            raise self._died()
+        head = read_exactly(process.stdout, FRAME.size)
+        body = None if head is None else read_exactly(process.stdout, FRAME.unpack(head)[1])
+        if head is None or body is None:
+            raise self._died()
+        code = FRAME.unpack(head)[0]
+        if code == ERROR:
+            pid = process.pid
+            self.close()
+            raise NavlogError(f"{self.name} (pid {pid}) failed:\n{body.decode(errors='replace')}")
+        return code, body
+
+    def _died(self) -> NavlogError:
+        process = self.process
+        self.close()
+        pid, code = (process.pid, process.returncode) if process is not None else ("?", "?")
+        return NavlogError(f"{self.name} (pid {pid}) ended unexpectedly (exit code {code}); the replay stops here")
+
+
+def read_exactly(stream: IO[bytes] | BinaryIO, n: int) -> bytes | None:
+    """Exactly ``n`` bytes from ``stream``; None at its end."""
+    parts, left = [], n
+    while left:
+        chunk = stream.read(left)
+        if not chunk:
+            return None
+        parts.append(chunk)
+        left -= len(chunk)
+    return b"".join(parts)
+
+
+Handler = Callable[[int, bytes], "tuple[int, bytes] | None"]
+
+
+def serve(handle: Handler, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:
+    """The child's loop: say it is ready, then give each request to ``handle(op, payload)`` and write
+    the reply it returns (None: no reply) until the input ends; an exception goes back as an error
+    reply and ends the loop. A parent gone (its pipes closed, e.g. an interrupted replay) ends it quietly."""
+    inp = stdin or sys.stdin.buffer
+    out = stdout or open(sys.stdout.fileno(), "wb", buffering=0, closefd=False)  # nothing held back at exit
+    try:
+        out.write(FRAME.pack(READY, 0))
+        out.flush()
+        while (head := read_exactly(inp, FRAME.size)) is not None:
+            code, n = FRAME.unpack(head)
+            body = read_exactly(inp, n) if n else b""
+            if body is None:
+                return
+            try:
+                reply = handle(code, body)
+            except Exception:
+                reply = (ERROR, traceback.format_exc().encode())
+            if reply is not None:
+                out.write(FRAME.pack(reply[0], len(reply[1])) + reply[1])
+                out.flush()
+                if reply[0] == ERROR:
+                    return
+    except OSError:  # BrokenPipeError and its kin: nobody is listening any more
+        return
