@@ -7,9 +7,9 @@ one opcode byte, a little-endian uint32 length and the payload (arrays as raw by
 JSON); nothing is unpickled.
 
 - ``ChildProcess`` (the parent's side) starts ``python -c CODE`` and sends requests; every request
-  that is ``ask``-ed gets one reply, in order. While replies are owed, a send that would block takes
-  the replies that have come (kept for ``reply``), so a child writing a large reply and a parent
-  writing a large request never wait for each other.
+  that is ``ask``-ed gets one reply, in order. Requests are written without blocking: while the pipe
+  to the child is full, the replies that come are taken (kept for ``reply``), so a child writing a
+  large reply and a parent writing a large request never wait for each other.
 - ``serve`` (the child's side) says it is ready, then passes each request to a handler and writes
   the handler's reply, if any, until its input ends.
 
@@ -52,7 +52,7 @@ class ChildProcess:
             [sys.executable, "-c", _QUIET + code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0
         )
         self.owed = 0  # replies asked for and not yet given by ``reply``
-        self._early: deque[tuple[int, bytes]] = deque()  # replies read while sending
+        self._early: deque[tuple[int, bytearray]] = deque()  # replies read while sending
         self._started = False
         for stream in (self.process.stdin, self.process.stdout):
             try:
@@ -60,6 +60,8 @@ class ChildProcess:
                 fcntl.fcntl(stream.fileno(), _F_SETPIPE_SZ, _PIPE_BYTES)
             except OSError:  # not allowed here: the sides then wait sooner for each other
                 pass
+        assert self.process.stdin is not None
+        os.set_blocking(self.process.stdin.fileno(), False)  # see ``send``
 
     @property
     def pid(self) -> int | None:
@@ -87,20 +89,22 @@ class ChildProcess:
         process = self.process
         if process is None or process.stdin is None or process.stdout is None:
             raise self._died()
-        data = FRAME.pack(op, len(payload)) + payload
+        fd = process.stdin.fileno()  # non-blocking: a write takes what the pipe has room for
         try:
-            if self.owed <= len(self._early):
-                process.stdin.write(data)
-                return
-            # a reply may be in the way: the child writes it, we write to it; take replies while the pipe
-            # to the child is full, and write no more than it takes without waiting
-            view, fd = memoryview(data), process.stdin.fileno()
-            while view:
-                readable, writable, _ = select.select([process.stdout], [fd], [])
-                if readable and self.owed > len(self._early):
-                    self._early.append(self._read_frame())
-                elif writable:
-                    view = view[os.write(fd, view[: select.PIPE_BUF]) :]
+            for part in (FRAME.pack(op, len(payload)), payload):
+                view = memoryview(part)
+                while view:
+                    try:
+                        view = view[os.write(fd, view) :]
+                        continue
+                    except BlockingIOError:  # the pipe is full
+                        pass
+                    # a reply may be in the way: the child writes it, we write to it; take replies
+                    # while the pipe to the child is full
+                    owed = self.owed > len(self._early)
+                    readable, _, _ = select.select([process.stdout] if owed else [], [fd], [])
+                    if readable:
+                        self._early.append(self._read_frame())
         except OSError:  # the child is gone (EPIPE)
             raise self._died() from None
 
@@ -116,7 +120,7 @@ class ChildProcess:
         out = self.process.stdout if self.process is not None else None
         return self.owed > 0 and out is not None and bool(select.select([out], [], [], 0)[0])
 
-    def reply(self) -> bytes:
+    def reply(self) -> bytearray:
         """The payload of the next owed reply, in the order asked (waits for it)."""
         if not self.owed:
             raise RuntimeError(f"{self.name}: no reply is owed")
@@ -141,7 +145,7 @@ class ChildProcess:
             process.kill()
             process.wait()
 
-    def _read_frame(self) -> tuple[int, bytes]:
+    def _read_frame(self) -> tuple[int, bytearray]:
         process = self.process
         if process is None or process.stdout is None:
             raise self._died()
@@ -163,19 +167,19 @@ class ChildProcess:
         return NavlogError(f"{self.name} (pid {pid}) ended unexpectedly (exit code {code}); the replay stops here")
 
 
-def read_exactly(stream: IO[bytes] | BinaryIO, n: int) -> bytes | None:
-    """Exactly ``n`` bytes from ``stream``; None at its end."""
-    parts, left = [], n
-    while left:
-        chunk = stream.read(left)
-        if not chunk:
+def read_exactly(stream: IO[bytes] | BinaryIO, n: int) -> bytearray | None:
+    """Exactly ``n`` bytes from ``stream`` (read into one buffer); None at its end."""
+    buf = bytearray(n)
+    view, got = memoryview(buf), 0
+    while got < n:
+        k = stream.readinto(view[got:])  # type: ignore[attr-defined]
+        if not k:
             return None
-        parts.append(chunk)
-        left -= len(chunk)
-    return b"".join(parts)
+        got += k
+    return buf
 
 
-Handler = Callable[[int, bytes], "tuple[int, bytes] | None"]
+Handler = Callable[[int, bytearray], "tuple[int, bytes] | None"]
 
 
 def serve(handle: Handler, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:

@@ -233,18 +233,21 @@ class LidarOdometry:
             if self._planned is not None and ref_ns <= self._planned[1]:  # times that put this sweep before the last
                 self._skip("sweep_time_not_increasing")
                 return None
-        # the motions from the prior (the constant velocity, where needed, when completed)
-        velocity = self._velocity if settled else None
-        deskew = None
-        if t is not None:
-            deskew = prior_motion(ref_ns, slot_query_ns(stamp_ns, slot_times(span, p.deskew_slots)), prior, velocity)
-            if deskew is None:
-                return UNSETTLED
         last = self._planned[1] if self._planned is not None else None
         moved = ref_ns != stamp_ns
-        # the motion to the registration time from the last one (the first frame: from its stamp), and back
+        # the motions over the sweep (deskew), back from the registration time to the stamp (after), and
+        # to the registration time from the last one (the first frame: from its stamp)
+        deskew = after = None
+        if t is not None:
+            slots = slot_query_ns(stamp_ns, slot_times(span, p.deskew_slots))
+            rel = prior_motion(ref_ns, np.append(slots, stamp_ns), prior, None)  # one lookup for both
+            if rel is not None:
+                deskew, after = rel[:-1], (rel[-1:] if moved else None)
+            elif settled:  # the constant velocity over the sweep; back to the stamp when completed
+                deskew = prior_motion(ref_ns, slots, prior, self._velocity)
+            else:
+                return UNSETTLED
         before = self._motion(last, stamp_ns, ref_ns, prior) if last is not None or moved else None
-        after = prior_motion(ref_ns, np.array([stamp_ns]), prior, None) if moved else None
         if not settled and ((before is None and (last is not None or moved)) or (after is None and moved)):
             return UNSETTLED
         self._planned = (stamp_ns, ref_ns)
