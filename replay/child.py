@@ -76,12 +76,11 @@ class ChildProcess:
         if process is None or process.stdout is None or not select.select([process.stdout], [], [], 0)[0]:
             return False
         try:
-            code, _ = self._read_frame()
+            frame = self._take_frame()
         except NavlogError:
             return False
-        if code != READY:
-            raise NavlogError(f"{self.name} (pid {process.pid}): unexpected reply {code} at start-up")
-        self._started = True
+        if frame is not None:
+            raise NavlogError(f"{self.name} (pid {process.pid}): unexpected reply {frame[0]} at start-up")
         return True
 
     def send(self, op: int, payload: bytes) -> None:
@@ -103,8 +102,8 @@ class ChildProcess:
                     # while the pipe to the child is full
                     owed = self.owed > len(self._early)
                     readable, _, _ = select.select([process.stdout] if owed else [], [fd], [])
-                    if readable:
-                        self._early.append(self._read_frame())
+                    if readable and (frame := self._take_frame()) is not None:
+                        self._early.append(frame)
         except OSError:  # the child is gone (EPIPE)
             raise self._died() from None
 
@@ -115,16 +114,22 @@ class ChildProcess:
 
     def reply_ready(self) -> bool:
         """True when the next owed reply can be taken without waiting."""
-        if self._early:
-            return True
         out = self.process.stdout if self.process is not None else None
-        return self.owed > 0 and out is not None and bool(select.select([out], [], [], 0)[0])
+        while not self._early and self.owed and out is not None and select.select([out], [], [], 0)[0]:
+            if (frame := self._take_frame()) is not None:
+                self._early.append(frame)
+        return bool(self._early)
 
     def reply(self) -> bytearray:
         """The payload of the next owed reply, in the order asked (waits for it)."""
         if not self.owed:
             raise RuntimeError(f"{self.name}: no reply is owed")
-        body = self._early.popleft()[1] if self._early else self._read_frame()[1]
+        if self._early:
+            body = self._early.popleft()[1]
+        else:
+            while (frame := self._take_frame()) is None:
+                pass
+            body = frame[1]
         self.owed -= 1
         return body
 
@@ -144,6 +149,14 @@ class ChildProcess:
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
+
+    def _take_frame(self) -> tuple[int, bytearray] | None:
+        """The next frame from the child; None for its "ready" (which comes first)."""
+        frame = self._read_frame()
+        if frame[0] == READY and not self._started:
+            self._started = True
+            return None
+        return frame
 
     def _read_frame(self) -> tuple[int, bytearray]:
         process = self.process

@@ -1,0 +1,76 @@
+"""The child-process plumbing both workers share: the child's loop on in-memory streams (ready, replies,
+an error ending it, a parent gone), and a parent that asks a real child in order."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+
+from navlog.errors import NavlogError
+from navlog.replay.child import ERROR, FRAME, READY, ChildProcess, read_exactly, serve
+
+
+def frames(data: bytes) -> list[tuple[int, bytes]]:
+    out, stream = [], io.BytesIO(data)
+    while (head := read_exactly(stream, FRAME.size)) is not None:
+        code, n = FRAME.unpack(head)
+        out.append((code, bytes(read_exactly(stream, n) or b"")))
+    return out
+
+
+def request(op: str, payload: bytes = b"") -> bytes:
+    return FRAME.pack(ord(op), len(payload)) + payload
+
+
+def test_the_child_says_it_is_ready_then_answers_each_request():
+    def handle(code: int, body: bytearray) -> tuple[int, bytes] | None:
+        return None if code == ord("N") else (code, bytes(body[::-1]))
+
+    out = io.BytesIO()
+    serve(handle, io.BytesIO(request("A", b"abc") + request("N", b"x") + request("B", b"") + b"\x01\x02"), out)
+    # a truncated last frame (its parent died mid-write) ends the loop quietly
+    assert frames(out.getvalue()) == [(READY, b""), (ord("A"), b"cba"), (ord("B"), b"")]
+
+
+def test_an_error_goes_back_with_its_traceback_and_ends_the_loop():
+    def handle(code: int, body: bytearray) -> tuple[int, bytes]:
+        raise ValueError(f"no request {chr(code)}")
+
+    out = io.BytesIO()
+    serve(handle, io.BytesIO(request("Q") + request("R")), out)
+    (ready, _), (code, text) = frames(out.getvalue())
+    assert ready == READY and code == ERROR
+    assert b"Traceback" in text and b"ValueError: no request Q" in text
+
+
+def test_a_parent_gone_ends_the_loop_quietly():
+    class Closed(io.BytesIO):
+        def write(self, data) -> int:
+            raise BrokenPipeError
+
+    serve(lambda code, body: (code, b""), io.BytesIO(request("A")), Closed())  # no exception
+
+
+ECHO = (
+    "from navlog.replay.child import serve; "
+    "serve(lambda code, body: None if code == ord('N') else (code, bytes(body) * 2))"
+)
+
+
+def test_a_parent_asks_a_real_child_and_takes_the_replies_in_order():
+    child = ChildProcess("echo process", ECHO)
+    try:
+        child.send(ord("N"), b"ignored")
+        for k in range(5):
+            child.ask(ord("A"), bytes([k]) * 300_000)  # 600 kB replies, not yet taken
+        assert child.owed == 5
+        assert [bytes(child.reply()) for _ in range(5)] == [bytes([k]) * 600_000 for k in range(5)]
+        assert child.started() and not child.reply_ready()
+        with pytest.raises(RuntimeError, match="no reply is owed"):
+            child.reply()
+    finally:
+        child.close()
+    assert child.process is None
+    with pytest.raises(NavlogError, match=r"echo process \(pid \?\) ended unexpectedly"):
+        child.send(ord("A"), b"")
