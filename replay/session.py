@@ -25,6 +25,7 @@ from typing import Any
 
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
+from navlog.replay.io import cdr_decode
 from navlog.replay.io.atomic import remove_stale, replace_output
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
@@ -113,15 +114,27 @@ def _hash_inputs(log: Path) -> Future:
     return future
 
 
+_UNSET = object()
+
+
 class _OutputSink:
-    """Writes the pipeline's output topics (only) to the replay log."""
+    """Writes the pipeline's output topics (only) to the replay log; the types with a fast CDR encoder
+    (``cdr_decode.encoder``: Twist) are serialized by it, the same bytes."""
 
     def __init__(self, writer: McapLogWriter, topics: set[str]) -> None:
         self.writer, self.topics = writer, topics
+        self._encoders: dict[str, Any] = {}  # type name -> its fast encoder or None
 
     def write(self, env: Envelope) -> None:
-        if env.topic in self.topics:
+        if env.topic not in self.topics:
+            return
+        encode = self._encoders.get(env.typename, _UNSET)
+        if encode is _UNSET:
+            encode = self._encoders[env.typename] = cdr_decode.encoder(env.typename)
+        if encode is None or isinstance(env.msg, bytes | bytearray | memoryview):
             self.writer.write(env)
+        else:
+            self.writer.write_raw(env.topic, env.typename, env.time_ns, encode(env.msg))
 
 
 @dataclass
@@ -271,9 +284,11 @@ def _run(
             header = getattr(env.msg, "header", None)
             if header is not None:
                 stamp = header.stamp.sec * 1_000_000_000 + header.stamp.nanosec
-                if stamp < last_stamp.get(topic, stamp):
+                last = last_stamp.get(topic)
+                if last is None or stamp >= last:
+                    last_stamp[topic] = stamp
+                else:
                     backwards[topic] = backwards.get(topic, 0) + 1
-                last_stamp[topic] = max(stamp, last_stamp.get(topic, stamp))
             yield env if topic == env.topic else Envelope(topic, env.typename, env.time_ns, env.msg)
 
     for node in pipe.nodes:

@@ -13,6 +13,10 @@ A /tf stream repeats one layout (the same frames, so the same string lengths and
 message of each size is walked field by field and its layout kept (``_TFLayouts``); a later message of
 that size whose count and frame strings are the same bytes is read with one ``struct`` call.
 
+The other way, ``encoder(typename)`` gives a writer the CDR bytes of a ``geometry_msgs/msg/Twist`` (the
+safety filters' outputs) with one ``struct`` call, the bytes ``messages.serialize`` makes (0.3 against
+3.1 us).
+
 ``decoder(typename, store[, light=True])`` gives the decoder of a type, or None when there is none or when ``store``
 defines the type (or one it contains) otherwise than the ROS 2 definitions these layouts assume. A
 decoder raises ``ValueError`` (or ``struct.error``, ``UnicodeDecodeError``) on bytes it does not
@@ -24,6 +28,7 @@ from __future__ import annotations
 
 import operator
 import struct
+import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -364,3 +369,19 @@ def decoder(typename: str, store: Any, *, light: bool = False) -> Callable[[byte
     if any(store.fielddefs.get(name) != base[name] for name in USES[typename]):
         return None
     return factory(store)
+
+
+_TWIST_CDR = struct.Struct("<4s6d")  # encapsulation (little-endian CDR), linear x y z, angular x y z
+
+
+def _encode_twist(msg: Any) -> bytes:
+    lin, ang = msg.linear, msg.angular
+    return _TWIST_CDR.pack(b"\x00\x01\x00\x00", lin.x, lin.y, lin.z, ang.x, ang.y, ang.z)
+
+
+def encoder(typename: str) -> Callable[[Any], bytes] | None:
+    """A fast encoder of ``typename``'s message objects into the CDR bytes ``messages.serialize`` makes, or
+    None (a type without one; a big-endian host, where that serializer writes big-endian CDR)."""
+    if typename != messages.TWIST or sys.byteorder != "little":
+        return None
+    return _encode_twist

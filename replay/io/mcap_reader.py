@@ -151,11 +151,29 @@ class McapLogReader(LogReader):
         if self.report.truncated:
             yield from self._messages_truncated(wanted, decode, light, start_ns, end_ns)
             return
+        report, types = self.report, self._types
+        fast_of: dict[str, tuple[str, Any, Any]] = {}  # topic -> (type name, store, its fast decoder or None)
         try:
             for topic, typename, t, data in self._indexed(wanted, start_ns, end_ns):
-                env = self._envelope(topic, typename, t, data, decode, topic in light)
-                if env is not None:
-                    yield env
+                if not decode:
+                    report.read += 1
+                    yield Envelope(topic, typename, t, data)
+                    continue
+                # ``_envelope`` inlined: the per-message path, with each topic's fast decoder kept
+                kept = fast_of.get(topic)
+                if kept is None or kept[0] != typename or kept[1] is not types.store:
+                    kept = fast_of[topic] = (typename, types.store, self._fast_decoder(typename, topic in light))
+                report.read += 1
+                msg = None
+                if kept[2] is not None:
+                    try:
+                        msg = kept[2](data)
+                    except Exception:  # bytes it does not take: the store's deserializer decodes or counts them
+                        pass
+                if msg is None:
+                    msg = LogReader._decode(self, data, typename, topic)
+                if msg is not None:
+                    yield Envelope(topic, typename, t, msg)
         except LogError:
             raise
         except Exception as exc:
@@ -223,7 +241,7 @@ class McapLogReader(LogReader):
                     if i == len(msgs):
                         break
                     t, pos = msgs[i][0], msgs[i][1]
-                    if queue and (t, chunk_offset, pos) > queue[0][:3]:  # another chunk's message comes first
+                    if queue and t >= queue[0][0] and (t, chunk_offset, pos) > queue[0][:3]:  # another chunk's first
                         heapq.heappush(queue, (t, chunk_offset, pos, (msgs, i)))
                         break
         finally:
@@ -319,9 +337,9 @@ class McapLogReader(LogReader):
         msg = self._decode(data, typename, topic, light)
         return None if msg is None else Envelope(topic, typename, t, msg)
 
-    def _decode(self, data: bytes, typename: str, topic: str, light: bool = False) -> Any:
-        """The fast decoder of a hot type (``cdr_decode``; with ``light``, its light form) where it applies,
-        else the type store's."""
+    def _fast_decoder(self, typename: str, light: bool) -> Any:
+        """The fast decoder of a hot type (``cdr_decode``; with ``light``, its light form) for the current
+        type store, or None."""
         store = self._types.store
         if store is not self._fast_store:  # a schema gave this reader a store of its own
             self._fast_store, self._fast = store, {}
@@ -329,6 +347,11 @@ class McapLogReader(LogReader):
         fast = self._fast.get(key, _UNSET)
         if fast is _UNSET:
             fast = self._fast[key] = cdr_decode.decoder(typename, store, light=light)
+        return fast
+
+    def _decode(self, data: bytes, typename: str, topic: str, light: bool = False) -> Any:
+        """The fast decoder of a hot type where it applies, else the type store's."""
+        fast = self._fast_decoder(typename, light)
         if fast is not None:
             try:
                 return fast(data)

@@ -35,7 +35,7 @@ import math
 from collections import deque
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 from navlog.errors import ConfigError
 from navlog.replay.nav2.schema import ERROR, SectionReader, param
@@ -179,9 +179,8 @@ class OdomSmoother:
 # ------------------------------------------------------------------ the smoother
 
 
-@dataclass(frozen=True)
-class SmoothedCommand:
-    """One published output: its header stamp (ns), frame and velocities (after the deadband)."""
+class SmoothedCommand(NamedTuple):
+    """One published output: its header stamp (ns), frame and velocities (after the deadband); immutable."""
 
     stamp_ns: int
     frame_id: str

@@ -32,7 +32,10 @@ at its stamp, are computed once and kept while the TF received since leaves them
 (``TFBuffer.holds``); a command's transform out of ``odom_frame_id`` is looked up once for all
 sources. A scan or range whose points all lie beyond the monitor's ``points_reach`` for the command
 (``planar_points_beyond``: a bound from their least distance to the sensor, kept per message) is
-not transformed: it gives no points, which decide as its points would. A source with no message
+not transformed: it gives no points, which decide as its points would. With
+``base_shift_correction`` that bound is computed from the same transforms as floats
+(``TFBuffer.lookup_pose``), so such a command builds no matrix, and a scan's points are computed
+only for a command that needs them. A source with no message
 yet, older than its ``source_timeout``, without a transform or with a range reading out of bounds
 is unusable: Nav2's "invalid source" stop; each such case is counted in ``skipped_counts()``.
 ``summary()`` gives commands acted on per polygon, the minimum predicted time to collision and the
@@ -54,6 +57,7 @@ from navlog.replay import messages as m
 from navlog.replay.geometry import rigid_inverse
 from navlog.replay.nav2.collision_monitor import (
     ACTION_CODES,
+    NO_POINTS,
     Circle,
     CollisionMonitor,
     CollisionMonitorParams,
@@ -62,16 +66,18 @@ from navlog.replay.nav2.collision_monitor import (
     Polygon,
     Velocity,
     cloud_points,
+    planar_block_beyond,
     planar_points_beyond,
     project_state,
     range_points,
-    scan_points_nearest,
+    scan_nearest,
+    scan_points,
     source_fresh,
     to_base,
 )
 from navlog.replay.pointcloud import xyz
 from navlog.replay.runtime.executor import Node
-from navlog.replay.runtime.tf import TFBuffer, TransformError
+from navlog.replay.runtime.tf import Pose, TFBuffer, TransformError, relative_pose
 
 RANGE = "sensor_msgs/msg/Range"
 POLYGON_STAMPED = "geometry_msgs/msg/PolygonStamped"
@@ -79,6 +85,7 @@ EVENTS_TOPIC = "/navlog/events"
 SOURCE_TYPES = {"scan": m.LASER_SCAN, "pointcloud": m.POINT_CLOUD2, "range": RANGE}
 COLLISION_FOOTPRINT_TOPIC = "/navlog/collision_monitor/{polygon}/collision_footprint"
 CIRCLE_EDGES = 16  # Nav2's Circle::getPolygon
+_LATER = object()  # a scan's points, not computed until a command needs them
 
 
 def _absolute(topic: str) -> str:
@@ -164,12 +171,14 @@ class CollisionMonitorNode(Node):
         self.input_topic = input_topic
         self.output_topic = output_topic
         self.tf = TFBuffer()
-        # per source: (message, its sensor-frame points, their least distance from the sensor when planar)
-        # and (message, TF epoch, odom <- sensor at its stamp)
+        # per source: (message, its sensor-frame points (_LATER: not computed yet), their least distance from
+        # the sensor when planar) and (message, TF epoch, odom <- sensor at its stamp), as a matrix and a Pose
         self._sensor_points: dict[str, tuple[Any, Any, float | None]] = {}
         self._sensor_tf: dict[str, tuple[Any, int, np.ndarray]] = {}
+        self._sensor_pose: dict[str, tuple[Any, int, Pose]] = {}
         self._latest_tf: dict[str, tuple[int, np.ndarray]] = {}  # frame -> (transforms added, base <- frame)
         self._base_now: tuple[int, int, np.ndarray | None] | None = None  # (now, added, base <- odom at now)
+        self._pose_now: tuple[int, int, Pose | None] | None = None  # (now, added, odom <- base at now, floats)
         self._tolerance_ns = round(params.transform_tolerance * 1e9)
         self.sources: dict[str, CollisionSourceParams] = {
             n: params.source_params[n]
@@ -202,9 +211,8 @@ class CollisionMonitorNode(Node):
 
     # ------------------------------------------------------------------ wiring
     def setup(self) -> None:
-        add = self.tf.add_message
-        self.subscribe("/tf", lambda msg, t: add(msg, static=False), (m.TF_MESSAGE,), light=True)
-        self.subscribe("/tf_static", lambda msg, t: add(msg, static=True), (m.TF_MESSAGE,), light=True)
+        self.subscribe("/tf", self._on_tf, (m.TF_MESSAGE,), light=True)
+        self.subscribe("/tf_static", self._on_tf_static, (m.TF_MESSAGE,), light=True)
         topics: dict[str, list[str]] = {}
         for name, sp in self.sources.items():
             topics.setdefault(_absolute(sp.topic), []).append(name)
@@ -214,6 +222,12 @@ class CollisionMonitorNode(Node):
         for topic in self.shape_topics:
             self.subscribe(topic, functools.partial(self._on_shape, topic), (POLYGON_STAMPED,))
         self.subscribe(self.input_topic, self._on_command, (m.TWIST, m.TWIST_STAMPED))
+
+    def _on_tf(self, msg: Any, t: int) -> None:
+        self.tf.add_message_skipping(msg, False, None)
+
+    def _on_tf_static(self, msg: Any, t: int) -> None:
+        self.tf.add_message_skipping(msg, True, None)
 
     def _on_source(self, names: list[str], msg: Any, t: int) -> None:
         for name in names:
@@ -233,18 +247,20 @@ class CollisionMonitorNode(Node):
                 self.skipped[f"{topic}: polygon with fewer than 3 points (ignored)"] += 1
 
     # ------------------------------------------------------------------ transforms and points
-    def _lookup_at(self, target: str, source: str, t: int) -> tuple[np.ndarray, bool]:
+    def _lookup_at(self, target: str, source: str, t: int, lookup: Any = None) -> tuple[Any, bool]:
         """The transform at ``t`` (and True), else at the newest time within ``transform_tolerance``
-        before it (and False).
+        before it (and False); ``lookup``: the buffer's lookup to use (default ``TFBuffer.lookup``).
 
         The usual case in a replay, a command newer than the last /tf sample, goes straight to that
         sample's time: the failed lookup at ``t`` would give nothing but its error."""
+        if lookup is None:
+            lookup = self.tf.lookup
         # the newest time every edge of the chain reaches: the transform is taken there when it is
         # before ``t`` within the tolerance
         latest = self.tf.latest_common_time(target, source)
         if latest is not None and t - self._tolerance_ns <= latest < t:
-            return self.tf.lookup(target, source, latest), False
-        return self.tf.lookup(target, source, t), True
+            return lookup(target, source, latest), False
+        return lookup(target, source, t), True
 
     def _lookup_recent(self, target: str, source: str, t: int) -> np.ndarray:
         """The transform at ``t``, else at the newest time within ``transform_tolerance`` before it."""
@@ -265,16 +281,43 @@ class CollisionMonitorNode(Node):
             raise TransformError(f"no transform {self.params.base_frame_id} <- {self.params.odom_frame_id}")
         return self._base_now[2]
 
-    def _sensor_to_odom(self, name: str, msg: Any, frame: str, stamp: int) -> np.ndarray:
-        """odom <- sensor at the message's stamp, kept per message while the TF history gives it unchanged
-        (a transform found only at an earlier time within the tolerance is looked up again)."""
-        hit = self._sensor_tf.get(name)
+    def _base_pose(self, now: int) -> Pose:
+        """odom <- base at ``now`` as a ``Pose`` of floats (``TFBuffer.lookup_pose``): the transform
+        ``_odom_to_base`` inverts, to rounding, and the same ``TransformError``."""
+        added = self.tf.added
+        if self._pose_now is None or self._pose_now[:2] != (now, added):
+            p = self.params
+            try:
+                pose = self._lookup_at(p.odom_frame_id, p.base_frame_id, now, self.tf.lookup_pose)[0]
+                self._pose_now = (now, added, pose)
+            except TransformError:
+                self._pose_now = (now, added, None)
+        if self._pose_now[2] is None:
+            raise TransformError(f"no transform {self.params.base_frame_id} <- {self.params.odom_frame_id}")
+        return self._pose_now[2]
+
+    def _beyond_now(self, name: str, msg: Any, frame: str, stamp: int, now: int, nearest: float, reach: float) -> bool:
+        """``planar_points_beyond`` of the transform ``_to_base`` gives with ``base_shift_correction``, from
+        the same transforms as ``Pose``s of floats: base <- odom at ``now`` after odom <- sensor at the
+        stamp. Its 2x2 block and shift are those of the matrices to rounding (the test's margin is far
+        wider), and it raises ``TransformError`` exactly when ``_to_base`` does."""
+        base = self._base_pose(now)
+        tx, ty, _, x, y, z, w = relative_pose(base, self._sensor_to_odom(name, msg, frame, stamp, pose=True))
+        block = (1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z))
+        return planar_block_beyond((*block, tx, ty), nearest, reach)
+
+    def _sensor_to_odom(self, name: str, msg: Any, frame: str, stamp: int, pose: bool = False) -> Any:
+        """odom <- sensor at the message's stamp (a matrix, or with ``pose`` a ``Pose`` of floats), kept
+        per message while the TF history gives it unchanged (a transform found only at an earlier time
+        within the tolerance is looked up again)."""
+        kept = self._sensor_pose if pose else self._sensor_tf
+        hit = kept.get(name)
         if hit is not None and hit[0] is msg and self.tf.holds(hit[1], stamp):
             return hit[2]
         epoch = self.tf.epoch
-        T, exact = self._lookup_at(self.params.odom_frame_id, frame, stamp)
+        T, exact = self._lookup_at(self.params.odom_frame_id, frame, stamp, self.tf.lookup_pose if pose else None)
         if exact:
-            self._sensor_tf[name] = (msg, epoch, T)
+            kept[name] = (msg, epoch, T)
         return T
 
     def _to_base(self, name: str, msg: Any, frame: str, stamp: int, now: int) -> np.ndarray:
@@ -288,35 +331,40 @@ class CollisionMonitorNode(Node):
             self._latest_tf[frame] = hit
         return hit[1]
 
-    def _sensor_frame_points(self, name: str, msg: Any) -> tuple[Any, float | None]:
+    def _sensor_frame_points(self, name: str, msg: Any, points: bool = True) -> tuple[Any, float | None]:
         """A source message's points in its own frame (an (N, 3) array; a cloud's raw xyz; None for a
         range reading out of bounds) and, for a scan's or a range's points (z = 0), their least distance
-        from the sensor (inf for none; None for a cloud), computed once per message."""
+        from the sensor (inf for none; None for a cloud), computed once per message. Without ``points``
+        a scan's points may be ``_LATER``: its least range is read from the ranges alone."""
         hit = self._sensor_points.get(name)
-        if hit is not None and hit[0] is msg:
-            return hit[1], hit[2]
-        sp = self.sources[name]
-        pts: Any
-        nearest: float | None = None
-        if sp.type == "scan":
-            pts, nearest = scan_points_nearest(
-                msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max
-            )
-        elif sp.type == "pointcloud":
-            pts = xyz(msg)
-        else:
-            pts = range_points(msg.range, msg.min_range, msg.max_range, msg.field_of_view, sp.obstacles_angle)
-            if pts is not None:
-                nearest = float(np.hypot(pts[:, 0], pts[:, 1]).min()) if len(pts) else math.inf
-        self._sensor_points[name] = (msg, pts, nearest)
-        return pts, nearest
+        if hit is None or hit[0] is not msg:
+            sp = self.sources[name]
+            pts: Any = _LATER
+            nearest: float | None = None
+            if sp.type == "scan":
+                nearest = scan_nearest(msg.ranges, msg.range_min, msg.range_max)
+            elif sp.type == "range":
+                pts = range_points(msg.range, msg.min_range, msg.max_range, msg.field_of_view, sp.obstacles_angle)
+                if pts is not None:
+                    nearest = float(np.hypot(pts[:, 0], pts[:, 1]).min()) if len(pts) else math.inf
+            hit = self._sensor_points[name] = (msg, pts, nearest)
+        if points and hit[1] is _LATER:
+            sp = self.sources[name]
+            if sp.type == "scan":
+                pts = scan_points(msg.ranges, msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
+            else:
+                pts = xyz(msg)
+            hit = self._sensor_points[name] = (msg, pts, hit[2])
+        return hit[1], hit[2]
 
     def source_points(self, name: str, now: int, reach: float | None = None) -> np.ndarray | None:
         """A source's (N, 2) base-frame points at ``now``, or None (counted) when it cannot be used.
 
         With ``reach`` (the monitor's ``points_reach`` for the command), a scan or range whose points all
         lie farther than that from the base origin (``planar_points_beyond``) gives no points (0, 2),
-        untransformed: no shape could count them, so the decision is the same."""
+        untransformed: no shape could count them, so the decision is the same. With
+        ``base_shift_correction`` that test is made from floats (``_beyond_now``) before any matrix is
+        built, and a scan's points are computed only when it fails."""
         sp = self.sources[name]
         msg = self.latest.get(name)
         if msg is None:
@@ -327,19 +375,25 @@ class CollisionMonitorNode(Node):
             self.skipped[f"{name}: data older than source_timeout {self.params.source_timeout_of(name)} s"] += 1
             return None
         frame = msg.header.frame_id
+        planar = sp.type != "pointcloud"
         try:
+            if reach is not None and planar and self.params.base_shift_correction:
+                nearest = self._sensor_frame_points(name, msg, points=False)[1]
+                if nearest is not None and self._beyond_now(name, msg, frame, stamp, now, nearest, reach):
+                    return NO_POINTS
+                reach = None  # tested: the points are transformed
             T = self._to_base(name, msg, frame, stamp, now)
         except TransformError:
             self.skipped[f"{name}: no transform {self.params.base_frame_id} <- {frame}"] += 1
             return None
         pts, nearest = self._sensor_frame_points(name, msg)
-        if sp.type == "pointcloud":
+        if not planar:
             return cloud_points(pts, T, sp.min_height, sp.max_height, sp.min_range)
         if pts is None:
             self.skipped[f"{name}: range reading outside [min_range, max_range]"] += 1
             return None
         if reach is not None and nearest is not None and planar_points_beyond(T, nearest, reach):
-            return np.empty((0, 2))
+            return NO_POINTS
         return to_base(pts, T)[:, :2]
 
     # ------------------------------------------------------------------ one command
@@ -353,7 +407,7 @@ class CollisionMonitorNode(Node):
             for shape in shapes:
                 if not shape.is_set():
                     self.skipped[f"{shape.name}: no shape on {topic} yet (the polygon cannot act)"] += 1
-        cmd = Velocity(*m.twist_values(msg))
+        cmd = Velocity(float(lin.x), float(lin.y), float(ang.z))  # m.twist_values, read above
         reach = self.monitor.points_reach(cmd)
         points = {name: self.source_points(name, t, reach) for name in self.sources}
         decision = self.monitor.process(cmd, t, points)

@@ -41,6 +41,12 @@ class Envelope:
     time_ns: int
     msg: Any
 
+    def __init__(self, topic: str, typename: str, time_ns: int, msg: Any) -> None:
+        # the fields written straight into the instance (kept by @dataclass): a third cheaper than the
+        # frozen class's one object.__setattr__ per field, on every message's path; frozen as before
+        d = self.__dict__
+        d["topic"], d["typename"], d["time_ns"], d["msg"] = topic, typename, time_ns, msg
+
 
 class Deferred:
     """A node's outputs of one instant, filled later (on any thread) and written to the sinks in the
@@ -213,12 +219,20 @@ class Executor:
         heapq.heappush(self._queue, (t, rank, self._seq, kind, payload))
 
     def _pull(self, index: int) -> None:
+        event = self._source_event(index)
+        if event is not None:
+            heapq.heappush(self._queue, event)
+
+    def _source_event(self, index: int) -> tuple | None:
+        """The event of a source's next message (None when it has run dry), not queued yet."""
         env = next(self._sources[index], None)
-        if env is not None:
-            self._pending_sources += 1
-            if env.time_ns < self.now:
-                self.stats.out_of_order += 1
-            self._push(max(env.time_ns, self.now), 0, "source", (index, env))
+        if env is None:
+            return None
+        self._pending_sources += 1
+        if env.time_ns < self.now:
+            self.stats.out_of_order += 1
+        self._seq += 1
+        return (max(env.time_ns, self.now), 0, self._seq, "source", (index, env))
 
     def publish(self, env: Envelope, rank: int) -> None:
         self.stats.published[env.topic] = self.stats.published.get(env.topic, 0) + 1
@@ -283,13 +297,14 @@ class Executor:
 
         With sources, timers alone do not keep the run going: it ends with the last recorded message.
         """
-        while self._queue and not self._stopped:
-            t, rank, _seq, kind, payload = self._queue[0]
+        queue = self._queue
+        while queue and not self._stopped:
+            t, rank, _seq, kind, payload = queue[0]
             if until_ns is not None and t > until_ns:
                 break
             if self._sources and kind == "timer" and self._pending_sources == 0 and t > self.now:
                 break  # the recording is over: timers at its last instant still fire, later ones do not
-            heapq.heappop(self._queue)
+            heapq.heappop(queue)
             self.now = t
             if kind == "msg":
                 self._deliver(payload)
@@ -297,9 +312,25 @@ class Executor:
                 self._write(payload)
             elif kind == "source":
                 index, env = payload
-                self._pending_sources -= 1
-                self._deliver(env)
-                self._pull(index)
+                while True:
+                    self._pending_sources -= 1
+                    self._deliver(env)
+                    event = self._source_event(index)
+                    if event is None:
+                        break
+                    # the source's next message, when it is the next event (before the queue's first: the
+                    # keys differ in their sequence) and the loop would go on: delivered at once, unqueued
+                    if (
+                        on_step is None
+                        and not self._stopped
+                        and (until_ns is None or event[0] <= until_ns)
+                        and (not queue or event < queue[0])
+                    ):
+                        self.now = event[0]
+                        env = event[4][1]
+                        continue
+                    heapq.heappush(queue, event)
+                    break
             else:
                 timer = self._timers[payload]
                 self.stats.timer_fires += 1

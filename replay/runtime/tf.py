@@ -9,6 +9,10 @@ tree changes; each dynamic edge keeps its matrix at the time it was last asked f
 at that time in the same ``epoch`` (a command and a scan stamped alike share their edges); a lookup's
 matrix is always the caller's own.
 
+``lookup_pose`` gives a lookup's transform as a ``Pose`` of plain floats (translation, unit quaternion),
+composed in floats (``compose_poses``, ``relative_pose``): the matrix's transform to rounding, not to the
+bit, for a caller that only needs a bound; it fails exactly where ``lookup`` fails.
+
 A caller may keep a lookup's result while the buffer would give it unchanged (``holds``): a lookup at
 ``t`` interpolated between samples around ``t`` on each dynamic edge of its chain, and appending a
 sample newer than an edge's newest changes none of those. Anything else (a static transform, a new or
@@ -33,6 +37,40 @@ from navlog.replay.geometry import slerp, unit_quat_transform
 
 class TransformError(NavlogError):
     """No transform between two frames at the asked time."""
+
+
+# a rigid transform as plain floats: translation x, y, z and unit quaternion x, y, z, w
+Pose = tuple[float, float, float, float, float, float, float]
+IDENTITY_POSE: Pose = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+
+def compose_poses(a: Pose, b: Pose) -> Pose:
+    """``a`` after ``b`` (the pose of ``b``'s frame in ``a``'s parent), in floats."""
+    ax, ay, az, qx, qy, qz, qw = a
+    bx, by, bz, rx, ry, rz, rw = b
+    # b's translation rotated by a's quaternion: v + 2w (u x v) + 2 u x (u x v)
+    cx, cy, cz = qy * bz - qz * by, qz * bx - qx * bz, qx * by - qy * bx
+    dx, dy, dz = qy * cz - qz * cy, qz * cx - qx * cz, qx * cy - qy * cx
+    return (
+        ax + bx + 2.0 * (qw * cx + dx),
+        ay + by + 2.0 * (qw * cy + dy),
+        az + bz + 2.0 * (qw * cz + dz),
+        qw * rx + qx * rw + qy * rz - qz * ry,
+        qw * ry - qx * rz + qy * rw + qz * rx,
+        qw * rz + qx * ry - qy * rx + qz * rw,
+        qw * rw - qx * rx - qy * ry - qz * rz,
+    )
+
+
+def invert_pose(a: Pose) -> Pose:
+    """The inverse rigid transform of ``a``, in floats."""
+    return relative_pose(a, IDENTITY_POSE)
+
+
+def relative_pose(a: Pose, b: Pose) -> Pose:
+    """``a``'s inverse after ``b``: the pose of ``b``'s frame in ``a``'s (both given in one parent), in floats."""
+    ax, ay, az, qx, qy, qz, qw = a
+    return compose_poses((0.0, 0.0, 0.0, -qx, -qy, -qz, qw), (b[0] - ax, b[1] - ay, b[2] - az, *b[3:]))
 
 
 @dataclass
@@ -165,6 +203,30 @@ class TFBuffer:
         out.update(e.parent for e in self._edges.values())
         return sorted(out)
 
+    @staticmethod
+    def _outside(e: _Edge, child: str, t_ns: int) -> TransformError:
+        times = e.times
+        return TransformError(
+            f"no transform {e.parent} -> {child} at {t_ns / 1e9:.3f} s "
+            f"(buffer holds {times[e.start] / 1e9:.3f}..{times[-1] / 1e9:.3f} s)"
+        )
+
+    @staticmethod
+    def _sample(e: _Edge, t_ns: int) -> tuple[Any, Any] | int:
+        """A dynamic edge at ``t_ns`` within its samples: the index of a sample at ``t_ns``, else the
+        translation and the quaternion (slerp, an array) interpolated between the two around it."""
+        times = e.times
+        if t_ns == times[-1]:  # the usual ask: the newest sample
+            return len(times) - 1
+        i = bisect.bisect_left(times, t_ns, e.start)
+        if times[i] == t_ns:
+            return i
+        t0, t1 = times[i - 1], times[i]
+        a = (t_ns - t0) / (t1 - t0)
+        p0, p1 = e.trans[i - 1], e.trans[i]
+        xyz = ((1 - a) * p0[0] + a * p1[0], (1 - a) * p0[1] + a * p1[1], (1 - a) * p0[2] + a * p1[2])
+        return xyz, slerp(np.array(e.quats[i - 1]), np.array(e.quats[i]), a)
+
     def _edge_matrix(self, child: str, t_ns: int | None) -> np.ndarray:
         e = self._edges[child]
         if e.static:
@@ -176,26 +238,31 @@ class TFBuffer:
         if t_ns is None:
             t_ns = times[-1]
         elif t_ns < times[e.start] or t_ns > times[-1]:
-            raise TransformError(
-                f"no transform {e.parent} -> {child} at {t_ns / 1e9:.3f} s "
-                f"(buffer holds {times[e.start] / 1e9:.3f}..{times[-1] / 1e9:.3f} s)"
-            )
+            raise self._outside(e, child, t_ns)
         # the same time again with the same samples around it (no new epoch): the same matrix
         last = e.last
         if last is not None and last[0] == t_ns and last[1] == self.epoch:
             return last[2]
-        i = bisect.bisect_left(times, t_ns, e.start)
-        if times[i] == t_ns:
-            m = unit_quat_transform(e.trans[i], e.quats[i])
-        else:
-            t0, t1 = times[i - 1], times[i]
-            a = (t_ns - t0) / (t1 - t0)
-            p0, p1 = e.trans[i - 1], e.trans[i]
-            xyz = ((1 - a) * p0[0] + a * p1[0], (1 - a) * p0[1] + a * p1[1], (1 - a) * p0[2] + a * p1[2])
-            m = unit_quat_transform(xyz, slerp(np.array(e.quats[i - 1]), np.array(e.quats[i]), a))
+        at = self._sample(e, t_ns)
+        m = unit_quat_transform(e.trans[at], e.quats[at]) if isinstance(at, int) else unit_quat_transform(*at)
         m.flags.writeable = False
         e.last = (t_ns, self.epoch, m)
         return m
+
+    def _edge_pose(self, child: str, t_ns: int | None) -> Pose:
+        """``_edge_matrix``'s transform as a ``Pose`` of floats (the same samples, the same errors)."""
+        e = self._edges[child]
+        if e.static:
+            return (*e.trans[-1], *e.quats[-1])
+        times = e.times
+        if t_ns is None:
+            t_ns = times[-1]
+        elif t_ns < times[e.start] or t_ns > times[-1]:
+            raise self._outside(e, child, t_ns)
+        at = self._sample(e, t_ns)
+        if isinstance(at, int):
+            return (*e.trans[at], *e.quats[at])
+        return (*at[0], *at[1].tolist())
 
     def _chain(self, frame: str) -> list[str]:
         chain = self._chains.get(frame)
@@ -225,6 +292,26 @@ class TFBuffer:
             return np.eye(4) if m_s is None else m_s
         m_t = np.linalg.inv(m_t)
         return m_t if m_s is None else m_t @ m_s
+
+    def lookup_pose(self, target: str, source: str, t_ns: int | None) -> Pose:
+        """``lookup``'s transform as a ``Pose`` of plain floats, composed in floats: equal to ``lookup``'s
+        matrix to rounding (not to the bit), for tests whose margins cover rounding. It raises exactly
+        when ``lookup`` does (the same edges, the same samples)."""
+        path = self._paths.get((target, source))
+        if path is None:
+            path = self._path(target, source)
+        up_s, up_t = (self._pose_to_ancestor(frames, t_ns) for frames in path)
+        if up_t is None:
+            return IDENTITY_POSE if up_s is None else up_s
+        return relative_pose(up_t, IDENTITY_POSE if up_s is None else up_s)
+
+    def _pose_to_ancestor(self, frames: list[str], t_ns: int | None) -> Pose | None:
+        """``_to_ancestor`` as a ``Pose`` of floats."""
+        out = None
+        for f in frames:
+            pose = self._edge_pose(f, t_ns)
+            out = pose if out is None else compose_poses(pose, out)
+        return out
 
     def _path(self, target: str, source: str) -> tuple[list[str], list[str]]:
         """The frames from ``source`` and from ``target`` up to (not including) their common ancestor,

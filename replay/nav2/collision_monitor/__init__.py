@@ -9,8 +9,10 @@ stops, slows down, limits, or scales the command by the predicted time to collis
 - ``polygons``: the shapes (``Polygon``, ``Circle``, ``VelocityPolygon``, ``make_shape``),
   ``Velocity``, the approach kinematics (``project_state``, ``transform_points``) and Nav2's ray casting
   (``points_in_polygon``, over a polygon's ``polygon_edges``: a ``PolygonEdges`` table kept per shape);
+  ``NO_POINTS``, the shared read-only (0, 2) array of no points;
 - ``sources``: scans, point clouds and range readings as base-frame points, the staleness rule, and
-  ``planar_points_beyond``, the test that lets a scan too far from every shape go untransformed;
+  ``planar_points_beyond`` (``planar_block_beyond`` for a transform given as floats), the test that lets a
+  scan too far from every shape go untransformed, and ``scan_nearest``, a scan's least kept range;
 - ``monitor``: ``CollisionMonitor.process``, one ``Decision`` per command.
 
 The executor node is ``navlog.replay.nodes.collision_monitor.CollisionMonitorNode``.
@@ -35,6 +37,7 @@ from navlog.replay.nav2.collision_monitor.params import (
     read_collision_monitor,
 )
 from navlog.replay.nav2.collision_monitor.polygons import (
+    NO_POINTS,
     Circle,
     Polygon,
     PolygonEdges,
@@ -50,8 +53,10 @@ from navlog.replay.nav2.collision_monitor.polygons import (
 )
 from navlog.replay.nav2.collision_monitor.sources import (
     cloud_points,
+    planar_block_beyond,
     planar_points_beyond,
     range_points,
+    scan_nearest,
     scan_points,
     scan_points_nearest,
     source_fresh,
@@ -61,6 +66,7 @@ from navlog.replay.nav2.collision_monitor.sources import (
 __all__ = [
     "ACTION_CODES",
     "INVALID_SOURCE",
+    "NO_POINTS",
     "Action",
     "Circle",
     "CollisionMonitor",
@@ -79,12 +85,14 @@ __all__ = [
     "limit_ratio",
     "make_shape",
     "parse_polygon_points",
+    "planar_block_beyond",
     "planar_points_beyond",
     "points_in_polygon",
     "polygon_edges",
     "project_state",
     "range_points",
     "read_collision_monitor",
+    "scan_nearest",
     "scan_points",
     "scan_points_nearest",
     "source_fresh",

@@ -24,7 +24,8 @@ whose data could not be used: none yet, older than its ``source_timeout``, or no
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import NamedTuple
 
 import numpy as np
 
@@ -37,25 +38,24 @@ ACTION_CODES = {NONE: 0, STOP: 1, SLOWDOWN: 2, APPROACH: 3, LIMIT: 4}
 INVALID_SOURCE = "invalid source"
 
 
-@dataclass(frozen=True)
-class Action:
-    """What the monitor does to a command: the action, the velocity it lets through, the polygon that chose it."""
+class Action(NamedTuple):
+    """What the monitor does to a command: the action, the velocity it lets through, the polygon that chose it
+    (immutable; a named tuple, made for every command at a tuple's cost)."""
 
     action_type: str
     velocity: Velocity
     polygon: str = ""
 
 
-@dataclass(frozen=True)
-class Decision:
-    """One command's outcome: the action, whether a command is published, and what led to it."""
+class Decision(NamedTuple):
+    """One command's outcome: the action, whether a command is published, and what led to it (immutable)."""
 
     action: Action
     previous: Action
     publish: bool  # False once stop_pub_timeout has passed with a zero output
-    collision_times: dict[str, float] = field(default_factory=dict)  # approach polygon -> t (s), -1 none
+    collision_times: Mapping[str, float] = MappingProxyType({})  # approach polygon -> t (s), -1 none
     invalid_source: str = ""  # the source that caused an "invalid source" stop
-    counts: dict[str, int] = field(default_factory=dict)  # polygon -> points inside (stop/slowdown/limit)
+    counts: Mapping[str, int] = MappingProxyType({})  # polygon -> points inside (stop/slowdown/limit)
 
     @property
     def changed(self) -> bool:

@@ -47,6 +47,8 @@ class Velocity(NamedTuple):
 
 
 ZERO = Velocity(0.0, 0.0, 0.0)
+NO_POINTS = np.zeros((0, 2))  # no (N, 2) points: shared, read-only
+NO_POINTS.flags.writeable = False
 
 
 def project_state(
@@ -163,7 +165,7 @@ class Shape:
         parts = [source_points[s] for s in self.sources if s in source_points and len(source_points[s])]
         if len(parts) == 1:
             return parts[0]  # one source: its points as they are (read, never written)
-        return np.concatenate(parts) if parts else np.zeros((0, 2))
+        return np.concatenate(parts) if parts else NO_POINTS
 
     def count_inside(self, points: np.ndarray) -> int:
         return int(np.count_nonzero(self.inside(points))) if len(points) else 0

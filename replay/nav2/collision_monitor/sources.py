@@ -45,6 +45,13 @@ def planar_points_beyond(transform: np.ndarray, nearest: float, reach: float) ->
     bound says nothing (a sensor tilted so that s < 0.5, NaN). ``nearest`` may be off by rounding (a
     least range for the computed points' least distance): the margin covers it."""
     (a, b, _, tx), (c, d, _, ty) = transform[:2].tolist()
+    return planar_block_beyond((a, b, c, d, tx, ty), nearest, reach)
+
+
+def planar_block_beyond(block: tuple[float, float, float, float, float, float], nearest: float, reach: float) -> bool:
+    """``planar_points_beyond`` of a transform given as its 2x2 block and x, y shift, ``(a, b, c, d, tx, ty)``
+    for ``[[a, b], [c, d]]`` (plain floats; any values within rounding of the transform's will do)."""
+    a, b, c, d, tx, ty = block
     s = 0.5 * (math.hypot(a + d, c - b) - math.hypot(a - d, b + c))
     return s > 0.5 and s * nearest * (1.0 - 1e-9) - math.hypot(tx, ty) * (1.0 + 1e-9) > reach + 1e-6
 
@@ -68,6 +75,13 @@ def scan_points(
 ) -> np.ndarray:
     """A LaserScan's kept beams as (N, 3) points in the sensor frame (z = 0)."""
     return scan_points_nearest(ranges, angle_min, angle_increment, range_min, range_max)[0]
+
+
+def scan_nearest(ranges: np.ndarray, range_min: float, range_max: float) -> float:
+    """A LaserScan's least kept range (inf when none is), as ``scan_points_nearest`` gives it, without the points."""
+    r = np.asarray(ranges, dtype=np.float32)
+    kept = r[(r >= np.float32(range_min)) & (r <= np.float32(range_max))]
+    return float(kept.min()) if len(kept) else math.inf
 
 
 def scan_points_nearest(

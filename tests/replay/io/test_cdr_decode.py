@@ -218,6 +218,27 @@ def test_only_types_with_their_standard_definition_get_a_decoder():
     assert cdr_decode.decoder(messages.ODOMETRY, odd) is None
 
 
+def test_the_twist_encoder_writes_the_serializers_bytes():
+    encode = cdr_decode.encoder(messages.TWIST)
+    assert encode is not None and cdr_decode.encoder(messages.TWIST_STAMPED) is None
+    rng = np.random.default_rng(3)
+    values = [
+        *rng.normal(size=(200, 3)).tolist(),
+        [-0.0, 0.0, -0.0],
+        [math.inf, -math.inf, math.nan],
+        [1e-310, 0.45, -1.2],
+    ]
+    for vx, vy, wz in values:
+        msg = messages.twist(vx, vy, wz)
+        assert encode(msg) == messages.serialize(msg, messages.TWIST)
+    full = messages.msg_class(messages.TWIST)(
+        messages.msg_class("geometry_msgs/msg/Vector3")(0.1, 0.2, 0.3),
+        messages.msg_class("geometry_msgs/msg/Vector3")(0.4, 0.5, 0.6),
+    )
+    assert encode(full) == messages.serialize(full, messages.TWIST)
+    assert struct.unpack("<6d", encode(full)[4:]) == (0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
+
+
 def test_a_recorded_log_reads_the_same_objects_as_the_stores_deserializer(teleop_log):
     from navlog.replay.io.mcap_reader import McapLogReader
 

@@ -18,9 +18,11 @@ from navlog.replay.nav2.collision_monitor import (
     Velocity,
     cloud_points,
     make_shape,
+    planar_block_beyond,
     planar_points_beyond,
     project_state,
     range_points,
+    scan_nearest,
     scan_points,
     scan_points_nearest,
     source_fresh,
@@ -285,6 +287,9 @@ def test_scan_points_nearest_is_the_least_range_kept():
     assert nearest == float(np.float32(0.3)) == pytest.approx(np.hypot(pts[:, 0], pts[:, 1]).min(), rel=1e-15)
     none, nowhere = scan_points_nearest(np.array([np.nan, 9.0], dtype=np.float32), 0.0, 0.1, 0.1, 4.0)
     assert none.shape == (0, 3) and nowhere == math.inf
+    # the least range alone, without the points: the same number (the range limits inclusive)
+    assert scan_nearest(ranges, 0.1, 4.0) == nearest and scan_nearest(ranges, 0.3, 4.0) == nearest
+    assert scan_nearest(ranges, 0.31, 4.0) == 2.5 and scan_nearest(np.array([np.nan, 9.0]), 0.1, 4.0) == math.inf
 
 
 def test_polygon_edges_follow_nav2_ray_casting():
@@ -493,3 +498,6 @@ def test_planar_points_beyond_is_a_true_bound_with_a_margin():
     assert not planar_points_beyond(rolled, nearest, 0.1)
     assert not planar_points_beyond(np.full((4, 4), np.nan), nearest, 0.1)
     assert planar_points_beyond(base_sensor, math.inf, 100.0)  # no points at all
+    # the same test from the transform's 2x2 block and shift as floats
+    block = (c, -s, s, c, 0.3, 0.4)
+    assert planar_block_beyond(block, nearest, 1.499) and not planar_block_beyond(block, nearest, 1.5 - 1e-7)

@@ -20,7 +20,7 @@ from navlog.replay.nav2.costmap import robot_footprint
 from navlog.replay.nodes import CollisionMonitorNode
 from navlog.replay.nodes.collision_monitor import POLYGON_STAMPED, polygon_pub_topic, polygon_stamped
 from navlog.replay.runtime.executor import Envelope, Executor, Node
-from navlog.replay.runtime.tf import TFBuffer
+from navlog.replay.runtime.tf import TFBuffer, relative_pose
 from tests.replay.nav2.test_collision_monitor import wall_points, wall_scan
 from tests.replay.pipelines.test_mapping_replay import scan_msg as mapping_scan_msg
 
@@ -380,23 +380,12 @@ def _mount_tf(x: float):
     return m.tf_message([m.transform_stamped(0, "base_link", "laser", (x, 0.0, 0.2), (0.0, 0.0, 0.0, 1.0))])
 
 
-def test_cached_scan_points_and_transforms_equal_a_fresh_computation_for_every_command():
-    """The node keeps a scan's points and its odom <- laser transform between commands. Whatever the TF
-    does meanwhile (new samples, a sample at an already buffered stamp changing its value, a new static
-    mount, a sample inserted into the history), each command's points equal, bit for bit, those
-    computed from scratch from the TF delivered so far."""
-    p = load_nav2_params(DATA / "kibot_nav2_fragments.yaml")
-    seen: list[tuple[int, np.ndarray | None]] = []
-
-    class Recording(CollisionMonitorNode):
-        def source_points(self, name: str, now: int, reach: float | None = None) -> np.ndarray | None:
-            pts = super().source_points(name, now)  # every point, however far (no reach)
-            seen.append((now, pts))
-            return pts
-
-    node = Recording(p.collision_monitor, footprint=robot_footprint(p.global_costmap))
+def _tf_story():
+    """Commands, scans and TF whose history changes under the node (ms, topic, type, message): new
+    samples, a sample at an already buffered stamp changing its value, a new static mount, a sample
+    inserted before a scan's stamp."""
     cmd = (m.TWIST, m.twist(0.3, 0.0, 0.1))
-    stream = [
+    return [
         (0, "/tf_static", m.TF_MESSAGE, _mount_tf(0.1)),
         (0, "/tf", m.TF_MESSAGE, _odom_tf(0, 0.0, 0.0)),
         (100, "/tf", m.TF_MESSAGE, _odom_tf(100, 0.05, 0.1)),
@@ -418,6 +407,24 @@ def test_cached_scan_points_and_transforms_equal_a_fresh_computation_for_every_c
         (400, "/tf", m.TF_MESSAGE, _odom_tf(400, 0.22, 0.4)),
         (400, "/cmd_vel_smoothed", *cmd),
     ]
+
+
+def test_cached_scan_points_and_transforms_equal_a_fresh_computation_for_every_command():
+    """The node keeps a scan's points and its odom <- laser transform between commands. Whatever the TF
+    does meanwhile (new samples, a sample at an already buffered stamp changing its value, a new static
+    mount, a sample inserted into the history), each command's points equal, bit for bit, those
+    computed from scratch from the TF delivered so far."""
+    p = load_nav2_params(DATA / "kibot_nav2_fragments.yaml")
+    seen: list[tuple[int, np.ndarray | None]] = []
+
+    class Recording(CollisionMonitorNode):
+        def source_points(self, name: str, now: int, reach: float | None = None) -> np.ndarray | None:
+            pts = super().source_points(name, now)  # every point, however far (no reach)
+            seen.append((now, pts))
+            return pts
+
+    node = Recording(p.collision_monitor, footprint=robot_footprint(p.global_costmap))
+    stream = _tf_story()
     ex = Executor()
     ex.add_node(node)
     for t, topic, typename, msg in stream:
@@ -451,4 +458,36 @@ def test_cached_scan_points_and_transforms_equal_a_fresh_computation_for_every_c
     at_250, at_300 = commands[2], commands[3]
     assert fresh(at_250, sensor_tf_from=commands[1]).tobytes() != fresh(at_250).tobytes()
     assert fresh(at_300, sensor_tf_from=at_250).tobytes() != fresh(at_300).tobytes()
+    assert node.skipped_counts() == {}
+
+
+def test_the_bound_is_tested_on_the_transform_the_points_would_take_through_every_tf_change():
+    """With ``base_shift_correction`` a command's reach test uses base <- laser as floats (``_beyond_now``):
+    at every command of the changing TF story it equals, to rounding, the matrix the points would be
+    transformed with, so a float transform kept past a change (a stale cache) would fail here."""
+    p = load_nav2_params(DATA / "kibot_nav2_fragments.yaml")
+    gaps: list[float] = []
+
+    class Comparing(CollisionMonitorNode):
+        def source_points(self, name: str, now: int, reach: float | None = None) -> np.ndarray | None:
+            msg = self.latest[name]
+            stamp, frame = m.to_ns(msg.header.stamp), msg.header.frame_id
+            floats = relative_pose(self._base_pose(now), self._sensor_to_odom(name, msg, frame, stamp, pose=True))
+            matrix = self._to_base(name, msg, frame, stamp, now)
+            tx, ty, _, x, y, z, w = floats
+            block = [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), tx],
+                [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), ty],
+            ]
+            gaps.append(float(np.abs(np.array(block) - matrix[:2, [0, 1, 3]]).max()))
+            return super().source_points(name, now, reach)
+
+    node = Comparing(p.collision_monitor, footprint=robot_footprint(p.global_costmap))
+    assert node.params.base_shift_correction
+    ex = Executor()
+    ex.add_node(node)
+    for t, topic, typename, msg in _tf_story():
+        ex.publish(Envelope(topic, typename, t * MS, msg), 0)
+    ex.run()
+    assert len(gaps) == 6 and max(gaps) < 1e-12
     assert node.skipped_counts() == {}

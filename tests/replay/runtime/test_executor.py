@@ -119,6 +119,55 @@ def test_two_sources_merge_by_time_then_source_order():
     assert [m for *_, m in log] == ["a1", "b1", "b2", "a3"]
 
 
+def _runs_of_sources(step: bool, chunk: int | None, stop_at: int | None = None) -> tuple[list, list, int]:
+    """Two sources (one with a message older than the time reached), a 10 ns timer, a node echoing /a at
+    the same instant and a sink: what the nodes and the sink saw, in order, and the messages left."""
+    ex = Executor()
+    a = [Envelope("/a", "x", t, f"a{t}") for t in (0, 5, 5, 10, 12, 12, 20, 21, 30, 40, 41, 42)]
+    b = [Envelope("/b", "x", t, f"b{t}") for t in (3, 5, 10, 11, 9, 30, 50)]  # b9 after b11: out of order
+    ex.add_source(a)
+    ex.add_source(b)
+    seen: list = []
+    written: list = []
+
+    class Echo(Node):
+        def setup(self):
+            self.subscribe("/a", lambda m, t: self.publish("/echo", "x", m + "!"))
+            self.subscribe("/b", self._on_b)
+            self.create_timer(10, lambda t: seen.append(("timer", t)), start_ns=0)
+
+        def _on_b(self, m, t):
+            if t == stop_at:
+                self.executor.stop()
+
+    ex.add_node(Echo())
+    ex.add_node(Recorder(["/a", "/b", "/echo"], seen, "r"))
+    ex.add_sink(type("Sink", (), {"write": lambda self, env: written.append((env.topic, env.time_ns, env.msg))})())
+    on_step = (lambda t: None) if step else None
+    if chunk is None:
+        ex.run(on_step=on_step)
+    else:
+        until = 0
+        while ex.sources_pending and not ex._stopped:
+            until += chunk
+            ex.run(until_ns=until, on_step=on_step)
+    return seen, written, ex.stats.out_of_order
+
+
+def test_a_sources_messages_delivered_without_the_queue_keep_the_order():
+    """A source's next message is delivered at once when it is the next event (no ``on_step``): the
+    nodes and the sinks see exactly what the event queue gives (``on_step`` set), in whole runs, in
+    runs up to a time, and when a callback stops the run."""
+    for chunk in (None, 7, 10):
+        queued = _runs_of_sources(True, chunk)
+        assert _runs_of_sources(False, chunk) == queued
+        names = [m for *_, m in queued[0]]
+        assert queued[2] == 1 and names.index("b9") == names.index("b11") + 1  # late, delivered when it came
+    stopped = _runs_of_sources(False, None, stop_at=10)
+    assert stopped == _runs_of_sources(True, None, stop_at=10)
+    assert stopped[0][-1] == ("r", "/b", 10, "b10")  # nothing after the message whose callback stopped it
+
+
 def test_subscriptions_declare_the_types_they_read():
     from navlog.replay.runtime.executor import Executor, Node
 
@@ -310,3 +359,18 @@ def test_read_by_nodes_names_outputs_a_node_subscribes_to():
     ex.add_node(Recorder(["/odom"], [], "r"))
     assert ex.read_by_nodes(["/map", "/odom"])
     assert not ex.read_by_nodes(["/map", "/cloud"])
+
+
+def test_an_envelope_is_a_frozen_dataclass():
+    import dataclasses
+
+    import pytest
+
+    env = Envelope("/a", "x", 5, "m")
+    assert dataclasses.replace(env, time_ns=7) == Envelope("/a", "x", 7, "m")
+    assert dataclasses.asdict(env) == {"topic": "/a", "typename": "x", "time_ns": 5, "msg": "m"}
+    assert hash(env) == hash(Envelope(topic="/a", typename="x", time_ns=5, msg="m")) and env != Envelope(
+        "/a", "x", 6, "m"
+    )
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        env.time_ns = 6  # type: ignore[misc]

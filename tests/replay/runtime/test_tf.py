@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 
 from navlog.replay import messages
-from navlog.replay.runtime.tf import TFBuffer, TransformError
+from navlog.replay.runtime.tf import (
+    IDENTITY_POSE,
+    TFBuffer,
+    TransformError,
+    compose_poses,
+    invert_pose,
+    relative_pose,
+)
 
 
 def buffer() -> TFBuffer:
@@ -146,3 +153,51 @@ def test_an_edge_matrix_asked_again_at_the_same_time_is_shared_until_the_sample_
     tf.add("odom", "base_link", 10, (5.0, 0.0, 0.0), messages.quat_from_yaw(math.pi / 2))  # rewritten: new epoch
     assert tf.lookup("odom", "base_link", 10)[0, 3] == 5.0
     assert tf.lookup("odom", "base_link", None)[0, 3] == 5.0  # the latest is the same sample
+
+
+def _pose_matrix(pose) -> np.ndarray:
+    x, y, z, qx, qy, qz, qw = pose
+    out = np.eye(4)
+    out[:3, :3] = [
+        [1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
+        [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
+        [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)],
+    ]
+    out[:3, 3] = (x, y, z)
+    return out
+
+
+def test_compose_and_invert_poses_in_floats():
+    # laser 0.5 m ahead of a base at (2, 0) turned 90 degrees: at (2, 0.5), turned 90 degrees
+    s = math.sqrt(0.5)
+    base = (2.0, 0.0, 0.0, 0.0, 0.0, s, s)
+    x, y, z, *q = compose_poses(base, (0.5, 0.0, 0.2, 0.0, 0.0, 0.0, 1.0))
+    assert (x, y, z) == pytest.approx((2.0, 0.5, 0.2), abs=1e-15) and q == pytest.approx([0.0, 0.0, s, s])
+    back = compose_poses(invert_pose(base), base)
+    assert back == pytest.approx(IDENTITY_POSE, abs=1e-15)
+    # the laser seen from the base, both given in the map: 0.5 m ahead, not turned
+    laser = compose_poses(base, (0.5, 0.0, 0.2, 0.0, 0.0, 0.0, 1.0))
+    assert relative_pose(base, laser) == pytest.approx((0.5, 0.0, 0.2, 0.0, 0.0, 0.0, 1.0), abs=1e-15)
+
+
+def test_lookup_pose_is_the_lookup_to_rounding_and_fails_where_it_fails():
+    """Chains up and down, static and dynamic edges, samples hit and interpolated (slerp), the latest:
+    the pose in floats is the matrix to 1e-12, and asks that ``lookup`` refuses are refused alike."""
+    tf = buffer()
+    tf.add("odom", "base_link", 20, (2.5, 0.3, 0.0), messages.quat_from_rpy(0.05, -0.02, 2.0))
+    tf.add("map", "odom", 20, (1.2, -0.4, 0.0), messages.quat_from_yaw(0.3))
+    tf.add("map", "other", 0, (3.0, 1.0, 0.5), messages.quat_from_rpy(0.1, 0.2, -1.0), static=True)
+    pairs = [("map", "laser"), ("laser", "map"), ("odom", "laser"), ("other", "laser"), ("laser", "laser")]
+    for target, source in pairs:
+        for t in (0, 3, 10, 14, 20, None):
+            got = _pose_matrix(tf.lookup_pose(target, source, t))
+            assert np.abs(got - tf.lookup(target, source, t)).max() < 1e-12, (target, source, t)
+    for target, source, t in [("map", "laser", 21), ("map", "laser", -1)]:
+        with pytest.raises(TransformError, match="no transform") as pose_error:
+            tf.lookup_pose(target, source, t)
+        with pytest.raises(TransformError) as matrix_error:
+            tf.lookup(target, source, t)
+        assert str(pose_error.value) == str(matrix_error.value)
+    tf.add("world", "apart", 0, (0, 0, 0), (0, 0, 0, 1), static=True)
+    with pytest.raises(TransformError, match="not connected"):
+        tf.lookup_pose("map", "apart", 5)
