@@ -185,14 +185,14 @@ def read_exactly(stream: IO[bytes] | BinaryIO, n: int) -> bytearray | None:
     buf = bytearray(n)
     view, got = memoryview(buf), 0
     while got < n:
-        k = stream.readinto(view[got:])  # type: ignore[attr-defined]
+        k = stream.readinto(view[got:])  # type: ignore[union-attr]
         if not k:
             return None
         got += k
     return buf
 
 
-Handler = Callable[[int, bytearray], "tuple[int, bytes] | None"]
+Handler = Callable[[int, bytes | bytearray], "tuple[int, bytes] | None"]
 
 
 def serve(handle: Handler, stdin: BinaryIO | None = None, stdout: BinaryIO | None = None) -> None:

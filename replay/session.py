@@ -32,6 +32,7 @@ from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import LogReader
 from navlog.replay.pipelines import pipeline_names
 from navlog.replay.runtime.executor import Envelope, Executor
+from navlog.replay.runtime.heap import steady_heap
 from navlog.replay.runtime.pipeline import Pipeline
 from navlog.replay.runtime.progress import Progress, format_table
 from navlog.version import __version__
@@ -162,6 +163,7 @@ def run_replay(
     progress: bool = True,
 ) -> ReplayResult:
     log, out_dir = Path(log), Path(out_dir)
+    steady_heap()  # the peak stays flat over a long log (navlog.replay.runtime.heap)
     module = load_pipeline_module(pipeline)
     if params is None:
         params = pipeline_params(pipeline, overrides=overrides)

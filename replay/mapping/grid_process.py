@@ -62,7 +62,7 @@ def _state_bytes(grid: OccupancyGrid2D, outcomes: bytes = b"", with_grid: bool =
     return head + stats.tobytes() + grid.logodds.tobytes() + grid.seen.tobytes()
 
 
-def _grid_from_bytes(params: OccupancyParams, body: bytes) -> OccupancyGrid2D:
+def _grid_from_bytes(params: OccupancyParams, body: bytes | bytearray) -> OccupancyGrid2D:
     ox, oy, ny, nx = _SHAPE.unpack_from(body)
     at = _SHAPE.size
     stats = np.frombuffer(body, np.int64, len(_STATS), at)
@@ -167,7 +167,7 @@ class GridWorker:
         self._outcomes.extend(bool(b) for b in body[:sent])
         reply(self._map(body[sent:], frame_id))
 
-    def _map(self, body: bytes, frame_id: str) -> OccupancyMap | None:
+    def _map(self, body: bytes | bytearray, frame_id: str) -> OccupancyMap | None:
         ox, oy, ny, nx = _SHAPE.unpack_from(body)
         if not ny * nx:
             return None
@@ -194,7 +194,7 @@ class GridWorker:
             raise NavlogError("occupancy grid process: not started")
         self._child.send(op, payload)
 
-    def _ask(self, op: int) -> bytes:
+    def _ask(self, op: int) -> bytes | bytearray:
         """Send request ``op``; its reply (after every scan sent, and the replies asked for before), without
         the outcomes it starts with."""
         assert self._child is not None
@@ -208,7 +208,7 @@ class GridWorker:
 
 
 # ------------------------------------------------------------ the child's side
-def _handle(grid: OccupancyGrid2D, outcomes: bytearray, code: int, body: bytes) -> tuple[int, bytes] | None:
+def _handle(grid: OccupancyGrid2D, outcomes: bytearray, code: int, body: bytes | bytearray) -> tuple[int, bytes] | None:
     """One request on the grid: None for a scan inserted (its outcome noted), else the reply ``(code, payload)``."""
     if code == _INSERT:
         pose = np.frombuffer(body, np.float64, 16).reshape(4, 4)
@@ -242,7 +242,7 @@ class _GridServer:
         self.grid: OccupancyGrid2D | None = None
         self.outcomes = bytearray()
 
-    def __call__(self, code: int, body: bytes) -> tuple[int, bytes] | None:
+    def __call__(self, code: int, body: bytes | bytearray) -> tuple[int, bytes] | None:
         if code == _PARAMS:
             self.params = OccupancyParams(**_params(json.loads(body)))
             return None

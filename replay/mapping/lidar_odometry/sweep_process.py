@@ -81,7 +81,7 @@ def _job_bytes(job: SweepJob) -> bytes:
     return b"".join(parts)
 
 
-def _job_from_bytes(body: bytes) -> SweepJob:
+def _job_from_bytes(body: bytes | bytearray) -> SweepJob:
     n, slots, keep, save_voxel, scan_voxel = _JOB.unpack_from(body)
     at = _JOB.size
     extrinsic = np.frombuffer(body, np.float64, 16, at).reshape(4, 4)
@@ -100,7 +100,7 @@ def _prepared_bytes(out: PreparedSweep) -> bytes:
     return sizes + b"".join(np.ascontiguousarray(a, dtype=np.float64).tobytes() for a in arrays)
 
 
-def _prepared_from_bytes(body: bytes, job: SweepJob) -> PreparedSweep:
+def _prepared_from_bytes(body: bytes | bytearray, job: SweepJob) -> PreparedSweep:
     n_base, n_fine, n_scan = _SIZES.unpack_from(body)
 
     def points(at: int, n: int) -> np.ndarray:
@@ -163,7 +163,7 @@ class SweepWorker:
         self.close()
 
 
-def _handle(code: int, body: bytes) -> tuple[int, bytes]:
+def _handle(code: int, body: bytes | bytearray) -> tuple[int, bytes]:
     if code != _PREPARE:
         raise ValueError(f"unknown request {code}")
     return code, _prepared_bytes(prepare_sweep(_job_from_bytes(body)))
