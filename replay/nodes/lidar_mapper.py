@@ -409,7 +409,8 @@ class LidarMapperNode(Node):
         n = len(self.odometry.stamps) + len(self._inflight) + 1  # this frame's number
         keep = bool(p.cloud_every_n_frames) and (n - 1) % p.cloud_every_n_frames == 0
         args = (item.stamp_ns, item.points, item.times, prior)
-        plan = self.odometry.plan(*args, settled=not self._inflight, keep_base=keep)
+        # a plan that goes ahead has every motion from the tracks as they are now (it completes later)
+        plan = self.odometry.plan(*args, settled=False, keep_base=keep)
         if isinstance(plan, Unsettled):  # its motion needs the constant velocity: every frame before, then it
             self._complete(len(self._inflight))
             plan = self.odometry.plan(*args, settled=True, keep_base=keep)

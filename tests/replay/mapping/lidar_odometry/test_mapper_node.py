@@ -163,14 +163,18 @@ def test_node_uses_drifting_odom_without_imu(room):
     assert ate_rmse(stamps, poses, seq) <= 0.03
 
 
-@pytest.mark.parametrize("odom_until_ns", [3_100_000_000, 1_500_000_000])
-def test_sweeps_prepared_ahead_give_the_same_bytes(room, tmp_path, odom_until_ns):
+@pytest.mark.parametrize(
+    ("odom_until_ns", "imu"), [(3_100_000_000, False), (1_500_000_000, False), (1_500_000_000, True)]
+)
+def test_sweeps_prepared_ahead_give_the_same_bytes(room, tmp_path, odom_until_ns, imu):
     """With the odometry's motion known when a sweep is ready, the sweep is prepared in the sweep process
     while the one before registers, and its outputs take their place when planned: the same messages,
     in the same order, and the same map as one sweep after another. Where /odom stops (half-way), the
-    motion needs the constant velocity of the frames before: they complete first."""
+    motion needs the constant velocity of the frames before: they complete first (with the gyro's
+    rotation over the sweep, where there is an IMU)."""
     seq = scene.make_sequence(scene.loop_trajectory(), 30, scene=room)
-    params = LidarMapperParams(initial_pose=initial_pose_params(seq).initial_pose, use_imu=False, path_every_n_frames=7)
+    initial = initial_pose_params(seq).initial_pose
+    params = LidarMapperParams(initial_pose=initial, use_imu=imu, path_every_n_frames=7)
     runs = []
     for ahead in (False, True):
         ex = Executor()
@@ -178,7 +182,7 @@ def test_sweeps_prepared_ahead_give_the_same_bytes(room, tmp_path, odom_until_ns
         ex.add_node(node)
         rec = Recorder()
         ex.add_sink(rec)
-        ex.add_source(scene.envelopes(without_imu(seq), odom_envelopes(seq, odom_until_ns)))
+        ex.add_source(scene.envelopes(seq if imu else without_imu(seq), odom_envelopes(seq, odom_until_ns)))
         ex.run()
         ex.finish()
         node.save_pcd(tmp_path / f"{ahead}.pcd")
