@@ -397,31 +397,26 @@ class LidarMapperNode(Node):
             self._first_frame(item)
         self.odometry.extrinsic = item.extrinsic
         prior = MotionPrior(self.gyro if p.use_imu else None, self.odom if p.use_odom else None)
-        sweeps = self._sweep_worker()
-        if sweeps is None or not self.odometry.stamps:  # the first frame sizes the odometry: here, now
-            result = self.odometry.process(item.stamp_ns, item.points, item.times, prior)
-            if result is not None:
-                self._publish_frame(result, self.publish)
-            return
-        from navlog.replay.mapping.lidar_odometry.odometry import Unsettled
-        from navlog.replay.mapping.lidar_odometry.sweep_process import prepare_sweep
-
-        n = len(self.odometry.stamps) + len(self._inflight) + 1  # this frame's number
-        keep = bool(p.cloud_every_n_frames) and (n - 1) % p.cloud_every_n_frames == 0
         args = (item.stamp_ns, item.points, item.times, prior)
-        # a plan that goes ahead has every motion from the tracks as they are now (it completes later)
-        plan = self.odometry.plan(*args, settled=False, keep_base=keep)
-        if isinstance(plan, Unsettled):  # its motion needs the constant velocity: every frame before, then it
+        sweeps = self._sweep_worker()
+        if sweeps is not None and self.odometry.stamps:  # (the first frame sizes the odometry: here, now)
+            from navlog.replay.mapping.lidar_odometry.odometry import Unsettled
+
+            n = len(self.odometry.stamps) + len(self._inflight) + 1  # this frame's number
+            keep = bool(p.cloud_every_n_frames) and (n - 1) % p.cloud_every_n_frames == 0
+            # a plan that goes ahead has every motion from the tracks as they are now (it completes later)
+            plan = self.odometry.plan(*args, settled=False, keep_base=keep)
+            if not isinstance(plan, Unsettled):
+                if plan is not None:
+                    sweeps.submit(plan.job)  # prepared beside the registration of the frame before
+                    self._inflight.append((plan, self.defer()))
+                    self._complete(len(self._inflight) - 1)
+                return
+            # its motion needs the constant velocity: every frame before, then it, here and now
             self._complete(len(self._inflight))
-            plan = self.odometry.plan(*args, settled=True, keep_base=keep)
-            if plan is not None and not isinstance(plan, Unsettled):
-                self._publish_frame(self.odometry.complete(plan, prepare_sweep(plan.job), prior), self.publish)
-            return
-        if plan is None:
-            return
-        sweeps.submit(plan.job)  # prepared beside the registration of the frame before
-        self._inflight.append((plan, self.defer()))
-        self._complete(len(self._inflight) - 1)
+        result = self.odometry.process(*args)
+        if result is not None:
+            self._publish_frame(result, self.publish)
 
     def _sweep_worker(self) -> SweepWorker | None:
         """The sweep process, when sweeps are prepared ahead: a child to run it, and no node reading the

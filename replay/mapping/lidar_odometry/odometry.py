@@ -60,7 +60,7 @@ class SweepPlan:
     ref_ns: int  # the registration time (the middle of the sweep when deskewed)
     job: SweepJob
     before: np.ndarray | None  # 4x4: base_link at the last registration time (first frame: the stamp) <- at ref
-    after: np.ndarray | None  # (1, 4, 4): base_link at ref <- at the stamp (ref == stamp: None)
+    after: np.ndarray | None  # 4x4: base_link at ref <- at the stamp (ref == stamp: None)
 
 
 class Unsettled:
@@ -242,7 +242,7 @@ class LidarOdometry:
             slots = slot_query_ns(stamp_ns, slot_times(span, p.deskew_slots))
             rel = prior_motion(ref_ns, np.append(slots, stamp_ns), prior, None)  # one lookup for both
             if rel is not None:
-                deskew, after = rel[:-1], (rel[-1:] if moved else None)
+                deskew, after = rel[:-1], (rel[-1] if moved else None)
             elif settled:  # the constant velocity over the sweep; back to the stamp when completed
                 deskew = prior_motion(ref_ns, slots, prior, self._velocity)
             else:
@@ -321,7 +321,7 @@ class LidarOdometry:
         if ref_ns == stamp_ns:
             out = pose
         elif plan.after is not None:
-            out = pose @ plan.after[0]
+            out = pose @ plan.after
         else:
             out = pose @ self._relative(ref_ns, np.array([stamp_ns]), prior)[0]
         self.stamps.append(int(stamp_ns))

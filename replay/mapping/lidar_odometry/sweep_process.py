@@ -17,7 +17,6 @@ same bits (tested). The processes talk through ``navlog.replay.child``.
 from __future__ import annotations
 
 import struct
-import subprocess
 from collections import deque
 from dataclasses import dataclass
 
@@ -125,10 +124,6 @@ class SweepWorker:
                 self._child = ChildProcess("3D sweep process", _CHILD)
             except OSError:  # no child here (a process limit, no interpreter to run): jobs run here
                 self._child = None
-
-    @property
-    def _process(self) -> subprocess.Popen | None:
-        return self._child.process if self._child is not None else None
 
     def __len__(self) -> int:
         """Jobs submitted and not yet taken."""
