@@ -1,10 +1,10 @@
 """A child Python that answers requests over its pipes: what the replay's helper processes share.
 
 A replay hands NumPy work to a child process where it can run beside the replay's thread (the
-occupancy grid's scan updates, ``navlog.replay.mapping.grid_process``; the 3D mapper's sweep
-preprocessing, ``navlog.replay.mapping.lidar_odometry.sweep_process``). Both sides speak in frames:
+occupancy grid's scan updates, ``navlog.replay.mapping.grid_process``; the 3D mapper's sweeps,
+prepared and registered, ``navlog.replay.mapping.lidar_odometry.odometry_process``). Both sides speak in frames:
 one opcode byte, a little-endian uint32 length and the payload (arrays as raw bytes, parameters as
-JSON); nothing is unpickled.
+JSON: ``pack`` and ``unpack`` make and read such a payload); nothing is unpickled.
 
 - ``ChildProcess`` (the parent's side) starts ``python -c CODE`` and sends requests; every request
   that is ``ask``-ed gets one reply, in order. Requests are written without blocking: while the pipe
@@ -21,6 +21,8 @@ comes back as ``NavlogError`` with its traceback; a child that died is named wit
 from __future__ import annotations
 
 import fcntl
+import json
+import math
 import os
 import select
 import struct
@@ -28,14 +30,17 @@ import subprocess
 import sys
 import traceback
 from collections import deque
-from collections.abc import Callable
-from typing import IO, BinaryIO
+from collections.abc import Callable, Sequence
+from typing import IO, Any, BinaryIO
+
+import numpy as np
 
 from navlog.errors import NavlogError
 
-__all__ = ["ChildProcess", "read_exactly", "serve"]
+__all__ = ["ChildProcess", "pack", "read_exactly", "serve", "unpack"]
 
 FRAME = struct.Struct("<BI")  # opcode, payload length
+_META = struct.Struct("<I")  # the JSON part's length in ``pack``
 READY, ERROR = ord("R"), ord("E")  # child -> parent, besides the replies
 _PIPE_BYTES = 1 << 20  # what each pipe holds (Linux caps a pipe at pipe-max-size, 1 MiB by default)
 _F_SETPIPE_SZ = getattr(fcntl, "F_SETPIPE_SZ", 1031)
@@ -178,6 +183,33 @@ class ChildProcess:
         self.close()
         pid, code = (process.pid, process.returncode) if process is not None else ("?", "?")
         return NavlogError(f"{self.name} (pid {pid}) ended unexpectedly (exit code {code}); the replay stops here")
+
+
+def pack(meta: Any, arrays: Sequence[np.ndarray | None] = ()) -> bytes:
+    """A payload of JSON (``meta``) and arrays (None allowed): the JSON names each array's dtype and
+    shape, the arrays follow as raw bytes, in order."""
+    shapes = [None if a is None else [a.dtype.str, list(a.shape)] for a in arrays]
+    head = json.dumps([meta, shapes]).encode()
+    parts = [_META.pack(len(head)), head]
+    parts += [np.ascontiguousarray(a).tobytes() for a in arrays if a is not None]
+    return b"".join(parts)
+
+
+def unpack(body: bytes | bytearray) -> tuple[Any, list[np.ndarray | None]]:
+    """(meta, arrays) of a ``pack`` payload; the arrays are views of ``body`` (read-only for bytes)."""
+    (n,) = _META.unpack_from(body)
+    meta, shapes = json.loads(bytes(body[_META.size : _META.size + n]))
+    at = _META.size + n
+    arrays: list[np.ndarray | None] = []
+    for spec in shapes:
+        if spec is None:
+            arrays.append(None)
+            continue
+        dtype, shape = np.dtype(spec[0]), tuple(spec[1])
+        count = math.prod(shape)
+        arrays.append(np.frombuffer(body, dtype, count, at).reshape(shape))
+        at += count * dtype.itemsize
+    return meta, arrays
 
 
 def read_exactly(stream: IO[bytes] | BinaryIO, n: int) -> bytearray | None:

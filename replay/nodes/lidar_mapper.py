@@ -14,13 +14,13 @@ when the next cloud arrives, whichever is first, so the same message order alway
 `map`, every ``cloud_every_n_frames`` frames) and the path of all poses (every
 ``path_every_n_frames`` frames and at the end). Inputs that cannot be used are counted by reason.
 
-Sweeps prepared ahead: when no node reads those outputs and this process may use two CPUs, a sweep
-whose motion the odometry track gives (``LidarOdometry.plan``) is moved into base_link, deskewed
-and voxel-filtered in a child process (``sweep_process.SweepWorker``) while the sweep before
-registers; its outputs take their place in the order when it is planned (``Node.defer``) and are
-filled in when it completes, so the outputs are the same bytes in the same order as one sweep after
-another (tested). A sweep whose motion needs the constant velocity (no odometry over it) waits for
-the sweeps before it and is prepared here.
+Frames completed in a child process: when no node reads those outputs and this process may use two
+CPUs, each frame is planned here (its checks, and its motions from the IMU and odometry tracks:
+``LidarOdometry.plan``) and completed (prepared, registered, added to the maps) in a child process
+(``odometry_process.OdometryWorker``) while this one goes on with the log; its outputs take their
+place in the order when it is planned (``Node.defer``) and are filled in when it completes, so the
+outputs are the same bytes in the same order as one frame after another here (tested). A frame
+whose motion needs the constant velocity (no odometry over it) waits for the frames before it.
 """
 
 from __future__ import annotations
@@ -46,10 +46,11 @@ from navlog.replay.runtime.tf import TFBuffer, TransformError
 
 if TYPE_CHECKING:
     from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, SweepPlan
-    from navlog.replay.mapping.lidar_odometry.sweep_process import SweepWorker
+    from navlog.replay.mapping.lidar_odometry.odometry_process import OdometryWorker
 
 logger = logging.getLogger("navlog")
 Pose6 = tuple[float, float, float, float, float, float]  # x y z roll pitch yaw
+_IN_FLIGHT = 2  # frames a child may be completing while this process plans the next ones
 REST_ACCEL_SPREAD = 0.1  # m/s^2: the IMU is at rest when its accel samples spread less (std, all axes)
 
 
@@ -116,13 +117,14 @@ class LidarMapperNode(Node):
     name = "lidar_mapper"
 
     def __init__(self, params: LidarMapperParams = LidarMapperParams(), *, sweep_process: bool | None = None) -> None:
-        """``sweep_process``: prepare sweeps in a child process while the one before registers, when no
-        node reads the outputs (None: when this process may use two CPUs); see the module docstring."""
+        """``sweep_process``: complete frames in a child process when no node reads the outputs (None:
+        when this process may use two CPUs); see the module docstring."""
         super().__init__()
         self.params = params
         self._sweep_process = usable_cpus() > 1 if sweep_process is None else sweep_process
-        self._sweeps: SweepWorker | None = None  # started with the first sweep, when sweeps go ahead
-        self._ahead: bool | None = None  # sweeps prepared ahead (decided at the first)
+        self._sweeps: OdometryWorker | None = None  # started with the first frame, when frames go ahead
+        self._ahead: bool | None = None  # frames completed in the child (decided at the first)
+        self._maps: tuple[np.ndarray, list[np.ndarray]] | None = None  # the child's, when it has ended
         self._inflight: deque[tuple[SweepPlan, Deferred]] = deque()  # planned and submitted, not completed
         odometry = preset(params.odometry, params.preset)
         if params.deskew == "off":
@@ -399,27 +401,29 @@ class LidarMapperNode(Node):
         prior = MotionPrior(self.gyro if p.use_imu else None, self.odom if p.use_odom else None)
         args = (item.stamp_ns, item.points, item.times, prior)
         sweeps = self._sweep_worker()
-        if sweeps is not None and self.odometry.stamps:  # (the first frame sizes the odometry: here, now)
-            from navlog.replay.mapping.lidar_odometry.odometry import Unsettled
+        if sweeps is None:
+            result = self.odometry.process(*args)
+            if result is not None:
+                self._publish_frame(result, self.publish)
+            return
+        from navlog.replay.mapping.lidar_odometry.odometry import Unsettled
 
-            n = len(self.odometry.stamps) + len(self._inflight) + 1  # this frame's number
-            keep = bool(p.cloud_every_n_frames) and (n - 1) % p.cloud_every_n_frames == 0
-            # a plan that goes ahead has every motion from the tracks as they are now (it completes later)
-            plan = self.odometry.plan(*args, settled=False, keep_base=keep)
-            if not isinstance(plan, Unsettled):
-                if plan is not None:
-                    sweeps.submit(plan.job)  # prepared beside the registration of the frame before
-                    self._inflight.append((plan, self.defer()))
-                    self._complete(len(self._inflight) - 1)
-                return
-            # its motion needs the constant velocity: every frame before, then it, here and now
+        n = len(self.odometry.stamps) + len(self._inflight) + 1  # this frame's number
+        keep = bool(p.cloud_every_n_frames) and (n - 1) % p.cloud_every_n_frames == 0
+        # a plan that goes ahead has every motion from the tracks as they are now (it completes later)
+        plan = self.odometry.plan(*args, settled=False, keep_base=keep)
+        if isinstance(plan, Unsettled):  # its motion needs the constant velocity: every frame before first
             self._complete(len(self._inflight))
-        result = self.odometry.process(*args)
-        if result is not None:
-            self._publish_frame(result, self.publish)
+            plan = self.odometry.plan(*args, keep_base=keep)
+        if plan is None:
+            return
+        assert not isinstance(plan, Unsettled)  # a settled plan never is
+        sweeps.submit(plan)  # completed in the child while this process goes on
+        self._inflight.append((plan, self.defer()))
+        self._complete(len(self._inflight) - _IN_FLIGHT)
 
-    def _sweep_worker(self) -> SweepWorker | None:
-        """The sweep process, when sweeps are prepared ahead: a child to run it, and no node reading the
+    def _sweep_worker(self) -> OdometryWorker | None:
+        """The child completing frames, when frames go ahead: a child to run it, and no node reading the
         outputs (they take their place when planned and are filled in when the frame completes)."""
         if self._ahead is None:
             p = self.params
@@ -427,17 +431,22 @@ class LidarMapperNode(Node):
                 [p.odometry_topic, p.cloud_topic, p.path_topic]
             )
             if self._ahead:
-                from navlog.replay.mapping.lidar_odometry.sweep_process import SweepWorker
+                from navlog.replay.mapping.lidar_odometry.odometry_process import OdometryWorker
 
-                self._sweeps = SweepWorker()
+                try:
+                    self._sweeps = OdometryWorker(self.odometry.params, self.odometry.initial_pose)
+                except OSError:  # no child here (a process limit, no interpreter to run): frames run here
+                    self._ahead = False
         return self._sweeps
 
     def _complete(self, count: int) -> None:
         """Complete the ``count`` oldest frames in flight, their outputs into their places."""
         for _ in range(count):
-            assert self._sweeps is not None  # frames are in flight only with a sweep process
+            assert self._sweeps is not None  # frames are in flight only with a child completing them
             plan, place = self._inflight.popleft()
-            self._publish_frame(self.odometry.complete(plan, self._sweeps.take()), place.publish)
+            result, skipped = self._sweeps.take()
+            self.odometry.adopt(plan, result, skipped)
+            self._publish_frame(result, place.publish)
             place.close()
 
     def _publish_frame(self, result: FrameResult, publish: Callable[[str, str, Any], None]) -> None:
@@ -472,7 +481,9 @@ class LidarMapperNode(Node):
         self._drain(force=True)
         self._complete(len(self._inflight))
         if self._sweeps is not None:
+            self._maps = self._sweeps.maps()
             self._sweeps.close()
+            self._sweeps = None
         self._publish_path(self.publish)
 
     # ------------------------------------------------------------ results
@@ -481,7 +492,10 @@ class LidarMapperNode(Node):
         return self.odometry.poses()
 
     def map_points(self) -> np.ndarray:
-        return self.odometry.global_map()
+        return self._maps[0] if self._maps is not None else self.odometry.global_map()
+
+    def _chunks(self) -> list[np.ndarray]:
+        return self._maps[1] if self._maps is not None else self.odometry.finish_chunks()
 
     def save_pcd(self, path: Path) -> dict[str, Path]:
         """Write the global map (binary float32 PCD, deterministic order) to ``path``, and the
@@ -490,8 +504,8 @@ class LidarMapperNode(Node):
 
         path = Path(path)
         written = {"map_pcd": path}
-        write_pcd(path, self.odometry.global_map())
-        for k, chunk in enumerate(self.odometry.finish_chunks(), start=1):
+        write_pcd(path, self.map_points())
+        for k, chunk in enumerate(self._chunks(), start=1):
             chunk_path = path.with_name(f"{path.stem}_{k:04d}{path.suffix}")
             write_pcd(chunk_path, chunk)
             written[f"map_pcd_{k:04d}"] = chunk_path

@@ -53,14 +53,17 @@ class FrameResult:
 @dataclass(frozen=True)
 class SweepPlan:
     """A frame checked and its motions known (``LidarOdometry.plan``): the sweep's preparation (``job``)
-    and the motions its registration needs from the prior (None: from the constant velocity, when
-    completed)."""
+    and the motions its registration needs. Completing it needs nothing more from the IMU and odometry
+    tracks: a plan can be completed where they are not (``odometry_process``)."""
 
     stamp_ns: int
     ref_ns: int  # the registration time (the middle of the sweep when deskewed)
     job: SweepJob
     before: np.ndarray | None  # 4x4: base_link at the last registration time (first frame: the stamp) <- at ref
-    after: np.ndarray | None  # 4x4: base_link at ref <- at the stamp (ref == stamp: None)
+    after: np.ndarray | None  # 4x4: base_link at ref <- at the stamp (None: ref == stamp, or see below)
+    # where the odometry track does not cover ref -> stamp, ``after`` is the constant velocity this frame's
+    # registration gives, its rotation replaced by the gyro's (this, when the IMU covers it)
+    after_rotation: np.ndarray | None = None
 
 
 class Unsettled:
@@ -190,7 +193,7 @@ class LidarOdometry:
         plan = self.plan(stamp_ns, points, times, prior)  # settled: never UNSETTLED
         if not isinstance(plan, SweepPlan):
             return None
-        return self.complete(plan, prepare_sweep(plan.job), prior)
+        return self.complete(plan, prepare_sweep(plan.job))
 
     def plan(
         self,
@@ -205,7 +208,9 @@ class LidarOdometry:
         """The frame's checks and its motions; None (counted) when the frame cannot be used. Every plan
         returned must be completed (``complete``), in order. Without ``settled`` (frames planned and not
         yet completed), a frame whose motion needs the constant velocity (the odometry track does not
-        cover it) is ``UNSETTLED``: nothing is counted, complete the frames before and plan it again."""
+        cover it) is ``UNSETTLED``: nothing is counted, complete the frames before and plan it again. A
+        settled plan takes those motions from the constant velocity as it is now (every frame planned
+        before is completed)."""
         p = self.params
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         if times is not None:
@@ -247,32 +252,54 @@ class LidarOdometry:
                 deskew = prior_motion(ref_ns, slots, prior, self._velocity)
             else:
                 return UNSETTLED
-        before = self._motion(last, stamp_ns, ref_ns, prior) if last is not None or moved else None
+        velocity = self._velocity if settled else None
+        before = (
+            self._motion(stamp_ns if last is None else last, ref_ns, prior, velocity)
+            if last is not None or moved
+            else None
+        )
+        after_rotation = None
+        if after is None and moved:
+            after = self._motion(ref_ns, stamp_ns, prior, None)  # the odometry track may reach the stamp alone
+            if after is None and settled and prior is not None and prior.gyro is not None:
+                rot = prior.gyro.relative_rotations(ref_ns, np.array([stamp_ns]))
+                after_rotation = None if rot is None else rot[0]
         if not settled and ((before is None and (last is not None or moved)) or (after is None and moved)):
             return UNSETTLED
         self._planned = (stamp_ns, ref_ns)
         scan_voxel = p.scan_voxel if p.method == "vgicp" else 0.0
         job = SweepJob(pts, self.extrinsic.copy(), t, deskew, p.save_voxel, scan_voxel, keep_base)
-        return SweepPlan(stamp_ns, ref_ns, job, before, after)
+        return SweepPlan(stamp_ns, ref_ns, job, before, after, after_rotation)
 
     @staticmethod
-    def _motion(last: int | None, stamp_ns: int, ref_ns: int, prior: MotionPrior | None) -> np.ndarray | None:
-        """The prior's motion to the registration time from the last one (the first frame: from the stamp)."""
-        rel = prior_motion(stamp_ns if last is None else last, np.array([ref_ns]), prior, None)
+    def _motion(
+        from_ns: int, to_ns: int, prior: MotionPrior | None, velocity: ConstantVelocity | None
+    ) -> np.ndarray | None:
+        """base_link at ``from_ns`` <- at ``to_ns`` from the prior (``velocity`` where the odometry track
+        does not reach; without it, None there)."""
+        rel = prior_motion(from_ns, np.array([to_ns]), prior, velocity)
         return None if rel is None else rel[0]
 
-    def complete(self, plan: SweepPlan, prepared: PreparedSweep, prior: MotionPrior | None = None) -> FrameResult:
-        """Register a planned frame from its prepared sweep and update the maps (``prior``: where the plan
-        left a motion to the constant velocity; the same prior as when planned)."""
+    def complete(self, plan: SweepPlan, prepared: PreparedSweep) -> FrameResult:
+        """Register a planned frame from its prepared sweep and update the maps."""
         with _Threads(self.params.threads, self.params.method != "vgicp"):  # vgicp: Open3D is not called per frame
             # 3. register against the local map (the first frame defines it)
-            pose, fitness, rmse, source = self._register(plan, prepared, prior)
+            pose, fitness, rmse, source = self._register(plan, prepared)
             # 4. update the pose history and the maps
-            return self._update(plan, pose, prepared, source, fitness, rmse, prior)
+            return self._update(plan, pose, prepared, source, fitness, rmse)
 
-    def _register(
-        self, plan: SweepPlan, prepared: PreparedSweep, prior: MotionPrior | None
-    ) -> tuple[np.ndarray, float, float, Any]:
+    def adopt(self, plan: SweepPlan, result: FrameResult, skipped: dict[str, int]) -> None:
+        """Take ``plan``'s frame as completed by another ``LidarOdometry`` of the same parameters fed the
+        same plans (``odometry_process``): the pose history, the constant velocity and the skips as
+        ``complete`` leaves them; the maps stay with that one."""
+        self._ref = (plan.ref_ns, result.registered)
+        self.stamps.append(int(result.stamp_ns))
+        self.trajectory.append(result.pose)
+        self._velocity = ConstantVelocity(result.velocity[:3], result.velocity[3:])
+        for reason, n in skipped.items():
+            self.skipped[reason] = self.skipped.get(reason, 0) + n
+
+    def _register(self, plan: SweepPlan, prepared: PreparedSweep) -> tuple[np.ndarray, float, float, Any]:
         """The pose of base_link at the registration time, with ICP's fitness and RMSE and the registered
         source cloud; updates the constant velocity."""
         stamp_ns, ref_ns = plan.stamp_ns, plan.ref_ns
@@ -283,10 +310,10 @@ class LidarOdometry:
         if self._ref is None:
             pose = self.initial_pose.copy()
             if ref_ns != stamp_ns:  # the initial pose is given at the stamp
-                pose = pose @ self._before(plan, stamp_ns, prior)
+                pose = pose @ self._before(plan)
             return pose, 1.0, 0.0, source
         last_ns, last = self._ref
-        guess = last @ self._before(plan, last_ns, prior)
+        guess = last @ self._before(plan)
         distance = self.threshold.value if self.threshold is not None else None
         result = self.registrar.register(source, self.local_map.target, guess, distance)
         if not result.accepted:
@@ -300,11 +327,23 @@ class LidarOdometry:
         self._velocity = ConstantVelocity(rel[:3, 3] / dt, matrix_to_rotvec(rel[:3, :3]) / dt)
         return pose, result.fitness, result.rmse, source
 
-    def _before(self, plan: SweepPlan, from_ns: int, prior: MotionPrior | None) -> np.ndarray:
-        """base_link at ``from_ns`` <- base_link at the registration time: the plan's, else now."""
-        if plan.before is not None:
-            return plan.before
-        return self._relative(from_ns, np.array([plan.ref_ns]), prior)[0]
+    @staticmethod
+    def _before(plan: SweepPlan) -> np.ndarray:
+        """base_link at the last registration time (the first frame: the stamp) <- at this one."""
+        if plan.before is None:
+            raise ValueError("a plan whose frame moved since the last registration has its motion (before)")
+        return plan.before
+
+    def _after(self, plan: SweepPlan) -> np.ndarray:
+        """base_link at the registration time <- at the stamp: the plan's, else the constant velocity
+        (just updated by this frame) with the gyro's rotation when the plan has it."""
+        if plan.after is not None:
+            return plan.after
+        rel = self._relative(plan.ref_ns, np.array([plan.stamp_ns]), None)[0]
+        if plan.after_rotation is not None:
+            rel = rel.copy()
+            rel[:3, :3] = plan.after_rotation
+        return rel
 
     def _update(
         self,
@@ -314,16 +353,10 @@ class LidarOdometry:
         source: Any,
         fitness: float,
         rmse: float,
-        prior: MotionPrior | None,
     ) -> FrameResult:
         stamp_ns, ref_ns, fine = plan.stamp_ns, plan.ref_ns, prepared.fine
         self._ref = (ref_ns, pose)
-        if ref_ns == stamp_ns:
-            out = pose
-        elif plan.after is not None:
-            out = pose @ plan.after
-        else:
-            out = pose @ self._relative(ref_ns, np.array([stamp_ns]), prior)[0]
+        out = pose if ref_ns == stamp_ns else pose @ self._after(plan)
         self.stamps.append(int(stamp_ns))
         self.trajectory.append(out)
         fine_map = fine @ pose[:3, :3].T + pose[:3, 3]
