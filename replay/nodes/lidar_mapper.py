@@ -16,8 +16,9 @@ when the next cloud arrives, whichever is first, so the same message order alway
 
 Frames completed in a child process: when no node reads those outputs and this process may use two
 CPUs, each frame is planned here (its checks, and its motions from the IMU and odometry tracks:
-``LidarOdometry.plan``) and completed (prepared, registered, added to the maps) in a child process
-(``odometry_process.OdometryWorker``) while this one goes on with the log; its outputs take their
+``LidarOdometry.plan``) and its sweep prepared (deskewed, voxel-filtered), then completed (the
+registration, the maps) in a child process (``odometry_process.OdometryWorker``) while this one goes
+on with the log; its outputs take their
 place in the order when it is planned (``Node.defer``) and are filled in when it completes, so the
 outputs are the same bytes in the same order as one frame after another here (tested). A frame
 whose motion needs the constant velocity (no odometry over it) waits for the frames before it.
@@ -50,7 +51,7 @@ if TYPE_CHECKING:
 
 logger = logging.getLogger("navlog")
 Pose6 = tuple[float, float, float, float, float, float]  # x y z roll pitch yaw
-_IN_FLIGHT = 2  # frames a child may be completing while this process plans the next ones
+_IN_FLIGHT = 4  # frames the child may be completing while this process plans the next ones
 REST_ACCEL_SPREAD = 0.1  # m/s^2: the IMU is at rest when its accel samples spread less (std, all axes)
 
 
@@ -407,6 +408,7 @@ class LidarMapperNode(Node):
                 self._publish_frame(result, self.publish)
             return
         from navlog.replay.mapping.lidar_odometry.odometry import Unsettled
+        from navlog.replay.mapping.lidar_odometry.sweep_process import prepare_sweep
 
         n = len(self.odometry.stamps) + len(self._inflight) + 1  # this frame's number
         keep = bool(p.cloud_every_n_frames) and (n - 1) % p.cloud_every_n_frames == 0
@@ -418,7 +420,7 @@ class LidarMapperNode(Node):
         if plan is None:
             return
         assert not isinstance(plan, Unsettled)  # a settled plan never is
-        sweeps.submit(plan)  # completed in the child while this process goes on
+        sweeps.submit(plan, prepare_sweep(plan.job))  # completed in the child while this process goes on
         self._inflight.append((plan, self.defer()))
         self._complete(len(self._inflight) - _IN_FLIGHT)
 

@@ -1,13 +1,18 @@
 """The 3D odometry's frames completed in a child process, while the replay goes on.
 
-``LidarOdometry.plan`` checks a frame and finds its motions in the IMU and odometry tracks; what is
-left (``complete``: the sweep into base_link, deskewed and voxel-filtered, its covariances, the
-registration against the local map, the maps' updates) needs only the plan and the frames completed
-before it. ``OdometryWorker`` sends each plan to a child Python that holds a ``LidarOdometry`` of the
-same parameters and completes the plans in the order sent; the replay takes each result back when it
-needs it (``LidarOdometry.adopt`` keeps the pose history, the constant velocity and the skips beside
-the plans) and the maps at the end. The child runs the same code on the same numbers as
+``LidarOdometry.plan`` checks a frame and finds its motions in the IMU and odometry tracks, and
+``prepare_sweep`` moves the sweep into base_link, deskews and voxel-filters it; what is left
+(``complete``: the scan's covariances, the registration against the local map, the maps' updates)
+needs only the plan, the prepared sweep and the frames completed before it. ``OdometryWorker`` sends
+each (plan, prepared sweep) to a child Python that holds a ``LidarOdometry`` of the same parameters
+and completes them in the order sent; the replay takes each result back when it needs it
+(``LidarOdometry.adopt`` keeps the pose history, the constant velocity and the skips beside the
+plans) and the maps at the end. The child runs the same code on the same numbers as
 ``LidarOdometry.process`` in the replay's process: the same bits (tested).
+
+The preparation stays with the replay: it is about as much work per frame as the rest of the
+replay's thread, and the completion as much again, so the two processes keep two cores about equally
+busy (on the 138 s mapping log, preparing in the child left the replay's thread waiting for it).
 
 The processes talk through ``navlog.replay.child`` (arrays as raw bytes, the rest as JSON).
 """
@@ -24,28 +29,29 @@ from navlog.replay.child import ChildProcess, pack, unpack
 from navlog.replay.child import serve as serve_requests
 from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, LidarOdometry, SweepPlan
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
-from navlog.replay.mapping.lidar_odometry.sweep_process import SweepJob, prepare_sweep
+from navlog.replay.mapping.lidar_odometry.sweep_process import PreparedSweep, SweepJob
 
 __all__ = ["OdometryWorker", "serve"]
 
 _INIT, _FRAME, _MAPS = ord("I"), ord("F"), ord("M")
+_NO_POINTS, _NO_MOUNT = np.zeros((0, 3)), np.eye(4)
 _CHILD = "from navlog.replay.mapping.lidar_odometry.odometry_process import serve; serve()"
 NAME = "3D odometry process"
 
 
-def plan_bytes(plan: SweepPlan) -> bytes:
+def frame_bytes(plan: SweepPlan, prepared: PreparedSweep) -> bytes:
+    """A plan and its prepared sweep (the plan's job is not sent: its sweep is ``prepared``)."""
     job = plan.job
     meta = [plan.stamp_ns, plan.ref_ns, job.save_voxel, job.scan_voxel, job.keep_base]
-    arrays = [job.points, job.extrinsic, job.times, job.deskew, plan.before, plan.after, plan.after_rotation]
-    return pack(meta, arrays)
+    return pack(meta, [prepared.base, prepared.fine, prepared.scan, plan.before, plan.after, plan.after_rotation])
 
 
-def plan_from_bytes(body: bytes | bytearray) -> SweepPlan:
+def frame_from_bytes(body: bytes | bytearray) -> tuple[SweepPlan, PreparedSweep]:
     (stamp_ns, ref_ns, save_voxel, scan_voxel, keep), arrays = unpack(body)
-    points, extrinsic, times, deskew, before, after, after_rotation = arrays
-    assert points is not None and extrinsic is not None
-    job = SweepJob(points, extrinsic, times, deskew, save_voxel, scan_voxel, keep)
-    return SweepPlan(stamp_ns, ref_ns, job, before, after, after_rotation)
+    base, fine, scan, before, after, after_rotation = arrays
+    assert fine is not None
+    job = SweepJob(_NO_POINTS, _NO_MOUNT, None, None, save_voxel, scan_voxel, keep)  # its sweep came prepared
+    return SweepPlan(stamp_ns, ref_ns, job, before, after, after_rotation), PreparedSweep(base, fine, scan)
 
 
 def result_bytes(result: FrameResult, skipped: dict[str, int]) -> bytes:
@@ -81,11 +87,11 @@ class OdometryWorker:
             self._init_owed = False
         return self._child.reply()
 
-    def submit(self, plan: SweepPlan) -> None:
-        """Complete ``plan`` in the child (returns at once)."""
+    def submit(self, plan: SweepPlan, prepared: PreparedSweep) -> None:
+        """Complete ``plan`` from its ``prepared`` sweep in the child (returns at once)."""
         if self._child is None:
             raise NavlogError(f"{NAME}: closed")
-        self._child.ask(_FRAME, plan_bytes(plan))
+        self._child.ask(_FRAME, frame_bytes(plan, prepared))
         self._owed += 1
 
     def take(self) -> tuple[FrameResult, dict[str, int]]:
@@ -134,8 +140,7 @@ class _Completer:
             raise ValueError("a frame before the odometry's parameters")
         if code == _FRAME:
             before = dict(odometry.skipped)
-            plan = plan_from_bytes(body)
-            result = odometry.complete(plan, prepare_sweep(plan.job))
+            result = odometry.complete(*frame_from_bytes(body))
             skipped = {k: n - before.get(k, 0) for k, n in odometry.skipped.items() if n != before.get(k, 0)}
             return code, result_bytes(result, skipped)
         if code == _MAPS:

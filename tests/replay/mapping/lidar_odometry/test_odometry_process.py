@@ -23,6 +23,7 @@ from navlog.replay.mapping.lidar_odometry import (
 from navlog.replay.mapping.lidar_odometry.deskew import prior_motion
 from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, SweepPlan
 from navlog.replay.mapping.lidar_odometry.odometry_process import NAME, OdometryWorker
+from navlog.replay.mapping.lidar_odometry.sweep_process import prepare_sweep
 
 MOUNT = make_transform((0.2, 0.0, 0.4), quat_from_rpy(0.0, 0.1, 0.05))
 PARAMS = LidarOdometryParams(save_every_n_frames=4)
@@ -79,7 +80,7 @@ def test_the_child_completes_frames_with_the_bits_of_this_process(gyro_only):
             plans = [planner.plan(*frame(k), prior, settled=False) for k in range(10)]
             assert all(isinstance(p, SweepPlan) for p in plans)
             for plan in plans:
-                worker.submit(plan)
+                worker.submit(plan, prepare_sweep(plan.job))
             assert len(worker) == 10
             for plan in plans:
                 got.append(worker.take()[0])
@@ -90,7 +91,7 @@ def test_the_child_completes_frames_with_the_bits_of_this_process(gyro_only):
             for k in range(10):
                 plan = planner.plan(*frame(k), prior)
                 assert isinstance(plan, SweepPlan) and plan.after is None and plan.after_rotation is not None
-                worker.submit(plan)
+                worker.submit(plan, prepare_sweep(plan.job))
                 result, skipped = worker.take()
                 planner.adopt(plan, result, skipped)
                 got.append(result)
@@ -119,7 +120,7 @@ def test_large_frames_both_ways_at_once_do_not_wait_for_each_other():
     def run() -> None:
         for plan in plans:
             assert isinstance(plan, SweepPlan)
-            worker.submit(plan)
+            worker.submit(plan, prepare_sweep(plan.job))
         got.extend(worker.take()[0] for _ in plans)
 
     thread = threading.Thread(target=run, daemon=True)
@@ -141,7 +142,7 @@ def test_a_child_that_dies_or_fails_is_named():
     worker._child.process.kill()
     worker._child.process.wait()
     with pytest.raises(NavlogError, match=rf"{NAME} \(pid \d+\) ended unexpectedly"):
-        worker.submit(plan)
+        worker.submit(plan, prepare_sweep(plan.job))
         worker.take()
     worker.close()
     worker = OdometryWorker(PARAMS, planner.initial_pose)
