@@ -62,6 +62,24 @@ def log_sha256(path: Path) -> str:
     raise NavlogError(f"{path}: no such log file or folder")
 
 
+def log_layout_sha256(path: Path) -> str:
+    """sha256 of an MCAP log's layout: each message's topic, schema, log time and size, in order. Two
+    recordings of one recipe on machines whose floating point differs (NumPy's BLAS picks its kernels
+    by CPU, and a kernel's sums round differently) have other bytes and the same layout; a change of
+    the recorder, world, robot or scenario moves the layout too."""
+    from mcap.reader import make_reader
+
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for schema, channel, message in make_reader(f).iter_messages(log_time_order=False):
+                name = schema.name if schema is not None else ""
+                h.update(f"{channel.topic}\t{name}\t{message.log_time}\t{len(message.data)}\n".encode())
+    except Exception as exc:  # a truncated or corrupt recording: named, not a traceback
+        raise NavlogError(f"{path}: cannot read the log's messages ({exc})") from exc
+    return h.hexdigest()
+
+
 def parameter_hash(params: Any) -> str:
     """sha256 of a pipeline's parameters (canonical JSON). A parameter naming an existing file counts by
     the file's content, not its path, so the hash does not depend on where the cache or checkout is."""
