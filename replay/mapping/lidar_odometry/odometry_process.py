@@ -20,7 +20,6 @@ The processes talk through ``navlog.replay.child`` (arrays as raw bytes, the res
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import numpy as np
 
@@ -150,5 +149,4 @@ class _Completer:
 
 def serve() -> None:
     """The child's loop (``navlog.replay.child.serve``) over the frames it is sent."""
-    handler: Any = _Completer()
-    serve_requests(handler)
+    serve_requests(_Completer())
