@@ -155,9 +155,12 @@ class GridWorker:
         self._requests.append((self._sent, frame_id, reply))
         self._sent = 0
 
-    def poll(self) -> None:
-        """Take the replies to ``request_map`` that have come, in order, without waiting."""
+    def poll(self, at_most: int | None = None) -> None:
+        """Take the replies to ``request_map`` that have come, in order, without waiting; with ``at_most``,
+        then wait for the oldest until no more than that many are owed."""
         while self._requests and self._child is not None and self._child.reply_ready():
+            self._take_request()
+        while at_most is not None and len(self._requests) > at_most and self._child is not None:
             self._take_request()
 
     def _take_request(self) -> None:

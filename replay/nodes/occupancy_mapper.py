@@ -199,7 +199,10 @@ class OccupancyMapperNode(Node):
             self._defer_maps = not self.executor.read_by_nodes([self.p.map_topic])
         later = self._defer_maps and self._updates.in_child
         if later:
-            self._updates.poll()  # the maps asked for before, into their places
+            # the maps asked for before, into their places: waited for now if the child has not sent them
+            # yet (it may be busy, e.g. loading its compiled kernel), so that what the other nodes publish
+            # meanwhile is held behind one map at most
+            self._updates.poll(at_most=0)
         place = self.defer() if later else None
         publish = self.publish if place is None else place.publish
 

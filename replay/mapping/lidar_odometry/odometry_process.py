@@ -61,7 +61,10 @@ def result_bytes(result: FrameResult, skipped: dict[str, int]) -> bytes:
 def result_from_bytes(body: bytes | bytearray) -> tuple[FrameResult, dict[str, int]]:
     (stamp_ns, fitness, rmse, keyframe, skipped), (pose, base, registered, velocity) = unpack(body)
     assert pose is not None and registered is not None and velocity is not None
-    return FrameResult(stamp_ns, pose, base, registered, fitness, rmse, keyframe, velocity), skipped
+    # the poses are kept (the trajectory): copies, not views that would keep the whole reply alive
+    return FrameResult(
+        stamp_ns, pose.copy(), base, registered.copy(), fitness, rmse, keyframe, velocity.copy()
+    ), skipped
 
 
 class OdometryWorker:

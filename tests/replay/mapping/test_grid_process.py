@@ -190,3 +190,23 @@ def test_without_a_child_the_grid_stays_in_the_process(monkeypatch, how):
         assert worker.outcomes() == want_taken and same_grid(worker.snapshot(), want)
     finally:
         worker.close()
+
+
+def test_maps_asked_for_without_waiting_come_in_order_and_at_most_some_stay_owed():
+    want, _ = reference()
+    worker = GridWorker(PARAMS)
+    got: list[tuple[int, bytes]] = []
+    try:
+        wait_started(worker)
+        for k, (T, r) in enumerate(SCANS):
+            worker.insert_scan(T, ANGLES, r, 0.1, 8.0)
+            if k in (2, 5, 8):
+                worker.request_map("map", lambda m, k=k: got.append((k, m.data.tobytes())))
+        worker.request_map("map", lambda m: got.append((99, m.data.tobytes())))
+        worker.poll(at_most=1)  # waits for the oldest until one is owed
+        assert len(worker._requests) == 1 and [k for k, _ in got] == [2, 5, 8]
+        worker.poll(at_most=0)
+        assert not worker._requests and [k for k, _ in got] == [2, 5, 8, 99]
+    finally:
+        worker.close()
+    assert got[-1][1] == want.to_map("map").data.tobytes()
