@@ -18,10 +18,10 @@ Frames completed in a child process: when no node reads those outputs and this p
 CPUs, each frame is planned here (its checks, and its motions from the IMU and odometry tracks:
 ``LidarOdometry.plan``) and its sweep prepared (deskewed, voxel-filtered), then completed (the
 registration, the maps) in a child process (``odometry_process.OdometryWorker``) while this one goes
-on with the log; its outputs take their
-place in the order when it is planned (``Node.defer``) and are filled in when it completes, so the
-outputs are the same bytes in the same order as one frame after another here (tested). A frame
-whose motion needs the constant velocity (no odometry over it) waits for the frames before it.
+on with the log; its outputs take their place in the order when it is planned (``Node.defer``) and
+are filled in when it completes, so the outputs are the same bytes in the same order as one frame
+after another here (tested). A frame whose motion needs the constant velocity (no odometry over it)
+waits for the frames before it. The global map comes back from the child when the node finishes.
 """
 
 from __future__ import annotations
