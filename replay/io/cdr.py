@@ -17,6 +17,11 @@ the type into steps:
 fixed array as its own value (an Imu: sec, nanosec, frame_id, x, y, z, w, 9 covariances, ...), and
 returns the bytes ``Typestore.serialize_cdr(msg, typename)`` gives for the equal message (the 4-byte
 encapsulation header included). ``layout(typename)`` returns the compiled layout, made once.
+
+``GrowingSequence(typename)`` serves a message published again and again with one more element at
+the end of its last field, a sequence of messages (a path of every pose so far): each element is
+encoded once, when it is added, and ``encode(head)`` joins the other fields to the elements encoded
+so far; the same bytes as ``Layout.encode`` of the whole message, in time proportional to what was added.
 """
 
 from __future__ import annotations
@@ -31,7 +36,7 @@ from rosbags.interfaces import Nodetype
 
 from navlog.replay import messages
 
-__all__ = ["Layout", "layout"]
+__all__ = ["GrowingSequence", "Layout", "layout"]
 
 _HEADER = b"\x00\x01\x00\x00"  # CDR_LE, no options
 _U32 = struct.Struct("<I")
@@ -126,6 +131,13 @@ class Layout:
         self._steps = tuple(steps)
         self.size = sum(n for _, _, n in steps)  # how many values ``encode`` takes
 
+    def _head(self) -> Layout:
+        """This layout without its last step (``GrowingSequence``)."""
+        head = object.__new__(Layout)
+        head.typename, head._steps = self.typename, self._steps[:-1]
+        head.size = self.size - self._steps[-1][2]
+        return head
+
     def encode(self, values: Any) -> bytes:
         """CDR bytes (with the encapsulation header) of ``values``, in field order; see the module docstring."""
         parts = [_HEADER]
@@ -184,3 +196,41 @@ class Layout:
 def layout(typename: str) -> Layout:
     """The compiled layout of a type of the shared type store, made once per type."""
     return Layout(typename)
+
+
+class GrowingSequence:
+    """CDR of a message whose last field is a sequence of messages that only grows (module docstring)."""
+
+    def __init__(self, typename: str) -> None:
+        whole = layout(typename)
+        kind, element, _ = whole._steps[-1]
+        if kind != _SEQ_MSG:
+            raise ValueError(f"{typename}: its last field is not a sequence of messages")
+        self._head, self._element = whole._head(), element
+        self._start = -1  # where the first element starts (modulo 8): the encoded elements' alignment
+        self._body = b""  # the elements encoded so far
+        self._count = 0
+        self._end = 0  # where the last of them ends
+
+    def __len__(self) -> int:
+        return self._count
+
+    def encode(self, head: Any, added: Any = ()) -> bytes:
+        """CDR bytes (with the encapsulation header) of the message: ``head``, its fields but the last
+        (as ``Layout.encode`` takes them), then every element added so far and ``added`` (value tuples)."""
+        parts = [_HEADER]
+        pos = self._head._encode(head, 0, parts)
+        pad = -pos & 3
+        parts.append(_PAD[pad])
+        pos += pad + 4
+        if self._start < 0 or not self._count:
+            self._start = self._end = pos & 7
+        elif pos & 7 != self._start:  # the elements encoded so far would be aligned otherwise
+            raise ValueError(f"{self._head.typename}: the fields before the sequence changed their size modulo 8")
+        at, new, count = self._end, [self._body], self._count  # committed once every element is encoded
+        for item in added:
+            at = self._element._encode(item, at, new)
+            count += 1
+        self._body, self._count, self._end = b"".join(new), count, at
+        parts += (_U32.pack(self._count), self._body)
+        return b"".join(parts)

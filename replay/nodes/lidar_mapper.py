@@ -38,6 +38,7 @@ import numpy as np
 from navlog.errors import ConfigError
 from navlog.replay import messages
 from navlog.replay.geometry import make_transform, matrix_to_quat, quat_from_rpy
+from navlog.replay.io.cdr import GrowingSequence
 from navlog.replay.mapping.lidar_odometry.deskew import GyroTrack, MotionPrior, PoseTrack
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams, Preset, for_sweep, preset
 from navlog.replay.pointcloud import azimuth_times, point_times, read_points, time_field_name, xyz_cloud
@@ -146,7 +147,7 @@ class LidarMapperNode(Node):
         self._pending: list[_Pending] = []
         self._odom_fix: dict[str, np.ndarray] = {}  # odom child frame -> base_link
         self._mounts: dict[str, np.ndarray | None] = {}  # frame -> base_link <- frame, until /tf_static changes
-        self._path_items: list = []  # PoseStamped of the poses published so far (poses never change)
+        self._path = GrowingSequence(messages.PATH)  # the path's CDR: each pose encoded once (poses never change)
 
     # ------------------------------------------------------------ wiring
     def setup(self) -> None:
@@ -466,18 +467,20 @@ class LidarMapperNode(Node):
             self._publish_path(publish)
 
     def _publish_path(self, publish: Callable[[str, str, Any], None]) -> None:
-        stamps, poses = self.odometry.poses()
-        if len(stamps) == 0:
+        """The path of every pose so far. Its CDR grows by the poses added since the last one, each
+        encoded once (the same bytes as the whole message's); a node reading the path gets the message."""
+        stamps, poses = self.odometry.stamps, self.odometry.trajectory
+        if not stamps:
             return
-        frame = self.params.map_frame
-        pose_stamped = messages.msg_class(messages.POSE_STAMPED)
-        items = self._path_items  # built once per pose: a path message holds every pose so far
-        items.extend(
-            pose_stamped(header=messages.header(int(t), frame), pose=messages.pose(m[:3, 3], matrix_to_quat(m[:3, :3])))
-            for t, m in zip(stamps[len(items) :], poses[len(items) :])
+        path, frame = self._path, self.params.map_frame
+        added = (
+            (t // 1_000_000_000, t % 1_000_000_000, frame, *m[:3, 3], *matrix_to_quat(m[:3, :3]))
+            for t, m in zip(stamps[len(path) :], poses[len(path) :])
         )
-        path = messages.msg_class(messages.PATH)(header=messages.header(int(stamps[-1]), frame), poses=list(items))
-        publish(self.params.path_topic, messages.PATH, path)
+        msg: Any = path.encode((stamps[-1] // 1_000_000_000, stamps[-1] % 1_000_000_000, frame), added)
+        if self.executor.read_by_nodes([self.params.path_topic]):
+            msg = messages.deserialize(msg, messages.PATH)
+        publish(self.params.path_topic, messages.PATH, msg)
 
     def finish(self) -> None:
         self._drain(force=True)

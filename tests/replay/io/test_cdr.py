@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+import struct
 
 import numpy as np
 import pytest
 from rosbags.interfaces import Nodetype
 
 from navlog.replay import messages
-from navlog.replay.io.cdr import layout
+from navlog.replay.io.cdr import GrowingSequence, layout
 
 STORE = messages.typestore()
 EDGE_FLOATS = (0.0, -0.0, 1.5, -1e300, 5e-324, math.inf, -math.inf, math.nan)
@@ -204,3 +205,41 @@ def test_a_point_cloud_blob(n, frame):
     assert data == layout(messages.POINT_CLOUD2).encode(
         (12, 345, frame, 1, n, fields, False, 22, 22 * n, points.tobytes(), True)
     )
+
+
+def _pose_stamped(i: int, frame: str) -> tuple:
+    return (i, 1000 * i, frame, 0.5 * i, -1.25, 3.0, 0.0, 0.0, math.sin(i), math.cos(i))
+
+
+@pytest.mark.parametrize("frame", ["", "m", "map", "odom", "child_frame"])
+def test_a_growing_path_gives_the_whole_message_bytes(frame):
+    """Each publish adds poses; the bytes equal those of the whole path's message, whatever the frame's
+    length (it moves where the first pose starts modulo 8, and so every pose's padding)."""
+    path, values = GrowingSequence(messages.PATH), []
+    for added in (0, 1, 2, 5, 0, 3):
+        new = [_pose_stamped(len(values) + k, frame) for k in range(added)]
+        values += new
+        head = (len(values), 7, frame)
+        got = path.encode(head, iter(new))  # a generator is fine
+        assert got == layout(messages.PATH).encode((*head, values))
+        msg = messages.deserialize(got, messages.PATH)
+        assert [p.header.stamp.sec for p in msg.poses] == list(range(len(values)))
+        assert len(path) == len(values)
+
+
+def test_a_growing_sequence_keeps_its_elements_when_an_element_fails():
+    path = GrowingSequence(messages.PATH)
+    first = path.encode((1, 0, "map"), [_pose_stamped(0, "map")])
+    with pytest.raises(struct.error):
+        path.encode((2, 0, "map"), [_pose_stamped(1, "map"), (1, 2, "map", "not a number")])
+    assert len(path) == 1 and path.encode((1, 0, "map")) == first
+
+
+def test_a_growing_sequence_refuses_a_head_that_moves_the_alignment():
+    path = GrowingSequence(messages.PATH)
+    path.encode((1, 0, "map"), [_pose_stamped(0, "map")])
+    with pytest.raises(ValueError, match="size modulo 8"):
+        path.encode((1, 0, "odom"))
+    path.encode((1, 0, "map12345678"))  # 8 more bytes: the same alignment
+    with pytest.raises(ValueError, match="not a sequence of messages"):
+        GrowingSequence(messages.IMU)

@@ -23,7 +23,8 @@ class Recorder:
 
     def write(self, env: Envelope) -> None:
         if env.topic in ("/Odometry", "/cloud_registered", "/lidar_mapper/path"):
-            self.items.append((env.topic, env.time_ns, messages.serialize(env.msg, env.typename)))
+            raw = env.msg if isinstance(env.msg, bytes) else messages.serialize(env.msg, env.typename)
+            self.items.append((env.topic, env.time_ns, raw))
 
     def digest(self) -> str:
         h = hashlib.sha256()

@@ -3,6 +3,8 @@ accuracy, published topics, the saved map, determinism, and inputs it cannot use
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
@@ -213,3 +215,47 @@ def test_outputs_a_node_reads_are_published_when_the_sweep_is_registered(room):
     ex.finish()
     assert node._ahead is False and node._sweeps is None
     assert heard == [f.stamp_ns for f in seq.frames]
+
+
+def test_path_is_the_same_bytes_as_its_message_whether_or_not_a_node_reads_it(room):
+    """Where no node reads the path, its CDR is made straight from the poses; where one does, the node
+    gets the message: the two give the same bytes, and the path holds every pose in order."""
+    seq = scene.make_sequence(scene.loop_trajectory(), 12, scene=room)
+    params = LidarMapperParams(initial_pose=initial_pose_params(seq).initial_pose, use_imu=False, path_every_n_frames=5)
+    paths, heard = [], []
+
+    class Listener(Node):
+        def setup(self) -> None:
+            self.subscribe("/lidar_mapper/path", lambda msg, t: heard.append(msg))
+
+    for read in (False, True):
+        ex = Executor()
+        node = LidarMapperNode(params, sweep_process=False)
+        ex.add_node(node)
+        if read:
+            ex.add_node(Listener())
+        rec = Recorder()
+        ex.add_sink(rec)
+        kinds: list[bool] = []  # whether the sinks got the path as bytes
+        ex.add_sink(
+            SimpleNamespace(
+                write=lambda env, kinds=kinds: kinds.append(isinstance(env.msg, bytes)) if "path" in env.topic else None
+            )
+        )
+        ex.add_source(scene.envelopes(without_imu(seq), odom_envelopes(seq, 1_300_000_000)))
+        ex.run()
+        ex.finish()
+        paths.append([d for t, _, d in rec.items if t == "/lidar_mapper/path"])
+        assert kinds == [not read] * 3
+        if read:
+            assert [len(m.poses) for m in heard] == [5, 10, 12]
+    assert len(paths[0]) == 3 and paths[0] == paths[1]
+    last = messages.deserialize(paths[0][-1], messages.PATH)
+    stamps, poses = node.poses()
+    assert [messages.to_ns(p.header.stamp) for p in last.poses] == stamps.tolist()
+    assert messages.to_ns(last.header.stamp) == stamps[-1] and last.header.frame_id == "map"
+    assert np.array_equal(
+        [[p.pose.position.x, p.pose.position.y, p.pose.position.z] for p in last.poses], poses[:, :3, 3]
+    )
+    q = [[p.pose.orientation.x, p.pose.orientation.y, p.pose.orientation.z, p.pose.orientation.w] for p in last.poses]
+    assert np.allclose(Rotation.from_quat(q).as_matrix(), poses[:, :3, :3], atol=1e-12)
