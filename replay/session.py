@@ -32,7 +32,7 @@ from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import LogReader
 from navlog.replay.pipelines import pipeline_names
 from navlog.replay.runtime.executor import Envelope, Executor
-from navlog.replay.runtime.heap import steady_heap
+from navlog.replay.runtime.heap import HeapTrim, steady_heap
 from navlog.replay.runtime.pipeline import Pipeline
 from navlog.replay.runtime.progress import Progress, format_table
 from navlog.version import __version__
@@ -76,14 +76,15 @@ def parse_remaps(items: Sequence[str]) -> dict[str, str]:
     return out
 
 
-HASH_BLOCK = 16 << 20  # bytes hashed per call: the interpreter lock is taken once per block
+HASH_BLOCK = 1 << 20  # bytes hashed per call: the interpreter lock is taken once per block
 
 
 def sha256_file(path: Path) -> str:
-    """The file's SHA-256, read into one reused buffer of up to 16 MiB: the memory stays flat whatever the file's
-    size (a memory map of the whole file would count it all in the process's resident size), and the
-    interpreter lock is released for each block's read and hash, so hashing beside a replay
-    (``_hash_inputs``) takes the replay's thread a few dozen lock hand-offs for a 1 GB log."""
+    """The file's SHA-256, read into one reused buffer of up to 1 MiB: the memory stays flat whatever the file's
+    size (a memory map of the whole file would count it all in the process's resident size, a larger
+    buffer a larger share of a long replay's output), and the interpreter lock is released for each
+    block's read and hash, so hashing beside a replay (``_hash_inputs``) costs the replay's thread about
+    a thousand lock hand-offs for a 1 GB log."""
     h = hashlib.sha256()
     with open(path, "rb", buffering=0) as f:
         buf = bytearray(max(1, min(HASH_BLOCK, os.fstat(f.fileno()).st_size)))  # a small file: a small buffer
@@ -312,10 +313,12 @@ def _run(
         ex.add_sink(_OutputSink(writer, set(pipe.outputs)))
         chunk = 1_000_000_000
         t = t0
+        trim = HeapTrim()  # the resident size follows what is in use (navlog.replay.runtime.heap)
         while True:
             t += chunk
             ex.run(until_ns=t)
             bar.update((ex.now - t0) / 1e9)
+            trim()
             if not ex.sources_pending:
                 break
         ex.finish()

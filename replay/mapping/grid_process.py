@@ -40,6 +40,7 @@ from navlog.errors import NavlogError
 from navlog.replay.child import ChildProcess
 from navlog.replay.child import serve as serve_requests
 from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams, ScanStats
+from navlog.replay.mapping.occupancy_kernels import numpy_only
 from navlog.replay.occupancy_map import OccupancyMap
 
 __all__ = ["GridWorker", "serve"]
@@ -258,7 +259,9 @@ class _GridServer:
 
 
 def serve() -> None:
-    """The child's loop (``navlog.replay.child.serve``) over the grid's requests."""
+    """The child's loop (``navlog.replay.child.serve``) over the grid's requests, on the NumPy path
+    (``occupancy_kernels.numpy_only``: the compiled kernel's memory, not its time, would show here)."""
+    numpy_only()
     serve_requests(_GridServer())
 
 

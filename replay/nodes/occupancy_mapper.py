@@ -18,7 +18,9 @@ one CPU, or with ``grid_process=False``, in this one): the node's thread goes on
 meanwhile. A scan's outcome (taken, or refused as far off) is collected with the next /map, in order,
 and the trajectory and skip counts follow it; ``grid`` is the grid of every scan so far. When no node
 reads /map, the node does not wait for the child's map either: it takes the map's place in the output
-order (``Node.defer``) and fills it when the map has come, at the next /map at the latest.
+order (``Node.defer``) and fills it when the map has come: it looks at every scan, and waits for it
+at the next /map at the latest, so what the other nodes publish meanwhile is held for a scan period
+or so, not for a whole publish period.
 """
 
 from __future__ import annotations
@@ -134,6 +136,7 @@ class OccupancyMapperNode(Node):
         )
 
     def _on_scan(self, msg, t_ns: int) -> None:
+        self._updates.poll()  # a /map the child has sent since: into its place (what waits behind it goes out)
         self._waiting.push(msg)
         self._drain(t_ns)
 

@@ -14,14 +14,24 @@ ones have mappings of their own. Measured on the same two logs: 119 and 137 MiB 
 threshold at 128 KiB the peak is flat too, but every sweep-sized array is then mapped and faulted in
 anew (ten times the page faults, ~3 s of a 25 s replay). Elsewhere than glibc (no ``mallopt``) it
 does nothing.
+
+The heap's free pages stay resident too: a block freed between blocks still in use is kept for the
+heap's next use, and over a long replay the free space among them grows (a 10-minute patrol log's
+full mapping replay: 2 MiB of free heap after its first minute, 24 MiB at its end, while the blocks in
+use stayed at 17-19 MiB). ``HeapTrim`` hands those pages back to the system (glibc's ``malloc_trim``,
+which releases whole free pages anywhere in every arena), at most every ``period_s`` of wall time: a
+replay calls it between steps, so the resident size follows what is in use. A call takes about
+0.6 ms; elsewhere than glibc it does nothing.
 """
 
 from __future__ import annotations
 
 import ctypes
 import sys
+import time
+from collections.abc import Callable
 
-__all__ = ["STEADY_MMAP_THRESHOLD", "steady_heap"]
+__all__ = ["STEADY_MMAP_THRESHOLD", "HeapTrim", "steady_heap"]
 
 STEADY_MMAP_THRESHOLD = 512 * 1024
 _M_MMAP_THRESHOLD = -3  # glibc's malloc.h
@@ -42,3 +52,32 @@ def steady_heap(threshold: int = STEADY_MMAP_THRESHOLD) -> bool:
     mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
     _done = mallopt(_M_MMAP_THRESHOLD, threshold) == 1
     return _done
+
+
+def _malloc_trim() -> Callable[[], object] | None:
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        trim = ctypes.CDLL(None).malloc_trim
+    except (OSError, AttributeError):
+        return None
+    trim.argtypes, trim.restype = (ctypes.c_size_t,), ctypes.c_int
+    return lambda: trim(0)
+
+
+class HeapTrim:
+    """Free heap pages handed back to the system, at most every ``period_s`` of wall time (module docstring)."""
+
+    def __init__(self, period_s: float = 0.25) -> None:
+        self.period_s = period_s
+        self.calls = 0
+        self._trim = _malloc_trim()
+        self._next = time.perf_counter() + period_s
+
+    def __call__(self) -> None:
+        """Trim, if ``period_s`` has passed since the last time."""
+        if self._trim is None or (now := time.perf_counter()) < self._next:
+            return
+        self._trim()
+        self.calls += 1
+        self._next = now + self.period_s

@@ -210,3 +210,25 @@ def test_maps_asked_for_without_waiting_come_in_order_and_at_most_some_stay_owed
     finally:
         worker.close()
     assert got[-1][1] == want.to_map("map").data.tobytes()
+
+
+def test_the_child_never_loads_the_compiled_kernel():
+    """Past the scans after which a process loads the compiled kernel, the child still takes the NumPy
+    path: numba's LLVM library is not in its memory, and the grid is the same bits."""
+    from navlog.replay.mapping.occupancy_kernels import NUMPY_SCANS
+
+    scans = [(T, r) for T, r in SCANS if abs(T[0, 3]) < 10][:4] * (NUMPY_SCANS // 4 + 2)
+    worker, here = GridWorker(PARAMS), OccupancyGrid2D(PARAMS)
+    try:
+        wait_started(worker)
+        for T, r in scans:
+            worker.insert_scan(T, ANGLES, r, 0.1, 8.0)
+            here.insert_scan(T, ANGLES, r, 0.1, 8.0)
+        assert worker.in_child and all(worker.outcomes())
+        got = worker.snapshot()
+        maps = open(f"/proc/{worker._process.pid}/maps").read()
+    finally:
+        worker.close()
+    assert len(scans) > NUMPY_SCANS
+    assert "llvmlite" not in maps and "numpy" in maps  # (the mapped libraries)
+    assert same_grid(got, here)

@@ -68,9 +68,31 @@ def test_a_scan_far_off_is_counted_and_left_out_of_the_trajectory(grid_process):
     assert node.grid.stats.scans == 4 and (node.grid.to_map().data == 100).sum() > 50
 
 
+def _drive(beams: int, seconds: float) -> list[Envelope]:
+    """A robot driving 0.5 m/s along x in a ring of range 8 m: ground truth and scans at 10 Hz."""
+    envs = []
+    for k in range(int(seconds * 10)):
+        t = (k + 1) * 100_000_000
+        odom = m.odometry(t, "map", "base_link", (0.05 * k, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), (0, 0, 0), (0, 0, 0))
+        envs.append(Envelope("/odom/ground_truth", m.ODOMETRY, t, odom))
+        scan = m.msg_class(m.LASER_SCAN)(
+            header=m.header(t, "base_link"),
+            angle_min=-math.pi,
+            angle_max=math.pi,
+            angle_increment=2 * math.pi / beams,
+            time_increment=0.0,
+            scan_time=0.1,
+            range_min=0.1,
+            range_max=20.0,
+            ranges=np.full(beams, 8.0, dtype=np.float32),
+            intensities=np.zeros(0, dtype=np.float32),
+        )
+        envs.append(Envelope("/scan", m.LASER_SCAN, t, scan))
+    return envs
+
+
 def _scan_run(read_map: bool, beams: int, seconds: float) -> tuple[list, occupancy_mapper.OccupancyMapperNode]:
-    """A robot driving 0.5 m/s along x in a ring of range 8 m, scans at 10 Hz with ``beams`` beams, the grid in
-    a child process; every message the sink saw (topic, time, CDR bytes of /map). With ``read_map`` a node
+    """``_drive`` with ``beams`` beams per scan, the grid in a child process; every message the sink saw (topic, time, CDR bytes of /map). With ``read_map`` a node
     subscribes to /map (the mapper then publishes each map as it asks for it)."""
     from navlog.replay.runtime.executor import Node
 
@@ -93,25 +115,7 @@ def _scan_run(read_map: bool, beams: int, seconds: float) -> tuple[list, occupan
             seen.append((env.topic, env.time_ns, m.serialize(env.msg, env.typename) if env.topic == "/map" else b""))
 
     ex.add_sink(Sink())
-    envs = []
-    for k in range(int(seconds * 10)):
-        t = (k + 1) * 100_000_000
-        odom = m.odometry(t, "map", "base_link", (0.05 * k, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0), (0, 0, 0), (0, 0, 0))
-        envs.append(Envelope("/odom/ground_truth", m.ODOMETRY, t, odom))
-        scan = m.msg_class(m.LASER_SCAN)(
-            header=m.header(t, "base_link"),
-            angle_min=-math.pi,
-            angle_max=math.pi,
-            angle_increment=2 * math.pi / beams,
-            time_increment=0.0,
-            scan_time=0.1,
-            range_min=0.1,
-            range_max=20.0,
-            ranges=np.full(beams, 8.0, dtype=np.float32),
-            intensities=np.zeros(0, dtype=np.float32),
-        )
-        envs.append(Envelope("/scan", m.LASER_SCAN, t, scan))
-    ex.add_source(envs)
+    ex.add_source(_drive(beams, seconds))
     ex.run()
     ex.finish()
     return seen, node
@@ -137,3 +141,32 @@ def test_a_map_reply_larger_than_the_pipe_does_not_stall_the_scans_behind_it():
     assert done, "the replay stalled: the mapper and its grid process each waited for the other"
     seen, node = done[0]
     assert [t for t, _, _ in seen].count("/map") == 3 and len(node.trajectory) == 50
+
+
+def test_a_map_the_child_has_sent_goes_out_with_the_next_scan():
+    """A /map filled in later holds back what follows it until it is in place: the mapper takes it at
+    the next scan once the child has sent it, not at the next /map two seconds of log later."""
+    import select
+
+    node = occupancy_mapper.OccupancyMapperNode(
+        occupancy_mapper.OccupancyMapperParams(minimum_travel_distance=0.0), grid_process=True
+    )
+    ex = Executor()
+    ex.add_node(node)
+    seen: list[str] = []
+    ex.add_sink(type("Sink", (), {"write": lambda self, env: seen.append(env.topic)})())
+    ex.add_source(_drive(90, 3.0))
+    ex.run(until_ns=1_000_000_000)
+    child = node._updates._child
+    assert child is not None and select.select([child.process.stdout], [], [], 30.0)[0], "the child did not start"
+    ex.run(until_ns=2_000_000_000)  # the scan at 1.1 s hands the grid over; /map at 2 s is asked for
+    assert node._updates.in_child and "/map" not in seen and ex._held
+    for _ in range(3000):  # up to 30 s for the child's reply
+        if child.reply_ready():
+            break
+        select.select([], [], [], 0.01)
+    ex.run(until_ns=2_100_000_000)
+    assert "/map" in seen and not ex._held
+    ex.run()
+    ex.finish()
+    assert seen.count("/map") == 2
