@@ -21,7 +21,8 @@ registration, the maps) in a child process (``odometry_process.OdometryWorker``)
 on with the log; its outputs take their place in the order when it is planned (``Node.defer``) and
 are filled in when it completes, so the outputs are the same bytes in the same order as one frame
 after another here (tested). A frame whose motion needs the constant velocity (no odometry over it)
-waits for the frames before it. The global map comes back from the child when the node finishes.
+waits for the frames before it. The global map comes back from the child when the node finishes (or
+when ``map_points`` asks for it before).
 """
 
 from __future__ import annotations
@@ -497,7 +498,13 @@ class LidarMapperNode(Node):
         return self.odometry.poses()
 
     def map_points(self) -> np.ndarray:
-        return self._maps[0] if self._maps is not None else self.odometry.global_map()
+        """The global map (``LidarOdometry.global_map``) of every frame so far, those in flight completed first."""
+        if self._maps is not None:
+            return self._maps[0]
+        if self._sweeps is not None:
+            self._complete(len(self._inflight))
+            return self._sweeps.global_map()
+        return self.odometry.global_map()
 
     def _chunks(self) -> list[np.ndarray]:
         return self._maps[1] if self._maps is not None else self.odometry.finish_chunks()

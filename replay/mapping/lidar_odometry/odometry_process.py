@@ -32,7 +32,7 @@ from navlog.replay.mapping.lidar_odometry.sweep_process import PreparedSweep, Sw
 
 __all__ = ["OdometryWorker", "serve"]
 
-_INIT, _FRAME, _MAPS = ord("I"), ord("F"), ord("M")
+_INIT, _FRAME, _MAPS, _GLOBAL = ord("I"), ord("F"), ord("M"), ord("G")
 _NO_POINTS, _NO_MOUNT = np.zeros((0, 3)), np.eye(4)
 _CHILD = "from navlog.replay.mapping.lidar_odometry.odometry_process import serve; serve()"
 NAME = "3D odometry process"
@@ -104,17 +104,24 @@ class OdometryWorker:
         return result_from_bytes(self._reply())
 
     def maps(self) -> tuple[np.ndarray, list[np.ndarray]]:
-        """The global map and its chunks (``LidarOdometry.global_map``, ``finish_chunks``), after every
-        result was taken."""
+        """The global map and its chunks (``LidarOdometry.global_map``, ``finish_chunks``: the last
+        chunk is closed), after every result was taken."""
+        points, *chunks = self._ask_maps(_MAPS)
+        return points, chunks
+
+    def global_map(self) -> np.ndarray:
+        """The global map so far (``LidarOdometry.global_map``), after every result was taken; the
+        frames go on."""
+        return self._ask_maps(_GLOBAL)[0]
+
+    def _ask_maps(self, op: int) -> list[np.ndarray]:
         if self._owed:
             raise RuntimeError("frames are still owed")
         if self._child is None:
             raise NavlogError(f"{NAME}: closed")
-        self._child.ask(_MAPS)
+        self._child.ask(op)
         _, arrays = unpack(self._reply())
-        points, *chunks = arrays
-        assert points is not None
-        return points, [c for c in chunks if c is not None]
+        return [a for a in arrays if a is not None]
 
     def close(self) -> None:
         """End the child (it exits when its input closes)."""
@@ -147,6 +154,8 @@ class _Completer:
             return code, result_bytes(result, skipped)
         if code == _MAPS:
             return code, pack(None, [odometry.global_map(), *odometry.finish_chunks()])
+        if code == _GLOBAL:
+            return code, pack(None, [odometry.global_map()])
         raise ValueError(f"unknown request {code}")
 
 
