@@ -76,3 +76,33 @@ def test_the_recipe_check_passes_on_the_same_bytes_or_the_same_layout_only():
     assert recipe_check(baseline("s1", None), "s2", "L").status is Status.FAIL  # a baseline without a layout
     seed = Recipe("walled_room", "kibot", "teleop_wall", 1, True)  # another seed: the same layout, not the same log
     assert recipe_check(baseline("s1", "L"), "s2", "L", seed).status is Status.FAIL
+
+
+def test_on_a_machine_that_rounds_otherwise_only_hash_only_outputs_go_unjudged(tmp_path):
+    """The baseline keeps replay.mcap as a hash and a trajectory it can compare: with the log recorded
+    with other bytes (same layout), replay.mcap's other bytes pass as not judged; the trajectory is still
+    compared, and fails beyond its tolerance. On the baseline's own log, other replay.mcap bytes fail."""
+    from navlog.analysis.ci.baselines import compare_to_baseline, read_baseline, write_baseline
+    from navlog.analysis.diff.tolerances import DEFAULT_TOLERANCES
+
+    def outputs(folder: Path, mcap: bytes, x: float) -> dict[str, Path]:
+        folder.mkdir()
+        (folder / "replay.mcap").write_bytes(mcap)
+        (folder / "trajectory.tum").write_text("".join(f"{k}.0 {x + k} 0 0 0 0 0 1\n" for k in range(5)))
+        return {"replay.mcap": folder / "replay.mcap", "trajectory.tum": folder / "trajectory.tum"}
+
+    write_baseline(tmp_path / "base", outputs(tmp_path / "a", b"one", 0.0), {"log": {}}, label="case")
+    base = read_baseline(tmp_path / "base")
+    assert base is not None
+
+    def statuses(mcap: bytes, x: float, rounds: bool) -> dict[str, tuple[Status, str]]:
+        folder = tmp_path / f"{mcap.decode()}-{x}-{rounds}"
+        found = compare_to_baseline(base, outputs(folder, mcap, x), DEFAULT_TOLERANCES, log_rounds_otherwise=rounds)
+        return {c.name: (c.status, c.message) for c in found}
+
+    other = statuses(b"two", 0.0, rounds=True)
+    assert other["replay.mcap"][0] is Status.PASS and "not judged" in other["replay.mcap"][1]
+    assert other["trajectory.tum"][0] is Status.PASS
+    assert statuses(b"two", 0.0, rounds=False)["replay.mcap"][0] is Status.FAIL
+    assert statuses(b"two", 5.0, rounds=True)["trajectory.tum"][0] is Status.FAIL  # moved 5 m: still judged
+    assert statuses(b"one", 0.0, rounds=True)["replay.mcap"] == (Status.PASS, "same bytes")
