@@ -78,9 +78,10 @@ def _copy_complete_records(src: Path, tmp: Path) -> tuple[int, int | None, int |
         channel_ids: dict[int, int] = {}
         try:
             for rec in StreamReader(f).records:
-                if isinstance(rec, Schema):
+                # the summary section repeats the schemas and channels: each is registered once, by id
+                if isinstance(rec, Schema) and rec.id not in schema_ids:
                     schema_ids[rec.id] = w.register_schema(rec.name, rec.encoding, rec.data)
-                elif isinstance(rec, Channel):
+                elif isinstance(rec, Channel) and rec.id not in channel_ids:
                     channel_ids[rec.id] = w.register_channel(
                         rec.topic, rec.message_encoding, schema_ids.get(rec.schema_id, 0), dict(rec.metadata)
                     )

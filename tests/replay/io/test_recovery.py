@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import struct
 from pathlib import Path
 
 import pytest
@@ -65,12 +66,28 @@ def test_a_cut_file_keeps_exactly_its_complete_chunks(tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fixed.mcap", "run.mcap", "run.mcap.part"]
 
 
-def test_a_whole_file_is_copied_whole(tmp_path: Path) -> None:
+@pytest.mark.parametrize("cut", [None, "summary"])
+def test_a_whole_file_is_copied_whole(tmp_path: Path, cut: str | None) -> None:
+    """A whole file, or one cut in its summary section (killed while finishing it): every message,
+    and each channel once (the summary repeats the schemas and channels)."""
     log = tmp_path / "run.mcap"
     payloads = chatter_log(log)
+    if cut:
+        data = log.read_bytes()
+        # the footer: opcode, length, summary start, summary offset start, crc; then the magic bytes
+        (summary_start,) = struct.unpack_from("<Q", data, len(data) - 8 - 29 + 9)
+        assert 0 < summary_start < len(data) - 200
+        (tmp_path / "cut.mcap").write_bytes(data[: len(data) - 50])  # the summary's schemas and channels, not its end
+        log = tmp_path / "cut.mcap"
     res = recover_mcap(log, tmp_path / "fixed.mcap")
-    assert (res.messages, res.complete, res.bytes_read) == (60, True, log.stat().st_size)
+    assert (res.messages, res.complete) == (60, cut is None)
+    assert res.bytes_read == log.stat().st_size or cut
     assert read_back(tmp_path / "fixed.mcap") == payloads
+    with open_log(tmp_path / "fixed.mcap") as reader:
+        assert {t: i.count for t, i in reader.topics.items()} == {"/chatter": 60}
+    with open(tmp_path / "fixed.mcap", "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None and len(summary.channels) == len(summary.schemas) == 1
 
 
 @pytest.mark.parametrize("keep", ["magic", "header", "half-chunk"])
