@@ -91,14 +91,19 @@ class McapLogReader(LogReader):
                 and ch.message_encoding == "cdr"
                 and self._types.add_schema(typename, schema.data.decode(errors="replace"))
             )
-            self.topics[ch.topic] = TopicInfo(
-                ch.topic, typename, counts.get(cid, 0), known, ch.metadata.get("offered_qos_profiles", "")
-            )
+            self._add_topic(ch, typename, counts.get(cid, 0), known)
         try:
             for name, data in sorted(((m.name, m.metadata) for m in reader.iter_metadata()), key=lambda x: x[0]):
                 self.metadata[name] = dict(data)
         except Exception:
             pass
+
+    def _add_topic(self, ch: Any, typename: str, count: int, known: bool) -> None:
+        """A channel's topic; a topic on several channels (a recorder restarted, a file rewritten) counts the
+        messages of all of them, which are read together."""
+        prev = self.topics.get(ch.topic)
+        count += prev.count if prev is not None else 0
+        self.topics[ch.topic] = TopicInfo(ch.topic, typename, count, known, ch.metadata.get("offered_qos_profiles", ""))
 
     def _records(self) -> Iterator[Any]:
         """Records of a truncated file up to the first incomplete one."""
@@ -139,9 +144,7 @@ class McapLogReader(LogReader):
             schema = schemas.get(ch.schema_id)
             typename = schema.name if schema else ""
             known = schema is not None and self._types.add_schema(typename, schema.data.decode())
-            self.topics[ch.topic] = TopicInfo(
-                ch.topic, typename, counts[cid], known, ch.metadata.get("offered_qos_profiles", "")
-            )
+            self._add_topic(ch, typename, counts[cid], known)
 
     def messages(self, topics=None, *, decode=True, light=(), start_ns=None, end_ns=None) -> Iterator[Envelope]:
         wanted = self._wanted(topics)

@@ -145,3 +145,26 @@ def test_a_write_that_fails_is_one_clear_error_and_leaves_nothing(tmp_path: Path
         recover_mcap(log, tmp_path / "fixed.mcap")
     assert info.type.__name__ == "NavlogError"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap"]
+
+
+@pytest.mark.parametrize("cut", [False, True])
+def test_a_topic_on_two_channels_counts_and_reads_the_messages_of_both(tmp_path: Path, cut: bool) -> None:
+    """A file whose topic is on two channels (as the recovery of a file cut in its summary once wrote):
+    the reader counts and reads the messages of both, from its summary or, cut, by reading it through."""
+    store = messages.typestore()
+    data = [bytes(store.serialize_cdr(store.types[STRING](data=f"m{i}"), STRING)) for i in range(5)]
+    log = tmp_path / "two.mcap"
+    with open(log, "wb") as f:
+        w = Writer(f, compression=CompressionType.ZSTD, chunk_size=64)
+        w.start(profile="ros2", library="test")
+        sid = w.register_schema(STRING, "ros2msg", b"string data")
+        first, second = w.register_channel("/chatter", "cdr", sid), w.register_channel("/chatter", "cdr", sid)
+        for i, d in enumerate(data):
+            w.add_message(first if i < 3 else second, log_time=(i + 1) * 10**8, data=d, publish_time=(i + 1) * 10**8)
+        w.finish()
+    if cut:
+        log.write_bytes(log.read_bytes()[:-60])
+    with open_log(log, recover=cut) as reader:
+        assert reader.report.truncated == cut
+        assert {t: i.count for t, i in reader.topics.items()} == {"/chatter": 5}
+        assert [bytes(e.msg) for e in reader.messages(decode=False)] == data
