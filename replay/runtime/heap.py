@@ -43,26 +43,24 @@ def steady_heap(threshold: int = STEADY_MMAP_THRESHOLD) -> bool:
     global _done
     if _done:
         return True
-    if not sys.platform.startswith("linux"):
+    mallopt = _libc("mallopt", (ctypes.c_int, ctypes.c_int))
+    if mallopt is None:
         return False
-    try:
-        mallopt = ctypes.CDLL(None).mallopt  # the process's own C library
-    except (OSError, AttributeError):
-        return False
-    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
     _done = mallopt(_M_MMAP_THRESHOLD, threshold) == 1
     return _done
 
 
-def _malloc_trim() -> Callable[[], object] | None:
+def _libc(name: str, argtypes: tuple) -> Callable[..., int] | None:
+    """The function ``name`` (returning int) of the process's own C library, on Linux; None elsewhere
+    or where the library has no such function."""
     if not sys.platform.startswith("linux"):
         return None
     try:
-        trim = ctypes.CDLL(None).malloc_trim
+        fn = getattr(ctypes.CDLL(None), name)
     except (OSError, AttributeError):
         return None
-    trim.argtypes, trim.restype = (ctypes.c_size_t,), ctypes.c_int
-    return lambda: trim(0)
+    fn.argtypes, fn.restype = argtypes, ctypes.c_int
+    return fn
 
 
 class HeapTrim:
@@ -71,13 +69,13 @@ class HeapTrim:
     def __init__(self, period_s: float = 0.25) -> None:
         self.period_s = period_s
         self.calls = 0
-        self._trim = _malloc_trim()
+        self._trim = _libc("malloc_trim", (ctypes.c_size_t,))
         self._next = time.perf_counter() + period_s
 
     def __call__(self) -> None:
         """Trim, if ``period_s`` has passed since the last time."""
         if self._trim is None or (now := time.perf_counter()) < self._next:
             return
-        self._trim()
+        self._trim(0)
         self.calls += 1
         self._next = now + self.period_s
