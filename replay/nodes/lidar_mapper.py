@@ -475,10 +475,10 @@ class LidarMapperNode(Node):
             return
         path, frame = self._path, self.params.map_frame
         added = (
-            (t // 1_000_000_000, t % 1_000_000_000, frame, *m[:3, 3], *matrix_to_quat(m[:3, :3]))
+            (*divmod(t, 1_000_000_000), frame, *m[:3, 3], *matrix_to_quat(m[:3, :3]))
             for t, m in zip(stamps[len(path) :], poses[len(path) :])
         )
-        msg: Any = path.encode((stamps[-1] // 1_000_000_000, stamps[-1] % 1_000_000_000, frame), added)
+        msg: Any = path.encode((*divmod(stamps[-1], 1_000_000_000), frame), added)
         if self.executor.read_by_nodes([self.params.path_topic]):
             msg = messages.deserialize(msg, messages.PATH)
         publish(self.params.path_topic, messages.PATH, msg)
