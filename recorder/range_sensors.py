@@ -19,9 +19,16 @@ of the ring when it looks for results (``ready``, ``result``, and while a reques
 its pipe), and stores the count of results taken in the shared memory's first 8 bytes, so the
 child never writes over a result not yet taken. A result that finds no room (the simulator fell
 far behind, or a result larger than the ring) comes through the result pipe after its note
-instead. So the child never waits on the simulator's process to write a result (no thread there has
-to take the GIL to read it), and the simulator never waits on the child while a result is due: each
-side only waits for work to do. The noise streams are the child's, drawn in request order: the same
+instead. Requests the pipe has no room for yet (the child is still importing Open3D, or fell behind)
+wait in a queue in the simulator's process and go into the pipe as it drains, so the simulation runs
+on meanwhile. So the child never waits on the simulator's process to write a result (no thread there
+has to take the GIL to read it), and the simulator never waits on the child while a result is due:
+each side only waits for work to do.
+
+When the simulation has ended and only waits for the results still to come (``ending``), it says so
+in the shared memory's next 8 bytes, and the child casts the rays of the rest on every core instead
+of one (Open3D gives the same numbers either way): the simulator's process leaves a core idle then.
+During the run each side keeps to one core: the simulator's threads have the other. The noise streams are the child's, drawn in request order: the same
 numbers, so the same bytes, as in the simulator's process. The child is in a process group of its
 own and ignores SIGINT (Ctrl-C stops the recording, which then ends the child), and it ends when its
 request pipe closes, also when the simulator's process is killed (the memory file goes with the
@@ -74,8 +81,9 @@ _LIDAR_REQUEST = struct.Struct("<qqIB")  # stamp, frame index, pose count, raw; 
 _NOTE = struct.Struct("<IIQ")
 _IN_RING, _INLINE = 0, 1
 # the shared file: the count of results the simulator has taken (uint64, at offset 0: an aligned 8-byte store
-# and load, never seen half-written), then the ring
+# and load, never seen half-written), whether the simulation has ended (uint64, at offset 8), then the ring
 _RING_AT = 64
+_COPIED, _ENDING = 0, 1  # the header's two words
 RING_RESULTS = 8  # the ring holds this many of the largest results the sensors can give (go2: 2 MB)
 # the worker's numpy on one thread: its small matrix products gain nothing from more, and OpenBLAS's idle
 # threads spin for a while after each, taking CPU time from the simulator's process (Open3D casts on one)
@@ -255,6 +263,9 @@ class InProcessSensors:
     def result(self, ticket: int) -> Any:
         return self._results.pop(ticket)
 
+    def ending(self) -> None:
+        """Nothing is still to come here: each request was computed when it was made."""
+
     def close(self) -> None:
         self._results.clear()
 
@@ -295,11 +306,15 @@ class SensorWorker:
         finally:
             for fd in (req_r, res_w, *passed):  # the child's ends: only its own copies keep them open now
                 os.close(fd)
-        self._copied_count = np.frombuffer(self._shared, np.uint64, 1)  # read by the worker (module docstring)
+        self._header = np.frombuffer(self._shared, np.uint64, 2)  # read by the worker (module docstring)
         self._req, self._res = req_w, res_r
-        os.set_blocking(req_w, False)  # a full request pipe is waited on beside the results (``_send``)
+        os.set_blocking(req_w, False)  # a full request pipe is waited on beside the results (``_write``)
         self._poll = select.poll()
         self._poll.register(res_r, select.POLLIN)
+        self._both = select.poll()  # room for a request, or a result to take
+        self._both.register(req_w, select.POLLOUT)
+        self._both.register(res_r, select.POLLIN)
+        self._unsent: deque[tuple[int, memoryview]] = deque()  # (ticket, framed bytes) the pipe had no room for
         self._next = 0  # ticket of the next request
         self._copied = 0  # results taken out of the ring or the pipe, in request order
         self._ready: dict[int, bytes] = {}  # taken, not yet asked for
@@ -308,29 +323,39 @@ class SensorWorker:
         self._closed = False
         self._send(_spec_bytes(spec))
 
-    def _send(self, data: bytes) -> None:
-        """One request, framed as ``multiprocessing.connection`` frames it (the worker reads it so). While the
-        pipe is full the results are taken meanwhile, so that the worker, writing one, never waits on this."""
-        view = memoryview(_FRAME.pack(len(data)) + data)
-        ends = select.poll()
-        ends.register(self._req, select.POLLOUT)
-        ends.register(self._res, select.POLLIN)
-        while view:
+    def _send(self, data: bytes, ticket: int = -1) -> None:
+        """Queue one request, framed as ``multiprocessing.connection`` frames it (the worker reads it so), and
+        put what the pipe has room for into it now: the simulation does not wait for the worker to read."""
+        self._unsent.append((ticket, memoryview(_FRAME.pack(len(data)) + data)))
+        self._write(until=None)
+
+    def _write(self, until: int | None) -> None:
+        """Put the queued requests into the pipe while it has room; with ``until`` (a ticket), wait for room
+        until that request is in, taking the results meanwhile, so that the worker, writing one, never waits
+        on this."""
+        unsent = self._unsent
+        while unsent:
+            ticket, view = unsent[0]
             try:
                 view = view[os.write(self._req, view) :]
-                continue
             except BlockingIOError:
-                pass
+                if until is None or ticket > until:
+                    return
+                for fd, _ in self._both.poll():
+                    if fd == self._res and not self._take():
+                        raise self._died() from None
+                continue
             except OSError:  # the worker is gone (EPIPE)
                 raise self._died() from None
-            for fd, _ in ends.poll():
-                if fd == self._res and not self._take():
-                    raise self._died()
+            if view:
+                unsent[0] = (ticket, view)
+            else:
+                unsent.popleft()
 
     def request(self, kind: str, args: tuple) -> int:
-        self._send(_request_bytes(kind, args))
         ticket = self._next
         self._next += 1
+        self._send(_request_bytes(kind, args), ticket)
         return ticket
 
     def _take(self) -> bool:
@@ -351,7 +376,7 @@ class SensorWorker:
             self.piped += 1
         self._ready[self._copied] = data
         self._copied += 1
-        self._copied_count[0] = self._copied
+        self._header[_COPIED] = self._copied
         return True
 
     def _read(self, n: int) -> bytes | None:
@@ -369,14 +394,18 @@ class SensorWorker:
 
     def ready(self, ticket: int) -> bool:
         """True when the result of request ``ticket`` has come (``result`` returns it without waiting)."""
+        if self._unsent:
+            self._write(until=None)
         while ticket not in self._ready and not self._ended and self._poll.poll(0):
             self._take()
         return ticket in self._ready or self._ended
 
     def result(self, ticket: int) -> Any:
         """The result of request ``ticket``, waiting for it."""
-        while ticket not in self._ready and not self._ended and ticket < self._next:
-            self._take()
+        if ticket not in self._ready and not self._ended and ticket < self._next:
+            self._write(until=ticket)
+            while ticket not in self._ready and not self._ended:
+                self._take()
         data = self._ready.pop(ticket, None)
         if data is None:
             raise self._died()
@@ -398,6 +427,11 @@ class SensorWorker:
             f"(exit code {self._process.returncode}); the recording stops here"
         )
 
+    def ending(self) -> None:
+        """The simulation has ended and only waits for the results still to come: the worker casts them on
+        every core (module docstring)."""
+        self._header[_ENDING] = 1
+
     def close(self) -> None:
         """End the child: close its pipes (it exits on that, also when writing a result) and wait for it."""
         if self._closed:
@@ -411,7 +445,8 @@ class SensorWorker:
             self._process.kill()
             self._process.wait()
         self._ready.clear()
-        del self._copied_count  # the last view of the mapping, which can then be closed
+        self._unsent.clear()
+        del self._header  # the last view of the mapping, which can then be closed
         self._shared.close()
 
 
@@ -462,7 +497,7 @@ def serve(req_fd: int, res_fd: int, shm_fd: int) -> None:
     shared = bytearray(_RING_AT) if shm_fd < 0 else mmap.mmap(shm_fd, 0)  # no shared memory: no ring
     if shm_fd >= 0:
         os.close(shm_fd)
-    copied = np.frombuffer(shared, np.uint64, 1)  # results the simulator has taken
+    header = np.frombuffer(shared, np.uint64, 2)  # results the simulator has taken; whether it has ended
     ring = _Ring(len(shared) - _RING_AT)
     try:
         ranges = RangeSensors(_spec_from_bytes(requests.recv_bytes()))
@@ -472,10 +507,11 @@ def serve(req_fd: int, res_fd: int, shm_fd: int) -> None:
                 kind, args = _request_from_bytes(requests.recv_bytes())
             except EOFError:
                 return
+            ranges.caster.threads = 0 if header[_ENDING] else 1  # 0: Open3D's every core (module docstring)
             out = ranges.compute(kind, args)
             if not isinstance(out, bytes):
                 out = _pack_arrays(out if isinstance(out, dict) else {"": out})
-            at = ring.place(ticket, len(out), int(copied[0]))
+            at = ring.place(ticket, len(out), int(header[_COPIED]))
             if at is None:
                 _write_all(res_fd, _NOTE.pack(_INLINE, len(out), 0))
                 _write_all(res_fd, out)

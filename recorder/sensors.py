@@ -35,7 +35,9 @@ def mount_matrix(mount: Mount) -> np.ndarray:
 
 
 class RayCaster:
-    """Casts rays against a static triangle mesh; returns distances (inf for no hit) and normals."""
+    """Casts rays against a static triangle mesh; returns distances (inf for no hit) and normals.
+
+    ``threads``: Open3D's threads for a cast (1; 0 for every core). Each ray's result is the same either way."""
 
     def __init__(self, mesh) -> None:
         import open3d as o3d
@@ -43,12 +45,13 @@ class RayCaster:
         self._o3d = o3d
         self.scene = o3d.t.geometry.RaycastingScene()
         self.scene.add_triangles(o3d.t.geometry.TriangleMesh.from_legacy(mesh))
+        self.threads = 1
 
     def _cast(self, origins: np.ndarray, directions: np.ndarray) -> dict:
         rays = np.empty((len(directions), 6), dtype=np.float32)
         rays[:, :3] = origins
         rays[:, 3:] = directions
-        return self.scene.cast_rays(self._o3d.core.Tensor.from_numpy(rays), nthreads=1)
+        return self.scene.cast_rays(self._o3d.core.Tensor.from_numpy(rays), nthreads=self.threads)
 
     def cast(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         out = self._cast(origins, directions)
@@ -56,7 +59,7 @@ class RayCaster:
 
     def cast_rays(self, rays: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``cast`` of rays already laid out as Open3D takes them: float32 (N, 6), origin then direction."""
-        out = self.scene.cast_rays(self._o3d.core.Tensor.from_numpy(rays), nthreads=1)
+        out = self.scene.cast_rays(self._o3d.core.Tensor.from_numpy(rays), nthreads=self.threads)
         return out["t_hit"].numpy().astype(np.float64), out["primitive_normals"].numpy().astype(np.float64)
 
     def cast_distances(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
@@ -215,13 +218,13 @@ def _run_rays(
         # transposed rotations made contiguous, which BLAS multiplies several times faster
         rot_t = np.ascontiguousarray(stack[:, :3, :3].transpose(0, 2, 1))
         np.matmul(dirs[start:end].reshape(k, length, 3), rot_t, out=world_dirs[start:end].reshape(k, length, 3))
-        rays[start:end, :3].reshape(k, length, 3)[:] = stack[:, None, :3, 3].astype(np.float32)
+        rays[start:end, :3].reshape(k, length, 3)[:] = stack[:, None, :3, 3]
     else:
         for i, a, b in runs:
             pose = poses[i][1]
             np.matmul(dirs[a:b], pose[:3, :3].T, out=world_dirs[a:b])
             rays[a:b, :3] = pose[:3, 3]
-    rays[:, 3:] = world_dirs.astype(np.float32)  # rounded where it is contiguous: faster than while strided
+    rays[:, 3:] = world_dirs  # rounded to float32 as they are copied (as astype rounds), with no array between
     return world_dirs, rays
 
 

@@ -79,12 +79,13 @@ EVENTS_TOPIC = "/navlog/events"
 CONTACT_GAP_NS = 100_000_000  # a contact episode ends after this long without touching (pressing on a wall flickers)
 CLOCK_PERIOD_NS = 10_000_000  # /clock at 100 Hz
 # raw scans or sweeps of a sensor the simulation may have asked the worker for and not received (module
-# docstring): 20 s of sim time at 10 Hz, so that the simulation runs on while the worker starts (it imports
-# Open3D: about 0.7 s, 20-30 s of sim time) or falls behind for a while. What that holds is bounded by it:
-# the messages published behind the oldest pending one (about 500 a second of sim time, 0.1 MB of CDR, with
-# the IMU at 200 Hz: at most 10000 and 2 MB; measured on the mapping tour: at most 4000, 0.9 MB) and the
-# requests in their pipe (3 kB a sweep: at most the pipe's 1 MiB, then the simulation waits for the worker)
-MAX_AHEAD = 200
+# docstring): 50 s of sim time at 10 Hz, so that the simulation runs on while the worker starts (it imports
+# Open3D: about 0.35 s, in which the simulation alone covers 30-40 s of sim time) or falls behind for a while.
+# What that holds is bounded by it: the messages published behind the oldest pending one (about 500 a second
+# of sim time, 0.12 MB of CDR, with the IMU at 200 Hz: at most 25000 and 6 MB; measured on the mapping tour:
+# up to 24000, 6 MB; the process's peak 214 MB, against 200 MB when this was 200) and the requests not yet
+# read by the worker (3 kB a sweep: at most 3 MB)
+MAX_AHEAD = 500
 _ZEROS36 = (0.0,) * 36  # the covariances of the simulator's odometry
 _HOMOGENEOUS_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
@@ -602,6 +603,7 @@ class SimNode(Node):
     def finish(self) -> None:
         """Fill the raw results still to come, in request order, and end the sensor worker."""
         if self._ranges is not None:
+            self._ranges.ending()
             for late in sorted((*self._late[SCAN], *self._late[LIDAR]), key=lambda h: h[0]):
                 self._fill(*late)
         for held in self._late.values():

@@ -215,8 +215,8 @@ def _sweep_request(t_ns: int, frame: int, x: float) -> tuple:
 def test_results_come_through_the_ring_or_the_pipe_with_the_same_bytes(ring_bytes, monkeypatch) -> None:
     """Scans (3 kB) and sweeps (250 kB) in the default ring, scans only in a ring of 8 kB, and everything
     through the pipe with no ring, or no shared memory at all (a file-size limit of 0 forbids it); the
-    requests sent without waiting fill the request pipe (400 sweeps of 2.8 kB: more than its 1 MiB), so
-    the results must be taken while they are sent."""
+    requests, made without waiting, are more than the request pipe holds (400 sweeps of 2.8 kB: more than
+    its 1 MiB), so the results must be taken while the queued ones are sent."""
     if ring_bytes == "no shared memory":
         monkeypatch.setattr(range_sensors, "_shared_file", lambda size: None)
         ring_bytes = None
@@ -249,4 +249,46 @@ def test_results_come_through_the_ring_or_the_pipe_with_the_same_bytes(ring_byte
     assert all(isinstance(g, bytes) for g in got) and got == expected
     assert len(got[0]) > 200_000 and len(got[1]) < 4000  # a sweep of 16 x 720 points, a scan of 720 ranges
     assert worker.piped == piped
+    assert worker._process.returncode == 0
+
+
+def test_requests_the_pipe_has_no_room_for_wait_in_this_process_while_the_worker_is_stopped() -> None:
+    """The worker stopped (as if still importing Open3D): 400 sweeps of 2.8 kB are more than the request
+    pipe's 1 MiB, yet every request returns at once, the rest queued here; resumed, the worker answers
+    them all, in order, with the bytes of one process."""
+    world, robot = load_world("indoor_room"), load_robot("go2")
+    here = start_range_sensors(world, robot, 5, True, worker=False)
+    worker = SensorWorker(here.sensors.spec)  # type: ignore[union-attr]
+    requests = [(LIDAR, _sweep_request(k * 100_000_000, k, 0.001 * k)) for k in range(400)]
+    os.kill(worker._process.pid, signal.SIGSTOP)
+    try:
+        tickets = [worker.request(kind, args) for kind, args in requests]
+        assert tickets == list(range(400))
+        queued = len(worker._unsent)
+        assert 400 - 1024 * 1024 // 2900 <= queued < 400  # the pipe took what it holds, no more
+        assert not worker.ready(0)
+    finally:
+        os.kill(worker._process.pid, signal.SIGCONT)
+    try:
+        got = [worker.result(t) for t in tickets]
+    finally:
+        worker.close()
+    assert not worker._unsent
+    assert got == [here.result(here.request(kind, args)) for kind, args in requests]
+
+
+def test_once_the_simulation_has_ended_the_worker_casts_on_every_core_with_the_same_bytes() -> None:
+    world, robot = load_world("indoor_room"), load_robot("go2")
+    here = start_range_sensors(world, robot, 5, True, worker=False)
+    worker = SensorWorker(here.sensors.spec)  # type: ignore[union-attr]
+    requests = [(LIDAR, _sweep_request(k * 100_000_000, k, 0.01 * k)) for k in range(6)]
+    try:
+        first = [worker.result(worker.request(kind, args)) for kind, args in requests[:3]]
+        worker.ending()
+        assert worker._header[range_sensors._ENDING] == 1  # read by the worker before each request
+        rest = [worker.result(worker.request(kind, args)) for kind, args in requests[3:]]
+    finally:
+        worker.close()
+    here.ending()  # in one process there is nothing still to come: no change
+    assert first + rest == [here.result(here.request(kind, args)) for kind, args in requests]
     assert worker._process.returncode == 0
