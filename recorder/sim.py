@@ -83,7 +83,7 @@ CLOCK_PERIOD_NS = 10_000_000  # /clock at 100 Hz
 # Open3D: about 0.35 s, in which the simulation alone covers 30-40 s of sim time) or falls behind for a while.
 # What that holds is bounded by it: the messages published behind the oldest pending one (about 500 a second
 # of sim time, 0.12 MB of CDR, with the IMU at 200 Hz: at most 25000 and 6 MB; measured on the mapping tour:
-# up to 24000, 6 MB; the process's peak 214 MB, against 200 MB when this was 200) and the requests not yet
+# up to 24000, 6 MB; the peak RSS of `navlog record` stayed at 200 MB, as with 200) and the requests not yet
 # read by the worker (3 kB a sweep: at most 3 MB)
 MAX_AHEAD = 500
 _ZEROS36 = (0.0,) * 36  # the covariances of the simulator's odometry
