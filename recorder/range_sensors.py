@@ -15,8 +15,8 @@ never imports Open3D. Requests (a few kB: the stamp and poses) go through a pipe
 shared memory: a ring of ``RING_RESULTS`` of the largest results, in a memory file both processes
 map. The child writes each result into the ring, in request order and in one piece, and then a
 16-byte note (where, how long) into a result pipe; the simulator takes a result by copying it out
-of the ring when it looks for results (``ready``, ``result``, and while a request waits for room in
-its pipe), and stores the count of results taken in the shared memory's first 8 bytes, so the
+of the ring when it looks for results (``ready``, ``result``, and while it waits for room in the
+request pipe), and stores the count of results taken in the shared memory's first 8 bytes, so the
 child never writes over a result not yet taken. A result that finds no room (the simulator fell
 far behind, or a result larger than the ring) comes through the result pipe after its note
 instead. Requests the pipe has no room for yet (the child is still importing Open3D, or fell behind)
@@ -28,8 +28,10 @@ each side only waits for work to do.
 When the simulation has ended and only waits for the results still to come (``ending``), it says so
 in the shared memory's next 8 bytes, and the child casts the rays of the rest on every core instead
 of one (Open3D gives the same numbers either way): the simulator's process leaves a core idle then.
-During the run each side keeps to one core: the simulator's threads have the other. The noise streams are the child's, drawn in request order: the same
-numbers, so the same bytes, as in the simulator's process. The child is in a process group of its
+During the run the child casts on one core: the simulator's threads have the other.
+
+The noise streams are the child's, drawn in request order: the same numbers, so the same bytes, as
+in the simulator's process. The child is in a process group of its
 own and ignores SIGINT (Ctrl-C stops the recording, which then ends the child), and it ends when its
 request pipe closes, also when the simulator's process is killed (the memory file goes with the
 last process that maps it). An error in the child, or its death, is raised in the simulator as a
