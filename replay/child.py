@@ -13,8 +13,9 @@ JSON: ``pack`` and ``unpack`` make and read such a payload); nothing is unpickle
 - ``serve`` (the child's side) says it is ready, then passes each request to a handler and writes
   the handler's reply, if any, until its input ends.
 
-The child ignores SIGINT (a Ctrl-C stops the replay, which closes the pipes) and exits when its input
-closes, so an interrupted or failed replay leaves no process behind. An exception in the handler
+The child runs in a process group of its own and ignores SIGINT (a Ctrl-C stops the replay, which
+closes the pipes) and exits when its input closes, so an interrupted or failed replay leaves no
+process behind. An exception in the handler
 comes back as ``NavlogError`` with its traceback; a child that died is named with its exit code.
 """
 
@@ -53,8 +54,15 @@ class ChildProcess:
 
     def __init__(self, name: str, code: str) -> None:
         self.name = name  # how errors name it: "occupancy grid process"
+        # a process group of its own: a Ctrl-C in the terminal reaches the replay only, which ends the child
+        # by closing its pipes; in the replay's group, a child still starting (before its code ignores
+        # SIGINT) died with "Fatal Python error" and a traceback on the terminal
         self.process: subprocess.Popen | None = subprocess.Popen(
-            [sys.executable, "-c", _QUIET + code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, bufsize=0
+            [sys.executable, "-c", _QUIET + code],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            bufsize=0,
+            process_group=0,
         )
         self.owed = 0  # replies asked for and not yet given by ``reply``
         self._early: deque[tuple[int, bytearray]] = deque()  # replies read while sending

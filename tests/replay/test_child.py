@@ -4,6 +4,7 @@ an error ending it, a parent gone), and a parent that asks a real child in order
 from __future__ import annotations
 
 import io
+import os
 
 import pytest
 
@@ -74,3 +75,14 @@ def test_a_parent_asks_a_real_child_and_takes_the_replies_in_order():
     assert child.process is None
     with pytest.raises(NavlogError, match=r"echo process \(pid \?\) ended unexpectedly"):
         child.send(ord("A"), b"")
+
+
+def test_the_child_has_a_process_group_of_its_own_so_a_terminal_ctrl_c_reaches_the_replay_only():
+    child = ChildProcess("echo process", ECHO)
+    try:
+        assert child.pid is not None
+        assert os.getpgid(child.pid) == child.pid != os.getpgid(0)
+        child.ask(ord("A"), b"x")
+        assert bytes(child.reply()) == b"xx"  # it answers as before
+    finally:
+        child.close()
