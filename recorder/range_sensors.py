@@ -20,15 +20,16 @@ request pipe), and stores the count of results taken in the shared memory's firs
 child never writes over a result not yet taken. A result that finds no room (the simulator fell
 far behind, or a result larger than the ring) comes through the result pipe after its note
 instead. Requests the pipe has no room for yet (the child is still importing Open3D, or fell behind)
-wait in a queue in the simulator's process and go into the pipe as it drains, so the simulation runs
-on meanwhile. So the child never waits on the simulator's process to write a result (no thread there
+wait in a queue in the simulator's process, and go into the pipe as far as it has room each time the
+simulator makes a request or looks for results, so the simulation runs on meanwhile. So the child never waits on the simulator's process to write a result (no thread there
 has to take the GIL to read it), and the simulator never waits on the child while a result is due:
 each side only waits for work to do.
 
 When the simulation has ended and only waits for the results still to come (``ending``), it says so
 in the shared memory's next 8 bytes, and the child casts the rays of the rest on every core instead
 of one (Open3D gives the same numbers either way): the simulator's process leaves a core idle then.
-During the run the child casts on one core: the simulator's threads have the other.
+During the run the child casts on one core: the simulator's threads have the other. (Without shared
+memory the child never hears of it and casts on one core to the end.)
 
 The noise streams are the child's, drawn in request order: the same numbers, so the same bytes, as
 in the simulator's process. The child is in a process group of its
@@ -345,10 +346,10 @@ class SensorWorker:
                     return
                 for fd, _ in self._both.poll():
                     if fd == self._res and not self._take():
-                        raise self._died() from None
+                        raise self._gone() from None
                 continue
             except OSError:  # the worker is gone (EPIPE)
-                raise self._died() from None
+                raise self._gone() from None
             if view:
                 unsent[0] = (ticket, view)
             else:
@@ -416,11 +417,24 @@ class SensorWorker:
         if data[0] == _ARRAYS:
             arrays = _unpack_arrays(data)
             return arrays[""] if list(arrays) == [""] else arrays  # a scan's ranges, or a sweep's columns
+        raise self._failed(data)
+
+    def _failed(self, error: bytes) -> NavlogError:
         self.close()
-        raise NavlogError(
+        return NavlogError(
             f"sensor worker (the laser and LiDAR process, pid {self._process.pid}) failed:\n"
-            f"{data[1:].decode(errors='replace')}"
+            f"{error[1:].decode(errors='replace')}"
         )
+
+    def _gone(self) -> NavlogError:
+        """The error of a worker whose pipes broke: its own, with its traceback, when it failed on a request
+        (it writes that and ends), else that it ended unexpectedly."""
+        while not self._ended and self._take():  # what it wrote before it ended, up to the pipe's end
+            pass
+        for data in self._ready.values():
+            if data[:1] == _ERROR:
+                return self._failed(data)
+        return self._died()
 
     def _died(self) -> NavlogError:
         self.close()
@@ -432,7 +446,8 @@ class SensorWorker:
     def ending(self) -> None:
         """The simulation has ended and only waits for the results still to come: the worker casts them on
         every core (module docstring)."""
-        self._header[_ENDING] = 1
+        if not self._closed:
+            self._header[_ENDING] = 1
 
     def close(self) -> None:
         """End the child: close its pipes (it exits on that, also when writing a result) and wait for it."""

@@ -84,7 +84,7 @@ CLOCK_PERIOD_NS = 10_000_000  # /clock at 100 Hz
 # What that holds is bounded by it: the messages published behind the oldest pending one (about 500 a second
 # of sim time, 0.12 MB of CDR, with the IMU at 200 Hz: at most 25000 and 6 MB; measured on the mapping tour:
 # up to 24000, 6 MB; the peak RSS of `navlog record` stayed at 200 MB, as with 200) and the requests not yet
-# read by the worker (3 kB a sweep: at most 3 MB)
+# read by the worker (3 kB a sweep: at most 2 MB)
 MAX_AHEAD = 500
 _ZEROS36 = (0.0,) * 36  # the covariances of the simulator's odometry
 _HOMOGENEOUS_ROW = np.array([0.0, 0.0, 0.0, 1.0])

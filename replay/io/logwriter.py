@@ -7,9 +7,7 @@ finished name is always a whole file. An existing output is refused unless ``for
 (zstd and file I/O release the GIL, so they run on another core beside the caller). Messages reach
 it in batches through a bounded queue, so memory stays flat however far the caller runs ahead; the
 thread writes them in the order given, so the file is byte for byte the one the caller's thread
-would write. On Linux the thread runs at a lower priority than its caller (``WRITER_NICE``): its work
-can wait, the queue bounds how long, while the threads and processes that make the messages are
-what a run waits for (a recording of the mapping tour, paired runs: 3-5 % less wall time). Message objects are serialized by the caller, before ``write`` returns: a publisher may
+would write. Message objects are serialized by the caller, before ``write`` returns: a publisher may
 reuse its objects. A write error in the thread is raised by the next ``write`` or by ``close``.
 
 Bulk sensor data (point clouds and images, ``BULK_TYPES``) gets chunks of its own: once a log has a
@@ -29,7 +27,6 @@ from __future__ import annotations
 
 import os
 import queue
-import sys
 import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -57,7 +54,6 @@ def check_output(path: Path, force: bool) -> None:
 
 
 ZSTD_LEVEL = 2  # zstd level of the chunks (module docstring)
-WRITER_NICE = 5  # the writer thread's nice value above its caller's (module docstring)
 
 
 class _ZstdLevel(threading.local):
@@ -111,18 +107,6 @@ BULK_TYPES = frozenset(
         "livox_ros_driver2/msg/CustomMsg",
     }
 )
-
-
-def _lower_priority(step: int) -> None:
-    """Raise the calling thread's nice value by ``step`` (on Linux a thread has its own; elsewhere, where
-    it is the whole process's, nothing changes)."""
-    if not sys.platform.startswith("linux"):
-        return
-    tid = threading.get_native_id()
-    try:
-        os.setpriority(os.PRIO_PROCESS, tid, os.getpriority(os.PRIO_PROCESS, tid) + step)
-    except OSError:  # not allowed here: the thread keeps its caller's priority
-        pass
 
 
 class McapLogWriter:
@@ -287,7 +271,6 @@ class McapLogWriter:
 
     def _drain(self) -> None:
         _LEVEL.level = ZSTD_LEVEL  # the writer's own thread
-        _lower_priority(WRITER_NICE)
         put = self._put
         while (batch := self._queue.get()) is not None:
             if self._error is not None:

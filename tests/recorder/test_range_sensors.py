@@ -253,42 +253,68 @@ def test_results_come_through_the_ring_or_the_pipe_with_the_same_bytes(ring_byte
 
 
 def test_requests_the_pipe_has_no_room_for_wait_in_this_process_while_the_worker_is_stopped() -> None:
-    """The worker stopped (as if still importing Open3D): 400 sweeps of 2.8 kB are more than the request
-    pipe's 1 MiB, yet every request returns at once, the rest queued here; resumed, the worker answers
-    them all, in order, with the bytes of one process."""
+    """The worker stopped (as if still importing Open3D): 400 sweeps of 3 kB are more than the request
+    pipe holds (1 MiB, one 4 KiB page a request), yet every request returns at once, the rest queued
+    here; resumed, the worker answers them all, in order, with the bytes of one process."""
     world, robot = load_world("indoor_room"), load_robot("go2")
     here = start_range_sensors(world, robot, 5, True, worker=False)
     worker = SensorWorker(here.sensors.spec)  # type: ignore[union-attr]
     requests = [(LIDAR, _sweep_request(k * 100_000_000, k, 0.001 * k)) for k in range(400)]
-    os.kill(worker._process.pid, signal.SIGSTOP)
     try:
-        tickets = [worker.request(kind, args) for kind, args in requests]
-        assert tickets == list(range(400))
-        queued = len(worker._unsent)
-        assert 400 - 1024 * 1024 // 2900 <= queued < 400  # the pipe took what it holds, no more
-        assert not worker.ready(0)
-    finally:
-        os.kill(worker._process.pid, signal.SIGCONT)
-    try:
+        os.kill(worker._process.pid, signal.SIGSTOP)
+        try:
+            tickets = [worker.request(kind, args) for kind, args in requests]
+            assert tickets == list(range(400))
+            assert 400 - (1 << 20) // 4096 <= len(worker._unsent) < 400  # the pipe took what it holds
+            assert not worker.ready(0)
+        finally:
+            os.kill(worker._process.pid, signal.SIGCONT)
         got = [worker.result(t) for t in tickets]
+        assert not worker._unsent
     finally:
         worker.close()
-    assert not worker._unsent
     assert got == [here.result(here.request(kind, args)) for kind, args in requests]
 
 
+def _helper_threads_cpu_ticks(pid: int) -> int:
+    """CPU time (clock ticks) of a process's threads other than its main one."""
+    ticks = 0
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        if int(tid) != pid:
+            fields = Path(f"/proc/{pid}/task/{tid}/stat").read_text().rsplit(")", 1)[1].split()
+            ticks += int(fields[11]) + int(fields[12])
+    return ticks
+
+
 def test_once_the_simulation_has_ended_the_worker_casts_on_every_core_with_the_same_bytes() -> None:
+    """150 sweeps before ``ending``, 150 after: the same bytes as one process, and with more than one
+    CPU only the later ones keep the worker's other threads busy (Open3D's, about 7 ticks)."""
     world, robot = load_world("indoor_room"), load_robot("go2")
     here = start_range_sensors(world, robot, 5, True, worker=False)
     worker = SensorWorker(here.sensors.spec)  # type: ignore[union-attr]
-    requests = [(LIDAR, _sweep_request(k * 100_000_000, k, 0.01 * k)) for k in range(6)]
+    requests = [(LIDAR, _sweep_request(k * 100_000_000, k, 0.001 * k)) for k in range(300)]
     try:
-        first = [worker.result(worker.request(kind, args)) for kind, args in requests[:3]]
+        first = [worker.result(worker.request(kind, args)) for kind, args in requests[:150]]
+        before = _helper_threads_cpu_ticks(worker._process.pid)
         worker.ending()
-        assert worker._header[range_sensors._ENDING] == 1  # read by the worker before each request
-        rest = [worker.result(worker.request(kind, args)) for kind, args in requests[3:]]
+        rest = [worker.result(worker.request(kind, args)) for kind, args in requests[150:]]
+        after = _helper_threads_cpu_ticks(worker._process.pid)
     finally:
         worker.close()
+    worker.ending()  # after close: nothing
     here.ending()  # in one process there is nothing still to come: no change
     assert first + rest == [here.result(here.request(kind, args)) for kind, args in requests]
+    assert worker._process.returncode == 0
+    if len(os.sched_getaffinity(0)) > 1:
+        assert before <= 1 < after
+
+
+def test_requests_after_the_worker_failed_raise_its_error_not_a_broken_pipe() -> None:
+    worker = _worker()
+    worker.request("lidar", (0, 0, (0.0,), np.zeros((0, 4, 4)), True))  # the worker fails on it and ends
+    worker._process.wait(timeout=60)
+    pose = np.eye(4)
+    with pytest.raises(NavlogError, match=r"sensor worker \(the laser and LiDAR process, pid \d+\) failed:") as info:
+        worker.request(SCAN, (0, pose, True))  # its pipe is broken
+    assert "Traceback" in str(info.value) and "ValueError" in str(info.value)
     assert worker._process.returncode == 0

@@ -3,10 +3,6 @@
 from __future__ import annotations
 
 import errno
-import os
-import sys
-import threading
-import time
 from pathlib import Path
 
 import numpy as np
@@ -240,21 +236,3 @@ def test_chunks_are_zstd_level_2_and_read_back_through_both_readers(tmp_path: Pa
     with open(path, "rb") as f:
         got = [(ch.topic, m.log_time, m.data) for _, ch, m in make_reader(f).iter_messages(log_time_order=True)]
     assert got == expected
-
-
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="a thread's own nice value is Linux's")
-def test_the_writer_thread_runs_below_its_callers_priority_and_the_caller_keeps_its_own(tmp_path: Path) -> None:
-    me = threading.get_native_id()
-    before = os.getpriority(os.PRIO_PROCESS, me)
-    w = McapLogWriter(tmp_path / "nice.mcap", background=True)
-    try:
-        assert w._thread is not None and w._thread.native_id is not None
-        tid = w._thread.native_id
-        expected = min(19, before + logwriter.WRITER_NICE)
-        deadline = time.monotonic() + 10
-        while os.getpriority(os.PRIO_PROCESS, tid) != expected and time.monotonic() < deadline:
-            time.sleep(0.01)  # the thread lowers its priority as it starts
-        assert os.getpriority(os.PRIO_PROCESS, tid) == expected
-        assert os.getpriority(os.PRIO_PROCESS, me) == before
-    finally:
-        w.close()
