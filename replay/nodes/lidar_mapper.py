@@ -17,7 +17,7 @@ when the next cloud arrives, whichever is first, so the same message order alway
 Frames completed in a child process: when no node reads those outputs and this process may use two
 CPUs, each frame is planned here (its checks, and its motions from the IMU and odometry tracks:
 ``LidarOdometry.plan``) and its sweep prepared (deskewed, voxel-filtered), then completed (the
-registration, the maps) in a child process (``odometry_process.OdometryWorker``) while this one goes
+registration, the maps) in a child process (``navlog.replay.workers.odometry.OdometryWorker``) while this one goes
 on with the log; its outputs take their place in the order when it is planned (``Node.defer``) and
 are filled in when it completes, so the outputs are the same bytes in the same order as one frame
 after another here (tested). A frame whose motion needs the constant velocity (no odometry over it)
@@ -46,10 +46,11 @@ from navlog.replay.pointcloud import azimuth_times, point_times, read_points, ti
 from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Deferred, Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError
+from navlog.replay.workers.background import in_thread
 
 if TYPE_CHECKING:
     from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, SweepPlan
-    from navlog.replay.mapping.lidar_odometry.odometry_process import OdometryWorker
+    from navlog.replay.workers.odometry import OdometryWorker
 
 logger = logging.getLogger("navlog")
 Pose6 = tuple[float, float, float, float, float, float]  # x y z roll pitch yaw
@@ -135,7 +136,7 @@ class LidarMapperNode(Node):
         self._sized = params.preset != "auto"  # auto: sized from the first usable sweep
         from navlog.replay.mapping.lidar_odometry.odometry import LidarOdometry  # loaded when the mapper runs
 
-        self.odometry = LidarOdometry(odometry, np.eye(4), pose6_matrix(params.initial_pose))
+        self.odometry = LidarOdometry(odometry, np.eye(4), pose6_matrix(params.initial_pose), background=in_thread)
         self.notes: dict[str, str] = {}  # what the node decided from the data, said once each (for the manifest)
         self._tf_static_seen = False
         self._accel: list[np.ndarray] = []  # IMU specific force in base_link, until the first frame is registered
@@ -393,7 +394,7 @@ class LidarMapperNode(Node):
                     f"(accel spread {spread:.2f} m/s^2 over {len(acc)} samples)",
                 )
         if params is not odo.params or initial is not odo.initial_pose:
-            self.odometry = LidarOdometry(params, odo.extrinsic, initial)
+            self.odometry = LidarOdometry(params, odo.extrinsic, initial, background=in_thread)
         self._accel = []
 
     def _process(self, item: _Pending) -> None:
@@ -410,7 +411,7 @@ class LidarMapperNode(Node):
                 self._publish_frame(result, self.publish)
             return
         from navlog.replay.mapping.lidar_odometry.odometry import Unsettled
-        from navlog.replay.mapping.lidar_odometry.sweep_process import prepare_sweep
+        from navlog.replay.mapping.lidar_odometry.sweep import prepare_sweep
 
         n = len(self.odometry.stamps) + len(self._inflight) + 1  # this frame's number
         keep = bool(p.cloud_every_n_frames) and (n - 1) % p.cloud_every_n_frames == 0
@@ -435,7 +436,7 @@ class LidarMapperNode(Node):
                 [p.odometry_topic, p.cloud_topic, p.path_topic]
             )
             if self._ahead:
-                from navlog.replay.mapping.lidar_odometry.odometry_process import OdometryWorker
+                from navlog.replay.workers.odometry import OdometryWorker
 
                 try:
                     self._sweeps = OdometryWorker(self.odometry.params, self.odometry.initial_pose)

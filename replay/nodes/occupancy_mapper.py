@@ -34,12 +34,12 @@ import numpy as np
 
 from navlog.replay import messages
 from navlog.replay.geometry import yaw_from_matrix
-from navlog.replay.mapping.grid_process import GridWorker
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams, ScanAngles
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
+from navlog.replay.workers.grid import GridWorker
 
 PoseSource = Literal["ground_truth", "odom", "lidar_mapper", "tf"]
 

@@ -12,12 +12,13 @@ global voxel store that becomes the saved point-cloud map.
 from __future__ import annotations
 
 import math
-import threading
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from navlog.replay.geometry import rotation_angle
+from navlog.replay.mapping.background import Background, inline
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
 from navlog.replay.mapping.lidar_odometry.preprocess import downsample, point_cloud, sorted_points, voxel_sums
 
@@ -146,14 +147,14 @@ class GlobalMap:
     """Every registered frame in one ``VoxelStore`` at ``save_voxel`` (frames are buffered and added
     in batches of about 400 000 points), and chunks of ``save_every_n_frames`` frames when asked.
 
-    A batch is added to the store in a thread of its own while the next frames are registered (its
-    sort and copies release the GIL: they run on a second core); the batches are added one at a
-    time in the order they were flushed, so the store holds the same bits as adding them in line.
-    ``points`` waits for the last batch."""
+    A batch is added to the store through ``background`` (``navlog.replay.mapping.background``: in line
+    by default; the 3D mapper node runs it in a thread while the next frames are registered); the
+    batches are added one at a time in the order they were flushed, so the store holds the same bits
+    whatever runs them. ``points`` waits for the last batch."""
 
     _BATCH_POINTS = 400_000
 
-    def __init__(self, save_voxel: float, save_every_n_frames: int = 0) -> None:
+    def __init__(self, save_voxel: float, save_every_n_frames: int = 0, *, background: Background = inline) -> None:
         self.save_voxel = save_voxel
         self.save_every_n_frames = save_every_n_frames
         self.store = VoxelStore(save_voxel)
@@ -162,8 +163,8 @@ class GlobalMap:
         self._buffered = 0
         self._chunk: list[np.ndarray] = []
         self._chunk_frames = 0
-        self._adding: threading.Thread | None = None  # the batch being added to the store
-        self._error: BaseException | None = None  # raised by that batch, re-raised here
+        self._background = background
+        self._adding: Callable[[], None] | None = None  # the wait of the batch being added to the store
 
     def add(self, points_map: np.ndarray) -> None:
         self._buffer.append(points_map)
@@ -177,29 +178,18 @@ class GlobalMap:
                 self.close_chunk()
 
     def flush(self) -> None:
-        """Move the buffered frames into the store (in the background: ``points`` waits for it)."""
+        """Move the buffered frames into the store (through ``background``: ``points`` waits for it)."""
         if not self._buffer:
             return
         batch, self._buffer, self._buffered = self._buffer, [], 0
         self._wait()  # one batch at a time, in order: at most one batch in flight
-
-        def work() -> None:
-            try:
-                self.store.add(np.concatenate(batch))
-            except BaseException as exc:  # re-raised by the caller's next wait
-                self._error = exc
-
-        self._adding = threading.Thread(target=work, name="navlog-global-map", daemon=True)
-        self._adding.start()
+        self._adding = self._background(lambda: self.store.add(np.concatenate(batch)))
 
     def _wait(self) -> None:
         """Wait for the batch being added; raise what it raised."""
-        if self._adding is not None:
-            self._adding.join()
-            self._adding = None
-        if self._error is not None:
-            error, self._error = self._error, None
-            raise error
+        wait, self._adding = self._adding, None
+        if wait is not None:
+            wait()
 
     @property
     def chunk_open(self) -> bool:

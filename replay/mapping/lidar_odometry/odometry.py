@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from navlog.replay.geometry import matrix_to_rotvec, rotation_angle
+from navlog.replay.mapping.background import Background, inline
 from navlog.replay.mapping.lidar_odometry.deskew import (
     ConstantVelocity,
     MotionPrior,
@@ -22,7 +23,7 @@ from navlog.replay.mapping.lidar_odometry.deskew import (
 from navlog.replay.mapping.lidar_odometry.local_map import GlobalMap, LocalMap
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
 from navlog.replay.mapping.lidar_odometry.preprocess import valid_points
-from navlog.replay.mapping.lidar_odometry.sweep_process import PreparedSweep, SweepJob, prepare_sweep
+from navlog.replay.mapping.lidar_odometry.sweep import PreparedSweep, SweepJob, prepare_sweep
 from navlog.replay.mapping.lidar_odometry.voxel_map import GaussianLocalMap, GaussianRegistrar
 
 if TYPE_CHECKING:
@@ -132,7 +133,10 @@ class LidarOdometry:
         params: LidarOdometryParams | None = None,
         extrinsic: np.ndarray | None = None,
         initial_pose: np.ndarray | None = None,
+        *,
+        background: Background = inline,
     ) -> None:
+        """``background`` runs the global map's batch updates (``GlobalMap``); the results do not depend on it."""
         params = LidarOdometryParams() if params is None else params
         self.params = params
         self.extrinsic = np.eye(4) if extrinsic is None else np.asarray(extrinsic, dtype=np.float64)  # base <- sensor
@@ -148,7 +152,7 @@ class LidarOdometry:
             from navlog.replay.mapping.lidar_odometry.registration import Registrar
 
             self.local_map, self.registrar = LocalMap(params), Registrar(params)
-        self.global_store = GlobalMap(params.save_voxel, params.save_every_n_frames)
+        self.global_store = GlobalMap(params.save_voxel, params.save_every_n_frames, background=background)
         self._velocity = ConstantVelocity()
         self.threshold = (
             AdaptiveThreshold(

@@ -1,18 +1,17 @@
-"""The compiled ray update of the occupancy grid against its NumPy path: the same bits on random and edge scans."""
+"""The compiled ray update of the occupancy grid against its NumPy oracle: the same bits on random and edge scans."""
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 import pytest
 
 import navlog.replay.mapping.occupancy as occupancy_module
-import navlog.replay.mapping.occupancy_kernels as kernels_module
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
-from navlog.replay.mapping.occupancy_kernels import NUMPY_SCANS, kernels, scan_update
-
-needs_numba = pytest.mark.skipif(kernels() is None, reason="numba is not installed: the NumPy path runs alone")
+from navlog.replay.mapping.occupancy_kernels import compiled_scan_update, scan_update
+from tests.replay.mapping.occupancy_oracle import numpy_scan_update
 
 
 def pose(x: float, y: float, yaw: float, roll: float = 0.0) -> np.ndarray:
@@ -46,14 +45,13 @@ def random_scans(seed: int, count: int):
 def grids_after(monkeypatch, params: OccupancyParams, seed: int, count: int) -> list[OccupancyGrid2D]:
     grids = [OccupancyGrid2D(params), OccupancyGrid2D(params)]
     for p, ang, r in random_scans(seed, count):
-        monkeypatch.setattr(occupancy_module, "scan_kernel", kernels)
+        monkeypatch.setattr(occupancy_module, "compiled_scan_update", compiled_scan_update)
         grids[0].insert_scan(p, ang, r, 0.1, 10.0)
-        monkeypatch.setattr(occupancy_module, "scan_kernel", lambda: None)
+        monkeypatch.setattr(occupancy_module, "compiled_scan_update", lambda: numpy_scan_update)
         grids[1].insert_scan(p, ang, r, 0.1, 10.0)
     return grids
 
 
-@needs_numba
 @pytest.mark.parametrize(
     "params",
     [
@@ -62,7 +60,7 @@ def grids_after(monkeypatch, params: OccupancyParams, seed: int, count: int) -> 
         OccupancyParams(resolution=0.03, grow_block=2.0, no_return_ray_length=12.0),
     ],
 )
-def test_compiled_update_equals_numpy_on_random_scans(monkeypatch, params):
+def test_compiled_update_equals_the_numpy_oracle_on_random_scans(monkeypatch, params):
     a, b = grids_after(monkeypatch, params, seed=int(params.resolution * 100), count=12)
     assert a.logodds.tobytes() == b.logodds.tobytes()
     assert a.seen.tobytes() == b.seen.tobytes()
@@ -70,15 +68,14 @@ def test_compiled_update_equals_numpy_on_random_scans(monkeypatch, params):
     assert a.seen.sum() > 1000 and (a.logodds > 0).any() and (a.logodds < 0).any()
 
 
-@needs_numba
 def test_the_mask_is_left_clear_between_scans_and_beams_at_the_grid_edge(monkeypatch):
     # beams ending exactly on block borders (the grid's last cells) and a grid grown between scans
     params = OccupancyParams(grow_block=1.0)
     grids = [OccupancyGrid2D(params), OccupancyGrid2D(params)]
     ang = np.array([0.0, math.pi / 2, math.pi, -math.pi / 2])
     for p, r in ((pose(0.5, 0.5, 0.0), np.full(4, 0.49)), (pose(0.5, 0.5, 0.0), np.full(4, 3.0))):
-        for grid, use in zip(grids, (kernels, lambda: None)):
-            monkeypatch.setattr(occupancy_module, "scan_kernel", use)
+        for grid, use in zip(grids, (compiled_scan_update, lambda: numpy_scan_update)):
+            monkeypatch.setattr(occupancy_module, "compiled_scan_update", use)
             grid.insert_scan(p, ang, r, 0.01, 10.0)
     assert grids[0].logodds.tobytes() == grids[1].logodds.tobytes()
     assert not grids[0]._buffers["scan_mask"].any()
@@ -122,49 +119,18 @@ def test_a_beam_leaving_the_grid_is_an_error_and_leaves_the_mask_clear():
     assert not mask.any()
 
 
-def test_a_process_runs_its_first_scans_on_the_numpy_path_and_the_compiled_kernel_after(monkeypatch):
-    # loading numba and the cached kernel (~0.5 s) pays for itself only after ~500 scans
-    import itertools
-
-    monkeypatch.setattr(kernels_module, "_scans", itertools.count())
-    assert NUMPY_SCANS == 500
-    assert [kernels_module.scan_kernel() for _ in range(NUMPY_SCANS)] == [None] * NUMPY_SCANS
-    assert kernels_module.scan_kernel() is kernels()
-    assert kernels_module.scan_kernel() is kernels()
-
-
-@needs_numba
-def test_a_grid_gives_the_same_bits_when_the_kernel_switches_mid_run(monkeypatch):
-    import itertools
-
-    params = OccupancyParams()
-    switched, numpy_only = OccupancyGrid2D(params), OccupancyGrid2D(params)
-    monkeypatch.setattr(kernels_module, "NUMPY_SCANS", 5)
-    monkeypatch.setattr(kernels_module, "_scans", itertools.count())
-    for p, ang, r in random_scans(3, 10):
-        switched.insert_scan(p, ang, r, 0.1, 10.0)  # scans 0-4 NumPy, 5-9 compiled
-    assert next(kernels_module._scans) == 10
-    monkeypatch.setattr(occupancy_module, "scan_kernel", lambda: None)
-    for p, ang, r in random_scans(3, 10):
-        numpy_only.insert_scan(p, ang, r, 0.1, 10.0)
-    assert switched.logodds.tobytes() == numpy_only.logodds.tobytes()
-    assert switched.seen.tobytes() == numpy_only.seen.tobytes() and switched.seen.sum() > 1000
-    assert "scan_mask" in switched._buffers and "scan_mask" not in numpy_only._buffers  # both paths ran
-
-
 @pytest.mark.parametrize("groups", [2, 4, 720])
-def test_the_numpy_path_gives_the_same_bits_whatever_the_beam_groups(monkeypatch, groups):
+def test_the_numpy_oracle_gives_the_same_bits_whatever_the_beam_groups(monkeypatch, groups):
     # beams of every length in one scan: grouped by length, each group's arrays only as long as its
     # longest beam; one group (as long as the longest beam of the scan) is the reference
-    monkeypatch.setattr(occupancy_module, "scan_kernel", lambda: None)
     scans = list(random_scans(11, 6))
     grids = {}
     for n in (1, groups):
-        monkeypatch.setattr(occupancy_module, "NUMPY_BEAM_GROUPS", n)
+        monkeypatch.setattr(
+            occupancy_module, "compiled_scan_update", lambda n=n: functools.partial(numpy_scan_update, groups=n)
+        )
         grids[n] = OccupancyGrid2D(OccupancyParams())
         for p, ang, r in scans:
             grids[n].insert_scan(p, ang, r, 0.1, 10.0)
     assert grids[groups].logodds.tobytes() == grids[1].logodds.tobytes()
     assert grids[groups].seen.tobytes() == grids[1].seen.tobytes() and grids[1].seen.sum() > 1000
-    # the largest work array of the grouped path holds fewer samples than 720 beams x the longest beam
-    assert grids[groups]._buffers["x"].size < grids[1]._buffers["x"].size

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
+from navlog.replay.mapping.background import inline
 from navlog.replay.mapping.lidar_odometry import GlobalMap, LidarOdometryParams, LocalMap, VoxelStore, voxel_sums
+from navlog.replay.workers.background import in_thread
 
 
 def pose(x: float, yaw_deg: float = 0.0) -> np.ndarray:
@@ -72,11 +74,12 @@ def test_global_map_chunks_of_n_frames():
     assert len(gm.points()) == 5 * 400
 
 
-def test_global_map_adds_its_batches_in_the_background_with_the_bits_of_adding_them_in_line(monkeypatch):
+@pytest.mark.parametrize("background", [inline, in_thread])
+def test_global_map_adds_its_batches_with_the_bits_of_adding_them_in_line(monkeypatch, background):
     monkeypatch.setattr(GlobalMap, "_BATCH_POINTS", 1000)  # a batch every third frame of 400 points
     rng = np.random.default_rng(3)
     frames = [rng.uniform(-2.0, 2.0, (400, 3)) + [0.3 * k, 0.0, 0.0] for k in range(20)]
-    gm = GlobalMap(0.05)
+    gm = GlobalMap(0.05, background=background)
     in_line = VoxelStore(0.05)
     batch: list[np.ndarray] = []
     for f in frames:
@@ -94,8 +97,8 @@ def test_global_map_adds_its_batches_in_the_background_with_the_bits_of_adding_t
     assert gm.store.sums.tobytes() == in_line.sums.tobytes()  # same batches, same order: same sums
 
 
-def test_an_error_adding_a_batch_is_raised_by_the_next_call(monkeypatch):
-    gm = GlobalMap(0.05)
+def test_an_error_adding_a_batch_in_a_thread_is_raised_by_the_next_call(monkeypatch):
+    gm = GlobalMap(0.05, background=in_thread)
     gm.add(np.zeros((10, 3)))
 
     def broken(points: np.ndarray) -> None:

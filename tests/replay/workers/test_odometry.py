@@ -22,8 +22,8 @@ from navlog.replay.mapping.lidar_odometry import (
 )
 from navlog.replay.mapping.lidar_odometry.deskew import prior_motion
 from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, SweepPlan
-from navlog.replay.mapping.lidar_odometry.odometry_process import NAME, OdometryWorker
-from navlog.replay.mapping.lidar_odometry.sweep_process import prepare_sweep
+from navlog.replay.mapping.lidar_odometry.sweep import prepare_sweep
+from navlog.replay.workers.odometry import NAME, OdometryWorker
 
 MOUNT = make_transform((0.2, 0.0, 0.4), quat_from_rpy(0.0, 0.1, 0.05))
 PARAMS = LidarOdometryParams(save_every_n_frames=4)

@@ -9,7 +9,7 @@ import os
 import pytest
 
 from navlog.errors import NavlogError
-from navlog.replay.child import ERROR, FRAME, READY, ChildProcess, read_exactly, serve
+from navlog.replay.workers.child import ERROR, FRAME, READY, ChildProcess, read_exactly, serve
 
 
 def frames(data: bytes) -> list[tuple[int, bytes]]:
@@ -54,7 +54,7 @@ def test_a_parent_gone_ends_the_loop_quietly():
 
 
 ECHO = (
-    "from navlog.replay.child import serve; "
+    "from navlog.replay.workers.child import serve; "
     "serve(lambda code, body: None if code == ord('N') else (code, bytes(body) * 2))"
 )
 

@@ -14,7 +14,7 @@ The preparation stays with the replay: it is about as much work per frame as the
 replay's thread, and the completion as much again, so the two processes keep two cores about equally
 busy (on the 138 s mapping log, preparing in the child left the replay's thread waiting for it).
 
-The processes talk through ``navlog.replay.child`` (arrays as raw bytes, the rest as JSON).
+The processes talk through ``navlog.replay.workers.child`` (arrays as raw bytes, the rest as JSON).
 """
 
 from __future__ import annotations
@@ -24,17 +24,18 @@ import dataclasses
 import numpy as np
 
 from navlog.errors import NavlogError
-from navlog.replay.child import ChildProcess, pack, unpack
-from navlog.replay.child import serve as serve_requests
 from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, LidarOdometry, SweepPlan
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
-from navlog.replay.mapping.lidar_odometry.sweep_process import PreparedSweep, SweepJob
+from navlog.replay.mapping.lidar_odometry.sweep import PreparedSweep, SweepJob
+from navlog.replay.workers.background import in_thread
+from navlog.replay.workers.child import ChildProcess, pack, unpack
+from navlog.replay.workers.child import serve as serve_requests
 
 __all__ = ["OdometryWorker", "serve"]
 
 _INIT, _FRAME, _MAPS, _GLOBAL = ord("I"), ord("F"), ord("M"), ord("G")
 _NO_POINTS, _NO_MOUNT = np.zeros((0, 3)), np.eye(4)
-_CHILD = "from navlog.replay.mapping.lidar_odometry.odometry_process import serve; serve()"
+_CHILD = "from navlog.replay.workers.odometry import serve; serve()"
 NAME = "3D odometry process"
 
 
@@ -142,7 +143,7 @@ class _Completer:
     def __call__(self, code: int, body: bytes | bytearray) -> tuple[int, bytes]:
         if code == _INIT:
             fields, (initial,) = unpack(body)
-            self.odometry = LidarOdometry(LidarOdometryParams(**fields), None, initial)
+            self.odometry = LidarOdometry(LidarOdometryParams(**fields), None, initial, background=in_thread)
             return code, b""
         odometry = self.odometry
         if odometry is None:
@@ -160,5 +161,5 @@ class _Completer:
 
 
 def serve() -> None:
-    """The child's loop (``navlog.replay.child.serve``) over the frames it is sent."""
+    """The child's loop (``navlog.replay.workers.child.serve``) over the frames it is sent."""
     serve_requests(_Completer())

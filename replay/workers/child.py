@@ -1,8 +1,8 @@
 """A child Python that answers requests over its pipes: what the replay's helper processes share.
 
 A replay hands NumPy work to a child process where it can run beside the replay's thread (the
-occupancy grid's scan updates, ``navlog.replay.mapping.grid_process``; the 3D mapper's sweeps,
-prepared and registered, ``navlog.replay.mapping.lidar_odometry.odometry_process``). Both sides speak in frames:
+occupancy grid's scan updates, ``navlog.replay.workers.grid``; the 3D mapper's sweeps,
+prepared and registered, ``navlog.replay.workers.odometry``). Both sides speak in frames:
 one opcode byte, a little-endian uint32 length and the payload (arrays as raw bytes, parameters as
 JSON: ``pack`` and ``unpack`` make and read such a payload); nothing is unpickled.
 
@@ -95,6 +95,16 @@ class ChildProcess:
         if frame is not None:
             raise NavlogError(f"{self.name} (pid {process.pid}): unexpected reply {frame[0]} at start-up")
         return True
+
+    def wait_started(self) -> None:
+        """Wait until the child says it is ready; ``NavlogError`` when it ended before."""
+        if self._started:
+            return
+        if self.process is None:
+            raise self._died()
+        frame = self._take_frame()
+        if frame is not None:
+            raise NavlogError(f"{self.name} (pid {self.pid}): unexpected reply {frame[0]} at start-up")
 
     def send(self, op: int, payload: bytes) -> None:
         """Send request ``op`` (no reply expected)."""

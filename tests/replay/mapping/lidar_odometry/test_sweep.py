@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from navlog.replay.geometry import make_transform, quat_from_rpy
-from navlog.replay.mapping.lidar_odometry.sweep_process import SweepJob, prepare_sweep
+from navlog.replay.mapping.lidar_odometry.sweep import SweepJob, prepare_sweep
 
 MOUNT = make_transform((0.2, 0.0, 0.4), quat_from_rpy(0.0, 0.1, 0.05))
 
