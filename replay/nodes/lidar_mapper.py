@@ -15,20 +15,15 @@ when the next cloud arrives, whichever is first, so the same message order alway
 ``path_every_n_frames`` frames and at the end). Inputs that cannot be used are counted by reason.
 
 Frames completed in a child process: when no node reads those outputs and this process may use two
-CPUs, each frame is planned here (its checks, and its motions from the IMU and odometry tracks:
-``LidarOdometry.plan``) and its sweep prepared (deskewed, voxel-filtered), then completed (the
-registration, the maps) in a child process (``navlog.replay.workers.odometry.OdometryWorker``) while this one goes
-on with the log; its outputs take their place in the order when it is planned (``Node.defer``) and
-are filled in when it completes, so the outputs are the same bytes in the same order as one frame
-after another here (tested). A frame whose motion needs the constant velocity (no odometry over it)
-waits for the frames before it. The global map comes back from the child when the node finishes (or
-when ``map_points`` asks for it before).
+CPUs, the frames go through ``navlog.replay.workers.odometry.OdometryFrames`` offloaded: each is
+planned here and completed in a child process while this one goes on with the log; its outputs take
+their place in the order when it is accepted (``Node.defer``) and are filled in when it completes, so
+the outputs are the same bytes in the same order as one frame after another here (tested).
 """
 
 from __future__ import annotations
 
 import logging
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -44,13 +39,13 @@ from navlog.replay.mapping.lidar_odometry.deskew import GyroTrack, MotionPrior, 
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams, Preset, for_sweep, preset
 from navlog.replay.pointcloud import azimuth_times, point_times, read_points, time_field_name, xyz_cloud
 from navlog.replay.runtime.cpus import usable_cpus
-from navlog.replay.runtime.executor import Deferred, Node
+from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError
 from navlog.replay.workers.background import in_thread
 
 if TYPE_CHECKING:
-    from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, SweepPlan
-    from navlog.replay.workers.odometry import OdometryWorker
+    from navlog.replay.mapping.lidar_odometry.odometry import FrameResult
+    from navlog.replay.workers.odometry import OdometryFrames
 
 logger = logging.getLogger("navlog")
 Pose6 = tuple[float, float, float, float, float, float]  # x y z roll pitch yaw
@@ -126,10 +121,7 @@ class LidarMapperNode(Node):
         super().__init__()
         self.params = params
         self._sweep_process = usable_cpus() > 1 if sweep_process is None else sweep_process
-        self._sweeps: OdometryWorker | None = None  # started with the first frame, when frames go ahead
-        self._ahead: bool | None = None  # frames completed in the child (decided at the first)
-        self._maps: tuple[np.ndarray, list[np.ndarray]] | None = None  # the child's, when it has ended
-        self._inflight: deque[tuple[SweepPlan, Deferred]] = deque()  # planned and submitted, not completed
+        self._frames: OdometryFrames | None = None  # made with the first frame (offloaded or not, decided then)
         odometry = preset(params.odometry, params.preset)
         if params.deskew == "off":
             odometry = replace(odometry, deskew=False)
@@ -399,60 +391,42 @@ class LidarMapperNode(Node):
 
     def _process(self, item: _Pending) -> None:
         p = self.params
-        if not self.odometry.stamps and not self._inflight:
+        if self._frames is None or not self._frames.frames:  # until a frame is accepted
             self._first_frame(item)
+            if self._frames is None or self._frames.odometry is not self.odometry:  # sized or levelled anew
+                if self._frames is not None:
+                    self._frames.close()
+                self._frames = self._start_frames()
+        frames = self._frames
         self.odometry.extrinsic = item.extrinsic
         prior = MotionPrior(self.gyro if p.use_imu else None, self.odom if p.use_odom else None)
-        args = (item.stamp_ns, item.points, item.times, prior)
-        sweeps = self._sweep_worker()
-        if sweeps is None:
-            result = self.odometry.process(*args)
-            if result is not None:
-                self._publish_frame(result, self.publish)
-            return
-        from navlog.replay.mapping.lidar_odometry.odometry import Unsettled
-        from navlog.replay.mapping.lidar_odometry.sweep import prepare_sweep
-
-        n = len(self.odometry.stamps) + len(self._inflight) + 1  # this frame's number
+        n = frames.frames + 1  # this frame's number, if it is accepted
         keep = bool(p.cloud_every_n_frames) and (n - 1) % p.cloud_every_n_frames == 0
-        # a plan that goes ahead has every motion from the tracks as they are now (it completes later)
-        plan = self.odometry.plan(*args, settled=False, keep_base=keep)
-        if isinstance(plan, Unsettled):  # its motion needs the constant velocity: every frame before first
-            self._complete(len(self._inflight))
-            plan = self.odometry.plan(*args, keep_base=keep)
-        if plan is None:
-            return
-        assert not isinstance(plan, Unsettled)  # a settled plan never is
-        sweeps.submit(plan, prepare_sweep(plan.job))  # completed in the child while this process goes on
-        self._inflight.append((plan, self.defer()))
-        self._complete(len(self._inflight) - _IN_FLIGHT)
+        frames.process(item.stamp_ns, item.points, item.times, prior, keep_base=keep, receiver=self._receiver)
 
-    def _sweep_worker(self) -> OdometryWorker | None:
-        """The child completing frames, when frames go ahead: a child to run it, and no node reading the
-        outputs (they take their place when planned and are filled in when the frame completes)."""
-        if self._ahead is None:
-            p = self.params
-            self._ahead = self._sweep_process and not self.executor.read_by_nodes(
-                [p.odometry_topic, p.cloud_topic, p.path_topic]
-            )
-            if self._ahead:
-                from navlog.replay.workers.odometry import OdometryWorker
+    def _start_frames(self) -> OdometryFrames:
+        """The frames completed here, or ahead in a child process when no node reads the outputs (they take
+        their place when the frame is accepted and are filled in when it completes) and this process may
+        use two CPUs."""
+        from navlog.replay.workers.odometry import OdometryFrames
 
-                try:
-                    self._sweeps = OdometryWorker(self.odometry.params, self.odometry.initial_pose)
-                except OSError:  # no child here (a process limit, no interpreter to run): frames run here
-                    self._ahead = False
-        return self._sweeps
+        p = self.params
+        ahead = self._sweep_process and not self.executor.read_by_nodes([p.odometry_topic, p.cloud_topic, p.path_topic])
+        return OdometryFrames(self.odometry, offload=ahead, in_flight=_IN_FLIGHT)
 
-    def _complete(self, count: int) -> None:
-        """Complete the ``count`` oldest frames in flight, their outputs into their places."""
-        for _ in range(count):
-            assert self._sweeps is not None  # frames are in flight only with a child completing them
-            plan, place = self._inflight.popleft()
-            result, skipped = self._sweeps.take()
-            self.odometry.adopt(plan, result, skipped)
+    def _receiver(self) -> Callable[[FrameResult], None]:
+        """Where an accepted frame's outputs go: out now in this process, or into their place in the order
+        (``Node.defer``) when the frame completes in the child."""
+        assert self._frames is not None
+        if not self._frames.offloaded:
+            return lambda result: self._publish_frame(result, self.publish)
+        place = self.defer()
+
+        def fill(result: FrameResult) -> None:
             self._publish_frame(result, place.publish)
             place.close()
+
+        return fill
 
     def _publish_frame(self, result: FrameResult, publish: Callable[[str, str, Any], None]) -> None:
         """/Odometry of a registered frame, and /cloud_registered and the path when due."""
@@ -486,11 +460,8 @@ class LidarMapperNode(Node):
 
     def finish(self) -> None:
         self._drain(force=True)
-        self._complete(len(self._inflight))
-        if self._sweeps is not None:
-            self._maps = self._sweeps.maps()
-            self._sweeps.close()
-            self._sweeps = None
+        if self._frames is not None:
+            self._frames.close()
         self._publish_path(self.publish)
 
     # ------------------------------------------------------------ results
@@ -500,15 +471,10 @@ class LidarMapperNode(Node):
 
     def map_points(self) -> np.ndarray:
         """The global map (``LidarOdometry.global_map``) of every frame so far, those in flight completed first."""
-        if self._maps is not None:
-            return self._maps[0]
-        if self._sweeps is not None:
-            self._complete(len(self._inflight))
-            return self._sweeps.global_map()
-        return self.odometry.global_map()
+        return self._frames.global_map() if self._frames is not None else self.odometry.global_map()
 
     def _chunks(self) -> list[np.ndarray]:
-        return self._maps[1] if self._maps is not None else self.odometry.finish_chunks()
+        return self._frames.chunks() if self._frames is not None else self.odometry.finish_chunks()
 
     def save_pcd(self, path: Path) -> dict[str, Path]:
         """Write the global map (binary float32 PCD, deterministic order) to ``path``, and the

@@ -1,4 +1,9 @@
-"""The 3D odometry's frames completed in a child process, while the replay goes on.
+"""The 3D odometry's frames, completed in this process or ahead in a child process while the replay goes on.
+
+``OdometryFrames`` is what the 3D mapper node uses: ``process`` takes a frame (``LidarOdometry.process``'s
+arguments) and hands its result, when there is one, to the receiver the caller gives for it. In this
+process the frame is completed at once; offloaded, the frame is planned here and completed in the
+child, at most ``in_flight`` frames ahead, and the receivers get the results in the order of the frames.
 
 ``LidarOdometry.plan`` checks a frame and finds its motions in the IMU and odometry tracks, and
 ``prepare_sweep`` moves the sweep into base_link, deskews and voxel-filters it; what is left
@@ -20,18 +25,21 @@ The processes talk through ``navlog.replay.workers.child`` (arrays as raw bytes,
 from __future__ import annotations
 
 import dataclasses
+from collections import deque
+from collections.abc import Callable
 
 import numpy as np
 
 from navlog.errors import NavlogError
-from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, LidarOdometry, SweepPlan
+from navlog.replay.mapping.lidar_odometry.deskew import MotionPrior
+from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, LidarOdometry, SweepPlan, Unsettled
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams
-from navlog.replay.mapping.lidar_odometry.sweep import PreparedSweep, SweepJob
+from navlog.replay.mapping.lidar_odometry.sweep import PreparedSweep, SweepJob, prepare_sweep
 from navlog.replay.workers.background import in_thread
 from navlog.replay.workers.child import ChildProcess, pack, unpack
 from navlog.replay.workers.child import serve as serve_requests
 
-__all__ = ["OdometryWorker", "serve"]
+__all__ = ["OdometryFrames", "OdometryWorker", "serve"]
 
 _INIT, _FRAME, _MAPS, _GLOBAL = ord("I"), ord("F"), ord("M"), ord("G")
 _NO_POINTS, _NO_MOUNT = np.zeros((0, 3)), np.eye(4)
@@ -132,6 +140,102 @@ class OdometryWorker:
 
     def __del__(self) -> None:
         self.close()
+
+
+Receiver = Callable[[FrameResult], None]
+
+
+class OdometryFrames:
+    """``LidarOdometry``'s frames completed in this process, or (``offload``) ahead in a child process.
+
+    ``process(..., receiver)`` calls ``receiver()`` once the frame is accepted (planned) and gives the
+    callable it returns the frame's result when the frame completes: at once in this process, later
+    when offloaded (in order; ``flush`` completes every frame in flight). The odometry's pose history
+    and skips are the same either way when every frame has completed, and so are the results (tested).
+    With ``offload`` and no child to start (a process limit, no interpreter), frames complete here."""
+
+    def __init__(self, odometry: LidarOdometry, *, offload: bool, in_flight: int = 4) -> None:
+        self.odometry = odometry
+        self.in_flight = in_flight
+        self._worker: OdometryWorker | None = None
+        if offload:
+            try:
+                self._worker = OdometryWorker(odometry.params, odometry.initial_pose)
+            except OSError:  # frames complete here
+                self._worker = None
+        self._planned: deque[tuple[SweepPlan, Receiver]] = deque()  # submitted, not yet completed
+        self._maps: tuple[np.ndarray, list[np.ndarray]] | None = None  # the child's, when it has ended
+
+    @property
+    def offloaded(self) -> bool:
+        return self._worker is not None
+
+    @property
+    def frames(self) -> int:
+        """Frames accepted so far (completed or in flight)."""
+        return len(self.odometry.stamps) + len(self._planned)
+
+    def process(
+        self,
+        stamp_ns: int,
+        points: np.ndarray,
+        times: np.ndarray | None,
+        prior: MotionPrior | None,
+        *,
+        keep_base: bool,
+        receiver: Callable[[], Receiver],
+    ) -> None:
+        """One frame (see the class docstring); a frame that cannot be used is counted by the odometry."""
+        odometry, worker = self.odometry, self._worker
+        if worker is None:
+            result = odometry.process(stamp_ns, points, times, prior)
+            if result is not None:
+                receiver()(result)
+            return
+        # a plan that goes ahead has every motion from the tracks as they are now (it completes later)
+        plan = odometry.plan(stamp_ns, points, times, prior, settled=False, keep_base=keep_base)
+        if isinstance(plan, Unsettled):  # its motion needs the constant velocity: every frame before first
+            self.flush()
+            plan = odometry.plan(stamp_ns, points, times, prior, keep_base=keep_base)
+        if plan is None:
+            return
+        assert not isinstance(plan, Unsettled)  # a settled plan never is
+        worker.submit(plan, prepare_sweep(plan.job))  # completed in the child while this process goes on
+        self._planned.append((plan, receiver()))
+        self._complete(len(self._planned) - self.in_flight)
+
+    def flush(self) -> None:
+        """Complete every frame in flight."""
+        self._complete(len(self._planned))
+
+    def _complete(self, count: int) -> None:
+        for _ in range(count):
+            assert self._worker is not None  # frames are in flight only with a child completing them
+            plan, receive = self._planned.popleft()
+            result, skipped = self._worker.take()
+            self.odometry.adopt(plan, result, skipped)
+            receive(result)
+
+    def global_map(self) -> np.ndarray:
+        """The global map of every frame so far (those in flight completed first)."""
+        if self._maps is not None:
+            return self._maps[0]
+        if self._worker is not None:
+            self.flush()
+            return self._worker.global_map()
+        return self.odometry.global_map()
+
+    def chunks(self) -> list[np.ndarray]:
+        """The chunks of ``save_every_n_frames`` frames (``LidarOdometry.finish_chunks``)."""
+        return self._maps[1] if self._maps is not None else self.odometry.finish_chunks()
+
+    def close(self) -> None:
+        """Complete the frames in flight, keep the child's maps, end the child."""
+        if self._worker is not None:
+            self.flush()
+            self._maps = self._worker.maps()
+            self._worker.close()
+            self._worker = None
 
 
 class _Completer:
