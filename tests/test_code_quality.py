@@ -99,6 +99,7 @@ def test_import_contracts(installed_layout: Path) -> None:
     assert res.returncode == 0, f"lint-imports\n{repo_paths(res.stdout + res.stderr, installed_layout)}"
 
 
+@pytest.mark.slow
 def test_mypy(installed_layout: Path, tmp_path: Path) -> None:
     res = run_tool(
         [

@@ -41,6 +41,7 @@ def campaign_and_seeds(tmp_path_factory, shared_dir):
     return campaign, campaign.load_seeds(folder / "seeds", shared_dir), folder
 
 
+@pytest.mark.slow
 def test_seeded_subset_has_no_traceback_and_no_hang(campaign_and_seeds, shared_dir: Path) -> None:
     campaign, _, folder = campaign_and_seeds
     result = campaign.run_campaign(200, 7, folder, shared=shared_dir, workers=2, timeout=20.0)
@@ -59,6 +60,7 @@ def text(case) -> str:
     return json.dumps(case.recipe)
 
 
+@pytest.mark.slow
 def test_case_i_depends_only_on_the_seed_and_i(campaign_and_seeds, shared_dir: Path) -> None:
     campaign, seeds, _ = campaign_and_seeds
     drawn: list = []

@@ -159,6 +159,7 @@ def drive(pf: ParticleFilter, occ: OccupancyMap, start, steps: int):
     return true
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("model", "robot"),
     [

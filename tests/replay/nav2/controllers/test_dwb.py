@@ -480,6 +480,7 @@ def drive(ctrl: DWBController, cm: CostmapGrid, path: np.ndarray, frequency: flo
     return np.array(poses)
 
 
+@pytest.mark.slow
 def test_closed_loop_turtlebot3_follows_an_l_path(humble_controller):
     ctrl = humble_controller()
     cm = grid(120, 0.05, origin=(-1.0, -1.0))  # 6 x 6 m, empty
@@ -490,6 +491,7 @@ def test_closed_loop_turtlebot3_follows_an_l_path(humble_controller):
     assert len(poses) < 30 * 10  # 5.75 m at <= 0.22 m/s: well under 30 s
 
 
+@pytest.mark.slow
 def test_closed_loop_turtlebot3_passes_clutter_without_touching_it(humble_controller):
     cm = grid(120, 0.05, origin=(-1.0, -1.0))
     lethal = np.zeros(cm.costs.shape, dtype=bool)
@@ -505,6 +507,7 @@ def test_closed_loop_turtlebot3_passes_clutter_without_touching_it(humble_contro
     assert (cm.costs[my, mx] < INSCRIBED).all()  # the robot's circle never reached a lethal cell
 
 
+@pytest.mark.slow
 def test_controller_server_runs_dwb_from_the_turtlebot3_file_to_success(tb3):
     cs = load_nav2_params(tb3).controller_server
     server = ControllerServer(cs, ControllerSetup(controller_frequency=cs.controller_frequency, robot_radius=0.22))
