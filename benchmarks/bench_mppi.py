@@ -8,7 +8,10 @@ the load average, and the same with ``predict`` in NumPy instead of its numba ke
 of the two, measured in the same run). One process, one thread each (set OMP/BLAS threads to 1 before NumPy loads);
 nothing is asserted.
 
-    .venv/bin/python benchmarks/bench_mppi.py [--batch 1000 2000] [--cycles 40]
+    .venv/bin/python benchmarks/bench_mppi.py [--batch 1000 2000] [--cycles 40] [--shared DIR]
+
+The bringup file is read from the external data folder (``--shared``; default ``$NAVLOG_SHARED_DIR``,
+else ``shared`` beside the repository), else the copy of the article's file under tests/.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ os.environ.setdefault("MKL_NUM_THREADS", "1")
 import argparse
 import dataclasses
 import statistics
+import sys
 import time
 from pathlib import Path
 
@@ -34,8 +38,11 @@ from navlog.replay.nav2.controllers.mppi import MPPIController, MPPIParams
 from navlog.replay.nav2.costmap.grid import CostmapGrid, CostmapParams
 from navlog.replay.nav2.costmap.inflation_layer import inflation_costs
 
-BRINGUP = Path("/work/shared/external-data/params/nav2_bringup_jazzy_nav2_params.yaml")
-SEED_001 = Path(__file__).resolve().parents[1] / "tests" / "replay" / "nav2" / "data" / "jazzy_article_nav2_params.yaml"
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
+from tests.shared_data import REPO, default_shared_dir
+
+BRINGUP = Path("external-data") / "params" / "nav2_bringup_jazzy_nav2_params.yaml"  # inside the shared folder
+SEED_001 = REPO / "tests" / "replay" / "nav2" / "data" / "jazzy_article_nav2_params.yaml"
 BUDGET = 0.050  # s: one period at 20 Hz
 
 
@@ -44,8 +51,8 @@ class _Tolerance:
     yaw_goal_tolerance = 0.25
 
 
-def _params() -> MPPIParams:
-    path = BRINGUP if BRINGUP.exists() else SEED_001
+def _params(shared: Path) -> MPPIParams:
+    path = shared / BRINGUP if (shared / BRINGUP).exists() else SEED_001
     p = load_nav2_params(path).controller_server.controllers["FollowPath"]
     assert isinstance(p, MPPIParams)
     return p
@@ -61,8 +68,8 @@ def _costmap() -> CostmapGrid:
     return cm
 
 
-def measure(batch: int, cycles: int) -> tuple[float, dict[str, float]]:
-    params = dataclasses.replace(_params(), batch_size=batch, time_steps=56, model_dt=0.05)
+def measure(base: MPPIParams, batch: int, cycles: int) -> tuple[float, dict[str, float]]:
+    params = dataclasses.replace(base, batch_size=batch, time_steps=56, model_dt=0.05)
     ctl = MPPIController(params, ControllerSetup(controller_frequency=20.0, seed=1, robot_radius=0.22))
     ctl.set_plan(np.column_stack([np.arange(-1.0, 1.5, 0.05), np.zeros(50), np.zeros(50)]))
     ctx = ControlContext(0, _costmap(), np.eye(3), _Tolerance())
@@ -102,11 +109,13 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--batch", type=int, nargs="+", default=[1000, 2000])
     ap.add_argument("--cycles", type=int, default=40)
+    ap.add_argument("--shared", type=Path, default=default_shared_dir(), help="the external data folder")
     args = ap.parse_args()
+    base = _params(args.shared)
     print(f"MPPI cycle, time_steps 56, model_dt 0.05, bringup critics  (load average {os.getloadavg()[0]:.2f})")
     compiled = mppi._kernels
     for batch in args.batch:
-        median, share = measure(batch, args.cycles)
+        median, share = measure(base, batch, args.cycles)
         parts = ", ".join(f"{k} {v:.0%}" for k, v in share.items())
         print(
             f"batch {batch:5d} x 56: median {median * 1000:6.1f} ms of {args.cycles} cycles, "
@@ -114,7 +123,7 @@ def main() -> int:
         )
         mppi._kernels = lambda: None  # the same cycle with predict in NumPy instead of the numba kernel
         try:
-            plain, _ = measure(batch, args.cycles)
+            plain, _ = measure(base, batch, args.cycles)
         finally:
             mppi._kernels = compiled
         print(f"      NumPy predict: median {plain * 1000:6.1f} ms; numba kernel / NumPy = {median / plain:.2f}")

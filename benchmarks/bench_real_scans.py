@@ -1,6 +1,7 @@
 """Real robots' scans through the mapping pipeline: free space leaking through walls, before and after.
 
-For each rosbag2 folder (default: the Neato and TurtleBot3 bags in ../shared/external-data/bags/)
+For each rosbag2 folder (default: the Neato and TurtleBot3 bags in external-data/bags/ of the external
+data folder: ``--shared DIR``, default ``$NAVLOG_SHARED_DIR``, else ``shared`` beside the repository)
 the mapping pipeline runs twice: with navlog's default (no-return readings mark and clear nothing)
 and with the old rule (every no-return beam clears up to the scan's ``range_max``, here
 ``no_return_ray_length = range_max``). The building is taken as the convex hull of the occupied
@@ -9,13 +10,14 @@ share of a map's free cells whose centre lies outside that hull. Prints the shar
 readings, free / occupied cell counts and the leak of both maps, with the load average; nothing is
 asserted.
 
-    .venv/bin/python benchmarks/bench_real_scans.py [BAG ...]
+    .venv/bin/python benchmarks/bench_real_scans.py [BAG ...] [--shared DIR]
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import sys
 import tempfile
 from pathlib import Path
 
@@ -28,8 +30,10 @@ from navlog.replay.io.tum import read_tum
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.session import run_replay
 
-BAGS = Path(__file__).resolve().parents[2] / "shared" / "external-data" / "bags"
-DEFAULT = [BAGS / "neato_drive_square", BAGS / "tb3_gazebo_walker"]
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
+from tests.shared_data import default_shared_dir
+
+DEFAULT = ["neato_drive_square", "tb3_gazebo_walker"]  # in external-data/bags/ of the shared folder
 
 
 def scan_facts(bag: Path) -> tuple[float, float]:
@@ -60,10 +64,12 @@ def leak(m: OccupancyMap, hull: Delaunay) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("bags", nargs="*", type=Path, default=DEFAULT)
+    ap.add_argument("bags", nargs="*", type=Path, help="rosbag2 folders (default: the shared folder's two bags)")
+    ap.add_argument("--shared", type=Path, default=default_shared_dir(), help="the external data folder")
     args = ap.parse_args()
+    bags = args.bags or [args.shared / "external-data" / "bags" / name for name in DEFAULT]
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores")
-    for bag in args.bags:
+    for bag in bags:
         inf_share, range_max = scan_facts(bag)
         with tempfile.TemporaryDirectory() as tmp:
             maps = {}

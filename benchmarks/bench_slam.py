@@ -12,9 +12,10 @@ writing), with the load average before and after. Nothing is asserted.
 
 The peer is slam_toolbox (whose parameter names and defaults the SLAM reads); it needs ROS and is
 not run here: the targets are ATE <= 5 cm, F1 (observable) >= 0.95 and >= 20x real time for a
-10 Hz 720-beam scan. ``--bags`` also maps the real bags in ../shared/external-data/bags/ in place.
+10 Hz 720-beam scan. ``--bags`` also maps the real bags of external-data/bags/ in place, in the external data folder
+(``--shared DIR``; default ``$NAVLOG_SHARED_DIR``, else ``shared`` beside the repository).
 
-    .venv/bin/python benchmarks/bench_slam.py [--patrol] [--bags] [--mapping-log X.mcap] [--patrol-log Y.mcap]
+    .venv/bin/python benchmarks/bench_slam.py [--patrol] [--bags] [--mapping-log X.mcap] [--patrol-log Y.mcap] [--shared DIR]
 """
 
 from __future__ import annotations
@@ -31,8 +32,10 @@ from pathlib import Path
 
 from navlog.analysis.metrics import compute_metrics
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
+from tests.shared_data import default_shared_dir
+
 NAVLOG = [sys.executable, "-m", "navlog", "-q"]
-BAGS = Path(__file__).resolve().parents[2] / "shared" / "external-data" / "bags"
 
 
 def load() -> str:
@@ -102,12 +105,22 @@ def evaluate(name: str, log: Path, reference: Path, work: Path) -> None:
     print(f"  load average after {load()}")
 
 
-def bags(work: Path) -> None:
+def bags(shared: Path, work: Path) -> None:
     print("\nreal bags (pose_source=slam, read in place):")
     for bag in ("neato_drive_square", "tb3_gazebo_walker"):
         out = work / bag
         wall, _ = run(
-            ["replay", str(BAGS / bag), "--pipeline", "mapping", "-o", str(out), "--force", "--set", "pose_source=slam"]
+            [
+                "replay",
+                str(shared / "external-data" / "bags" / bag),
+                "--pipeline",
+                "mapping",
+                "-o",
+                str(out),
+                "--force",
+                "--set",
+                "pose_source=slam",
+            ]
         )
         graph = json.loads((out / "pose_graph.json").read_text())
         manifest = json.loads((out / "manifest.json").read_text())
@@ -123,6 +136,7 @@ def main() -> None:
     ap.add_argument("--patrol", action="store_true", help="also the 10-minute patrol (recorded if not given)")
     ap.add_argument("--patrol-log", type=Path, help="a patrol log recorded with --localization none")
     ap.add_argument("--bags", action="store_true", help="also map the real bags with pose_source=slam")
+    ap.add_argument("--shared", type=Path, default=default_shared_dir(), help="the external data folder (--bags)")
     args = ap.parse_args()
     print(f"machine: {os.cpu_count()} cores, load average {load()}")
     with tempfile.TemporaryDirectory() as tmp:
@@ -133,7 +147,7 @@ def main() -> None:
         if args.patrol or args.patrol_log:
             evaluate("patrol", args.patrol_log or record("patrol", work / "patrol.mcap"), reference, work)
         if args.bags:
-            bags(work)
+            bags(args.shared, work)
 
 
 if __name__ == "__main__":

@@ -23,6 +23,9 @@ full traceback). Every TRACEBACK or HANG saves a reproducer under ``OUT/repro/``
     python fuzz/campaign.py --cases 10000 --seed 1 --out /tmp/fuzz-out
     python fuzz/campaign.py --seed 1 --case 4711 --out /tmp/fuzz-out
     python fuzz/campaign.py --repro /tmp/fuzz-out/repro/004711-mcap-bytes-traceback --out /tmp/fuzz-out
+
+The real bags and public Nav2 files among the seeds come from the external data folder (``--shared DIR``;
+default ``$NAVLOG_SHARED_DIR``, else ``shared`` beside the repository); without it there are none.
 """
 
 from __future__ import annotations
@@ -56,8 +59,9 @@ from hypothesis import HealthCheck, Phase, Verbosity, given, settings
 from hypothesis import seed as hypothesis_seed
 from hypothesis import strategies as st
 
-REPO = Path(__file__).resolve().parents[1]
-EXTERNAL = Path("/work/shared/external-data")
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
+from tests.shared_data import REPO, default_shared_dir
+
 OUTCOMES = ("OK", "CLEAN_ERROR", "COUNTED_SKIP", "TRACEBACK", "HANG")
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 
@@ -211,13 +215,20 @@ def parse_log(data: bytes) -> tuple[list[Any], list[Any], list[Any]]:
     return list(schemas.values()), list(channels.values()), messages
 
 
-def load_seeds(folder: Path) -> Seeds:
+def load_seeds(folder: Path, shared: Path) -> Seeds:
+    """The seeds: the tiny drive recorded into ``folder``, the shipped configs, and what ``shared`` holds.
+
+    From ``shared`` (the external data folder) come the rosbag2 folders of ``external-data/bags`` and the
+    Nav2 files of ``external-data/params``; an absent folder gives no such seeds, so the drawn recipes
+    depend on it.
+    """
+    external = shared / "external-data"
     build_seed_log(folder)
     logs = {p.stem: p.read_bytes() for p in sorted(folder.glob("seed_*.mcap"))}
-    talker = EXTERNAL / "bags/rosbag2_talker_mcap/talker.mcap"
+    talker = external / "bags/rosbag2_talker_mcap/talker.mcap"
     if talker.is_file():
         logs["talker"] = talker.read_bytes()
-    bags = {p.name: p for p in sorted((EXTERNAL / "bags").glob("*")) if p.is_dir() and p.name != "tb3_gazebo_walker"}
+    bags = {p.name: p for p in sorted((external / "bags").glob("*")) if p.is_dir() and p.name != "tb3_gazebo_walker"}
     configs = {
         kind: sorted((REPO / "config" / kind).glob("*.yaml"))
         for kind in ("worlds", "robots", "scenarios", "pipelines", "suites")
@@ -227,7 +238,7 @@ def load_seeds(folder: Path) -> Seeds:
         [
             *(REPO / "tests/replay/nav2/data").glob("*.yaml"),
             *(REPO / "config/nav2").glob("*.yaml"),
-            *(EXTERNAL / "params").glob("*.yaml"),
+            *(external / "params").glob("*.yaml"),
         ]
     )
     return Seeds(
@@ -1479,8 +1490,8 @@ def save_repro(case: Case, built: Built | None, outcome: str, text: str, out: Pa
 # -------------------------------------------------------------------------------------- workers
 
 
-def worker(seed: int, seeds_dir: str, timeout: float, out: str, conn: Any) -> None:
-    seeds = load_seeds(Path(seeds_dir))
+def worker(seed: int, seeds_dir: str, shared: str, timeout: float, out: str, conn: Any) -> None:
+    seeds = load_seeds(Path(seeds_dir), Path(shared))
     conn.send(("ready", None))
     while True:
         case = conn.recv()
@@ -1526,6 +1537,7 @@ def run_campaign(
     seed: int,
     out: Path,
     *,
+    shared: Path,
     workers: int = 2,
     timeout: float = 20.0,
     start: int = 0,
@@ -1533,11 +1545,13 @@ def run_campaign(
 ) -> Result:
     """Run cases ``start .. start+cases-1`` of ``seed`` on ``workers`` processes; write OUT/summary.json.
 
+    ``shared`` is the external data folder whose bags and Nav2 files join the seeds (see ``load_seeds``).
+
     Hypothesis draws the cases in this process and each is handed to a free worker as soon as it is drawn.
     """
     out.mkdir(parents=True, exist_ok=True)
     seeds_dir = out / "seeds"
-    seeds = load_seeds(seeds_dir)
+    seeds = load_seeds(seeds_dir, shared)
     ctx = mp.get_context("fork")
     t0 = time.perf_counter()
     result = Result(seed, 0, 0.0)
@@ -1545,7 +1559,7 @@ def run_campaign(
 
     def spawn(slot: int) -> None:
         parent, child = ctx.Pipe()
-        p = ctx.Process(target=worker, args=(seed, str(seeds_dir), timeout, str(out), child), daemon=True)
+        p = ctx.Process(target=worker, args=(seed, str(seeds_dir), str(shared), timeout, str(out), child), daemon=True)
         p.start()
         parent.recv()  # ready
         procs[slot] = (p, parent, None, 0.0)
@@ -1633,13 +1647,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="campaign seed (default 0)")
     parser.add_argument("--start", type=int, default=0, help="index of the first case (default 0)")
     parser.add_argument("--out", type=Path, required=True, help="folder for seeds, summary.json and repro/")
+    parser.add_argument(
+        "--shared",
+        type=Path,
+        default=default_shared_dir(),
+        help="the external data folder whose bags and Nav2 files join the seeds "
+        "(default: $NAVLOG_SHARED_DIR, else shared/ beside the repository)",
+    )
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--timeout", type=float, default=20.0, help="seconds per case before it is a HANG")
     parser.add_argument("--case", type=int, help="re-run this one case in-process and print its traceback")
     parser.add_argument("--repro", type=Path, help="re-run a saved reproducer (a folder holding case.json)")
     args = parser.parse_args(argv)
     if args.case is not None or args.repro is not None:
-        seeds = load_seeds(args.out / "seeds")
+        seeds = load_seeds(args.out / "seeds", args.shared)
         if args.repro is not None:
             meta = json.loads((args.repro / "case.json").read_text())
             case = Case(meta["index"], meta["kind"], meta["recipe"])
@@ -1647,7 +1668,14 @@ def main(argv: list[str] | None = None) -> int:
             case = case_at(args.seed, args.case, seeds)
         return rerun(case, seeds, args.timeout)
     result = run_campaign(
-        args.cases, args.seed, args.out, workers=args.workers, timeout=args.timeout, start=args.start, progress=True
+        args.cases,
+        args.seed,
+        args.out,
+        shared=args.shared,
+        workers=args.workers,
+        timeout=args.timeout,
+        start=args.start,
+        progress=True,
     )
     print(result.table())
     for f in result.failures[:50]:

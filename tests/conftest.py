@@ -1,4 +1,13 @@
-"""Shared fixtures: where the external data lives."""
+"""Shared fixtures: where the external data lives, and the recordings several modules replay.
+
+The external data (real rosbag2 folders, the Nav2 parameter files of public robots, the seed texts) is
+read from the folder the environment variable ``NAVLOG_SHARED_DIR`` names, else from ``shared`` beside
+the repository (``REPO/../shared``; see ``tests/shared_data.py``). A test that needs it takes the
+``shared_dir`` fixture or one built on it (``bags_dir``, ``params_dir``, ``seeds_dir``) and never
+names a path of its own; when the folder is absent the test is skipped with the path it looked at.
+
+    NAVLOG_SHARED_DIR=/data/navlog-shared .venv/bin/python -m pytest -q
+"""
 
 from __future__ import annotations
 
@@ -6,20 +15,37 @@ from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-SHARED = (REPO / ".." / "shared").resolve()
+from tests.shared_data import SHARED_DIR_VARIABLE, default_shared_dir
+
+
+def _folder(path: Path, what: str) -> Path:
+    if not path.is_dir():
+        pytest.skip(f"{what} not found at {path} (set {SHARED_DIR_VARIABLE} to the folder that holds it)")
+    return path
 
 
 @pytest.fixture(scope="session")
 def shared_dir() -> Path:
-    if not SHARED.is_dir():
-        pytest.skip(f"external data not found at {SHARED}")
-    return SHARED
+    """The external data folder; skips the test when it is absent."""
+    return _folder(default_shared_dir(), "external data")
 
 
 @pytest.fixture(scope="session")
 def bags_dir(shared_dir: Path) -> Path:
-    return shared_dir / "external-data" / "bags"
+    """``external-data/bags``: real rosbag2 folders (neato_drive_square, tb3_gazebo_walker, ...)."""
+    return _folder(shared_dir / "external-data" / "bags", "external bags")
+
+
+@pytest.fixture(scope="session")
+def params_dir(shared_dir: Path) -> Path:
+    """``external-data/params``: Nav2 parameter files of public robots (Jazzy bringup, TurtleBot3/4 Humble)."""
+    return _folder(shared_dir / "external-data" / "params", "external Nav2 parameter files")
+
+
+@pytest.fixture(scope="session")
+def seeds_dir(shared_dir: Path) -> Path:
+    """``seeds``: the seed texts (``000_*.txt``, ``001_*.txt``, ...)."""
+    return _folder(shared_dir / "seeds", "seed texts")
 
 
 @pytest.fixture(scope="session")

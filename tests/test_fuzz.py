@@ -22,9 +22,6 @@ from mcap.writer import Writer
 from navlog.errors import ConfigError, LogError, NavlogError
 
 REPO = Path(__file__).resolve().parents[1]
-BAGS = Path("/work/shared/external-data/bags")
-TALKER = BAGS / "rosbag2_talker_mcap"
-NEATO = BAGS / "neato_drive_square"  # sqlite3 storage: topics come from metadata.yaml
 
 
 def load_campaign():
@@ -37,15 +34,17 @@ def load_campaign():
 
 
 @pytest.fixture(scope="module")
-def campaign_and_seeds(tmp_path_factory):
+def campaign_and_seeds(tmp_path_factory, shared_dir):
+    """The campaign module, its seeds (the external data's bags and Nav2 files among them) and its folder."""
     campaign = load_campaign()
     folder = tmp_path_factory.mktemp("fuzz")
-    return campaign, campaign.load_seeds(folder / "seeds"), folder
+    return campaign, campaign.load_seeds(folder / "seeds", shared_dir), folder
 
 
-def test_seeded_subset_has_no_traceback_and_no_hang(campaign_and_seeds) -> None:
+@pytest.mark.slow
+def test_seeded_subset_has_no_traceback_and_no_hang(campaign_and_seeds, shared_dir: Path) -> None:
     campaign, _, folder = campaign_and_seeds
-    result = campaign.run_campaign(200, 7, folder, workers=2, timeout=20.0)
+    result = campaign.run_campaign(200, 7, folder, shared=shared_dir, workers=2, timeout=20.0)
     totals = result.totals
     assert totals["TRACEBACK"] == 0 and totals["HANG"] == 0, result.failures
     assert sum(totals.values()) == result.cases == 200
@@ -61,7 +60,8 @@ def text(case) -> str:
     return json.dumps(case.recipe)
 
 
-def test_case_i_depends_only_on_the_seed_and_i(campaign_and_seeds) -> None:
+@pytest.mark.slow
+def test_case_i_depends_only_on_the_seed_and_i(campaign_and_seeds, shared_dir: Path) -> None:
     campaign, seeds, _ = campaign_and_seeds
     drawn: list = []
     assert campaign.generate(3, 120, seeds, drawn.append) == 120
@@ -72,10 +72,12 @@ def test_case_i_depends_only_on_the_seed_and_i(campaign_and_seeds) -> None:
     # nor on what the process ran before: a fresh one that has imported no navlog module draws the same
     script = (
         "import json, sys; sys.path.insert(0, sys.argv[1]); import campaign; from pathlib import Path; "
-        "print(json.dumps(campaign.case_at(3, 57, campaign.load_seeds(Path(sys.argv[2]))).recipe))"
+        "print(json.dumps(campaign.case_at(3, 57, campaign.load_seeds(Path(sys.argv[2]), Path(sys.argv[3]))).recipe))"
     )
     fresh = subprocess.run(
-        [sys.executable, "-c", script, str(REPO / "fuzz"), str(seeds.folder)], capture_output=True, text=True
+        [sys.executable, "-c", script, str(REPO / "fuzz"), str(seeds.folder), str(shared_dir)],
+        capture_output=True,
+        text=True,
     )
     assert fresh.returncode == 0, fresh.stderr
     assert fresh.stdout.strip() == text(drawn[57])
@@ -154,7 +156,6 @@ def test_override_with_malformed_yaml_value_is_a_config_error() -> None:
         apply_overrides([1, 2], ["a=1"])  # type: ignore[arg-type]
 
 
-@pytest.mark.skipif(not TALKER.is_dir(), reason="external bag not available")
 @pytest.mark.parametrize(
     ("metadata", "message"),
     [
@@ -162,22 +163,21 @@ def test_override_with_malformed_yaml_value_is_a_config_error() -> None:
         (b"- a\n- b\n", "expected a 'rosbag2_bagfile_information' mapping"),
     ],
 )
-def test_broken_rosbag2_metadata_is_a_log_error(tmp_path: Path, metadata: bytes, message: str) -> None:
+def test_broken_rosbag2_metadata_is_a_log_error(bags_dir: Path, tmp_path: Path, metadata: bytes, message: str) -> None:
     from navlog.replay.io.formats import open_log
 
     bag = tmp_path / "bag"
-    shutil.copytree(TALKER, bag)
+    shutil.copytree(bags_dir / "rosbag2_talker_mcap", bag)
     (bag / "metadata.yaml").write_bytes(metadata)
     with pytest.raises(LogError, match=message):
         open_log(bag)
 
 
-@pytest.mark.skipif(not NEATO.is_dir(), reason="external bag not available")
-def test_rosbag2_metadata_with_a_numeric_topic_name_is_a_log_error(tmp_path: Path) -> None:
+def test_rosbag2_metadata_with_a_numeric_topic_name_is_a_log_error(bags_dir: Path, tmp_path: Path) -> None:
     from navlog.replay.io.formats import open_log
 
     bag = tmp_path / "bag"
-    shutil.copytree(NEATO, bag)
+    shutil.copytree(bags_dir / "neato_drive_square", bag)  # sqlite3 storage: topics come from metadata.yaml
     meta = bag / "metadata.yaml"
     meta.write_text(meta.read_text().replace("name: /odom", "name: 1.5", 1))
     with pytest.raises(LogError, match="malformed rosbag2 metadata"):

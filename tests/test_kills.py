@@ -26,9 +26,11 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = pytest.mark.slow  # every test runs navlog in subprocesses, most of them many times
+
 NAVLOG = Path(sys.executable).with_name("navlog")
-QUICK_KILLS = 3  # per command, unmarked
-FULL_KILLS = 20  # per command, marked slow
+QUICK_KILLS = 3  # per command
+FULL_KILLS = 20  # per command
 SEED = 20240614
 
 
@@ -269,7 +271,6 @@ def test_kill_9_at_random_instants_quick(workbench, name):
     print(f"{name}: {tally}")
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("name", COMMANDS)
 def test_kill_9_at_random_instants_full(workbench, name):
     base, commands = workbench

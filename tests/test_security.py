@@ -323,6 +323,7 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
+@pytest.mark.slow
 def test_a_spawned_viewer_listens_on_localhost_only(tmp_path, monkeypatch):
     """Rerun's own spawn starts the viewer without --bind (its default is 0.0.0.0, every interface);
     navlog passes --bind=127.0.0.1 and streams to 127.0.0.1."""

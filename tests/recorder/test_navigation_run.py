@@ -17,6 +17,8 @@ from navlog.recorder.world import write_world_map
 from navlog.replay.io import open_log
 from navlog.replay.session import pipeline_params, run_replay
 
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parents[2]
 NAV_TOPICS = (
     "/plan",

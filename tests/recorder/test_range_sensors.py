@@ -28,6 +28,8 @@ from navlog.recorder.world import load_world
 from navlog.replay.io import open_log
 from navlog.replay.runtime.executor import Node
 
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parents[2]
 
 

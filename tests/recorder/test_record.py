@@ -17,6 +17,8 @@ from navlog.recorder.record import expected_duration, format_summary, prepare, r
 from navlog.recorder.world import clearance, load_world
 from navlog.replay.io import open_log
 
+pytestmark = pytest.mark.slow
+
 NAVLOG = [sys.executable, "-m", "navlog"]
 REPO = Path(__file__).resolve().parents[2]
 

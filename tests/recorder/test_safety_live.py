@@ -18,6 +18,8 @@ from navlog.recorder.world import clearance
 from navlog.replay.io import open_log
 from navlog.replay.session import load_pipeline_module, pipeline_params, run_replay
 
+pytestmark = pytest.mark.slow
+
 PADDED_RADIUS = 0.35  # KiBot's footprint: robot_radius 0.34 + Nav2's footprint_padding 0.01
 STEP = 0.1  # FootprintApproach's simulation_time_step (Nav2's default)
 REPO = Path(__file__).resolve().parents[2]
@@ -35,7 +37,6 @@ def run(tmp_path: Path, scenario: str, filters: bool):
     return setup, events, gap, topics
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize(
     ("scenario", "speed", "obstacle"),
     [
@@ -60,7 +61,6 @@ def test_kibot_stops_short_with_the_filters_and_collides_without(tmp_path, scena
     assert gap < -0.009  # the chassis (0.3 m from base_link) touches: 0.05 m inside the padded footprint
 
 
-@pytest.mark.slow
 def test_live_filters_equal_their_replay_byte_for_byte(tmp_path):
     log = tmp_path / "live.mcap"
     nav2 = REPO / "config" / "nav2" / "kibot_safety.yaml"

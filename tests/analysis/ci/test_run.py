@@ -15,6 +15,8 @@ import pytest
 from navlog.analysis.ci import Status, read_baseline, run_suite, to_json, to_junit, to_markdown, write_reports
 from navlog.cli import main
 
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parents[3]
 SHIPPED = REPO / "config" / "suites" / "navlog.yaml"
 BASELINES = REPO / "data" / "baselines"

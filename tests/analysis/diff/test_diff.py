@@ -14,6 +14,8 @@ from navlog.analysis.diff import DiffTolerances, Verdict, diff, parse_tolerances
 from navlog.cli import main
 from navlog.errors import NavlogError
 
+pytestmark = pytest.mark.slow
+
 MAPPING_2D = ["lidar_mapper=off"]
 
 

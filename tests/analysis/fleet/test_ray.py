@@ -14,6 +14,8 @@ from navlog.analysis.fleet.executors import Lost, RayPool, run_jobs, start_local
 from tests.analysis.fleet import jobs
 from tests.analysis.fleet.conftest import OVERRIDES, folder_bytes
 
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parents[3]
 
 

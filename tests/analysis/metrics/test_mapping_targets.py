@@ -19,6 +19,8 @@ from navlog.recorder.world import load_world, occupancy, write_mesh
 from navlog.replay.io.map_server import save_map
 from navlog.replay.session import run_replay
 
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def references(tmp_path_factory) -> tuple[Path, Path]:

@@ -11,6 +11,8 @@ from navlog.cli import main
 from tests.analysis import sample_nav_log as sample
 from tests.analysis.view.rrd import RERUN, column, read_rrd, verify
 
+pytestmark = pytest.mark.slow
+
 NS = 1_000_000_000
 
 

@@ -56,6 +56,7 @@ def test_neato_scan_and_odom_content(bags_dir):
         assert scans[0].header.frame_id == "base_laser_link"
 
 
+@pytest.mark.slow
 def test_info_on_every_external_bag(bags_dir):
     for bag in sorted(p for p in bags_dir.iterdir() if p.is_dir()):
         proc = subprocess.run(

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,8 +20,6 @@ from navlog.replay.nav2.amcl import (
 )
 from navlog.replay.occupancy_map import OccupancyMap
 
-PARAMS = Path("/work/shared/external-data/params")
-SEED_001 = Path("/work/shared/seeds")
 RES = 0.05
 LASER = (0.2, 0.0, 0.0)  # laser 0.2 m ahead of the base
 
@@ -55,9 +52,9 @@ def cast(occ: OccupancyMap, pose, n: int = 360, rmax: float = 8.0) -> Scan:
 # ---------------------------------------------------------------- parameters
 
 
-def test_reads_the_amcl_block_of_the_jazzy_and_humble_files():
+def test_reads_the_amcl_block_of_the_jazzy_and_humble_files(params_dir):
     for name in ("nav2_bringup_jazzy_nav2_params.yaml", "turtlebot3_humble_waffle_nav2.yaml"):
-        nav2 = load_nav2_params(PARAMS / name)
+        nav2 = load_nav2_params(params_dir / name)
         assert nav2.amcl is not None, name
         assert [p for p in nav2.errors if p.path.startswith("amcl")] == [], name
         a = nav2.amcl
@@ -67,8 +64,8 @@ def test_reads_the_amcl_block_of_the_jazzy_and_humble_files():
         assert "amcl" not in nav2.not_implemented
 
 
-def test_reads_the_seed_001_file_frames_and_topic():
-    text = next(SEED_001.glob("001_*.txt")).read_text()
+def test_reads_the_seed_001_file_frames_and_topic(seeds_dir):
+    text = next(seeds_dir.glob("001_*.txt")).read_text()
     block = text[text.index("amcl:") : text.index("bt_navigator:")]
     a = parse_nav2_text(block).require_valid().amcl
     assert a is not None
@@ -162,6 +159,7 @@ def drive(pf: ParticleFilter, occ: OccupancyMap, start, steps: int):
     return true
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     ("model", "robot"),
     [

@@ -258,15 +258,15 @@ def test_set_goal_preempts():
     assert [g.name for g in nav.accepted] == ["g1", "g2"]
 
 
-def test_params_are_read_from_the_bringup_blocks(shared_dir):
+def test_params_are_read_from_the_bringup_blocks(params_dir):
     from navlog.replay.nav2 import load_nav2_params
 
-    p = load_nav2_params(shared_dir / "external-data" / "params" / "nav2_bringup_jazzy_nav2_params.yaml")
+    p = load_nav2_params(params_dir / "nav2_bringup_jazzy_nav2_params.yaml")
     assert p.errors == []
     assert p.bt_navigator.bt_loop_duration == 10 and p.bt_navigator.tree == "jazzy"
     assert p.waypoint_follower.stop_on_failure is False and p.waypoint_follower.waypoint_pause_duration == 200
     assert p.behavior_server.cycle_frequency == 10.0 and p.behavior_server.behaviors["spin"] == "nav2_behaviors::Spin"
-    h = load_nav2_params(shared_dir / "external-data" / "params" / "turtlebot4_humble_nav2.yaml")
+    h = load_nav2_params(params_dir / "turtlebot4_humble_nav2.yaml")
     assert h.errors == [] and h.bt_navigator.tree == "humble"
     assert h.behavior_server.local_frame == "odom" and h.behavior_server.behaviors["backup"] == "nav2_behaviors::BackUp"
 

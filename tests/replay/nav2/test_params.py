@@ -21,8 +21,8 @@ def _messages(params, severity="error"):
 
 
 @pytest.mark.parametrize("name", EXTERNAL)
-def test_external_parameter_files_load_without_errors(shared_dir, name):
-    params = load_nav2_params(shared_dir / "external-data" / "params" / name)
+def test_external_parameter_files_load_without_errors(params_dir, name):
+    params = load_nav2_params(params_dir / name)
     assert params.errors == []
     gc = params.global_costmap
     assert gc is not None and gc.global_frame == "map"
@@ -31,8 +31,8 @@ def test_external_parameter_files_load_without_errors(shared_dir, name):
     assert "amcl" in params.not_implemented or "bt_navigator" in params.not_implemented
 
 
-def test_jazzy_bringup_values(shared_dir):
-    p = load_nav2_params(shared_dir / "external-data" / "params" / EXTERNAL[0])
+def test_jazzy_bringup_values(params_dir):
+    p = load_nav2_params(params_dir / EXTERNAL[0])
     gc, lc = p.global_costmap, p.local_costmap
     assert gc.robot_radius == 0.22 and gc.resolution == 0.05 and gc.track_unknown_space is True
     assert gc.layers["inflation_layer"].inflation_radius == 0.7
@@ -48,8 +48,8 @@ def test_jazzy_bringup_values(shared_dir):
     assert "local_costmap.local_costmap.ros__parameters.static_layer" in _messages(p, "warning")
 
 
-def test_turtlebot_humble_slash_plugin_names(shared_dir):
-    p = load_nav2_params(shared_dir / "external-data" / "params" / "turtlebot4_humble_nav2.yaml")
+def test_turtlebot_humble_slash_plugin_names(params_dir):
+    p = load_nav2_params(params_dir / "turtlebot4_humble_nav2.yaml")
     assert p.planner_server.planners["GridBased"].plugin == "nav2_navfn_planner::NavfnPlanner"
     assert p.global_costmap.resolution == 0.06 and p.global_costmap.robot_radius == 0.175
 

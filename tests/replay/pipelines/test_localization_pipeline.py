@@ -18,6 +18,8 @@ from navlog.replay.pipelines.safety import nav2_file
 from navlog.replay.runtime.executor import Executor
 from navlog.replay.session import run_replay
 
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def room_map(tmp_path_factory):

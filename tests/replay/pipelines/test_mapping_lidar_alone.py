@@ -17,6 +17,8 @@ from navlog.replay.runtime.executor import Envelope
 from navlog.replay.session import run_replay
 from tests.replay import lidar_scene as scene
 
+pytestmark = pytest.mark.slow
+
 MOUNT = "lidar.mount=[0.2,0.0,0.08,0.0,0.0,0.0]"  # scene.EXTRINSIC_XYZ
 
 

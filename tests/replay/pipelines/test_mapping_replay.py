@@ -19,6 +19,8 @@ from navlog.replay.io.map_server import load_map
 from navlog.replay.runtime.executor import Envelope
 from navlog.replay.session import pipeline_params, run_replay
 
+pytestmark = pytest.mark.slow
+
 REPO = Path(__file__).resolve().parents[3]
 NAVLOG = [sys.executable, "-m", "navlog"]
 MOUNT = (0.2, 0.0, 0.1)

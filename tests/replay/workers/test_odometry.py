@@ -25,6 +25,8 @@ from navlog.replay.mapping.lidar_odometry.odometry import FrameResult, SweepPlan
 from navlog.replay.mapping.lidar_odometry.sweep import prepare_sweep
 from navlog.replay.workers.odometry import NAME, OdometryWorker
 
+pytestmark = pytest.mark.slow
+
 MOUNT = make_transform((0.2, 0.0, 0.4), quat_from_rpy(0.0, 0.1, 0.05))
 PARAMS = LidarOdometryParams(save_every_n_frames=4)
 START_NS = 1_000_000_000

@@ -16,6 +16,8 @@ from navlog.replay.runtime.executor import Envelope
 from tests.replay import lidar_scene as scene
 from tests.replay.mapping.lidar_odometry.helpers import ate_rmse, initial_pose_params, run_node
 
+pytestmark = pytest.mark.slow
+
 XYZ = (("x", 0, 7), ("y", 4, 7), ("z", 8, 7))
 
 

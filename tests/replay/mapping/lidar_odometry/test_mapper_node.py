@@ -19,6 +19,8 @@ from navlog.replay.runtime.executor import Envelope, Executor, Node
 from tests.replay import lidar_scene as scene
 from tests.replay.mapping.lidar_odometry.helpers import Recorder, ate_rmse, initial_pose_params, run_node, share_within
 
+pytestmark = pytest.mark.slow
+
 cloud_msg = scene.cloud_msg
 
 

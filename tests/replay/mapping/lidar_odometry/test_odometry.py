@@ -4,11 +4,14 @@ prior, chunks of frames, and frames it cannot use."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.spatial.transform import Rotation
 
 from navlog.replay.mapping.lidar_odometry import LidarOdometry, LidarOdometryParams, MotionPrior, PoseTrack
 from tests.replay import lidar_scene as scene
 from tests.replay.mapping.lidar_odometry.helpers import ate_rmse, share_within
+
+pytestmark = pytest.mark.slow
 
 
 def test_gicp_and_odometry_prior(room):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -46,9 +47,18 @@ from navlog.replay.nav2.costmap.inflation_layer import inflation_costs
 from navlog.replay.nav2.params import load_nav2_params
 from navlog.replay.nav2.schema import ERROR, WARNING, SectionReader
 
-PARAMS = Path("/work/shared/external-data/params")
-TB3 = PARAMS / "turtlebot3_humble_waffle_nav2.yaml"
-TB4 = PARAMS / "turtlebot4_humble_nav2.yaml"
+
+@pytest.fixture
+def tb3(params_dir: Path) -> Path:
+    """The TurtleBot3 (waffle) Humble Nav2 file."""
+    return params_dir / "turtlebot3_humble_waffle_nav2.yaml"
+
+
+@pytest.fixture
+def tb4(params_dir: Path) -> Path:
+    """The TurtleBot4 Humble Nav2 file."""
+    return params_dir / "turtlebot4_humble_nav2.yaml"
+
 
 # Nav2's Humble bringup kinematics (nav2_bringup/params/nav2_params.yaml)
 HUMBLE = {
@@ -101,10 +111,10 @@ def cycle(cm: CostmapGrid, plan, pose=(0.55, 0.55, 0.0), goal=None, velocity=(0.
 # ------------------------------------------------------------------ parameters
 
 
-def test_humble_files_load_without_errors_and_register_dwb():
+def test_humble_files_load_without_errors_and_register_dwb(tb3, tb4):
     plugin = CONTROLLERS["dwb_core::DWBLocalPlanner"]
     assert plugin is not None and plugin.implementation is DWBController
-    for path in (TB3, TB4):
+    for path in (tb3, tb4):
         nav2 = load_nav2_params(path)
         assert nav2.errors == []
         p = nav2.controller_server.controllers["FollowPath"]
@@ -124,7 +134,7 @@ def test_humble_files_load_without_errors_and_register_dwb():
             scale=32.0, slowing_factor=5.0, lookahead_time=-1.0
         )
         assert p.critic_params["Oscillation"] == OscillationParams()
-    tb3 = load_nav2_params(TB3).controller_server.controllers["FollowPath"]
+    tb3 = load_nav2_params(tb3).controller_server.controllers["FollowPath"]
     assert (tb3.max_vel_x, tb3.vtheta_samples, tb3.sim_time, tb3.xy_goal_tolerance) == (0.22, 40, 2.0, 0.05)
 
 
@@ -185,15 +195,15 @@ def test_one_axis_samples_window_and_inserted_zero():
     assert axis_samples(0.0, 0.0, 0.0, 0.0, 0.0, 1.7, 5) == [0.0]
 
 
-def test_sample_counts_of_the_humble_robots():
-    tb3 = load_nav2_params(TB3).controller_server.controllers["FollowPath"]
+def test_sample_counts_of_the_humble_robots(tb3, tb4):
+    tb3 = load_nav2_params(tb3).controller_server.controllers["FollowPath"]
     twists = velocity_samples(tb3, (0.0, 0.0, 0.0), tb3.sim_time)
     # vx 20 in [0, 0.22]; vy one (0); vtheta 40 in [-1, 1] plus the inserted 0; minus the zero twist
     assert len(twists) == 20 * 41 - 1
     assert twists[0] == pytest.approx([0.0, 0.0, -1.0])
     assert twists[-1] == pytest.approx([0.22, 0.0, 1.0])
     assert not ((twists[:, 0] == 0) & (twists[:, 2] == 0)).any()
-    tb4 = load_nav2_params(TB4).controller_server.controllers["FollowPath"]
+    tb4 = load_nav2_params(tb4).controller_server.controllers["FollowPath"]
     assert len(velocity_samples(tb4, (0.0, 0.0, 0.0), tb4.sim_time)) == 20 * 21 - 1
     # LimitedAccelGenerator: the window is 1 / controller_frequency wide: vx 0.1 +- 2.5 * 0.05
     limited = dataclasses.replace(tb3, trajectory_generator_name="dwb_plugins::LimitedAccelGenerator")
@@ -389,12 +399,20 @@ def context(cm: CostmapGrid, now_ns: int = 0) -> ControlContext:
     return ControlContext(now_ns=now_ns, costmap=cm, global_to_local=np.eye(3), goal_checker=Tolerances())
 
 
-def humble_controller(path=TB3, **kw) -> DWBController:
-    p = load_nav2_params(path).controller_server.controllers["FollowPath"]
-    return DWBController(dataclasses.replace(p, **kw), ControllerSetup(controller_frequency=10.0, robot_radius=0.22))
+@pytest.fixture
+def humble_controller(tb3: Path) -> Callable[..., DWBController]:
+    """Makes the TurtleBot3 file's DWB at 10 Hz, robot radius 0.22 m, with the given parameters replaced."""
+
+    def make(**kw) -> DWBController:
+        p = load_nav2_params(tb3).controller_server.controllers["FollowPath"]
+        return DWBController(
+            dataclasses.replace(p, **kw), ControllerSetup(controller_frequency=10.0, robot_radius=0.22)
+        )
+
+    return make
 
 
-def test_plan_transform_prunes_as_dwb():
+def test_plan_transform_prunes_as_dwb(humble_controller):
     ctrl = humble_controller()
     plan = np.column_stack([np.arange(21) * 0.25, np.zeros(21), np.zeros(21)])  # 0 .. 5 m along x
     ctrl.set_plan(plan)
@@ -419,7 +437,7 @@ def test_plan_transform_prunes_as_dwb():
         humble_controller().compute_velocity_commands((0, 0, 0), (0, 0, 0), context(cm))
 
 
-def test_no_legal_trajectory_is_no_valid_control_naming_the_critic():
+def test_no_legal_trajectory_is_no_valid_control_naming_the_critic(humble_controller):
     ctrl = humble_controller()
     cm = grid(60, 0.05, origin=(-1.5, -1.5))
     cm.costs[:] = LETHAL
@@ -428,7 +446,7 @@ def test_no_legal_trajectory_is_no_valid_control_naming_the_critic():
         ctrl.compute_velocity_commands((0.0, 0.0, 0.0), (0.0, 0.0, 0.0), context(cm))
 
 
-def test_short_circuit_does_not_change_the_command():
+def test_short_circuit_does_not_change_the_command(humble_controller):
     cm = grid(60, 0.05, origin=(-1.5, -1.5))
     plan = np.column_stack([np.linspace(0, 1.4, 29), np.linspace(0, 0.7, 29), np.full(29, 0.46)])
     cmds = []
@@ -462,7 +480,8 @@ def drive(ctrl: DWBController, cm: CostmapGrid, path: np.ndarray, frequency: flo
     return np.array(poses)
 
 
-def test_closed_loop_turtlebot3_follows_an_l_path():
+@pytest.mark.slow
+def test_closed_loop_turtlebot3_follows_an_l_path(humble_controller):
     ctrl = humble_controller()
     cm = grid(120, 0.05, origin=(-1.0, -1.0))  # 6 x 6 m, empty
     poses = drive(ctrl, cm, l_path(), 10.0)
@@ -472,7 +491,8 @@ def test_closed_loop_turtlebot3_follows_an_l_path():
     assert len(poses) < 30 * 10  # 5.75 m at <= 0.22 m/s: well under 30 s
 
 
-def test_closed_loop_turtlebot3_passes_clutter_without_touching_it():
+@pytest.mark.slow
+def test_closed_loop_turtlebot3_passes_clutter_without_touching_it(humble_controller):
     cm = grid(120, 0.05, origin=(-1.0, -1.0))
     lethal = np.zeros(cm.costs.shape, dtype=bool)
     lethal[26:32, 46:54] = True  # a box x 1.3 .. 1.7, y 0.3 .. 0.6 beside the first leg
@@ -487,8 +507,9 @@ def test_closed_loop_turtlebot3_passes_clutter_without_touching_it():
     assert (cm.costs[my, mx] < INSCRIBED).all()  # the robot's circle never reached a lethal cell
 
 
-def test_controller_server_runs_dwb_from_the_turtlebot3_file_to_success():
-    cs = load_nav2_params(TB3).controller_server
+@pytest.mark.slow
+def test_controller_server_runs_dwb_from_the_turtlebot3_file_to_success(tb3):
+    cs = load_nav2_params(tb3).controller_server
     server = ControllerServer(cs, ControllerSetup(controller_frequency=cs.controller_frequency, robot_radius=0.22))
     assert isinstance(server.controller, DWBController)
     cm = grid(120, 0.05, origin=(-1.0, -1.0))
