@@ -1,11 +1,10 @@
-"""The compiled costmap and occupancy kernels against the NumPy/SciPy paths they replace, in the same run.
+"""The compiled costmap kernels against the NumPy/SciPy paths they replace, in the same run.
 
 Run: .venv/bin/python benchmarks/bench_costmap.py [--runs 15]
 
 Cases: the inflation layer's update over a whole 400 x 400 and 1000 x 1000 costmap (0.05 m, 120-box
 clutter, Nav2's defaults: radius 0.55 m, scaling 10, a 0.4 m square robot), the obstacle layer's ray
-clearing of a 720-beam scan (returns 0.5 to 8 m, a 20 x 20 m costmap), and ``OccupancyGrid2D.insert_scan``
-of a 720-beam scan (returns to 8 m and to 25 m). Each is timed with the compiled kernel (numba) and
+clearing of a 720-beam scan (returns 0.5 to 8 m, a 20 x 20 m costmap), . Each is timed with the compiled kernel (numba) and
 with the NumPy path (the fallback without numba), median of ``--runs``, after one untimed call (the
 compilation, or loading it from numba's cache); the outputs of both are checked to be identical.
 Prints the machine and its load average with the table.
@@ -25,11 +24,8 @@ from typing import Any
 
 import numpy as np
 
-import navlog.replay.mapping.occupancy as occupancy_module
 import navlog.replay.nav2.costmap.inflation_layer as inflation_module
 import navlog.replay.nav2.costmap.obstacle_layer as obstacle_module
-from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
-from navlog.replay.mapping.occupancy_kernels import kernels as occupancy_kernels
 from navlog.replay.nav2.costmap import (
     Costmap2D,
     CostmapParams,
@@ -138,36 +134,17 @@ def raytrace_case() -> Callable[[], Callable[[], Any]]:
     return build
 
 
-def insert_scan_case(far: float) -> Callable[[], Callable[[], Any]]:
-    ang, r = scan(np.random.default_rng(2), far)
-    pose = np.eye(4)
-    pose[:2, 3] = 10.0
-
-    def build() -> Callable[[], Any]:
-        grid = OccupancyGrid2D(OccupancyParams())
-
-        def run() -> tuple[np.ndarray, np.ndarray]:
-            grid.insert_scan(pose, ang, r, 0.1, 30.0)
-            return grid.logodds, grid.seen
-
-        return run
-
-    return build
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=15)
     args = ap.parse_args()
-    compiled_costmap, compiled_occupancy = costmap_kernels(), occupancy_kernels()
-    if compiled_costmap is None or compiled_occupancy is None:
+    compiled_costmap = costmap_kernels()
+    if compiled_costmap is None:
         raise SystemExit("numba is not installed: there is nothing compiled to compare")
     cases = [
         ("inflation 400 x 400", inflation_module, compiled_costmap, inflation_case(400)),
         ("inflation 1000 x 1000", inflation_module, compiled_costmap, inflation_case(1000)),
         ("obstacle ray clearing, 720 beams", obstacle_module, compiled_costmap, raytrace_case()),
-        ("insert_scan, 720 beams to 8 m", occupancy_module, compiled_occupancy, insert_scan_case(8.0)),
-        ("insert_scan, 720 beams to 25 m", occupancy_module, compiled_occupancy, insert_scan_case(25.0)),
     ]
     print(f"machine: {cpu_name()}, {os.cpu_count()} cores, Python {platform.python_version()}")
     print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")

@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 
 from navlog.replay.geometry import world_to_cell
-from navlog.replay.mapping.occupancy_kernels import compiled_scan_update
 from navlog.replay.occupancy_map import OccupancyMap
 
+NUMPY_BEAM_GROUPS = 4  # beams of similar length updated together (``_update``)
 MAX_CELLS = 1_000_000_000  # a grid larger than this (4 GB of log-odds) comes from a pose or range far off
 MAX_COORDINATE = 1e6  # m; a grid reaching farther from the map origin comes from a pose or range far off
 
@@ -189,8 +189,7 @@ class OccupancyGrid2D:
             max(pos[0], ends[:, 0].max()),
             max(pos[1], ends[:, 1].max()),
         )
-        ny, nx = self.logodds.shape
-        ncell = ny * nx
+        nx = self.logodds.shape[1]
         # free space: sample every half cell along each beam, stopping short of the end cell
         step = self.res * 0.5
         t = np.arange(int(np.ceil(length.max() / step)) + 1, dtype=np.float32) * np.float32(step / self.res)
@@ -198,22 +197,74 @@ class OccupancyGrid2D:
         d2c = d2.astype(np.float32)
         g0 = ((pos[:2] - self.origin) / self.res).astype(np.float32)
         end_cells = self._cells(ends[ishit], nx)
-        mask = self._buffers.get("scan_mask")
-        if mask is None or mask.size != ncell:  # all zero between scans
-            mask = self._buffers["scan_mask"] = np.zeros(ncell, dtype=np.int8)
-        f32 = np.float32
-        compiled_scan_update()(
-            self.logodds.reshape(-1),
-            self.seen.reshape(-1),
-            mask,
-            nx,
-            g0,
-            d2c,
-            t,
-            last,
-            end_cells,
-            *(f32(self.l_miss), f32(self.l_min), f32(self.l_hit), f32(self.l_max)),
-        )
+        self._update(t, last, d2c, g0, end_cells)
+
+    def _update(self, t: np.ndarray, last: np.ndarray, d2c: np.ndarray, g0: np.ndarray, end_cells: np.ndarray) -> None:
+        """Each cell crossed by a beam updated once with the miss log-odds (clamped below), each end cell
+        once with the hit log-odds (clamped above), an end cell never counting as crossed; all of them
+        marked seen. Sample j of a beam lies at ``g0 + direction * t[j]`` (cells, float32 arithmetic, the
+        cell by truncation); samples past ``last`` (the beam's free part) are not used, the sensor's own
+        sample always is.
+
+        The beams are taken in ``NUMPY_BEAM_GROUPS`` groups of similar length (sorted by their number
+        of free samples), each group's arrays as long as its longest beam: a room's beams are mostly
+        short, so this computes about half the samples one array as long as the longest beam would."""
+        ny, nx = self.logodds.shape
+        ncell = ny * nx
+        mask = self._work("mask", np.int8, (ncell + 1,))
+        mask.fill(0)
+        samples = np.maximum(np.searchsorted(t, last, side="right"), 1)  # the sensor's own sample at least
+        order = np.argsort(samples, kind="stable")
+        bounds = np.linspace(0, len(order), NUMPY_BEAM_GROUPS + 1).astype(int)
+        for lo, hi in zip(bounds[:-1], bounds[1:]):
+            if hi > lo:
+                beams = order[lo:hi]
+                mask[self._crossed(t[: samples[beams[-1]]], last[beams], d2c[beams], g0, nx, ncell).reshape(-1)] = 1
+        # a beam's own end cell is not cleared by it (nor by grazing neighbours in this scan)
+        mask[end_cells] = 2
+        mask = mask[:ncell]
+        flat = self.logodds.reshape(-1)
+        seen = self.seen.reshape(-1)
+        f = np.flatnonzero(mask == 1)
+        o = np.flatnonzero(mask == 2)
+        flat[f] = np.maximum(flat[f] + self.l_miss, self.l_min)
+        flat[o] = np.minimum(flat[o] + self.l_hit, self.l_max)
+        seen[f] = True
+        seen[o] = True
+
+    def _crossed(
+        self, t: np.ndarray, last: np.ndarray, d2c: np.ndarray, g0: np.ndarray, nx: int, ncell: int
+    ) -> np.ndarray:
+        """(beams x samples) flat cells of the beams' samples at ``t``; ``ncell`` (a spare cell) for
+        samples past a beam's free part."""
+        # the arrays live in reused work buffers: allocating them afresh for every scan costs more
+        # (page faults) than the arithmetic
+        shape = (len(last), len(t))
+        x = self._work("x", np.float32, shape)
+        gx = self._work("gx", np.intp, shape)
+        cell = self._work("cell", np.intp, shape)
+        past = self._work("past", bool, shape)
+        np.multiply(d2c[:, 0:1], t[None, :], out=x)
+        np.add(g0[0], x, out=x)
+        np.copyto(gx, x, casting="unsafe")  # non-negative inside the beam: truncation = floor
+        np.multiply(d2c[:, 1:2], t[None, :], out=x)
+        np.add(g0[1], x, out=x)
+        np.copyto(cell, x, casting="unsafe")
+        np.multiply(cell, nx, out=cell)
+        np.add(cell, gx, out=cell)
+        np.greater(t[None, :], last[:, None], out=past)
+        past[:, 0] = False  # the sensor's own cell is always crossed
+        np.copyto(cell, ncell, where=past)  # samples past a beam's free part go to a spare cell
+        return cell
+
+    def _work(self, name: str, dtype, shape: tuple[int, ...]) -> np.ndarray:
+        """A reusable work array of ``shape`` (contents undefined), grown when a scan needs more."""
+        n = math.prod(shape)
+        buf = self._buffers.get(name)
+        if buf is None or buf.size < n:
+            buf = np.empty(max(n, 0 if buf is None else buf.size + buf.size // 4), dtype=dtype)
+            self._buffers[name] = buf
+        return buf[:n].reshape(shape)
 
     def _cells(self, xy: np.ndarray, nx: int) -> np.ndarray:
         ij = world_to_cell(xy, self.origin, self.res)

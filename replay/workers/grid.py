@@ -12,7 +12,7 @@ and the grid's) and takes the scans in order:
 - ``request_map`` asks for the map without waiting: its reply (and the outcomes before it) is taken
   by a later ``poll``, or by any call that waits, in the order asked.
 
-Until the child has started (an interpreter, NumPy and the compiled ray update) the requests wait in
+Until the child has started (an interpreter and NumPy: a few tenths of a second) the requests wait in
 this process, in order, and go to the child once it says it is ready; a caller waits for the start
 only when it needs an answer. With ``spawn=False`` (one CPU), or when no child could be started or it
 ended before it was ready, the grid is in this process and the requests made so far are run on it.

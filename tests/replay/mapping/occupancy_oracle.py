@@ -1,30 +1,21 @@
-"""A NumPy formulation of the occupancy grid's ray update: a reference oracle for the compiled kernel.
+"""A per-beam formulation of the occupancy grid's ray update: a reference oracle for the grid's NumPy path.
 
-``numpy_scan_update`` has the signature of ``occupancy_kernels.scan_update`` and computes the same
-bits with (beams x samples) arrays: the beams taken in ``groups`` groups of similar length (sorted by
-their number of free samples), each group's arrays as long as its longest beam. The grid takes the
-compiled kernel only; the tests hold this one to check it against.
+``scan_update`` walks beam by beam in float32 arithmetic what ``OccupancyGrid2D._update`` does with
+(beams x samples) arrays; ``reference_update`` runs it (compiled by numba, for speed) in place of the
+grid's own update, so a test can compare the two grids bit for bit.
 """
 
 from __future__ import annotations
 
+import functools
+
+import numba
 import numpy as np
 
-
-def crossed(t: np.ndarray, last: np.ndarray, d2c: np.ndarray, g0: np.ndarray, nx: int, ncell: int) -> np.ndarray:
-    """(beams x samples) flat cells of the beams' samples at ``t``; ``ncell`` (a spare cell) for samples
-    past a beam's free part."""
-    x = g0[0] + d2c[:, 0:1] * t[None, :]  # float32, as the kernel rounds
-    gx = x.astype(np.intp)  # non-negative inside the beam: truncation = floor
-    y = g0[1] + d2c[:, 1:2] * t[None, :]
-    cell = y.astype(np.intp) * nx + gx
-    past = t[None, :] > last[:, None]
-    past[:, 0] = False  # the sensor's own cell is always crossed
-    cell[past] = ncell
-    return cell
+from navlog.replay.mapping.occupancy import OccupancyGrid2D
 
 
-def numpy_scan_update(
+def scan_update(
     logodds: np.ndarray,
     seen: np.ndarray,
     mask: np.ndarray,
@@ -38,24 +29,79 @@ def numpy_scan_update(
     l_min: np.float32,
     l_hit: np.float32,
     l_max: np.float32,
-    groups: int = 4,
 ) -> None:
-    """``scan_update`` with NumPy arrays (``mask`` is left untouched: a work array of its own is used)."""
+    """Update the flat float32 ``logodds`` and bool ``seen`` from one scan.
+
+    ``mask``: int8 per cell, all zero on entry and on return (a work array kept between scans).
+    ``g0``: the sensor in cells (float32, 2); ``directions``: per beam (float32, n x 2); ``t``: the
+    sample positions along a beam (float32, increasing, from 0); ``last``: per beam, the last free
+    sample position (float32); ``end_cells``: flat indices of the end cells of beams with a return.
+    """
     ncell = len(logodds)
-    work = np.zeros(ncell + 1, dtype=np.int8)
-    samples = np.maximum(np.searchsorted(t, last, side="right"), 1)  # the sensor's own sample at least
-    order = np.argsort(samples, kind="stable")
-    bounds = np.linspace(0, len(order), groups + 1).astype(int)
-    for lo, hi in zip(bounds[:-1], bounds[1:]):
-        if hi > lo:
-            beams = order[lo:hi]
-            cells = crossed(t[: samples[beams[-1]]], last[beams], directions[beams], g0, nx, ncell)
-            work[cells.reshape(-1)] = 1
-    work[end_cells] = 2  # a beam's own end cell is not cleared by it (nor by grazing neighbours in this scan)
-    work = work[:ncell]
-    f = np.flatnonzero(work == 1)
-    o = np.flatnonzero(work == 2)
-    logodds[f] = np.maximum(logodds[f] + l_miss, l_min)
-    logodds[o] = np.minimum(logodds[o] + l_hit, l_max)
-    seen[f] = True
-    seen[o] = True
+    touched = np.empty(min(ncell, len(directions) * len(t) + len(end_cells)), dtype=np.int64)
+    n = 0
+    bad = False
+    for b in range(len(directions)):
+        dx, dy = directions[b, 0], directions[b, 1]
+        for j in range(len(t)):
+            if j > 0 and t[j] > last[b]:  # t increases: every later sample is past too
+                break
+            x = g0[0] + dx * t[j]
+            y = g0[1] + dy * t[j]
+            cell = np.int64(y) * nx + np.int64(x)
+            if cell < 0 or cell >= ncell:
+                bad = True
+                break
+            if mask[cell] == 0:
+                mask[cell] = 1
+                touched[n] = cell
+                n += 1
+        if bad:
+            break
+    if not bad:
+        for cell in end_cells:
+            if cell < 0 or cell >= ncell:
+                bad = True
+                break
+            if mask[cell] == 0:
+                touched[n] = cell
+                n += 1
+            mask[cell] = 2
+    if bad:
+        for k in range(n):
+            mask[touched[k]] = 0
+        raise IndexError("a beam leaves the occupancy grid")
+    for k in range(n):
+        cell = touched[k]
+        if mask[cell] == 1:
+            logodds[cell] = max(logodds[cell] + l_miss, l_min)
+        else:
+            logodds[cell] = min(logodds[cell] + l_hit, l_max)
+        seen[cell] = True
+        mask[cell] = 0
+
+
+@functools.cache
+def compiled_scan_update():
+    """``scan_update`` compiled by numba (the oracle is slow in plain Python on 720-beam scans)."""
+    return numba.njit(cache=False)(scan_update)
+
+
+def reference_update(
+    grid: OccupancyGrid2D, t: np.ndarray, last: np.ndarray, d2c: np.ndarray, g0: np.ndarray, end_cells: np.ndarray
+) -> None:
+    """``OccupancyGrid2D._update``'s contract, computed by ``scan_update``."""
+    ny, nx = grid.logodds.shape
+    f32 = np.float32
+    compiled_scan_update()(
+        grid.logodds.reshape(-1),
+        grid.seen.reshape(-1),
+        np.zeros(ny * nx, dtype=np.int8),
+        nx,
+        g0,
+        d2c,
+        t,
+        last,
+        end_cells,
+        *(f32(grid.l_miss), f32(grid.l_min), f32(grid.l_hit), f32(grid.l_max)),
+    )

@@ -226,5 +226,8 @@ def test_scans_made_while_the_child_starts_wait_here_and_give_the_same_grid():
         assert worker._early is None or len(worker._early) <= len(SCANS)
         assert worker.outcomes() == want_taken and worker.in_child
         assert same_grid(worker.snapshot(), want)
+        assert worker._process is not None
+        maps = open(f"/proc/{worker._process.pid}/maps").read()
     finally:
         worker.close()
+    assert "llvmlite" not in maps and "numpy" in maps  # the grid's update is NumPy: no compiler loaded

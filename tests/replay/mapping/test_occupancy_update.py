@@ -1,4 +1,4 @@
-"""The compiled ray update of the occupancy grid against its NumPy oracle: the same bits on random and edge scans."""
+"""The occupancy grid's NumPy ray update against a per-beam oracle: the same bits on random and edge scans."""
 
 from __future__ import annotations
 
@@ -10,8 +10,7 @@ import pytest
 
 import navlog.replay.mapping.occupancy as occupancy_module
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
-from navlog.replay.mapping.occupancy_kernels import compiled_scan_update, scan_update
-from tests.replay.mapping.occupancy_oracle import numpy_scan_update
+from tests.replay.mapping.occupancy_oracle import reference_update, scan_update
 
 
 def pose(x: float, y: float, yaw: float, roll: float = 0.0) -> np.ndarray:
@@ -44,10 +43,9 @@ def random_scans(seed: int, count: int):
 
 def grids_after(monkeypatch, params: OccupancyParams, seed: int, count: int) -> list[OccupancyGrid2D]:
     grids = [OccupancyGrid2D(params), OccupancyGrid2D(params)]
+    monkeypatch.setattr(grids[1], "_update", functools.partial(reference_update, grids[1]))
     for p, ang, r in random_scans(seed, count):
-        monkeypatch.setattr(occupancy_module, "compiled_scan_update", compiled_scan_update)
         grids[0].insert_scan(p, ang, r, 0.1, 10.0)
-        monkeypatch.setattr(occupancy_module, "compiled_scan_update", lambda: numpy_scan_update)
         grids[1].insert_scan(p, ang, r, 0.1, 10.0)
     return grids
 
@@ -60,7 +58,7 @@ def grids_after(monkeypatch, params: OccupancyParams, seed: int, count: int) -> 
         OccupancyParams(resolution=0.03, grow_block=2.0, no_return_ray_length=12.0),
     ],
 )
-def test_compiled_update_equals_the_numpy_oracle_on_random_scans(monkeypatch, params):
+def test_the_numpy_update_equals_the_per_beam_oracle_on_random_scans(monkeypatch, params):
     a, b = grids_after(monkeypatch, params, seed=int(params.resolution * 100), count=12)
     assert a.logodds.tobytes() == b.logodds.tobytes()
     assert a.seen.tobytes() == b.seen.tobytes()
@@ -68,20 +66,19 @@ def test_compiled_update_equals_the_numpy_oracle_on_random_scans(monkeypatch, pa
     assert a.seen.sum() > 1000 and (a.logodds > 0).any() and (a.logodds < 0).any()
 
 
-def test_the_mask_is_left_clear_between_scans_and_beams_at_the_grid_edge(monkeypatch):
+def test_beams_at_the_grid_edge_and_a_grid_grown_between_scans(monkeypatch):
     # beams ending exactly on block borders (the grid's last cells) and a grid grown between scans
     params = OccupancyParams(grow_block=1.0)
     grids = [OccupancyGrid2D(params), OccupancyGrid2D(params)]
+    monkeypatch.setattr(grids[1], "_update", functools.partial(reference_update, grids[1]))
     ang = np.array([0.0, math.pi / 2, math.pi, -math.pi / 2])
     for p, r in ((pose(0.5, 0.5, 0.0), np.full(4, 0.49)), (pose(0.5, 0.5, 0.0), np.full(4, 3.0))):
-        for grid, use in zip(grids, (compiled_scan_update, lambda: numpy_scan_update)):
-            monkeypatch.setattr(occupancy_module, "compiled_scan_update", use)
+        for grid in grids:
             grid.insert_scan(p, ang, r, 0.01, 10.0)
     assert grids[0].logodds.tobytes() == grids[1].logodds.tobytes()
-    assert not grids[0]._buffers["scan_mask"].any()
 
 
-def test_the_plain_python_update_is_the_same_function():
+def test_the_per_beam_oracle_is_the_same_function():
     g = OccupancyGrid2D(OccupancyParams(resolution=0.1))
     ang = np.array([0.0, 0.5, math.pi])
     g.insert_scan(np.eye(4), ang, np.array([1.0, 1.0, 1.0]), 0.1, 10.0)  # grows the grid
@@ -120,17 +117,17 @@ def test_a_beam_leaving_the_grid_is_an_error_and_leaves_the_mask_clear():
 
 
 @pytest.mark.parametrize("groups", [2, 4, 720])
-def test_the_numpy_oracle_gives_the_same_bits_whatever_the_beam_groups(monkeypatch, groups):
+def test_the_numpy_update_gives_the_same_bits_whatever_the_beam_groups(monkeypatch, groups):
     # beams of every length in one scan: grouped by length, each group's arrays only as long as its
     # longest beam; one group (as long as the longest beam of the scan) is the reference
     scans = list(random_scans(11, 6))
     grids = {}
     for n in (1, groups):
-        monkeypatch.setattr(
-            occupancy_module, "compiled_scan_update", lambda n=n: functools.partial(numpy_scan_update, groups=n)
-        )
+        monkeypatch.setattr(occupancy_module, "NUMPY_BEAM_GROUPS", n)
         grids[n] = OccupancyGrid2D(OccupancyParams())
         for p, ang, r in scans:
             grids[n].insert_scan(p, ang, r, 0.1, 10.0)
     assert grids[groups].logodds.tobytes() == grids[1].logodds.tobytes()
     assert grids[groups].seen.tobytes() == grids[1].seen.tobytes() and grids[1].seen.sum() > 1000
+    # the largest work array of the grouped update holds fewer samples than 720 beams x the longest beam
+    assert grids[groups]._buffers["x"].size < grids[1]._buffers["x"].size
