@@ -155,13 +155,20 @@ class Optimizer:
             if not self._fallback(data.fail_flag):
                 break
         self._smooth()
-        k = 1 if self.shift else 0
-        cmd = (float(self.u[0, k]), float(self.u[1, k]) if self.holonomic else 0.0, float(self.u[2, k]))
-        self.last_cmd = cmd
+        self.last_cmd = self._command()
         if self.shift:
-            self.u[:, :-1] = self.u[:, 1:].copy()
-            self.u[:, -1] = self.u[:, -2]
-        return cmd
+            self._shift()
+        return self.last_cmd
+
+    def _command(self) -> Twist2D:
+        """The sequence's element 0, or 1 when it shifts every cycle (Nav2's ``getControlFromSequenceAsTwist``)."""
+        k = 1 if self.shift else 0
+        return float(self.u[0, k]), float(self.u[1, k]) if self.holonomic else 0.0, float(self.u[2, k])
+
+    def _shift(self) -> None:
+        """Nav2's ``shiftControlSequence``: one step earlier, the last control repeated."""
+        self.u[:, :-1] = self.u[:, 1:].copy()
+        self.u[:, -1] = self.u[:, -2]
 
     def _optimize(
         self,
