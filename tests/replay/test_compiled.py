@@ -23,6 +23,7 @@ def test_functions_compile_together_and_call_each_other_compiled():
     assert set(compiled) == {"_half", "halves_sum"}
     a = np.arange(-5, 12, dtype=np.int64)
     assert compiled["halves_sum"](a) == halves_sum(a) == int((a // 2).sum())
-    # numba dispatchers, each compiled for the int64 array (or scalar) it was called with
-    assert compiled["halves_sum"].signatures and compiled["_half"].signatures
+    # a numba dispatcher, run in nopython mode: there it can call only a compiled ``_half``
+    assert compiled["halves_sum"].nopython_signatures
     assert compiled["halves_sum"].py_func is not halves_sum  # a copy bound to the compiled scope
+    assert compiled["halves_sum"].py_func.__globals__["_half"] is compiled["_half"]
