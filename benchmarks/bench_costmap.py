@@ -1,12 +1,13 @@
-"""The compiled costmap kernels against the NumPy/SciPy paths they replace, in the same run.
+"""The compiled costmap kernels against NumPy/SciPy forms of the same arithmetic, in the same run.
 
 Run: .venv/bin/python benchmarks/bench_costmap.py [--runs 15]
 
 Cases: the inflation layer's update over a whole 400 x 400 and 1000 x 1000 costmap (0.05 m, 120-box
-clutter, Nav2's defaults: radius 0.55 m, scaling 10, a 0.4 m square robot), the obstacle layer's ray
-clearing of a 720-beam scan (returns 0.5 to 8 m, a 20 x 20 m costmap), . Each is timed with the compiled kernel (numba) and
-with the NumPy path (the fallback without numba), median of ``--runs``, after one untimed call (the
-compilation, or loading it from numba's cache); the outputs of both are checked to be identical.
+clutter, Nav2's defaults: radius 0.55 m, scaling 10, a 0.4 m square robot) and the obstacle layer's
+ray clearing of a 720-beam scan (returns 0.5 to 8 m, a 20 x 20 m costmap). Each is timed with the
+compiled kernel (numba) and with the tests' NumPy oracles (``tests/replay/nav2/costmap/oracles.py``),
+median of ``--runs``, after one untimed call (the compilation, or loading it from numba's cache); the
+outputs of both are checked to be identical.
 Prints the machine and its load average with the table.
 """
 
@@ -34,11 +35,15 @@ from navlog.replay.nav2.costmap import (
     ObstacleLayerParams,
     StaticLayerParams,
 )
+from navlog.replay.nav2.costmap.kernels import Kernels
 from navlog.replay.nav2.costmap.kernels import kernels as costmap_kernels
 from navlog.replay.occupancy_map import OccupancyMap
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository: tests/ holds the maps
+from tests.replay.nav2.costmap.oracles import numpy_clear_rays, numpy_inflate_window
 from tests.replay.nav2.planners.navfn_maps import clutter
+
+COSTMAP_ORACLES = Kernels(numpy_inflate_window, numpy_clear_rays)
 
 SQUARE = "[[0.2, 0.2], [0.2, -0.2], [-0.2, -0.2], [-0.2, 0.2]]"
 
@@ -64,10 +69,12 @@ def median_ms(fn: Callable[[], Any], runs: int) -> float:
     return statistics.median(times) * 1e3
 
 
-def both(module: Any, compiled: Any, case: Callable[[], Callable[[], Any]], runs: int) -> tuple[float, float]:
+def both(
+    module: Any, compiled: Any, numpy: Any, case: Callable[[], Callable[[], Any]], runs: int
+) -> tuple[float, float]:
     """(compiled ms, NumPy ms) of the function ``case()`` builds, with ``module.kernels`` swapped; same outputs."""
     results, times = [], []
-    for use in (lambda: compiled, lambda: None):
+    for use in (lambda: compiled, lambda: numpy):
         module.kernels = use
         fn = case()
         times.append(median_ms(fn, runs))
@@ -139,18 +146,17 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=15)
     args = ap.parse_args()
     compiled_costmap = costmap_kernels()
-    if compiled_costmap is None:
-        raise SystemExit("numba is not installed: there is nothing compiled to compare")
+    oracles = COSTMAP_ORACLES
     cases = [
-        ("inflation 400 x 400", inflation_module, compiled_costmap, inflation_case(400)),
-        ("inflation 1000 x 1000", inflation_module, compiled_costmap, inflation_case(1000)),
-        ("obstacle ray clearing, 720 beams", obstacle_module, compiled_costmap, raytrace_case()),
+        ("inflation 400 x 400", inflation_module, compiled_costmap, oracles, inflation_case(400)),
+        ("inflation 1000 x 1000", inflation_module, compiled_costmap, oracles, inflation_case(1000)),
+        ("obstacle ray clearing, 720 beams", obstacle_module, compiled_costmap, oracles, raytrace_case()),
     ]
     print(f"machine: {cpu_name()}, {os.cpu_count()} cores, Python {platform.python_version()}")
     print(f"load average before: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
     print(f"{'case':34s} {'numba ms':>9s} {'NumPy ms':>9s} {'speed-up':>9s}")
-    for name, module, compiled, case in cases:
-        fast, slow = both(module, compiled, case, args.runs)
+    for name, module, compiled, numpy, case in cases:
+        fast, slow = both(module, compiled, numpy, case, args.runs)
         print(f"{name:34s} {fast:9.2f} {slow:9.2f} {slow / fast:8.1f}x")
     print(f"load average after: {' '.join(f'{v:.2f}' for v in os.getloadavg())}")
 

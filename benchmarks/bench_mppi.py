@@ -4,8 +4,9 @@ Runs the Jazzy bringup's MPPI (its critics and weights; ``batch_size`` set per r
 local costmap at 0.05 m with an inflated box beside a straight plan, robot and plan fixed, and
 prints per configuration the median cycle time of N cycles (after 3 warm-up cycles), its ratio to
 the 50 ms period, the cycle's share per stage (noise + predict + integrate, critics, update), and
-the load average, and the same with ``predict`` in NumPy instead of its numba kernel (the ratio
-of the two, measured in the same run). One process, one thread each (set OMP/BLAS threads to 1 before NumPy loads);
+the load average, and the same with ``predict``'s clamp in NumPy (the tests' oracle,
+``tests/replay/nav2/controllers/mppi/oracles.py``) instead of its numba kernel (the ratio of the
+two, measured in the same run). One process, one thread each (set OMP/BLAS threads to 1 before NumPy loads);
 nothing is asserted.
 
     .venv/bin/python benchmarks/bench_mppi.py [--batch 1000 2000] [--cycles 40] [--shared DIR]
@@ -31,14 +32,15 @@ from pathlib import Path
 
 import numpy as np
 
+import navlog.replay.nav2.controllers.mppi.optimizer as optimizer_module
 from navlog.replay.nav2 import load_nav2_params
-from navlog.replay.nav2.controllers import mppi
 from navlog.replay.nav2.controllers.base import ControlContext, ControllerSetup
 from navlog.replay.nav2.controllers.mppi import MPPIController, MPPIParams
 from navlog.replay.nav2.costmap.grid import CostmapGrid, CostmapParams
 from navlog.replay.nav2.costmap.inflation_layer import inflation_costs
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data, the oracle
+from tests.replay.nav2.controllers.mppi.oracles import numpy_clamp_rollouts
 from tests.shared_data import REPO, default_shared_dir
 
 BRINGUP = Path("external-data") / "params" / "nav2_bringup_jazzy_nav2_params.yaml"  # inside the shared folder
@@ -113,7 +115,7 @@ def main() -> int:
     args = ap.parse_args()
     base = _params(args.shared)
     print(f"MPPI cycle, time_steps 56, model_dt 0.05, bringup critics  (load average {os.getloadavg()[0]:.2f})")
-    compiled = mppi._kernels
+    compiled = optimizer_module.compiled_clamp_rollouts
     for batch in args.batch:
         median, share = measure(base, batch, args.cycles)
         parts = ", ".join(f"{k} {v:.0%}" for k, v in share.items())
@@ -121,11 +123,11 @@ def main() -> int:
             f"batch {batch:5d} x 56: median {median * 1000:6.1f} ms of {args.cycles} cycles, "
             f"{median / BUDGET:.2f} of the 50 ms budget ({parts})  (load average {os.getloadavg()[0]:.2f})"
         )
-        mppi._kernels = lambda: None  # the same cycle with predict in NumPy instead of the numba kernel
+        optimizer_module.compiled_clamp_rollouts = lambda: numpy_clamp_rollouts  # the same cycle, the clamp in NumPy
         try:
             plain, _ = measure(base, batch, args.cycles)
         finally:
-            mppi._kernels = compiled
+            optimizer_module.compiled_clamp_rollouts = compiled
         print(f"      NumPy predict: median {plain * 1000:6.1f} ms; numba kernel / NumPy = {median / plain:.2f}")
     return 0
 

@@ -1,12 +1,11 @@
-"""numba for navlog's hot loops: compiled together, cached on disk, plain Python where numba is missing.
+"""numba for navlog's hot loops: plain-Python functions compiled together, cached on disk.
 
 ``compile_together(namespace, functions)`` compiles plain-Python functions on NumPy arrays and
 scalars with ``numba.njit`` in one scope of their own (a copy of ``namespace``, the defining module's
 globals), so a compiled function that calls another of them calls the compiled one. The machine code
 is cached on disk beside the module (``cache=True``); where no cache directory is writable the
-functions are compiled in this process only. It returns the compiled functions by name, or None where
-numba is not installed: the callers then run the same functions uncompiled, or NumPy code that gives
-the same bits.
+functions are compiled in this process only. numba is a dependency of navlog; it is imported on the
+first call, so a module that only defines kernels stays cheap to import.
 """
 
 from __future__ import annotations
@@ -19,12 +18,9 @@ from typing import Any
 __all__ = ["compile_together"]
 
 
-def compile_together(namespace: dict[str, Any], functions: Iterable[Callable[..., Any]]) -> dict[str, Any] | None:
-    """The ``functions`` compiled by numba in one scope (see the module docstring), by name; None without numba."""
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - numba is a dependency; a platform without its wheels runs plain Python
-        return None
+def compile_together(namespace: dict[str, Any], functions: Iterable[Callable[..., Any]]) -> dict[str, Any]:
+    """The ``functions`` compiled by numba in one scope (see the module docstring), by name."""
+    import numba
 
     def jit(fn: Callable[..., Any]) -> Any:
         try:

@@ -1,10 +1,10 @@
 """Controllers of Nav2's controller server and their goal and progress checkers.
 
 Their parameters are read and checked (one module per plugin: ``regulated_pure_pursuit``,
-``mppi``, ``checkers``); each implementation sits beside its parameters and is registered in
-``registry`` (``RegulatedPurePursuitController`` runs Nav2 Jazzy's Regulated Pure Pursuit,
-``MPPIController`` its MPPI with the critics of ``mppi.CRITICS``, ``DWBController`` Humble's DWB local
-planner, a package ``dwb`` of its own).
+``checkers``; a package for each of ``mppi`` and ``dwb``); each implementation sits beside its
+parameters and is registered in ``registry`` (``RegulatedPurePursuitController`` runs Nav2 Jazzy's
+Regulated Pure Pursuit, ``MPPIController`` its MPPI with the critics of ``mppi.critics``, one module
+per critic, ``DWBController`` Humble's DWB local planner).
 ``server`` reads the controller server's parameters; ``controller_server`` runs its FollowPath cycle
 (``ControllerServer``), with the goal and progress checkers of ``checkers``.
 

@@ -6,9 +6,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
-from navlog.replay.nav2.costmap.cost_values import FREE_SPACE, INSCRIBED, LETHAL, NO_INFORMATION
+from navlog.replay.nav2.costmap.cost_values import FREE_SPACE, INSCRIBED, LETHAL
 from navlog.replay.nav2.costmap.grid import CostmapGrid
 from navlog.replay.nav2.costmap.kernels import kernels
 from navlog.replay.nav2.costmap.layer import Bounds, Layer, Robot
@@ -87,53 +86,13 @@ class InflationLayer(Layer[InflationLayerParams]):
         x0, y0, x1, y1 = b
         rx0, ry0 = max(x0 - r, 0), max(y0 - r, 0)
         rx1, ry1 = min(x1 + r, cm.size_x), min(y1 + r, cm.size_y)
-        region = master[ry0:ry1, rx0:rx1]
-        args = (y0 - ry0, y1 - ry0, x0 - rx0, x1 - rx0, self._cost_table(), bool(self.p.inflate_around_unknown))
-        compiled = kernels()
-        if compiled is not None:
-            compiled.inflate_window(region, *args, bool(self.p.inflate_unknown))
-        else:  # pragma: no cover - without numba
-            inflate_reference(region, *args, bool(self.p.inflate_unknown))
-
-
-def inflate_reference(
-    region: np.ndarray,
-    row0: int,
-    row1: int,
-    col0: int,
-    col1: int,
-    table: np.ndarray,
-    around_unknown: bool,
-    inflate_unknown: bool,
-) -> None:
-    """``kernels.inflate_window`` with NumPy and SciPy: the same bits, used where numba is missing."""
-    sources = region == LETHAL
-    if around_unknown:
-        sources |= region == NO_INFORMATION
-    if not sources.any():
-        return
-    d2 = squared_distance_within(sources, (row0, row1), (col0, col1))
-    # the table's last entry, FREE, stands for every distance beyond the radius: it changes no cell
-    new = table.take(d2, mode="clip")
-    mw = region[row0:row1, col0:col1]
-    out = np.maximum(mw, new)
-    # an unknown cell takes the new cost only if it is high enough (any cost with inflate_unknown)
-    take = mw == NO_INFORMATION
-    take &= (new > FREE_SPACE) if inflate_unknown else (new >= INSCRIBED)
-    np.copyto(out, new, where=take)
-    mw[...] = out
-
-
-def squared_distance_within(sources: np.ndarray, rows: tuple[int, int], cols: tuple[int, int]) -> np.ndarray:
-    """Squared Euclidean distance in cells (int) from each cell of sources[rows, cols] to the nearest
-    True cell of ``sources``: the exact distance transform's nearest cells (scipy), squared in integers.
-    """
-    fy, fx = ndimage.distance_transform_edt(~sources, return_distances=False, return_indices=True)
-    a, b = rows
-    c0, c1 = cols
-    dy = fy[a:b, c0:c1] - np.arange(a, b, dtype=fy.dtype)[:, None]
-    dx = fx[a:b, c0:c1] - np.arange(c0, c1, dtype=fx.dtype)[None, :]
-    dy *= dy
-    dx *= dx
-    dy += dx
-    return dy
+        kernels().inflate_window(
+            master[ry0:ry1, rx0:rx1],
+            y0 - ry0,
+            y1 - ry0,
+            x0 - rx0,
+            x1 - rx0,
+            self._cost_table(),
+            bool(self.p.inflate_around_unknown),
+            bool(self.p.inflate_unknown),
+        )

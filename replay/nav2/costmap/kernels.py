@@ -1,21 +1,21 @@
 """The costmap's hot loops, compiled: inflation (exact distances, costs, merge) and clearing along rays.
 
-``inflate_window`` does in one pass over a region of the master grid what ``InflationLayer`` does
-with NumPy and SciPy (``inflate_reference``): the sources are the region's lethal cells (and unknown
-ones with ``inflate_around_unknown``); their exact squared Euclidean distance in cells is computed
-with Meijster, Roerdink and Hesselink's two-pass algorithm in integers (a column scan, then the lower
-envelope of parabolas per row), so it equals the distance transform's to the last bit; each cell of
+``inflate_window`` inflates a window of the master grid in one pass over a region around it: the
+sources are the region's lethal cells (and unknown ones with ``inflate_around_unknown``); their exact
+squared Euclidean distance in cells is computed with Meijster, Roerdink and Hesselink's two-pass
+algorithm in integers (a column scan, then the lower envelope of parabolas per row), so it equals an
+exact Euclidean distance transform's to the last bit; each cell of
 the window takes the cost table's entry for it (the last entry for every distance beyond the table)
 and merges it into the master as the layer does (maximum; an unknown cell takes the cost only if it
 is inscribed or above, or any cost with ``inflate_unknown``).
 
 ``clear_rays`` sets the cells of Nav2's ``raytraceLine`` rays inside the grid (as ``raytrace.ray_steps``
-describes them) and returns their count and bounds, as ``raytrace.clear_rays`` does with NumPy.
+describes them) and returns their count and bounds.
 
-Plain Python runs the same functions (slowly: tests on small grids); ``kernels()`` compiles them with
-numba, cached on disk (``cache=True``, in ``__pycache__`` beside this file or numba's user cache
-directory; where none is writable it compiles in every process). Without numba, ``kernels()``
-returns ``None`` and the layers keep their NumPy/SciPy paths.
+The layers call them compiled: ``kernels()`` compiles them with numba on first use, cached on disk
+(``cache=True``, in ``__pycache__`` beside this file or numba's user cache directory; where none is
+writable it compiles in every process). Plain Python runs the same functions, slowly (tests on small
+grids).
 """
 
 from __future__ import annotations
@@ -130,7 +130,11 @@ def clear_rays(
     db: np.ndarray,
     value: int,
 ) -> tuple[int, int, int, int, int]:
-    """``raytrace.clear_rays`` cell by cell: the rays' cells inside ``grid`` set to ``value``, their count and bounds."""
+    """The rays' cells (``raytrace.ray_steps``' arrays) inside ``grid`` (rows y, columns x) set to ``value``.
+
+    Returns how many ray cells lie inside and their bounds (xmin, ymin, xmax, ymax, inclusive; zeros
+    when none does).
+    """
     h, w = grid.shape
     n = 0
     xmin, ymin, xmax, ymax = w, h, -1, -1
@@ -158,7 +162,7 @@ class Kernels(NamedTuple):
 
 
 @functools.cache
-def kernels() -> Kernels | None:
-    """The kernels compiled by numba (cached on disk), or None where numba is missing."""
+def kernels() -> Kernels:
+    """The kernels compiled by numba (on first use; cached on disk)."""
     compiled = compile_together(globals(), (_envelope, inflate_window, clear_rays))
-    return None if compiled is None else Kernels(compiled["inflate_window"], compiled["clear_rays"])
+    return Kernels(compiled["inflate_window"], compiled["clear_rays"])

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -17,7 +16,7 @@ from navlog.replay.nav2.costmap.grid import CostmapGrid
 from navlog.replay.nav2.costmap.kernels import kernels
 from navlog.replay.nav2.costmap.layer import Bounds, Layer, Robot, shift_grid, union_bounds, update_with_max
 from navlog.replay.nav2.costmap.observation import Observation, ObservationSourceParams
-from navlog.replay.nav2.costmap.raytrace import clear_rays, polygon_cells, ray_steps
+from navlog.replay.nav2.costmap.raytrace import polygon_cells, ray_steps
 from navlog.replay.nav2.plugins import PluginParams
 from navlog.replay.nav2.schema import ERROR, NOTE, WARNING, SectionReader, param
 
@@ -249,9 +248,7 @@ class ObstacleLayer(Layer[ObstacleLayerParams]):
         max_cells = math.ceil(sp.raytrace_max_range / cm.resolution)
         min_cells = math.ceil(sp.raytrace_min_range / cm.resolution)
         steps = ray_steps(x0, y0, x1[ok], y1[ok], max_cells, min_cells)
-        compiled = kernels()
-        clear: Callable[..., tuple[int, int, int, int, int]] = clear_rays if compiled is None else compiled.clear_rays
-        n, xmin, ymin, xmax, ymax = clear(self.grid, *steps, FREE_SPACE)
+        n, xmin, ymin, xmax, ymax = kernels().clear_rays(self.grid, *steps, FREE_SPACE)
         if n == 0:
             return x0, y0, x0 + 1, y0 + 1
         return min(xmin, x0), min(ymin, y0), max(xmax, x0) + 1, max(ymax, y0) + 1

@@ -52,47 +52,17 @@ def bresenham_rays(x0, y0, x1, y1, max_length: float, min_length: float):
     and per cell the step index i and the minor offset.
     """
     sx, sy, ax, ay, bx, by, counts, da, db = ray_steps(x0, y0, x1, y1, max_length, min_length)
-    i, minor = _cell_steps(counts, da, db)
+    i, minor = cell_steps(counts, da, db)
     return sx, sy, (ax, ay), (bx, by), counts, i, minor
 
 
-def _cell_steps(counts: np.ndarray, da: np.ndarray, db: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def cell_steps(counts: np.ndarray, da: np.ndarray, db: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per cell of the rays, one ray after the other: its step index and its minor offset."""
     total = int(counts.sum())
     first = np.cumsum(counts) - counts
     i = np.arange(total, dtype=np.int64) - first.repeat(counts)
     minor = ((da // 2).repeat(counts) + i * db.repeat(counts)) // np.maximum(da, 1).repeat(counts)
     return i, minor
-
-
-def clear_rays(grid, sx, sy, ax, ay, bx, by, counts, da, db, value: int) -> tuple[int, int, int, int, int]:
-    """Set the cells of the rays (``ray_steps``' arrays) that lie inside ``grid`` (rows y, columns x) to ``value``.
-
-    Returns how many ray cells lie inside and their bounds (xmin, ymin, xmax, ymax, inclusive; zeros when
-    none does). ``kernels.clear_rays`` compiles the same.
-    """
-    if len(counts) == 0:
-        return 0, 0, 0, 0, 0
-    i, minor = _cell_steps(counts, da, db)
-    # a ray's cells run from its start to its last cell, so those bound them
-    end = np.cumsum(counts) - 1
-    lx = sx + i[end] * ax + minor[end] * bx
-    ly = sy + i[end] * ay + minor[end] * by
-    xmin, xmax = min(int(sx.min()), int(lx.min())), max(int(sx.max()), int(lx.max()))
-    ymin, ymax = min(int(sy.min()), int(ly.min())), max(int(sy.max()), int(ly.max()))
-    h, w = grid.shape
-    if xmin >= 0 and ymin >= 0 and xmax < w and ymax < h:  # all inside: flat indices
-        flat = (sy * w + sx).repeat(counts) + i * (ay * w + ax).repeat(counts) + minor * (by * w + bx).repeat(counts)
-        grid.put(flat, value)
-        return len(i), xmin, ymin, xmax, ymax
-    mx = sx.repeat(counts) + i * ax.repeat(counts) + minor * bx.repeat(counts)
-    my = sy.repeat(counts) + i * ay.repeat(counts) + minor * by.repeat(counts)
-    inside = (mx >= 0) & (mx < w) & (my >= 0) & (my < h)
-    mx, my = mx[inside], my[inside]
-    grid[my, mx] = value
-    if len(mx) == 0:
-        return 0, 0, 0, 0, 0
-    return len(mx), int(mx.min()), int(my.min()), int(mx.max()), int(my.max())
 
 
 def bresenham_cells(x0, y0, x1, y1, max_length, min_length):

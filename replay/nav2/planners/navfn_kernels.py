@@ -9,10 +9,10 @@ step offsets, its exact oscillation test (the point two steps back) and its jump
 8 neighbours (compared against the integer part of the current potential, as NavFn does).
 
 Every constant carries its type, so the same functions give the same bits run as plain Python (on
-NumPy float32 scalars: slow, the reference) and compiled by numba (``kernels()``: fast). The compiled
-code is cached on disk (numba ``cache=True``, in ``__pycache__`` beside this file or numba's user cache
-directory); where no cache directory is writable the functions are compiled in every process, and
-without numba the plain Python functions are used.
+NumPy float32 scalars: slow, ``PYTHON``, the planner's ``potential="python"``) and compiled by numba
+(``kernels()``, on first use: fast). The compiled code is cached on disk (numba ``cache=True``, in
+``__pycache__`` beside this file or numba's user cache directory); where no cache directory is
+writable the functions are compiled in every process.
 """
 
 from __future__ import annotations
@@ -265,8 +265,8 @@ PYTHON = Kernels(propagate, trace_path, False)
 
 @functools.cache
 def kernels() -> Kernels:
-    """The compiled kernels (numba, cached on disk), or the plain Python ones where numba is missing."""
+    """The kernels compiled by numba (on first use; cached on disk)."""
     compiled = compile_together(
         globals(), (_round_half_away, _hypotf, _gradient, _blend, _potential_int, propagate, trace_path)
     )
-    return PYTHON if compiled is None else Kernels(compiled["propagate"], compiled["trace_path"], True)
+    return Kernels(compiled["propagate"], compiled["trace_path"], True)

@@ -153,10 +153,9 @@ def simulate(pose, velocity, twists, n, dt, acc, decel, limited, poses, times):
 
 
 @functools.cache
-def _simulate() -> Callable[..., np.ndarray]:
-    """``simulate`` compiled by numba (cached on disk), or plain Python where numba is missing."""
-    compiled = compile_together(globals(), (simulate,))
-    return simulate if compiled is None else compiled["simulate"]
+def compiled_simulate() -> Callable[..., np.ndarray]:
+    """``simulate`` compiled by numba (on first use; cached on disk)."""
+    return compile_together(globals(), (simulate,))["simulate"]
 
 
 def generate(
@@ -169,7 +168,7 @@ def generate(
     extra = 1 if p.include_last_point else 0
     poses = np.empty((len(twists), steps + 1 + extra, 3))
     times = np.empty((len(twists), steps + 1 + extra))
-    first = _simulate()(
+    first = compiled_simulate()(
         np.asarray(pose, dtype=np.float64),
         np.asarray(velocity, dtype=np.float64),
         twists,

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import distance_transform_edt
 
+import navlog.replay.nav2.controllers.dwb.trajectories as trajectories_module
 from navlog.errors import ConfigError
 from navlog.replay.nav2.controllers.base import ControlContext, ControllerSetup, InvalidPath, NoValidControl
 from navlog.replay.nav2.controllers.controller_server import RUNNING, SUCCEEDED, ControllerServer
@@ -36,6 +37,7 @@ from navlog.replay.nav2.controllers.dwb.trajectories import (
     Trajectories,
     axis_samples,
     generate,
+    simulate,
     step_counts,
     velocity_samples,
 )
@@ -234,6 +236,24 @@ def test_trajectory_steps_and_end_poses():
     # decelerating from 0.26 to 0.1 at -2.5 m/s² over 1.7/9 s steps: 0.26 - 0.472 < 0.1, so 0.1 at once
     t = generate(p, (0.0, 0.0, 0.0), (0.26, 0.0, 0.0), np.array([[0.1, 0.0, 0.0]]))
     assert t.poses[0, -1, 0] == pytest.approx(0.17)
+
+
+@pytest.mark.parametrize(
+    "generator", ["dwb_plugins::StandardTrajectoryGenerator", "dwb_plugins::LimitedAccelGenerator"]
+)
+def test_compiled_simulate_gives_the_plain_python_bits(generator, monkeypatch):
+    # a cycle of the TurtleBot 3 file's: its 819 samples from a moving, turning robot
+    tb3 = dataclasses.replace(
+        load_nav2_params(TB3).controller_server.controllers["FollowPath"], trajectory_generator_name=generator
+    )
+    velocity = (0.15, 0.0, -0.4)
+    twists = velocity_samples(tb3, velocity, tb3.sim_time)
+    compiled = generate(tb3, (1.3, -0.7, 2.9), velocity, twists)
+    monkeypatch.setattr(trajectories_module, "compiled_simulate", lambda: simulate)
+    plain = generate(tb3, (1.3, -0.7, 2.9), velocity, twists)
+    assert compiled.poses.tobytes() == plain.poses.tobytes() and compiled.times.tobytes() == plain.times.tobytes()
+    assert compiled.twists.tobytes() == plain.twists.tobytes()
+    assert len(twists) > 500 and np.ptp(compiled.poses[:, -1, 2]) > 1.0  # trajectories that turn apart
 
 
 # ------------------------------------------------------------------ critics on a small grid

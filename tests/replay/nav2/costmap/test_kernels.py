@@ -1,4 +1,4 @@
-"""The compiled costmap kernels against the NumPy/SciPy paths they replace: the same bits on random and edge input."""
+"""The compiled costmap kernels against their NumPy/SciPy oracles: the same bits on random, edge and layer input."""
 
 from __future__ import annotations
 
@@ -18,14 +18,14 @@ from navlog.replay.nav2.costmap import (
     ObstacleLayerParams,
     StaticLayerParams,
 )
-from navlog.replay.nav2.costmap.inflation_layer import inflate_reference
+from navlog.replay.nav2.costmap.kernels import Kernels, inflate_window, kernels
 from navlog.replay.nav2.costmap.kernels import clear_rays as clear_rays_python
-from navlog.replay.nav2.costmap.kernels import inflate_window, kernels
-from navlog.replay.nav2.costmap.raytrace import clear_rays, ray_steps
+from navlog.replay.nav2.costmap.raytrace import ray_steps
 from tests.replay.nav2.costmap.grids import SQUARE_02, costmap_params, observation, static_map
+from tests.replay.nav2.costmap.oracles import numpy_clear_rays, numpy_inflate_window
 
 COMPILED = kernels()
-needs_numba = pytest.mark.skipif(COMPILED is None, reason="numba is not installed: the NumPy paths run alone")
+ORACLES = Kernels(numpy_inflate_window, numpy_clear_rays)
 
 
 def random_region(rng: np.random.Generator, h: int, w: int, lethal: float) -> np.ndarray:
@@ -48,12 +48,10 @@ def inflation_cases(seed: int, n: int):
         yield region, (r0, r1, c0, c1, table, bool(rng.integers(2)), bool(rng.integers(2)))
 
 
-@needs_numba
-def test_compiled_inflation_equals_the_distance_transform_path_on_random_regions():
-    assert COMPILED is not None
+def test_compiled_inflation_equals_the_distance_transform_oracle_on_random_regions():
     for region, args in inflation_cases(seed=1, n=400):
         want = region.copy()
-        inflate_reference(want, *args)
+        numpy_inflate_window(want, *args)
         got = region.copy()
         COMPILED.inflate_window(got, *args)
         assert got.tobytes() == want.tobytes(), args[:4]
@@ -68,7 +66,7 @@ def test_compiled_inflation_equals_the_distance_transform_path_on_random_regions
 def test_the_plain_python_kernel_is_the_same_function():
     for region, args in inflation_cases(seed=2, n=40):
         want = region.copy()
-        inflate_reference(want, *args)
+        numpy_inflate_window(want, *args)
         got = region.copy()
         inflate_window(got, *args)
         assert got.tobytes() == want.tobytes()
@@ -88,12 +86,11 @@ def test_inflation_kernel_exact_distances_around_one_cell_and_no_source():
     assert (empty == NO_INFORMATION).all()  # no lethal cell: nothing changes
 
 
-@needs_numba
 @pytest.mark.parametrize(
     ("radius", "around_unknown", "inflate_unknown", "track_unknown"),
     [(0.55, False, False, False), (0.0, False, False, True), (0.3, True, True, True), (1.0, False, True, True)],
 )
-def test_inflation_layer_same_costs_with_and_without_the_kernel(
+def test_inflation_layer_same_costs_with_the_kernel_and_the_oracle(
     monkeypatch, radius, around_unknown, inflate_unknown, track_unknown
 ):
     rng = np.random.default_rng(5)
@@ -115,7 +112,7 @@ def test_inflation_layer_same_costs_with_and_without_the_kernel(
     costs = []
     for compiled in (True, False):
         if not compiled:
-            monkeypatch.setattr(inflation_module, "kernels", lambda: None)
+            monkeypatch.setattr(inflation_module, "kernels", lambda: ORACLES)
         cm = Costmap2D(params)
         cm.set_static_map(static_map(data))
         cm.update(1.0, 1.0)
@@ -133,9 +130,7 @@ def random_rays(rng: np.random.Generator, w: int, h: int, n: int):
     return x0, y0, x1, y1
 
 
-@needs_numba
-def test_compiled_ray_clearing_equals_numpy_on_random_rays():
-    assert COMPILED is not None
+def test_compiled_ray_clearing_equals_the_numpy_oracle_on_random_rays():
     rng = np.random.default_rng(3)
     for trial in range(200):
         w, h = (int(v) for v in rng.integers(1, 50, 2))
@@ -143,9 +138,11 @@ def test_compiled_ray_clearing_equals_numpy_on_random_rays():
         steps = ray_steps(x0, y0, x1, y1, float(rng.uniform(0, 60)), float(rng.choice([0.0, 2.0, 5.0])))
         grids = [np.full((h, w), NO_INFORMATION, dtype=np.uint8) for _ in range(3)]
         results = [
-            clear_rays(grids[0], *steps, FREE_SPACE),
+            numpy_clear_rays(grids[0], *steps, FREE_SPACE),
             COMPILED.clear_rays(grids[1], *steps, FREE_SPACE),
-            clear_rays_python(grids[2], *steps, FREE_SPACE) if trial < 30 else clear_rays(grids[2], *steps, FREE_SPACE),
+            clear_rays_python(grids[2], *steps, FREE_SPACE)
+            if trial < 30
+            else numpy_clear_rays(grids[2], *steps, FREE_SPACE),
         ]
         assert results[1] == results[0] == results[2]
         assert grids[1].tobytes() == grids[0].tobytes() == grids[2].tobytes()
@@ -160,8 +157,7 @@ def test_ray_clearing_counts_and_bounds_a_known_ray():
     assert clear_rays_python(grid, *ray_steps(1, 1, np.array([-5]), np.array([-5]), 100.0, 3.0), 0) == (0, 0, 0, 0, 0)
 
 
-@needs_numba
-def test_obstacle_layer_same_grid_and_bounds_with_and_without_the_kernel(monkeypatch):
+def test_obstacle_layer_same_grid_and_bounds_with_the_kernel_and_the_oracle(monkeypatch):
     rng = np.random.default_rng(11)
     src = ObservationSourceParams(
         topic="/scan",
@@ -183,7 +179,7 @@ def test_obstacle_layer_same_grid_and_bounds_with_and_without_the_kernel(monkeyp
     grids, bounds = [], []
     for compiled in (True, False):
         if not compiled:
-            monkeypatch.setattr(obstacle_module, "kernels", lambda: None)
+            monkeypatch.setattr(obstacle_module, "kernels", lambda: ORACLES)
         cm = Costmap2D(params)
         ol = cm.layers[0]
         bounds.append(ol._raytrace(np.array([3.02, 2.51, 0.1]), pts, src))
