@@ -241,10 +241,10 @@ def test_trajectory_steps_and_end_poses():
 @pytest.mark.parametrize(
     "generator", ["dwb_plugins::StandardTrajectoryGenerator", "dwb_plugins::LimitedAccelGenerator"]
 )
-def test_compiled_simulate_gives_the_plain_python_bits(generator, monkeypatch):
+def test_compiled_simulate_gives_the_plain_python_bits(generator, monkeypatch, tb3):
     # a cycle of the TurtleBot 3 file's: its 819 samples from a moving, turning robot
     tb3 = dataclasses.replace(
-        load_nav2_params(TB3).controller_server.controllers["FollowPath"], trajectory_generator_name=generator
+        load_nav2_params(tb3).controller_server.controllers["FollowPath"], trajectory_generator_name=generator
     )
     velocity = (0.15, 0.0, -0.4)
     twists = velocity_samples(tb3, velocity, tb3.sim_time)
