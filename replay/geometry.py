@@ -24,6 +24,7 @@ and without its per-call overhead); the rest of SciPy's conversions import it wh
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -100,9 +101,46 @@ def yaw_from_quat(q_xyzw) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
+# ------------------------------------------------------------ angles
+# Every angle wrapping of navlog is here, named for its convention. Each keeps the exact arithmetic of
+# the formula it is named after (Nav2's results depend on its rounding), so they are not one formula.
+
+
 def wrap_angle(a: float) -> float:
     """An angle wrapped into [-pi, pi], as ``atan2(sin a, cos a)``."""
     return math.atan2(math.sin(a), math.cos(a))
+
+
+def wrap_angles(a: Any) -> Any:
+    """``wrap_angle`` element-wise with NumPy (arrays and NumPy scalars): ``arctan2(sin a, cos a)``."""
+    return np.arctan2(np.sin(a), np.cos(a))
+
+
+def normalize_angle(a: float) -> float:
+    """``a`` in [-pi, pi), computed as ROS ``angles::normalize_angle`` does (same rounding)."""
+    r = math.fmod(a + math.pi, 2.0 * math.pi)
+    if r < 0.0:
+        r += 2.0 * math.pi
+    return r - math.pi
+
+
+def shortest_angular_distance(a_from: float, a_to: float) -> float:
+    """The signed angle from ``a_from`` to ``a_to`` (ROS ``angles::shortest_angular_distance``):
+    ``normalize_angle(a_to - a_from)``."""
+    return normalize_angle(a_to - a_from)
+
+
+def shortest_angular_distances(a_from: Any, a_to: Any) -> Any:
+    """``a_to - a_from`` wrapped to [-pi, pi), element-wise, as Nav2's MPPI computes it (its own rounding:
+    ``fmod(d + pi, 2 pi)`` shifted by pi)."""
+    t = np.fmod(np.asarray(a_to) - np.asarray(a_from) + np.pi, 2.0 * np.pi)
+    return np.where(t < 0.0, t + np.pi, t - np.pi)
+
+
+def angle_diff(a: Any, b: Any) -> Any:
+    """``a - b`` wrapped to [-pi, pi) by a floored modulo (Nav2 AMCL's ``angle_diff``, up to the sign of
+    exactly pi); element-wise on arrays."""
+    return (a - b + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def yaw_from_matrix(r: np.ndarray) -> float:

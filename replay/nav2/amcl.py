@@ -37,6 +37,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from navlog.replay.geometry import angle_diff
 from navlog.replay.nav2.schema import ERROR, SectionReader, param
 from navlog.replay.occupancy_map import OccupancyMap
 
@@ -156,16 +157,6 @@ def read_amcl(r: SectionReader, params: dict, path: tuple) -> AmclParams:
     return p
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    """Angles wrapped to [-pi, pi)."""
-    return (a + np.pi) % (2.0 * np.pi) - np.pi
-
-
-def _angle_diff(a: float, b: float) -> float:
-    """a - b wrapped to [-pi, pi) (Nav2's ``angle_diff``, up to the sign of exactly pi)."""
-    return (a - b + math.pi) % (2.0 * math.pi) - math.pi
-
-
 # ------------------------------------------------------------------ motion models
 
 
@@ -176,11 +167,11 @@ def sample_differential(
     a1, a2, a3, a4 = alphas[:4]
     dx, dy = new[0] - old[0], new[1] - old[1]
     trans = math.hypot(dx, dy)
-    rot1 = 0.0 if trans < 0.01 else _angle_diff(math.atan2(dy, dx), old[2])
-    rot2 = _angle_diff(_angle_diff(new[2], old[2]), rot1)
+    rot1 = 0.0 if trans < 0.01 else angle_diff(math.atan2(dy, dx), old[2])
+    rot2 = angle_diff(angle_diff(new[2], old[2]), rot1)
     # rotation noise counts turning back as turning forward (a reversing robot is not rotating)
-    rot1_noise = min(abs(_angle_diff(rot1, 0.0)), abs(_angle_diff(rot1, math.pi)))
-    rot2_noise = min(abs(_angle_diff(rot2, 0.0)), abs(_angle_diff(rot2, math.pi)))
+    rot1_noise = min(abs(angle_diff(rot1, 0.0)), abs(angle_diff(rot1, math.pi)))
+    rot2_noise = min(abs(angle_diff(rot2, 0.0)), abs(angle_diff(rot2, math.pi)))
     n = len(poses)
     rot1_hat = rot1 - rng.normal(0.0, math.sqrt(a1 * rot1_noise**2 + a2 * trans**2), n)
     trans_hat = trans - rng.normal(0.0, math.sqrt(a3 * trans**2 + a4 * rot1_noise**2 + a4 * rot2_noise**2), n)
@@ -189,7 +180,7 @@ def sample_differential(
     heading = poses[:, 2] + rot1_hat
     out[:, 0] += trans_hat * np.cos(heading)
     out[:, 1] += trans_hat * np.sin(heading)
-    out[:, 2] = _wrap(poses[:, 2] + rot1_hat + rot2_hat)
+    out[:, 2] = angle_diff(poses[:, 2] + rot1_hat + rot2_hat, 0.0)
     return out
 
 
@@ -200,9 +191,9 @@ def sample_omni(
     a1, a2, a3, a4, a5 = alphas[:5]
     dx, dy = new[0] - old[0], new[1] - old[1]
     trans = math.hypot(dx, dy)
-    rot = _angle_diff(new[2], old[2])
+    rot = angle_diff(new[2], old[2])
     n = len(poses)
-    bearing = _angle_diff(math.atan2(dy, dx), old[2]) + poses[:, 2]
+    bearing = angle_diff(math.atan2(dy, dx), old[2]) + poses[:, 2]
     trans_hat = trans + rng.normal(0.0, math.sqrt(a3 * trans**2 + a1 * rot**2), n)
     rot_hat = rot + rng.normal(0.0, math.sqrt(a4 * trans**2 + a2 * rot**2), n)
     strafe_hat = rng.normal(0.0, math.sqrt(a1 * rot**2 + a5 * trans**2), n)
@@ -210,7 +201,7 @@ def sample_omni(
     out = poses.copy()
     out[:, 0] += trans_hat * cs + strafe_hat * sn
     out[:, 1] += trans_hat * sn - strafe_hat * cs
-    out[:, 2] = _wrap(poses[:, 2] + rot_hat)
+    out[:, 2] = angle_diff(poses[:, 2] + rot_hat, 0.0)
     return out
 
 
@@ -327,7 +318,7 @@ class ParticleFilter:
         cov = np.asarray(cov, dtype=np.float64)
         n = self.p.max_particles
         self.poses = self.rng.multivariate_normal(mean, cov, size=n, method="eigh")
-        self.poses[:, 2] = _wrap(self.poses[:, 2])
+        self.poses[:, 2] = angle_diff(self.poses[:, 2], 0.0)
         self.weights = np.full(n, 1.0 / n)
         self.w_slow = self.w_fast = 0.0
 

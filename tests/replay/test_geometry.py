@@ -153,3 +153,37 @@ def test_a_matrix_that_is_not_a_rotation_goes_through_scipy():
     both = np.stack([np.eye(3), skewed])
     assert g.matrices_to_canonical_quats(both).tobytes() == Rotation.from_matrix(both).as_quat(canonical=True).tobytes()
     assert g.matrices_to_canonical_quats(np.zeros((0, 3, 3))).shape == (0, 4)
+
+
+# ------------------------------------------------------------ angles
+def test_every_wrapping_agrees_on_the_angle_and_states_its_sign():
+    from navlog.replay.geometry import (
+        angle_diff,
+        normalize_angle,
+        shortest_angular_distance,
+        shortest_angular_distances,
+        wrap_angle,
+        wrap_angles,
+    )
+
+    for a, b in [(0.0, 0.5), (0.5, 0.0), (3.0, -3.0), (-3.0, 3.0), (10.0, -7.5)]:
+        want = math.atan2(math.sin(b - a), math.cos(b - a))  # the signed angle from a to b
+        assert wrap_angle(b - a) == pytest.approx(want)
+        assert float(wrap_angles(np.float64(b - a))) == pytest.approx(want)
+        assert shortest_angular_distance(a, b) == pytest.approx(want)
+        assert float(shortest_angular_distances(a, b)) == pytest.approx(want)
+        assert angle_diff(b, a) == pytest.approx(want)  # Nav2 AMCL's angle_diff(a, b) is a - b
+        assert normalize_angle(b - a) == pytest.approx(want)
+    # [-pi, pi): pi wraps to -pi in the ROS forms
+    assert normalize_angle(math.pi) == -math.pi and float(shortest_angular_distances(0.0, math.pi)) == -math.pi
+    assert angle_diff(math.pi, 0.0) == -math.pi
+
+
+def test_the_element_wise_angle_differences_take_a_batch():
+    from navlog.replay.geometry import angle_diff, shortest_angular_distances
+
+    a = np.array([[0.0, 1.0], [2.0, -2.0]], dtype=np.float32)
+    got = shortest_angular_distances(a, 1.5)
+    assert got.shape == (2, 2)
+    assert got == pytest.approx(np.array([[1.5, 0.5], [-0.5, 3.5 - 2 * math.pi]]), abs=1e-6)
+    assert angle_diff(np.array([7.0, -7.0]), 0.0) == pytest.approx([7.0 - 2 * math.pi, 2 * math.pi - 7.0])

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from navlog.replay.geometry import normalize_angle, shortest_angular_distance
 from navlog.replay.nav2.plugins import PluginParams
 from navlog.replay.nav2.schema import param
 
@@ -52,19 +53,6 @@ class ProgressCheckerParams(PluginParams):
     required_movement_radius: float = 0.5
     movement_time_allowance: float = param(10.0, ge=0.0)
     required_movement_angle: float = param(0.5, ge=0.0)
-
-
-def normalize_angle(a: float) -> float:
-    """``a`` in [-pi, pi), computed as ROS ``angles::normalize_angle`` does (same rounding)."""
-    r = math.fmod(a + math.pi, 2.0 * math.pi)
-    if r < 0.0:
-        r += 2.0 * math.pi
-    return r - math.pi
-
-
-def shortest_angular_distance(a_from: float, a_to: float) -> float:
-    """The signed angle from ``a_from`` to ``a_to`` (ROS ``angles::shortest_angular_distance``)."""
-    return normalize_angle(a_to - a_from)
 
 
 class SimpleGoalChecker:

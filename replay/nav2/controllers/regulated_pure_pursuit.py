@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from navlog.replay.geometry import normalize_angle, wrap_angles
 from navlog.replay.nav2.controllers.base import (
     ControlContext,
     ControllerError,
@@ -46,7 +47,6 @@ from navlog.replay.nav2.controllers.base import (
     se2,
     transform_poses,
 )
-from navlog.replay.nav2.controllers.checkers import normalize_angle
 from navlog.replay.nav2.costmap.cost_values import FREE_SPACE, LETHAL, NO_INFORMATION
 from navlog.replay.nav2.costmap.footprint import footprint_costs
 from navlog.replay.nav2.costmap.grid import CostmapGrid
@@ -431,7 +431,7 @@ class RegulatedPurePursuitController:
         if end <= begin:
             raise InvalidPath("RegulatedPurePursuitController: resulting plan has 0 poses in it")
         local = transform_poses(plan[begin:end], np.linalg.inv(se2(*pose)) @ plan_to_local)
-        local[:, 2] = np.arctan2(np.sin(local[:, 2]), np.cos(local[:, 2]))
+        local[:, 2] = wrap_angles(local[:, 2])
         return local
 
     def should_rotate_to_goal_heading(self, carrot: tuple[float, float]) -> bool:

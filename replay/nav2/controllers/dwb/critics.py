@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from navlog.replay.geometry import wrap_angles
 from navlog.replay.nav2.controllers.dwb.params import (
     BaseObstacleParams,
     CriticParams,
@@ -151,11 +152,6 @@ def grid_distances(shape: tuple[int, int], mx: np.ndarray, my: np.ndarray) -> np
     iy, ix = distance_transform_edt(free, return_distances=False, return_indices=True)
     gy, gx = np.indices(shape)
     return (np.abs(iy - gy) + np.abs(ix - gx)).astype(np.float64)
-
-
-def shortest_angle(a: np.ndarray | float, b: np.ndarray | float):
-    """The signed angle from a to b in [-pi, pi]."""
-    return np.arctan2(np.sin(np.subtract(b, a)), np.cos(np.subtract(b, a)))
 
 
 class Critic:
@@ -354,7 +350,7 @@ class RotateToGoal(Critic):
         k = len(t.twists)
         if not self.in_window:
             return np.zeros(k), np.zeros(k, dtype=bool), ""
-        rotation = np.abs(shortest_angle(self.end_yaw(t), self.goal_yaw))
+        rotation = np.abs(wrap_angles(np.subtract(self.goal_yaw, self.end_yaw(t))))
         speed_sq = t.twists[:, 0] ** 2 + t.twists[:, 1] ** 2
         if not self.rotating:
             return speed_sq * self.params.slowing_factor + rotation, speed_sq >= self.speed_sq, "not slowing near goal"

@@ -6,6 +6,7 @@ import math
 
 import pytest
 
+from navlog.replay.geometry import normalize_angle
 from navlog.replay.nav2 import parse_nav2_text
 from navlog.replay.nav2.controllers.checkers import (
     GoalCheckerParams,
@@ -15,7 +16,6 @@ from navlog.replay.nav2.controllers.checkers import (
     SimpleGoalChecker,
     SimpleProgressChecker,
     StoppedGoalChecker,
-    normalize_angle,
 )
 from navlog.replay.nav2.controllers.registry import GOAL_CHECKERS, PROGRESS_CHECKERS
 

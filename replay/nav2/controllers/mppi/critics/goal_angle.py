@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from navlog.replay.nav2.controllers.mppi.angles import signed_angle_from_to
+from navlog.replay.geometry import shortest_angular_distances
 from navlog.replay.nav2.controllers.mppi.critics.base import Critic, CriticParams
 from navlog.replay.nav2.schema import param
 
@@ -31,8 +31,8 @@ class GoalAngleCritic(Critic[GoalAngleCriticParams]):
         if not data.robot_near_goal(p.threshold_to_consider):
             return
         goal_yaw = float(data.path[-1, 2])
-        d = np.abs(signed_angle_from_to(data.yaw, goal_yaw))
+        d = np.abs(shortest_angular_distances(data.yaw, goal_yaw))
         if p.symmetric_yaw_tolerance:
             flipped = math.remainder(goal_yaw + math.pi, 2 * math.pi)
-            d = np.minimum(d, np.abs(signed_angle_from_to(data.yaw, flipped)))
+            d = np.minimum(d, np.abs(shortest_angular_distances(data.yaw, flipped)))
         self.add(data, d.mean(axis=1))

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from navlog.replay.nav2.controllers.mppi.angles import signed_angle_from_to
+from navlog.replay.geometry import shortest_angular_distances
 from navlog.replay.nav2.controllers.mppi.critics.base import Critic, CriticParams
 from navlog.replay.nav2.schema import param
 
@@ -56,7 +56,7 @@ class PathAlignCritic(Critic[PathAlignCriticParams]):
         ok = valid[nearest]
         dx, dy = path[nearest, 0] - tx[:, 1:], path[nearest, 1] - ty[:, 1:]
         if p.use_path_orientations:
-            dyaw = signed_angle_from_to(path[nearest, 2], tyaw[:, 1:])
+            dyaw = shortest_angular_distances(path[nearest, 2], tyaw[:, 1:])
             dist = np.sqrt(dx * dx + dy * dy + dyaw * dyaw)
         else:
             dist = np.sqrt(dx * dx + dy * dy)

@@ -8,8 +8,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from navlog.replay.geometry import shortest_angular_distances
 from navlog.replay.nav2.controllers.base import Pose2D
-from navlog.replay.nav2.controllers.mppi.angles import signed_angle_from_to
 from navlog.replay.nav2.controllers.mppi.critics.base import Critic, CriticParams
 from navlog.replay.nav2.schema import param
 
@@ -32,12 +32,12 @@ def pose_point_angle(pose: Pose2D, px: float, py: float, mode: int, point_yaw: f
     """Nav2's ``posePointAngle``: the robot's heading error to a point (mode 1: either way; 2: along point_yaw)."""
     yaw = math.atan2(py - pose[1], px - pose[0])
     if mode == 2:
-        if abs(float(signed_angle_from_to(yaw, point_yaw))) > math.pi / 2:
+        if abs(float(shortest_angular_distances(yaw, point_yaw))) > math.pi / 2:
             yaw = math.remainder(yaw + math.pi, 2 * math.pi)
-        return abs(float(signed_angle_from_to(yaw, pose[2])))
-    fwd = abs(float(signed_angle_from_to(yaw, pose[2])))
+        return abs(float(shortest_angular_distances(yaw, pose[2])))
+    fwd = abs(float(shortest_angular_distances(yaw, pose[2])))
     if mode == 1:
-        return min(fwd, abs(float(signed_angle_from_to(yaw, math.remainder(pose[2] + math.pi, 2 * math.pi)))))
+        return min(fwd, abs(float(shortest_angular_distances(yaw, math.remainder(pose[2] + math.pi, 2 * math.pi)))))
     return fwd
 
 
@@ -60,9 +60,9 @@ class PathAngleCritic(Critic[PathAngleCriticParams]):
         between = np.arctan2(gy - data.y[:, -1], gx - data.x[:, -1])
         end_yaw = data.yaw[:, -1]
         if self.mode == 1:
-            fwd = np.abs(signed_angle_from_to(end_yaw, between))
-            between = np.where(fwd < math.pi / 2, between, signed_angle_from_to(-math.pi, between))
+            fwd = np.abs(shortest_angular_distances(end_yaw, between))
+            between = np.where(fwd < math.pi / 2, between, shortest_angular_distances(-math.pi, between))
         elif self.mode == 2:
-            away = np.abs(signed_angle_from_to(between, gyaw)) >= math.pi / 2
-            between = np.where(away, signed_angle_from_to(-math.pi, between), between)
-        self.add(data, np.abs(signed_angle_from_to(end_yaw, between)))
+            away = np.abs(shortest_angular_distances(between, gyaw)) >= math.pi / 2
+            between = np.where(away, shortest_angular_distances(-math.pi, between), between)
+        self.add(data, np.abs(shortest_angular_distances(end_yaw, between)))
