@@ -35,9 +35,6 @@ from navlog.analysis.ci.cache import (
     cached_world_map,
     default_cache_dir,
     log_layout_sha256,
-    log_sha256,
-    parameter_hash,
-    replay_key,
 )
 from navlog.analysis.ci.facts import case_facts, numbers
 from navlog.analysis.ci.invariants import evaluate
@@ -45,6 +42,7 @@ from navlog.analysis.ci.result import CaseResult, CheckResult, Status, SuiteResu
 from navlog.analysis.ci.suite import Case, Recipe, Suite, WorldMap, load_suite
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import suggest
+from navlog.replay.identity import log_sha256, parameter_hash, replay_identity
 from navlog.version import __version__
 
 __all__ = ["DEFAULT_BASELINES", "applicable_overrides", "run_case", "run_suite"]
@@ -231,7 +229,7 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
     checks += found
 
     start = time.perf_counter()
-    key = replay_key(case.pipeline, log_sha, provenance["parameter_hash"], remap)
+    key = replay_identity(log_sha, case.pipeline, params, remap)
     replay_dir, cached = cached_replay(log, case.pipeline, params, remap, key, job.cache, fresh=job.determinism)
     if job.determinism:
         checks.append(_determinism(log, case.pipeline, params, remap, replay_dir))
