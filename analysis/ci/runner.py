@@ -5,8 +5,10 @@ baseline's provenance), check it for what the pipeline reads (a failure is INVAL
 stops there), replay it (cached by log sha256, parameter hash and navlog version; ``determinism``
 replays twice afresh and compares every output's bytes), compute the mapping metrics, diff the
 outputs against the baseline, and evaluate the invariants. A case that raises is an ERROR with its
-message; the other cases still run. ``workers > 1`` runs recipes, then cases, in a process pool; the
-results are the same as serially (each case's result depends only on its inputs).
+message; the other cases still run. ``workers > 1`` runs recipes, then cases, on the fleet's
+``ProcessPool`` (``navlog.analysis.fleet.executors``): a worker process that dies (killed, out of
+memory) is an ERROR of the one case it ran, naming it. The results are the same as serially (each
+case's result depends only on its inputs).
 
 ``overrides`` (``--set KEY=VALUE``) apply to every case whose pipeline has KEY; a key no case's
 pipeline has is refused (``ConfigError``) before anything runs.
@@ -23,7 +25,6 @@ import json
 import tempfile
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, TypeVar
@@ -40,12 +41,13 @@ from navlog.analysis.ci.facts import case_facts, numbers
 from navlog.analysis.ci.invariants import evaluate
 from navlog.analysis.ci.result import CaseResult, CheckResult, Status, SuiteResult
 from navlog.analysis.ci.suite import Case, Recipe, Suite, WorldMap, load_suite
+from navlog.analysis.fleet.executors import Executor, InProcess, Lost, ProcessPool, run_jobs
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import suggest
 from navlog.replay.identity import log_sha256, parameter_hash, replay_identity
 from navlog.version import __version__
 
-__all__ = ["DEFAULT_BASELINES", "applicable_overrides", "run_case", "run_suite"]
+__all__ = ["DEFAULT_BASELINES", "applicable_overrides", "default_executor", "run_case", "run_suite"]
 
 DEFAULT_BASELINES = Path("data/baselines")
 METRICS_FILE = "metrics.json"
@@ -73,11 +75,22 @@ class CaseJob:
     timings: dict[str, float] = field(default_factory=dict)
 
 
-def _map(fn: Callable[[T], R], items: Sequence[T], workers: int) -> list[R]:
-    if workers <= 1 or len(items) <= 1:
-        return [fn(i) for i in items]
-    with ProcessPoolExecutor(max_workers=min(workers, len(items))) as pool:
-        return list(pool.map(fn, items))
+def _map(
+    fn: Callable[[T], R],
+    items: Sequence[T],
+    executor: Executor,
+    lost: Callable[[T, Lost], R],
+) -> list[R]:
+    """``fn`` of every item on ``executor``, in order; an item whose worker process died gives ``lost(item, why)``."""
+    done = run_jobs(executor, fn, items)
+    return [lost(item, r) if isinstance(r, Lost) else r for item, (r, _) in zip(items, done, strict=True)]
+
+
+def default_executor(workers: int, jobs: int) -> Executor:
+    """This process for one worker or one job, else a pool of ``min(workers, jobs)`` worker processes."""
+    if workers <= 1 or jobs <= 1:
+        return InProcess()
+    return ProcessPool(min(workers, jobs))
 
 
 def _has_key(tree: Any, key: str) -> bool:
@@ -141,9 +154,14 @@ def run_suite(
     cache_dir: Path | str | None = None,
     baseline_dir: Path | str | None = None,
     cases: Sequence[str] = (),
+    executor: Callable[[int, int], Executor] = default_executor,
 ) -> SuiteResult:
     """Run every case of the suite file (or only those named in ``cases``); see the module docstring. A
-    bad suite or ``--set`` raises ``ConfigError`` before anything runs; a bad case is an ERROR in the result."""
+    bad suite or ``--set`` raises ``ConfigError`` before anything runs; a bad case is an ERROR in the result.
+
+    ``executor(workers, jobs)`` gives where the recordings, then the cases, run (``default_executor``: this
+    process or a ``ProcessPool``); a case whose worker process dies is an ERROR naming it, and the
+    other cases still run."""
     suite = load_suite(suite_path)
     if cases:
         suite = replace(suite, cases=tuple(suite.case(n) for n in cases))
@@ -152,7 +170,8 @@ def run_suite(
     folder = root / suite.name
     extra = applicable_overrides(suite, overrides)
     recipes = sorted({c.recipe for c in suite.cases if c.recipe is not None}, key=lambda r: repr(r))
-    recorded = dict(zip(recipes, _map(_record, [(r, cache) for r in recipes], workers), strict=True))
+    recordings = _map(_record, [(r, cache) for r in recipes], executor(workers, len(recipes)), _recording_lost)
+    recorded = dict(zip(recipes, recordings, strict=True))
     jobs = []
     for c in suite.cases:
         log, error, seconds = recorded[c.recipe] if c.recipe is not None else (c.log, "", 0.0)
@@ -161,15 +180,23 @@ def run_suite(
                 c, extra[c.name], folder / c.name, cache, update, update_new, determinism, log, error, {"log": seconds}
             )
         )
-    results = _map(run_case, jobs, workers)
+    results = _map(run_case, jobs, executor(workers, len(jobs)), _case_lost)
     unused = [] if cases else unused_baselines(folder, [c.name for c in suite.cases])
     notes = [f"--set {o}" for o in overrides]
     return SuiteResult(suite.name, str(suite.path), __version__, tuple(results), tuple(unused), tuple(notes))
 
 
+def _recording_lost(job: tuple[Recipe, Path], lost: Lost) -> tuple[Path | None, str, float]:
+    recipe = job[0]
+    return None, f"recording {recipe.world}/{recipe.robot}/{recipe.scenario}: {lost.reason}", 0.0
+
+
+def _case_lost(job: CaseJob, lost: Lost) -> CaseResult:
+    return _error(job, f"case '{job.case.name}': {lost.reason}", dict(job.timings))
+
+
 def run_case(job: CaseJob) -> CaseResult:
     """One case; never raises: a failure to run is an ERROR check with its message."""
-    case = job.case
     timings = dict(job.timings)
     try:
         return _run_case(job, timings)
@@ -177,13 +204,13 @@ def run_case(job: CaseJob) -> CaseResult:
         message = str(exc)
     except Exception as exc:  # a defect: reported with the case, the other cases still run
         message = f"{type(exc).__name__}: {exc}"
-    return CaseResult(
-        case.name,
-        case.pipeline,
-        case.source,
-        (CheckResult("run", "error", Status.ERROR, message),),
-        timings=timings,
-    )
+    return _error(job, message, timings)
+
+
+def _error(job: CaseJob, message: str, timings: dict[str, float]) -> CaseResult:
+    case = job.case
+    check = CheckResult("run", "error", Status.ERROR, message)
+    return CaseResult(case.name, case.pipeline, case.source, (check,), timings=timings)
 
 
 def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
