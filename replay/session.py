@@ -9,7 +9,6 @@ a failed replay leaves nothing half-written.
 
 from __future__ import annotations
 
-import importlib
 import json
 import logging
 import shutil
@@ -29,7 +28,7 @@ from navlog.replay.io.atomic import remove_stale, replace_output
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import LogReader
-from navlog.replay.pipelines import pipeline_names
+from navlog.replay.pipelines import pipeline_spec
 from navlog.replay.runtime.executor import Envelope, Executor
 from navlog.replay.runtime.heap import HeapTrim, steady_heap
 from navlog.replay.runtime.pipeline import Pipeline
@@ -39,29 +38,22 @@ from navlog.version import __version__
 logger = logging.getLogger("navlog")
 
 
-def load_pipeline_module(name: str):
-    names = pipeline_names()
-    if name not in names:
-        raise ConfigError(f"unknown pipeline '{name}'{suggest(name, names)}; known: {', '.join(names)}")
-    return importlib.import_module(f"navlog.replay.pipelines.{name}")
-
-
 def pipeline_params(name: str, params_file: Path | None = None, overrides: Sequence[str] = ()) -> Any:
     """The pipeline's parameters: its YAML (config/pipelines/NAME.yaml or ``params_file``) plus overrides.
 
     A pipeline that takes a foreign parameter file (the planner takes a Nav2 ``nav2_params.yaml``)
-    names the key that holds its path in ``PARAMS_FILE_KEY``; ``params_file`` then fills that key and
-    the pipeline's own YAML still supplies the rest.
+    names the key that holds its path (``PipelineSpec.params_file_key``); ``params_file`` then fills
+    that key and the pipeline's own YAML still supplies the rest.
     """
-    module = load_pipeline_module(name)
-    key = getattr(module, "PARAMS_FILE_KEY", None)
+    spec = pipeline_spec(name)
+    key = spec.params_file_key
     if params_file is not None and key:
         overrides = [f"{key}={Path(params_file).resolve()}", *overrides]
         params_file = None
     path = Path(params_file) if params_file is not None else find_config("pipelines", name)
     if path is not None:
-        return load_config(module.Params, path, overrides)
-    return from_mapping(module.Params, apply_overrides({}, overrides))
+        return load_config(spec.Params, path, overrides)
+    return from_mapping(spec.Params, apply_overrides({}, overrides))
 
 
 def parse_remaps(items: Sequence[str]) -> dict[str, str]:
@@ -141,7 +133,7 @@ def run_replay(
 ) -> ReplayResult:
     log, out_dir = Path(log), Path(out_dir)
     steady_heap()  # the peak stays flat over a long log (navlog.replay.runtime.heap)
-    module = load_pipeline_module(pipeline)
+    spec = pipeline_spec(pipeline)
     if params is None:
         params = pipeline_params(pipeline, overrides=overrides)
     remap = dict(remap or {})
@@ -154,9 +146,8 @@ def run_replay(
         to_log = dict(remap)  # pipeline topic -> log topic, for remapped topics only
         log_to = {v: k for k, v in remap.items()}
         logical_topics = {log_to.get(t, t) for t in reader.topics}
-        if hasattr(module, "settle"):  # a pipeline may decide `auto` parameters from the log's content
-            params = module.settle(params, reader, log_to)
-        pipe = module.build(params, logical_topics)
+        params = spec.settle(params, reader, log_to)  # `auto` parameters decided from the log's content
+        pipe = spec.build(params, logical_topics)
         missing = [t for t in pipe.inputs if to_log.get(t, t) not in reader.topics]
         if missing:
             have = ", ".join(f"{t.name} ({t.typename})" for t in sorted(reader.topics.values(), key=lambda t: t.name))

@@ -52,8 +52,6 @@ __all__ = ["DEFAULT_BASELINES", "applicable_overrides", "default_executor", "run
 DEFAULT_BASELINES = Path("data/baselines")
 METRICS_FILE = "metrics.json"
 DEFAULT_MAP_RESOLUTION = 0.05  # m, a world map's cells when the case does not say
-# the facts every case of a pipeline reports, asked for or not (numbers for the reports)
-ALWAYS = {"mapping": ("metrics",), "planner": ("plans",), "safety": ("safety",)}
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -214,6 +212,7 @@ def _error(job: CaseJob, message: str, timings: dict[str, float]) -> CaseResult:
 
 
 def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
+    from navlog.replay.pipelines import pipeline_spec
     from navlog.replay.session import pipeline_params
 
     case = job.case
@@ -226,14 +225,16 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
     notes: list[str] = []
     user_overrides = [*case.overrides, *job.overrides]
     overrides = list(user_overrides)
+    pipeline = pipeline_spec(case.pipeline)
     params = pipeline_params(case.pipeline, case.params, overrides)
     spec = case.world_map
-    if spec is not None and spec.resolution is None:
-        grid = getattr(getattr(params, "occupancy", None), "grid", None)
-        spec = replace(spec, resolution=float(getattr(grid, "resolution", DEFAULT_MAP_RESOLUTION)))
+    if spec is not None and spec.resolution is None:  # the resolution of the map the pipeline makes
+        resolution = pipeline.map_resolution(params)
+        spec = replace(spec, resolution=DEFAULT_MAP_RESOLUTION if resolution is None else resolution)
     world_map = cached_world_map(spec, job.cache) if spec is not None else None
-    if world_map is not None and case.pipeline == "planner" and not any(o.startswith("map=") for o in overrides):
-        overrides.insert(0, f"map={world_map}")  # the static map (its content counts in the parameter hash)
+    key = pipeline.world_map_key
+    if world_map is not None and key is not None and not any(o.startswith(f"{key}=") for o in overrides):
+        overrides.insert(0, f"{key}={world_map}")  # e.g. the static map (its content counts in the parameter hash)
         params = pipeline_params(case.pipeline, case.params, overrides)
     remap = dict(case.remap)
 
@@ -264,7 +265,7 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
 
     start = time.perf_counter()
     manifest = json.loads((replay_dir / "manifest.json").read_text(encoding="utf-8"))
-    metrics = _metrics(log, replay_dir, world_map) if case.pipeline == "mapping" else None
+    metrics = _metrics(log, replay_dir, world_map) if pipeline.scored_by_metrics else None
     written = False
     with tempfile.TemporaryDirectory(prefix="navlog-ci-") as work:
         outputs = {o["file"]: replay_dir / o["file"] for o in manifest["outputs"].values()}
@@ -274,10 +275,9 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
         if case.diff is not None:
             diff_checks, written = _diff(job, base, outputs, provenance, notes)
             checks += diff_checks
-    roots = {inv.roots() for inv in case.invariants} | set(ALWAYS.get(case.pipeline, ()))
-    facts = case_facts(
-        roots, log=log, replay_dir=replay_dir, metrics=metrics, static_map=_static_map(params), goals=_goals(params)
-    )
+    roots = {inv.roots() for inv in case.invariants} | set(pipeline.summary_facts)
+    static_map, goals = pipeline.static_map(params), pipeline.goal_count(params)
+    facts = case_facts(roots, log=log, replay_dir=replay_dir, metrics=metrics, static_map=static_map, goals=goals)
     checks += [evaluate(inv, facts) for inv in case.invariants]
     timings["compare"] = time.perf_counter() - start
     return CaseResult(
@@ -297,12 +297,12 @@ def _input_check(log: Path, pipeline: str, params: Any, remap: dict[str, str]) -
     """``check_log`` for the topics this case's pipeline reads (after remapping): INVALID_INPUT on failure."""
     from navlog.analysis.check import check_log
     from navlog.replay.io.formats import open_log
-    from navlog.replay.session import load_pipeline_module
+    from navlog.replay.pipelines import pipeline_spec
 
     with open_log(log, recover=True) as reader:
         to_log = {v: k for k, v in remap.items()}
         topics = {to_log.get(t, t) for t in reader.topics}
-        inputs = load_pipeline_module(pipeline).build(params, topics).inputs
+        inputs = pipeline_spec(pipeline).build(params, topics).inputs
         result = check_log(reader, require=[remap.get(t, t) for t in inputs])
     counts = {str(s): n for s, n in result.to_dict()["counts"].items()}
     if result.failed:
@@ -459,17 +459,3 @@ def _diff(
         return [CheckResult("baseline", "baseline", Status.NEW, message)], False
     rounds = _rounds_otherwise(base, provenance)
     return compare_to_baseline(base, outputs, diff.tolerances, diff.ignore, log_rounds_otherwise=rounds), False
-
-
-def _static_map(params: Any) -> Path | None:
-    path = getattr(params, "map", "")
-    return Path(path) if isinstance(path, str) and path and Path(path).is_file() else None
-
-
-def _goals(params: Any) -> int | None:
-    spec = getattr(params, "goals", "")
-    if not isinstance(spec, str) or not spec:
-        return None
-    from navlog.replay.pipelines.planner import load_goals
-
-    return len(load_goals(spec)[0])

@@ -32,12 +32,12 @@ from navlog.analysis.fleet.inputs import LogSource
 from navlog.analysis.fleet.storage import download, filesystem, is_url, join, local_path, upload_folder, write_bytes
 from navlog.errors import NavlogError
 from navlog.replay.io.atomic import write_file
+from navlog.replay.pipelines import pipeline_spec
 
 __all__ = ["STATE", "LogJob", "LogResult", "job_identity", "replay_log"]
 
 MANIFEST = "manifest.json"
 STATE = ".fleet"  # OUT/.fleet/NAME.json: what the replay in OUT/NAME was made from
-MAPPING_PIPELINE = "mapping"
 
 
 @dataclass(frozen=True)
@@ -157,7 +157,9 @@ def _replay(job: LogJob) -> LogResult:
             progress=False,
         )
         manifest_sha = hashlib.sha256((built / MANIFEST).read_bytes()).hexdigest()
-        state = (json.dumps({"key": res.identity, "manifest_sha256": manifest_sha}, indent=2, sort_keys=True) + "\n").encode()
+        state = (
+            json.dumps({"key": res.identity, "manifest_sha256": manifest_sha}, indent=2, sort_keys=True) + "\n"
+        ).encode()
         if remote:
             upload_folder(built, out_url, last=MANIFEST)
             write_bytes(state_url, state)
@@ -233,12 +235,12 @@ def _result(job: LogJob, manifest: dict[str, Any], log: Path, replay_dir: Path, 
         truncated=bool(info["truncated"]),
         outputs={o["file"]: o["sha256"] for o in manifest["outputs"].values()},
     )
-    if job.metrics and job.pipeline == MAPPING_PIPELINE:
-        result.metrics, result.metrics_error = _mapping_metrics(log, replay_dir)
+    if job.metrics and pipeline_spec(job.pipeline).scored_by_metrics:
+        result.metrics, result.metrics_error = _metrics(log, replay_dir)
     return result
 
 
-def _mapping_metrics(log: Path, replay_dir: Path) -> tuple[dict[str, float], str]:
+def _metrics(log: Path, replay_dir: Path) -> tuple[dict[str, float], str]:
     """The numbers of ``compute_metrics`` (trajectory errors against the log's ground truth), flat."""
     from navlog.analysis.diff.metric_values import flatten
     from navlog.analysis.metrics import compute_metrics
