@@ -9,8 +9,11 @@ produce the same bytes:
     python scripts/output_hashes.py --out /tmp/old --navlog /path/to/old/.venv/bin/navlog > old.json
     python scripts/output_hashes.py --compare old.json new.json
 
-Only the wall-clock fields of the manifests and summaries (durations, dates, host names) are left out:
-``manifest.json`` and ``fleet-summary.*`` are hashed after those fields are dropped.
+Only what names the machine or the moment is left out: ``manifest.json``, ``fleet-summary.json`` and
+``ci-report.json`` are hashed after their wall-clock fields are dropped and the work folder and the
+checkout are replaced by ``OUT`` and ``REPO`` in their paths. A Rerun recording holds random ids and
+wall-clock times (two saves of one log differ in bytes): its entry names the file, and ``--compare``
+compares two recordings' contents with ``rerun rrd compare --unordered``.
 """
 
 from __future__ import annotations
@@ -55,10 +58,13 @@ def _strip(value: object) -> object:
     return value
 
 
-def _hash(path: Path) -> str:
-    if path.name == "manifest.json" or path.name.startswith("fleet-summary.json") or path.name == "ci-report.json":
+def _hash(path: Path, out: Path) -> str:
+    if path.suffix == ".rrd":
+        return f"rrd:{path}"
+    if path.name in ("manifest.json", "fleet-summary.json", "ci-report.json"):
+        text = path.read_text().replace(str(out.resolve()), "OUT").replace(str(Path.cwd().resolve()), "REPO")
         try:
-            data = json.loads(path.read_text())
+            data = json.loads(text)
         except ValueError:
             pass
         else:
@@ -72,8 +78,8 @@ def _hash(path: Path) -> str:
 
 def _hash_tree(root: Path, out: Path) -> dict[str, str]:
     if root.is_file():
-        return {str(root.relative_to(out)): _hash(root)}
-    return {str(p.relative_to(out)): _hash(p) for p in sorted(root.rglob("*")) if p.is_file()}
+        return {str(root.relative_to(out)): _hash(root, out)}
+    return {str(p.relative_to(out)): _hash(p, out) for p in sorted(root.rglob("*")) if p.is_file()}
 
 
 def _run(cmd: list[str], log: list[str]) -> None:
@@ -103,31 +109,95 @@ def collect(navlog: str, out: Path, only: set[str] | None) -> dict[str, str]:
                 wm = out / f"{scenario}-worldmap.yaml"
                 _run([navlog, "-q", "world-map", "indoor_room", "--margin", "0", "--height", "0.2", "-o", str(wm)], log)
                 args = ["--set", f"map={wm}"] + [a for a in args if a not in ("--set", "map=@world")]
-            _run([navlog, "-q", "replay", str(rec), "--pipeline", pipeline, *args, "-o", str(out / f"{scenario}-{pipeline}-{i}")], log)
+            _run(
+                [
+                    navlog,
+                    "-q",
+                    "replay",
+                    str(rec),
+                    "--pipeline",
+                    pipeline,
+                    *args,
+                    "-o",
+                    str(out / f"{scenario}-{pipeline}-{i}"),
+                ],
+                log,
+            )
         if scenario in EXPORTED:
             _run([navlog, "-q", "export", str(rec), "--to", "rosbag2", "-o", str(out / f"{scenario}-bag")], log)
-            _run([navlog, "-q", "export", str(rec), "--to", "rosbag2", "--storage", "mcap", "-o", str(out / f"{scenario}-bag-mcap")], log)
-            _run([navlog, "-q", "export", str(rec), "--to", "tum", "--topic", "/odom/ground_truth", "-o", str(out / f"{scenario}.tum")], log)
+            _run(
+                [
+                    navlog,
+                    "-q",
+                    "export",
+                    str(rec),
+                    "--to",
+                    "rosbag2",
+                    "--storage",
+                    "mcap",
+                    "-o",
+                    str(out / f"{scenario}-bag-mcap"),
+                ],
+                log,
+            )
+            _run(
+                [
+                    navlog,
+                    "-q",
+                    "export",
+                    str(rec),
+                    "--to",
+                    "tum",
+                    "--topic",
+                    "/odom/ground_truth",
+                    "-o",
+                    str(out / f"{scenario}.tum"),
+                ],
+                log,
+            )
         if scenario in VIEWED:
             _run([navlog, "-q", "view", str(rec), "--save", str(out / f"{scenario}.rrd")], log)
             if replays:
                 replay = out / f"{scenario}-{replays[0][0]}-0"
-                _run([navlog, "-q", "view", str(rec), "--replay", str(replay), "--save", str(out / f"{scenario}-replay.rrd")], log)
+                _run(
+                    [
+                        navlog,
+                        "-q",
+                        "view",
+                        str(rec),
+                        "--replay",
+                        str(replay),
+                        "--save",
+                        str(out / f"{scenario}-replay.rrd"),
+                    ],
+                    log,
+                )
     if not only or "ci" in only:
         ci = out / "ci"
         ci.mkdir()
         suite = Path.cwd() / "config" / "suites" / "navlog.yaml"  # the checkout run from
-        _run([navlog, "-q", "ci", "run", str(suite), "--cache", str(ci / "cache"), "--json", str(ci / "ci-report.json")], log)
+        _run(
+            [navlog, "-q", "ci", "run", str(suite), "--cache", str(ci / "cache"), "--json", str(ci / "ci-report.json")],
+            log,
+        )
     hashes: dict[str, str] = {}
     for path in sorted(out.iterdir()):
         hashes.update(_hash_tree(path, out))
     return hashes
 
 
+def _same(x: str | None, y: str | None) -> bool:
+    if x is not None and y is not None and x.startswith("rrd:") and y.startswith("rrd:"):
+        rerun = Path(sys.executable).parent / "rerun"
+        cmd = [str(rerun), "rrd", "compare", "--unordered", x[4:], y[4:]]
+        return subprocess.run(cmd, capture_output=True).returncode == 0
+    return x == y
+
+
 def compare(a: dict[str, str], b: dict[str, str]) -> int:
     bad = 0
     for key in sorted(set(a) | set(b)):
-        if a.get(key) != b.get(key):
+        if not _same(a.get(key), b.get(key)):
             bad += 1
             print(f"DIFFERS  {key}: {a.get(key, '-')[:16]} {b.get(key, '-')[:16]}")
     print(f"{len(set(a) | set(b)) - bad} outputs identical, {bad} differ")
@@ -145,7 +215,9 @@ def main() -> int:
         return compare(json.loads(args.compare[0].read_text()), json.loads(args.compare[1].read_text()))
     if args.out is None:
         ap.error("--out is required")
-    json.dump(collect(args.navlog, args.out, set(args.only) if args.only else None), sys.stdout, indent=1, sort_keys=True)
+    json.dump(
+        collect(args.navlog, args.out, set(args.only) if args.only else None), sys.stdout, indent=1, sort_keys=True
+    )
     print()
     return 0
 

@@ -42,7 +42,13 @@ COMMON_FACTS = frozenset({"events", "no_collision"})
 
 class PipelineSpec:
     """A replay pipeline. Subclasses set the class attributes and define ``build``; they are never
-    instantiated (every member is a class attribute or a class method)."""
+    instantiated (every member is a class attribute or a class method).
+
+    What a pipeline reads and publishes depends on its parameters and on the log (the mapper's LiDAR
+    topic, the planner's /map when no static map is given), so the built ``Pipeline`` says it:
+    ``inputs``, ``optional_inputs``, ``outputs``; what it reports, ``write_artifacts`` (its files)
+    and ``report``.
+    """
 
     name: ClassVar[str]
     Params: ClassVar[type[Any]]  # a frozen dataclass, read from YAML by ``navlog.replay.config``
