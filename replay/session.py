@@ -52,8 +52,8 @@ def pipeline_params(name: str, params_file: Path | None = None, overrides: Seque
         params_file = None
     path = Path(params_file) if params_file is not None else find_config("pipelines", name)
     if path is not None:
-        return load_config(spec.Params, path, overrides)
-    return from_mapping(spec.Params, apply_overrides({}, overrides))
+        return load_config(spec.params_class, path, overrides)
+    return from_mapping(spec.params_class, apply_overrides({}, overrides))
 
 
 def parse_remaps(items: Sequence[str]) -> dict[str, str]:

@@ -1,11 +1,11 @@
 """Replay pipelines: one module per pipeline, each registering one ``PipelineSpec`` of the module's name.
 
 A pipeline is a class with a small explicit interface (``PipelineSpec``): its name, its ``Params``
-dataclass (its YAML in ``config/pipelines/NAME.yaml``), the key a foreign parameter file fills
-(``params_file_key``: the Nav2 file), ``settle`` (``auto`` parameters decided from the log), ``build``
-(the run's ``Pipeline``: nodes and topics), and what the tools around a replay ask of it: which CI
-facts its replays give, whether ``navlog metrics`` scores them, which parameter a CI world map fills,
-the map and goals its parameters name.
+dataclass (``params_class``; its YAML in ``config/pipelines/NAME.yaml``), the key a foreign parameter
+file fills (``params_file_key``: the Nav2 file), ``settle`` (``auto`` parameters decided from the log),
+``build`` (the run's ``Pipeline``: nodes and topics), and what the tools around a replay ask of it:
+which CI facts its replays give, whether ``navlog metrics`` scores them, which parameter a CI world
+map fills, the map and goals its parameters name.
 
 ``pipeline_names()`` lists the pipelines without importing any (the command line's help stays
 instant); ``pipeline_spec(NAME)`` imports the one module and returns its registered class;
@@ -51,7 +51,7 @@ class PipelineSpec:
     """
 
     name: ClassVar[str]
-    Params: ClassVar[type[Any]]  # a frozen dataclass, read from YAML by ``navlog.replay.config``
+    params_class: ClassVar[type[Any]]  # its Params: a frozen dataclass, read from YAML by ``navlog.replay.config``
     # the parameter that ``--params FILE`` fills when the pipeline reads a foreign file (a Nav2
     # ``nav2_params.yaml``); None: ``--params`` is the pipeline's own YAML
     params_file_key: ClassVar[str | None] = None

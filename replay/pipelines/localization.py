@@ -178,7 +178,7 @@ class Localization(PipelineSpec):
     """Nav2's AMCL on a saved map over a log's scans and odometry TF."""
 
     name = "localization"
-    Params = Params
+    params_class = Params
     params_file_key = "nav2_params"  # `navlog replay --pipeline localization --params nav2_params.yaml`
 
     @classmethod

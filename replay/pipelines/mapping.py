@@ -167,7 +167,7 @@ class Mapping(PipelineSpec):
     """2D occupancy mapping (or SLAM) and 3D LiDAR mapping; scored by ``navlog metrics``."""
 
     name = "mapping"
-    Params = Params
+    params_class = Params
     facts = PipelineSpec.facts | {"metrics"}
     summary_facts = ("metrics",)
     scored_by_metrics = True

@@ -192,7 +192,7 @@ class Navigation(PipelineSpec):
     """Nav2's planner, controller, behaviours and navigator on goals, then the safety filters; it drives the robot."""
 
     name = "navigation"
-    Params = Params
+    params_class = Params
     params_file_key = "nav2_params"  # `navlog replay/record --pipeline navigation --params nav2_params.yaml`
     facts = PipelineSpec.facts | {"goals", "min_clearance", "safety", "navigation", "all_goals_reached"}
 

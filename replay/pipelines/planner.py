@@ -222,7 +222,7 @@ class Planner(PipelineSpec):
     """Nav2's global costmap and planner server on the log's map or scans, TF and goals."""
 
     name = "planner"
-    Params = Params
+    params_class = Params
     params_file_key = "nav2_params"  # `navlog replay --pipeline planner --params nav2_params.yaml`
     facts = PipelineSpec.facts | {"plans", "goals", "min_clearance", "all_goals_reached", "no_plan_failures"}
     summary_facts = ("plans",)

@@ -272,7 +272,7 @@ class Safety(PipelineSpec):
     """Nav2's velocity smoother and collision monitor between a controller's commands and the robot."""
 
     name = "safety"
-    Params = Params
+    params_class = Params
     params_file_key = "nav2_params"  # `navlog replay/record --pipeline safety --params nav2_params.yaml`
     facts = PipelineSpec.facts | {"safety"}
     summary_facts = ("safety",)

@@ -65,7 +65,7 @@ def test_params_file_fills_the_key_the_pipeline_names():
     nav2 = REPO / "config" / "nav2" / "kibot_safety.yaml"
     safety = pipeline_params("safety", nav2)
     assert safety.nav2_params == str(nav2.resolve())
-    assert type(safety) is pipeline_spec("safety").Params
+    assert type(safety) is pipeline_spec("safety").params_class
 
 
 def test_what_the_parameters_name_maps_goals_and_grid():
