@@ -51,7 +51,8 @@ def navigation_pipeline(
     scenario: ScenarioSpec, seed: int, nav2_params: str | Path | None = None, overrides: Sequence[str] = ()
 ) -> Pipeline:
     """The navigation pipeline of a navigate scenario (``nav2_params`` replaces the scenario's file)."""
-    from navlog.replay.session import load_pipeline_module, pipeline_params
+    from navlog.replay.pipelines import pipeline_spec
+    from navlog.replay.session import pipeline_params
 
     sets = [
         f"nav2_params={nav2_params or scenario.nav2_params}",
@@ -61,7 +62,7 @@ def navigation_pipeline(
         *overrides,
     ]
     params = pipeline_params("navigation", None, overrides=sets)
-    return load_pipeline_module("navigation").build(params, set())
+    return pipeline_spec("navigation").build(params, set())
 
 
 def amcl_node(scenario: ScenarioSpec, world: World, seed: int) -> Node:

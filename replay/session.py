@@ -9,11 +9,8 @@ a failed replay leaves nothing half-written.
 
 from __future__ import annotations
 
-import hashlib
-import importlib
 import json
 import logging
-import os
 import shutil
 import threading
 import time
@@ -25,12 +22,13 @@ from typing import Any
 
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
+from navlog.replay.identity import input_entries, inputs_sha256, replay_identity, sha256_file
 from navlog.replay.io import cdr_decode
 from navlog.replay.io.atomic import remove_stale, replace_output
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import LogReader
-from navlog.replay.pipelines import pipeline_names
+from navlog.replay.pipelines import pipeline_spec
 from navlog.replay.runtime.executor import Envelope, Executor
 from navlog.replay.runtime.heap import HeapTrim, steady_heap
 from navlog.replay.runtime.pipeline import Pipeline
@@ -40,29 +38,22 @@ from navlog.version import __version__
 logger = logging.getLogger("navlog")
 
 
-def load_pipeline_module(name: str):
-    names = pipeline_names()
-    if name not in names:
-        raise ConfigError(f"unknown pipeline '{name}'{suggest(name, names)}; known: {', '.join(names)}")
-    return importlib.import_module(f"navlog.replay.pipelines.{name}")
-
-
 def pipeline_params(name: str, params_file: Path | None = None, overrides: Sequence[str] = ()) -> Any:
     """The pipeline's parameters: its YAML (config/pipelines/NAME.yaml or ``params_file``) plus overrides.
 
     A pipeline that takes a foreign parameter file (the planner takes a Nav2 ``nav2_params.yaml``)
-    names the key that holds its path in ``PARAMS_FILE_KEY``; ``params_file`` then fills that key and
-    the pipeline's own YAML still supplies the rest.
+    names the key that holds its path (``PipelineSpec.params_file_key``); ``params_file`` then fills
+    that key and the pipeline's own YAML still supplies the rest.
     """
-    module = load_pipeline_module(name)
-    key = getattr(module, "PARAMS_FILE_KEY", None)
+    spec = pipeline_spec(name)
+    key = spec.params_file_key
     if params_file is not None and key:
         overrides = [f"{key}={Path(params_file).resolve()}", *overrides]
         params_file = None
     path = Path(params_file) if params_file is not None else find_config("pipelines", name)
     if path is not None:
-        return load_config(module.Params, path, overrides)
-    return from_mapping(module.Params, apply_overrides({}, overrides))
+        return load_config(spec.params_class, path, overrides)
+    return from_mapping(spec.params_class, apply_overrides({}, overrides))
 
 
 def parse_remaps(items: Sequence[str]) -> dict[str, str]:
@@ -76,28 +67,6 @@ def parse_remaps(items: Sequence[str]) -> dict[str, str]:
     return out
 
 
-HASH_BLOCK = 1 << 20  # bytes hashed per call: the interpreter lock is taken once per block
-
-
-def sha256_file(path: Path) -> str:
-    """The file's SHA-256, read into one reused buffer of up to 1 MiB: the memory stays flat whatever the file's
-    size (a memory map of the whole file would count it all in the process's resident size, a larger
-    buffer a larger share of a long replay's output), and the interpreter lock is released for each
-    block's read and hash, so hashing beside a replay (``_hash_inputs``) costs the replay's thread about
-    a thousand lock hand-offs for a 1 GB log."""
-    h = hashlib.sha256()
-    with open(path, "rb", buffering=0) as f:
-        buf = bytearray(max(1, min(HASH_BLOCK, os.fstat(f.fileno()).st_size)))  # a small file: a small buffer
-        view = memoryview(buf)
-        while n := f.readinto(buf):
-            h.update(view[:n])
-    return h.hexdigest()
-
-
-def _input_files(path: Path) -> list[Path]:
-    return sorted(p for p in path.iterdir() if p.is_file()) if path.is_dir() else [path]
-
-
 def _hash_inputs(log: Path) -> Future:
     """The manifest's input entries, computed in a background thread while the log replays (hashing
     releases the GIL, so the input's digest costs no replay time on a second core). The thread is a
@@ -106,9 +75,7 @@ def _hash_inputs(log: Path) -> Future:
 
     def work() -> None:
         try:
-            future.set_result(
-                [{"file": p.name, "bytes": p.stat().st_size, "sha256": sha256_file(p)} for p in _input_files(log)]
-            )
+            future.set_result(input_entries(log))
         except BaseException as exc:  # raised by ``result()`` in the replaying thread
             future.set_exception(exc)
 
@@ -144,6 +111,7 @@ class ReplayResult:
     out_dir: Path
     manifest: dict
     wall_s: float
+    identity: str = ""  # the replay's key (``navlog.replay.identity``): what the CI cache and a fleet name it by
 
     @property
     def log_s(self) -> float:
@@ -165,10 +133,11 @@ def run_replay(
 ) -> ReplayResult:
     log, out_dir = Path(log), Path(out_dir)
     steady_heap()  # the peak stays flat over a long log (navlog.replay.runtime.heap)
-    module = load_pipeline_module(pipeline)
+    spec = pipeline_spec(pipeline)
     if params is None:
         params = pipeline_params(pipeline, overrides=overrides)
     remap = dict(remap or {})
+    asked = params  # the parameters given: the replay's identity (``auto`` values settled below follow from the log)
     if out_dir.exists() and not out_dir.is_dir():
         raise NavlogError(f"{out_dir}: output is a file, not a folder; choose a folder name for -o")
     if out_dir.exists() and any(out_dir.iterdir()) and not force:
@@ -177,9 +146,8 @@ def run_replay(
         to_log = dict(remap)  # pipeline topic -> log topic, for remapped topics only
         log_to = {v: k for k, v in remap.items()}
         logical_topics = {log_to.get(t, t) for t in reader.topics}
-        if hasattr(module, "settle"):  # a pipeline may decide `auto` parameters from the log's content
-            params = module.settle(params, reader, log_to)
-        pipe = module.build(params, logical_topics)
+        params = spec.settle(params, reader, log_to)  # `auto` parameters decided from the log's content
+        pipe = spec.build(params, logical_topics)
         missing = [t for t in pipe.inputs if to_log.get(t, t) not in reader.topics]
         if missing:
             have = ", ".join(f"{t.name} ({t.typename})" for t in sorted(reader.topics.values(), key=lambda t: t.name))
@@ -212,13 +180,15 @@ def run_replay(
                     f"Check the topics it reads ({', '.join(pipe.inputs + pipe.optional_inputs)}) with "
                     f"`navlog info {log}`: a missing /tf_static or a remapped TF topic leaves every input without a pose."
                 )
-            manifest = _manifest(inputs.result(), reader, pipeline, params, pipe, result, tmp, remap)
+            entries = inputs.result()
+            identity = replay_identity(inputs_sha256(entries, folder=log.is_dir()), pipeline, asked, remap)
+            manifest = _manifest(entries, reader, pipeline, params, pipe, result, tmp, remap)
             (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
         except BaseException:
             shutil.rmtree(tmp, ignore_errors=True)
             raise
     replace_output(tmp, out_dir)
-    return ReplayResult(out_dir, manifest, result["wall_s"])
+    return ReplayResult(out_dir, manifest, result["wall_s"], identity)
 
 
 def format_summary(log: Path | str, res: ReplayResult) -> str:

@@ -42,10 +42,10 @@ def parse_rates(items: Iterable[str]) -> dict[str, float]:
 
 def pipeline_inputs(name: str, log_topics: Iterable[str]) -> list[str]:
     """The topics pipeline ``name`` (with its shipped parameters) must find in a log with ``log_topics``."""
-    from navlog.replay.session import load_pipeline_module, pipeline_params
+    from navlog.replay.pipelines import pipeline_spec
+    from navlog.replay.session import pipeline_params
 
-    module = load_pipeline_module(name)
-    return list(module.build(pipeline_params(name), set(log_topics)).inputs)
+    return list(pipeline_spec(name).build(pipeline_params(name), set(log_topics)).inputs)
 
 
 def check_log(

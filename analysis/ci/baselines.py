@@ -28,8 +28,8 @@ from navlog.analysis.diff.artifacts import compare_files, file_kind
 from navlog.analysis.diff.result import Check, Verdict
 from navlog.analysis.diff.tolerances import DiffTolerances
 from navlog.errors import NavlogError
+from navlog.replay.identity import sha256_file
 from navlog.replay.io.atomic import replace_output
-from navlog.replay.session import sha256_file
 
 __all__ = [
     "BASELINE_FILE",

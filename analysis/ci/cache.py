@@ -4,8 +4,9 @@ Layout under the cache folder (default ``$NAVLOG_CACHE``, else ``$XDG_CACHE_HOME
 ``~/.cache/navlog/ci``):
 - ``logs/WORLD-ROBOT-SCENARIO-sSEED-KEY.mcap``: a recipe recorded once per navlog version;
 - ``maps/WORLD-mMARGIN-rRESOLUTION.yaml`` (+ .pgm): a world's obstacles as a map_server map;
-- ``replays/KEY/``: a replay output folder; KEY hashes (log sha256, parameter hash, remap, pipeline,
-  navlog version), so any change of code release, log or parameter replays again.
+- ``replays/KEY/``: a replay output folder; KEY is the replay's identity (``navlog.replay.identity``:
+  log sha256, pipeline, parameter hash, remap, navlog version), so any change of code release, log or
+  parameter replays again, and the key is the one a fleet's resume check and ``run_replay`` give.
 
 Recording and world maps run the ``navlog`` command (``record``, ``world-map``) in a child process:
 the analysis packages do not import the recorder. Everything is written under a temporary name and
@@ -15,7 +16,6 @@ moved into place, so parallel workers asking for the same entry never see half a
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 import shutil
 import subprocess
@@ -25,7 +25,7 @@ from typing import Any
 
 from navlog.analysis.ci.suite import Recipe, WorldMap
 from navlog.errors import NavlogError
-from navlog.replay.config import to_mapping
+from navlog.replay.config import config_hash
 from navlog.version import __version__
 
 __all__ = [
@@ -33,10 +33,7 @@ __all__ = [
     "cached_replay",
     "cached_world_map",
     "default_cache_dir",
-    "log_sha256",
-    "parameter_hash",
     "recipe_log_name",
-    "replay_key",
 ]
 
 
@@ -45,21 +42,6 @@ def default_cache_dir() -> Path:
         return Path(os.environ["NAVLOG_CACHE"]) / "ci"
     base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
     return Path(base) / "navlog" / "ci"
-
-
-def _digest(data: Any) -> str:
-    return hashlib.sha256(json.dumps(data, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
-
-
-def log_sha256(path: Path) -> str:
-    """sha256 of a log file; of a rosbag2 folder, of its files' names and hashes."""
-    from navlog.replay.session import sha256_file
-
-    if path.is_file():
-        return sha256_file(path)
-    if path.is_dir():
-        return _digest([[p.name, sha256_file(p)] for p in sorted(path.iterdir()) if p.is_file()])
-    raise NavlogError(f"{path}: no such log file or folder")
 
 
 def log_layout_sha256(path: Path) -> str:
@@ -80,25 +62,8 @@ def log_layout_sha256(path: Path) -> str:
     return h.hexdigest()
 
 
-def parameter_hash(params: Any) -> str:
-    """sha256 of a pipeline's parameters (canonical JSON). A parameter naming an existing file counts by
-    the file's content, not its path, so the hash does not depend on where the cache or checkout is."""
-    from navlog.replay.session import sha256_file
-
-    def plain(v: Any) -> Any:
-        if isinstance(v, dict):
-            return {k: plain(x) for k, x in v.items()}
-        if isinstance(v, list):
-            return [plain(x) for x in v]
-        if isinstance(v, str) and os.sep in v and Path(v).is_file():
-            return f"file:sha256:{sha256_file(Path(v))}"
-        return v
-
-    return _digest(plain(to_mapping(params)))
-
-
 def recipe_log_name(recipe: Recipe) -> str:
-    key = _digest({"recipe": recipe.to_dict(), "navlog_version": __version__})[:12]
+    key = config_hash({"recipe": recipe.to_dict(), "navlog_version": __version__})[:12]
     noise = "" if recipe.noise else "-nonoise"
     return f"{recipe.world}-{recipe.robot}-{recipe.scenario}-s{recipe.seed}{noise}-{key}.mcap"
 
@@ -149,12 +114,6 @@ def cached_world_map(spec: WorldMap, cache_dir: Path) -> Path:
     finally:
         shutil.rmtree(tmp_dir, ignore_errors=True)
     return out
-
-
-def replay_key(pipeline: str, log_sha: str, param_hash: str, remap: dict[str, str]) -> str:
-    return _digest(
-        {"pipeline": pipeline, "log": log_sha, "parameters": param_hash, "remap": remap, "navlog_version": __version__}
-    )
 
 
 def cached_replay(

@@ -1,6 +1,6 @@
 """Invariants of a CI case: ``NAME`` (a flag) or ``PATH OP NUMBER``, judged on the facts of a replay.
 
-Facts (see ``facts.py``) by pipeline:
+Facts (see ``facts.py``) by pipeline, as each declares them (``PipelineSpec.facts``):
 - any: ``events.KIND`` (navigation events by kind, in the log and the replay: ``events.collision``),
   flag ``no_collision`` (no ``collision`` event);
 - mapping: ``metrics.PATH`` into the metrics of ``navlog metrics`` (``metrics.trajectory.ate.translation_m.rmse``,
@@ -39,23 +39,10 @@ OPS: dict[str, Callable[[float, float], bool]] = {
     "<": operator.lt,
     ">": operator.gt,
 }
-ALL = ("mapping", "planner", "safety", "navigation", "localization")
-# flag name -> the pipelines that give it
-FLAGS: dict[str, tuple[str, ...]] = {
-    "no_collision": ALL,
-    "all_goals_reached": ("planner", "navigation"),
-    "no_plan_failures": ("planner",),
-}
-# first part of a numeric fact's path -> the pipelines that give it
-ROOTS: dict[str, tuple[str, ...]] = {
-    "events": ALL,
-    "metrics": ("mapping",),
-    "plans": ("planner",),
-    "goals": ("planner", "navigation"),
-    "min_clearance": ("planner", "navigation"),
-    "safety": ("safety", "navigation"),
-    "navigation": ("navigation",),
-}
+# the flags and the first parts of numeric facts' paths ``case_facts`` gives; which a pipeline's
+# replays give is the pipeline's to say (``PipelineSpec.facts``)
+FLAGS = ("no_collision", "all_goals_reached", "no_plan_failures")
+ROOTS = ("events", "metrics", "plans", "goals", "min_clearance", "safety", "navigation")
 _COMPARISON = re.compile(r"^\s*([A-Za-z_][\w.\[\]@-]*)\s*(<=|>=|==|!=|<|>)\s*(\S+)\s*$")
 
 
@@ -80,13 +67,13 @@ def parse_invariant(text: str, pipeline: str) -> Invariant:
             raise ConfigError(
                 f"unknown check '{text}'{suggest(text, list(FLAGS) + list(ROOTS))}; known: {', '.join(known)}"
             )
-        _for_pipeline(text, FLAGS[text], pipeline, text)
+        _for_pipeline(text, pipeline, text)
         return Invariant(text, text)
     path, op, raw = found.groups()
     root = path.split(".", 1)[0]
     if root not in ROOTS:
         raise ConfigError(f"'{text}': unknown fact '{root}'{suggest(root, ROOTS)}; facts start with {', '.join(ROOTS)}")
-    _for_pipeline(text, ROOTS[root], pipeline, root)
+    _for_pipeline(text, pipeline, root)
     try:
         value = float(raw)
     except ValueError:
@@ -94,9 +81,13 @@ def parse_invariant(text: str, pipeline: str) -> Invariant:
     return Invariant(text, path, op, value)
 
 
-def _for_pipeline(text: str, pipelines: tuple[str, ...], pipeline: str, name: str) -> None:
-    if pipeline not in pipelines:
-        raise ConfigError(f"'{text}': {name} comes from a {' or '.join(pipelines)} case, not a {pipeline} case")
+def _for_pipeline(text: str, pipeline: str, name: str) -> None:
+    """The fact or flag ``name`` is one that ``pipeline``'s replays give; else ConfigError naming those that do."""
+    from navlog.replay.pipelines import pipeline_spec, pipeline_specs
+
+    if name not in pipeline_spec(pipeline).facts:
+        givers = [s.name for s in pipeline_specs() if name in s.facts]
+        raise ConfigError(f"'{text}': {name} comes from a {' or '.join(givers)} case, not a {pipeline} case")
 
 
 def evaluate(inv: Invariant, facts: Mapping[str, float | bool]) -> CheckResult:

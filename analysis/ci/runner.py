@@ -5,8 +5,10 @@ baseline's provenance), check it for what the pipeline reads (a failure is INVAL
 stops there), replay it (cached by log sha256, parameter hash and navlog version; ``determinism``
 replays twice afresh and compares every output's bytes), compute the mapping metrics, diff the
 outputs against the baseline, and evaluate the invariants. A case that raises is an ERROR with its
-message; the other cases still run. ``workers > 1`` runs recipes, then cases, in a process pool; the
-results are the same as serially (each case's result depends only on its inputs).
+message; the other cases still run. ``workers > 1`` runs recipes, then cases, on the fleet's
+``ProcessPool`` (``navlog.analysis.fleet.executors``): a worker process that dies (killed, out of
+memory) is an ERROR of the one case it ran, naming it. The results are the same as serially (each
+case's result depends only on its inputs).
 
 ``overrides`` (``--set KEY=VALUE``) apply to every case whose pipeline has KEY; a key no case's
 pipeline has is refused (``ConfigError``) before anything runs.
@@ -23,7 +25,6 @@ import json
 import tempfile
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, TypeVar
@@ -35,25 +36,22 @@ from navlog.analysis.ci.cache import (
     cached_world_map,
     default_cache_dir,
     log_layout_sha256,
-    log_sha256,
-    parameter_hash,
-    replay_key,
 )
 from navlog.analysis.ci.facts import case_facts, numbers
 from navlog.analysis.ci.invariants import evaluate
 from navlog.analysis.ci.result import CaseResult, CheckResult, Status, SuiteResult
 from navlog.analysis.ci.suite import Case, Recipe, Suite, WorldMap, load_suite
+from navlog.analysis.fleet.executors import Executor, InProcess, Lost, ProcessPool, run_jobs
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import suggest
+from navlog.replay.identity import log_sha256, parameter_hash, replay_identity
 from navlog.version import __version__
 
-__all__ = ["DEFAULT_BASELINES", "applicable_overrides", "run_case", "run_suite"]
+__all__ = ["DEFAULT_BASELINES", "applicable_overrides", "default_executor", "run_case", "run_suite"]
 
 DEFAULT_BASELINES = Path("data/baselines")
 METRICS_FILE = "metrics.json"
 DEFAULT_MAP_RESOLUTION = 0.05  # m, a world map's cells when the case does not say
-# the facts every case of a pipeline reports, asked for or not (numbers for the reports)
-ALWAYS = {"mapping": ("metrics",), "planner": ("plans",), "safety": ("safety",)}
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -75,11 +73,22 @@ class CaseJob:
     timings: dict[str, float] = field(default_factory=dict)
 
 
-def _map(fn: Callable[[T], R], items: Sequence[T], workers: int) -> list[R]:
-    if workers <= 1 or len(items) <= 1:
-        return [fn(i) for i in items]
-    with ProcessPoolExecutor(max_workers=min(workers, len(items))) as pool:
-        return list(pool.map(fn, items))
+def _map(
+    fn: Callable[[T], R],
+    items: Sequence[T],
+    executor: Executor,
+    lost: Callable[[T, Lost], R],
+) -> list[R]:
+    """``fn`` of every item on ``executor``, in order; an item whose worker process died gives ``lost(item, why)``."""
+    done = run_jobs(executor, fn, items)
+    return [lost(item, r) if isinstance(r, Lost) else r for item, (r, _) in zip(items, done, strict=True)]
+
+
+def default_executor(workers: int, jobs: int) -> Executor:
+    """This process for one worker or one job, else a pool of ``min(workers, jobs)`` worker processes."""
+    if workers <= 1 or jobs <= 1:
+        return InProcess()
+    return ProcessPool(min(workers, jobs))
 
 
 def _has_key(tree: Any, key: str) -> bool:
@@ -143,9 +152,14 @@ def run_suite(
     cache_dir: Path | str | None = None,
     baseline_dir: Path | str | None = None,
     cases: Sequence[str] = (),
+    executor: Callable[[int, int], Executor] = default_executor,
 ) -> SuiteResult:
     """Run every case of the suite file (or only those named in ``cases``); see the module docstring. A
-    bad suite or ``--set`` raises ``ConfigError`` before anything runs; a bad case is an ERROR in the result."""
+    bad suite or ``--set`` raises ``ConfigError`` before anything runs; a bad case is an ERROR in the result.
+
+    ``executor(workers, jobs)`` gives where the recordings, then the cases, run (``default_executor``: this
+    process or a ``ProcessPool``); a case whose worker process dies is an ERROR naming it, and the
+    other cases still run."""
     suite = load_suite(suite_path)
     if cases:
         suite = replace(suite, cases=tuple(suite.case(n) for n in cases))
@@ -154,7 +168,8 @@ def run_suite(
     folder = root / suite.name
     extra = applicable_overrides(suite, overrides)
     recipes = sorted({c.recipe for c in suite.cases if c.recipe is not None}, key=lambda r: repr(r))
-    recorded = dict(zip(recipes, _map(_record, [(r, cache) for r in recipes], workers), strict=True))
+    recordings = _map(_record, [(r, cache) for r in recipes], executor(workers, len(recipes)), _recording_lost)
+    recorded = dict(zip(recipes, recordings, strict=True))
     jobs = []
     for c in suite.cases:
         log, error, seconds = recorded[c.recipe] if c.recipe is not None else (c.log, "", 0.0)
@@ -163,15 +178,23 @@ def run_suite(
                 c, extra[c.name], folder / c.name, cache, update, update_new, determinism, log, error, {"log": seconds}
             )
         )
-    results = _map(run_case, jobs, workers)
+    results = _map(run_case, jobs, executor(workers, len(jobs)), _case_lost)
     unused = [] if cases else unused_baselines(folder, [c.name for c in suite.cases])
     notes = [f"--set {o}" for o in overrides]
     return SuiteResult(suite.name, str(suite.path), __version__, tuple(results), tuple(unused), tuple(notes))
 
 
+def _recording_lost(job: tuple[Recipe, Path], lost: Lost) -> tuple[Path | None, str, float]:
+    recipe = job[0]
+    return None, f"recording {recipe.world}/{recipe.robot}/{recipe.scenario}: {lost.reason}", 0.0
+
+
+def _case_lost(job: CaseJob, lost: Lost) -> CaseResult:
+    return _error(job, f"case '{job.case.name}': {lost.reason}", dict(job.timings))
+
+
 def run_case(job: CaseJob) -> CaseResult:
     """One case; never raises: a failure to run is an ERROR check with its message."""
-    case = job.case
     timings = dict(job.timings)
     try:
         return _run_case(job, timings)
@@ -179,16 +202,17 @@ def run_case(job: CaseJob) -> CaseResult:
         message = str(exc)
     except Exception as exc:  # a defect: reported with the case, the other cases still run
         message = f"{type(exc).__name__}: {exc}"
-    return CaseResult(
-        case.name,
-        case.pipeline,
-        case.source,
-        (CheckResult("run", "error", Status.ERROR, message),),
-        timings=timings,
-    )
+    return _error(job, message, timings)
+
+
+def _error(job: CaseJob, message: str, timings: dict[str, float]) -> CaseResult:
+    case = job.case
+    check = CheckResult("run", "error", Status.ERROR, message)
+    return CaseResult(case.name, case.pipeline, case.source, (check,), timings=timings)
 
 
 def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
+    from navlog.replay.pipelines import pipeline_spec
     from navlog.replay.session import pipeline_params
 
     case = job.case
@@ -201,14 +225,16 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
     notes: list[str] = []
     user_overrides = [*case.overrides, *job.overrides]
     overrides = list(user_overrides)
+    pipeline = pipeline_spec(case.pipeline)
     params = pipeline_params(case.pipeline, case.params, overrides)
     spec = case.world_map
-    if spec is not None and spec.resolution is None:
-        grid = getattr(getattr(params, "occupancy", None), "grid", None)
-        spec = replace(spec, resolution=float(getattr(grid, "resolution", DEFAULT_MAP_RESOLUTION)))
+    if spec is not None and spec.resolution is None:  # the resolution of the map the pipeline makes
+        resolution = pipeline.map_resolution(params)
+        spec = replace(spec, resolution=DEFAULT_MAP_RESOLUTION if resolution is None else resolution)
     world_map = cached_world_map(spec, job.cache) if spec is not None else None
-    if world_map is not None and case.pipeline == "planner" and not any(o.startswith("map=") for o in overrides):
-        overrides.insert(0, f"map={world_map}")  # the static map (its content counts in the parameter hash)
+    key = pipeline.world_map_key
+    if world_map is not None and key is not None and not any(o.startswith(f"{key}=") for o in overrides):
+        overrides.insert(0, f"{key}={world_map}")  # e.g. the static map (its content counts in the parameter hash)
         params = pipeline_params(case.pipeline, case.params, overrides)
     remap = dict(case.remap)
 
@@ -231,7 +257,7 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
     checks += found
 
     start = time.perf_counter()
-    key = replay_key(case.pipeline, log_sha, provenance["parameter_hash"], remap)
+    key = replay_identity(log_sha, case.pipeline, params, remap)
     replay_dir, cached = cached_replay(log, case.pipeline, params, remap, key, job.cache, fresh=job.determinism)
     if job.determinism:
         checks.append(_determinism(log, case.pipeline, params, remap, replay_dir))
@@ -239,7 +265,7 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
 
     start = time.perf_counter()
     manifest = json.loads((replay_dir / "manifest.json").read_text(encoding="utf-8"))
-    metrics = _metrics(log, replay_dir, world_map) if case.pipeline == "mapping" else None
+    metrics = _metrics(log, replay_dir, world_map) if pipeline.scored_by_metrics else None
     written = False
     with tempfile.TemporaryDirectory(prefix="navlog-ci-") as work:
         outputs = {o["file"]: replay_dir / o["file"] for o in manifest["outputs"].values()}
@@ -249,10 +275,9 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
         if case.diff is not None:
             diff_checks, written = _diff(job, base, outputs, provenance, notes)
             checks += diff_checks
-    roots = {inv.roots() for inv in case.invariants} | set(ALWAYS.get(case.pipeline, ()))
-    facts = case_facts(
-        roots, log=log, replay_dir=replay_dir, metrics=metrics, static_map=_static_map(params), goals=_goals(params)
-    )
+    roots = {inv.roots() for inv in case.invariants} | set(pipeline.summary_facts)
+    static_map, goals = pipeline.static_map(params), pipeline.goal_count(params)
+    facts = case_facts(roots, log=log, replay_dir=replay_dir, metrics=metrics, static_map=static_map, goals=goals)
     checks += [evaluate(inv, facts) for inv in case.invariants]
     timings["compare"] = time.perf_counter() - start
     return CaseResult(
@@ -272,12 +297,12 @@ def _input_check(log: Path, pipeline: str, params: Any, remap: dict[str, str]) -
     """``check_log`` for the topics this case's pipeline reads (after remapping): INVALID_INPUT on failure."""
     from navlog.analysis.check import check_log
     from navlog.replay.io.formats import open_log
-    from navlog.replay.session import load_pipeline_module
+    from navlog.replay.pipelines import pipeline_spec
 
     with open_log(log, recover=True) as reader:
         to_log = {v: k for k, v in remap.items()}
         topics = {to_log.get(t, t) for t in reader.topics}
-        inputs = load_pipeline_module(pipeline).build(params, topics).inputs
+        inputs = pipeline_spec(pipeline).build(params, topics).inputs
         result = check_log(reader, require=[remap.get(t, t) for t in inputs])
     counts = {str(s): n for s, n in result.to_dict()["counts"].items()}
     if result.failed:
@@ -434,17 +459,3 @@ def _diff(
         return [CheckResult("baseline", "baseline", Status.NEW, message)], False
     rounds = _rounds_otherwise(base, provenance)
     return compare_to_baseline(base, outputs, diff.tolerances, diff.ignore, log_rounds_otherwise=rounds), False
-
-
-def _static_map(params: Any) -> Path | None:
-    path = getattr(params, "map", "")
-    return Path(path) if isinstance(path, str) and path and Path(path).is_file() else None
-
-
-def _goals(params: Any) -> int | None:
-    spec = getattr(params, "goals", "")
-    if not isinstance(spec, str) or not spec:
-        return None
-    from navlog.replay.pipelines.planner import load_goals
-
-    return len(load_goals(spec)[0])

@@ -2,10 +2,12 @@
 
 The log's output folder is ``OUT/NAME`` and holds exactly what ``navlog replay LOG -o OUT/NAME``
 writes; it is built aside (``OUT/.fleet/NAME.work``) and moved into place whole, and
-``OUT/.fleet/NAME.json`` records what it was made from (a hash of navlog's version, the pipeline,
-its parameters and remaps, and the hash of its manifest). When that record matches this job, the
-manifest lists the same input files (names, sizes, sha256) and the outputs are there with their
-hashes, the log is not replayed again (``cached``) unless ``force`` is set. A log that
+``OUT/.fleet/NAME.json`` records what it was made from: the replay's identity
+(``navlog.replay.identity``: the log's sha256, navlog's version, the pipeline, its parameters and
+remaps; the key ``run_replay`` gives and the CI cache names its replays by) and the hash of its
+manifest. When that record matches this job, the manifest lists the same input files (names, sizes,
+sha256) and the outputs are there with their hashes, the log is not replayed again (``cached``)
+unless ``force`` is set. A log that
 cannot be replayed (truncated, corrupt, empty, missing the pipeline's topics) is a failed result
 with its reason; ``replay_log`` never raises for it. An ``OSError`` (storage, network) is marked
 ``transient``: the fleet retries those, and lost workers, up to ``--retries`` times.
@@ -30,13 +32,12 @@ from navlog.analysis.fleet.inputs import LogSource
 from navlog.analysis.fleet.storage import download, filesystem, is_url, join, local_path, upload_folder, write_bytes
 from navlog.errors import NavlogError
 from navlog.replay.io.atomic import write_file
-from navlog.version import __version__
+from navlog.replay.pipelines import pipeline_spec
 
-__all__ = ["STATE", "LogJob", "LogResult", "job_key", "replay_log"]
+__all__ = ["STATE", "LogJob", "LogResult", "job_identity", "replay_log"]
 
 MANIFEST = "manifest.json"
 STATE = ".fleet"  # OUT/.fleet/NAME.json: what the replay in OUT/NAME was made from
-MAPPING_PIPELINE = "mapping"
 
 
 @dataclass(frozen=True)
@@ -116,7 +117,6 @@ def _replay(job: LogJob) -> LogResult:
     out_url = join(job.out_root, name)
     state_url = join(job.out_root, f"{STATE}/{name}.json")
     remote = is_url(job.out_root)
-    key = job_key(job)
     with ExitStack() as stack:
         scratch: list[Path] = []
 
@@ -127,7 +127,7 @@ def _replay(job: LogJob) -> LogResult:
 
         address = job.source.address
         log = download(address, temp() / "in" / Path(address.rstrip("/")).name) if is_url(address) else Path(address)
-        manifest = None if job.force else _current_manifest(key, log, out_url, state_url)
+        manifest = None if job.force else _current_manifest(job, log, out_url, state_url)
         if manifest is not None:
             replay_dir = download(out_url, temp() / "out") if remote else local_path(out_url)
             return _result(job, manifest, log, replay_dir, cached=True)
@@ -157,7 +157,9 @@ def _replay(job: LogJob) -> LogResult:
             progress=False,
         )
         manifest_sha = hashlib.sha256((built / MANIFEST).read_bytes()).hexdigest()
-        state = (json.dumps({"key": key, "manifest_sha256": manifest_sha}, indent=2, sort_keys=True) + "\n").encode()
+        state = (
+            json.dumps({"key": res.identity, "manifest_sha256": manifest_sha}, indent=2, sort_keys=True) + "\n"
+        ).encode()
         if remote:
             upload_folder(built, out_url, last=MANIFEST)
             write_bytes(state_url, state)
@@ -169,18 +171,11 @@ def _replay(job: LogJob) -> LogResult:
         return _result(job, res.manifest, log, replay_dir, cached=False)
 
 
-def job_key(job: LogJob) -> str:
-    """The sha256 of what decides a log's replay besides the log: navlog's version, the pipeline, its
-    parameters and the remaps."""
-    from navlog.replay.config import to_mapping
+def job_identity(job: LogJob, entries: list[dict[str, Any]], *, folder: bool) -> str:
+    """The replay identity of ``job`` on the log whose ``input_entries`` are ``entries``."""
+    from navlog.replay.identity import inputs_sha256, replay_identity
 
-    what = {
-        "navlog_version": __version__,
-        "pipeline": job.pipeline,
-        "parameters": to_mapping(job.params),
-        "remap": dict(sorted(job.remap)),
-    }
-    return hashlib.sha256(json.dumps(what, sort_keys=True, default=str).encode()).hexdigest()
+    return replay_identity(inputs_sha256(entries, folder=folder), job.pipeline, job.params, dict(job.remap))
 
 
 def _read(url: str) -> bytes | None:
@@ -196,11 +191,12 @@ def _read(url: str) -> bytes | None:
         return None
 
 
-def _current_manifest(key: str, log: Path, out_url: str, state_url: str) -> dict[str, Any] | None:
+def _current_manifest(job: LogJob, log: Path, out_url: str, state_url: str) -> dict[str, Any] | None:
     """The manifest of the replay in ``out_url`` when it is what this job would write: the fleet's
-    record of it (``OUT/.fleet/NAME.json``) has this job's key and the manifest's hash, the manifest
-    lists these input files (names, sizes, sha256) and every output is there (locally: with its hash)."""
-    from navlog.replay.session import sha256_file
+    record of it (``OUT/.fleet/NAME.json``) has this job's identity and the manifest's hash, the manifest
+    lists these input files (names, sizes, sha256) and every output is there (locally: with its hash).
+    The log is hashed only when there is such a record."""
+    from navlog.replay.identity import input_entries, sha256_file
 
     state_bytes, manifest_bytes = _read(state_url), _read(join(out_url, MANIFEST))
     if state_bytes is None or manifest_bytes is None:
@@ -209,10 +205,10 @@ def _current_manifest(key: str, log: Path, out_url: str, state_url: str) -> dict
         state, manifest = json.loads(state_bytes), json.loads(manifest_bytes)
     except ValueError:
         return None
-    if state.get("key") != key or state.get("manifest_sha256") != hashlib.sha256(manifest_bytes).hexdigest():
+    if state.get("manifest_sha256") != hashlib.sha256(manifest_bytes).hexdigest():
         return None
-    files = sorted(p for p in log.iterdir() if p.is_file()) if log.is_dir() else [log]
-    if manifest.get("inputs") != [{"file": p.name, "bytes": p.stat().st_size, "sha256": sha256_file(p)} for p in files]:
+    entries = input_entries(log)
+    if state.get("key") != job_identity(job, entries, folder=log.is_dir()) or manifest.get("inputs") != entries:
         return None
     outputs = [o["file"] for o in manifest.get("outputs", {}).values()]
     if is_url(out_url):
@@ -239,12 +235,12 @@ def _result(job: LogJob, manifest: dict[str, Any], log: Path, replay_dir: Path, 
         truncated=bool(info["truncated"]),
         outputs={o["file"]: o["sha256"] for o in manifest["outputs"].values()},
     )
-    if job.metrics and job.pipeline == MAPPING_PIPELINE:
-        result.metrics, result.metrics_error = _mapping_metrics(log, replay_dir)
+    if job.metrics and pipeline_spec(job.pipeline).scored_by_metrics:
+        result.metrics, result.metrics_error = _metrics(log, replay_dir)
     return result
 
 
-def _mapping_metrics(log: Path, replay_dir: Path) -> tuple[dict[str, float], str]:
+def _metrics(log: Path, replay_dir: Path) -> tuple[dict[str, float], str]:
     """The numbers of ``compute_metrics`` (trajectory errors against the log's ground truth), flat."""
     from navlog.analysis.diff.metric_values import flatten
     from navlog.analysis.metrics import compute_metrics

@@ -97,10 +97,11 @@ def run(args) -> int:
     )
     pipe = navigation = None
     if args.pipeline:
-        from navlog.replay.session import load_pipeline_module, pipeline_params
+        from navlog.replay.pipelines import pipeline_spec
+        from navlog.replay.session import pipeline_params
 
         params = pipeline_params(args.pipeline, args.params, overrides=args.set)
-        pipe = load_pipeline_module(args.pipeline).build(params, setup.topics())
+        pipe = pipeline_spec(args.pipeline).build(params, setup.topics())
     elif setup.scenario.kind == "navigate":
         from navlog.recorder.navigation import navigation_pipeline
 

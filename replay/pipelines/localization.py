@@ -36,11 +36,9 @@ from navlog.replay.io.tum import write_poses
 from navlog.replay.nav2 import default_nav2_params, load_nav2_params
 from navlog.replay.nav2.amcl import AmclParams
 from navlog.replay.nodes.amcl import AmclNode
+from navlog.replay.pipelines import PipelineSpec, existing_file, register
 from navlog.replay.pipelines.safety import nav2_file
 from navlog.replay.runtime.pipeline import Pipeline
-
-# `navlog replay --pipeline localization --params nav2_params.yaml` fills this key
-PARAMS_FILE_KEY = "nav2_params"
 
 
 @dataclass(frozen=True)
@@ -97,11 +95,39 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
     if mode == "ground_truth":
         inputs.append(params.ground_truth_topic)
 
-    def report() -> dict[str, Any]:
+    info = {
+        "initial_pose": mode,
+        "nav2_params": source,
+        "map": params.map,
+        "motion_model": amcl.robot_model_type,
+        "map_to_odom": "the log's map -> odom is ignored; AMCL's goes on /tf (not recorded)",
+    }
+    return LocalizationRun(params, amcl, source, mode, node, inputs, optional, info)
+
+
+class LocalizationRun(Pipeline):
+    """AMCL on a map over one log; trajectory.tum and localization.json written after the run."""
+
+    def __init__(
+        self,
+        params: Params,
+        amcl: AmclParams,
+        source: str,
+        mode: str,
+        node: AmclNode,
+        inputs: list[str],
+        optional: list[str],
+        info: dict[str, str],
+    ) -> None:
+        super().__init__("localization", [node], inputs, optional, ["/amcl_pose", "/particle_cloud"], info=info)
+        self.params, self.amcl, self.source, self.mode, self.node = params, amcl, source, mode, node
+
+    def report(self) -> dict[str, Any]:
+        params, node = self.params, self.node
         out: dict[str, Any] = {
-            "nav2_params": Path(source).name if params.nav2_params else source,
+            "nav2_params": Path(self.source).name if params.nav2_params else self.source,
             "map": Path(params.map).name,
-            "initial_pose": mode,
+            "initial_pose": self.mode,
             "seed": params.seed,
             "scans_localised": len(node.trajectory),
             "filter_updates": node.updates,
@@ -120,42 +146,45 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
             }
         return out
 
-    def write_artifacts(out: Path) -> dict[str, Path]:
+    def write_artifacts(self, out: Path) -> dict[str, Path]:
+        node = self.node
         written = {
             "trajectory_tum": write_poses(
                 out / "trajectory.tum", [t for t, _ in node.trajectory], [p for _, p in node.trajectory]
             )
         }
         path = out / "localization.json"
-        path.write_text(json.dumps(report(), indent=2, sort_keys=True) + "\n")
+        path.write_text(json.dumps(self.report(), indent=2, sort_keys=True) + "\n")
         written["localization"] = path
         return written
 
-    def nothing_produced() -> str | None:
+    def skipped(self) -> dict[str, int]:
+        return self.node.counts()
+
+    def nothing_produced(self) -> str | None:
+        node, amcl = self.node, self.amcl
         if node.trajectory:
             return None
         if node.initialised_ns is None:
             return (
-                f"no initial pose: the log has no /initialpose and initial_pose is {mode}; set one with "
+                f"no initial pose: the log has no /initialpose and initial_pose is {self.mode}; set one with "
                 "--set initial_pose=ground_truth (a log with ground truth) or set_initial_pose in the Nav2 file"
             )
         return f"no scan on {node.scan_topic} could be localised (odometry TF {amcl.odom_frame_id} -> {amcl.base_frame_id})"
 
-    info = {
-        "initial_pose": mode,
-        "nav2_params": source,
-        "map": params.map,
-        "motion_model": amcl.robot_model_type,
-        "map_to_odom": "the log's map -> odom is ignored; AMCL's goes on /tf (not recorded)",
-    }
-    return Pipeline(
-        name="localization",
-        nodes=[node],
-        inputs=inputs,
-        optional_inputs=optional,
-        outputs=["/amcl_pose", "/particle_cloud"],
-        write_artifacts=write_artifacts,
-        skipped=node.counts,
-        info=info,
-        nothing_produced=nothing_produced,
-    )
+
+@register
+class Localization(PipelineSpec):
+    """Nav2's AMCL on a saved map over a log's scans and odometry TF."""
+
+    name = "localization"
+    params_class = Params
+    params_file_key = "nav2_params"  # `navlog replay --pipeline localization --params nav2_params.yaml`
+
+    @classmethod
+    def build(cls, params: Params, log_topics: set[str]) -> Pipeline:
+        return build(params, log_topics)
+
+    @classmethod
+    def static_map(cls, params: Params) -> Path | None:
+        return existing_file(params.map)

@@ -20,6 +20,7 @@ from navlog.replay.io.tum import write_poses
 from navlog.replay.mapping.slam2d.params import SlamParams
 from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams, settle_lidar
 from navlog.replay.nodes.occupancy_mapper import DEFAULT_POSE_TOPICS, OccupancyMapperNode, OccupancyMapperParams
+from navlog.replay.pipelines import PipelineSpec, register
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.pipeline import Pipeline
 
@@ -85,13 +86,51 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         outputs += [params.lidar.odometry_topic, params.lidar.cloud_topic, params.lidar.path_topic]
     if occupancy_on:
         nodes.append(occ)
+    info = {
+        "pose_source": source,
+        "lidar_mapper": "on" if lidar_on else "off",
+        "trajectory": "SLAM poses at every scan (optimised keyframes + odometry since)"
+        if slam is not None
+        else "3D mapper base_link poses"
+        if lidar_on
+        else f"robot poses from {source} (scans inserted)",
+    }
+    if lidar_on:
+        info["lidar_topic"] = params.lidar.lidar_topic
+    if not occupancy_on:
+        info["occupancy_mapper"] = f"off (no {params.occupancy.scan_topic} in the log: the 3D mapper runs alone)"
+    return MappingRun(params, source, occ, lidar, slam, occupancy_on, nodes, inputs, optional, outputs, info)
 
-    def write_artifacts(out: Path) -> dict[str, Path]:
+
+class MappingRun(Pipeline):
+    """The mappers of one run: the 2D mapper or SLAM (``occ``; not run when ``occupancy_on`` is False),
+    the 3D mapper when on; their maps and trajectory written after the run."""
+
+    def __init__(
+        self,
+        params: Params,
+        source: str,
+        occ: OccupancyMapperNode | SlamNode,
+        lidar: LidarMapperNode | None,
+        slam: SlamNode | None,
+        occupancy_on: bool,
+        nodes: list[Node],
+        inputs: list[str],
+        optional: list[str],
+        outputs: list[str],
+        info: dict[str, str],
+    ) -> None:
+        super().__init__("mapping", nodes, inputs, optional, outputs, info=info)
+        self.params, self.source = params, source
+        self.occ, self.lidar, self.slam, self.occupancy_on = occ, lidar, slam, occupancy_on
+
+    def write_artifacts(self, out: Path) -> dict[str, Path]:
+        occ, lidar, slam = self.occ, self.lidar, self.slam
         written: dict[str, Path] = {}
         if lidar is not None:  # what the 3D mapper decided from the data (time field, mount, preset)
-            info.update({f"lidar_mapper {k}": v for k, v in sorted(lidar.notes.items())})
+            self.info.update({f"lidar_mapper {k}": v for k, v in sorted(lidar.notes.items())})
         if occ.grid.logodds.size:
-            yaml_path, pgm_path = save_map(occ.grid.to_map(params.occupancy.map_frame), out / "map.yaml")
+            yaml_path, pgm_path = save_map(occ.grid.to_map(self.params.occupancy.map_frame), out / "map.yaml")
             written.update({"map_yaml": yaml_path, "map_pgm": pgm_path})
         if lidar is not None:
             stamps, poses = lidar.poses()
@@ -108,34 +147,42 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
             written.update(slam_artifacts(slam, out))
         return written
 
-    def skipped() -> dict[str, int]:
-        out = dict(occ.counts())
-        if lidar is not None:
-            out.update({f"lidar_mapper: {k}": v for k, v in lidar.skipped_counts().items()})
+    def skipped(self) -> dict[str, int]:
+        out = dict(self.occ.counts())
+        if self.lidar is not None:
+            out.update({f"lidar_mapper: {k}": v for k, v in self.lidar.skipped_counts().items()})
         return out
 
-    info = {
-        "pose_source": source,
-        "lidar_mapper": "on" if lidar_on else "off",
-        "trajectory": "SLAM poses at every scan (optimised keyframes + odometry since)"
-        if slam is not None
-        else "3D mapper base_link poses"
-        if lidar_on
-        else f"robot poses from {source} (scans inserted)",
-    }
-    if lidar_on:
-        info["lidar_topic"] = params.lidar.lidar_topic
-    if not occupancy_on:
-        info["occupancy_mapper"] = f"off (no {params.occupancy.scan_topic} in the log: the 3D mapper runs alone)"
-
-    def nothing_produced() -> str | None:
-        if not occupancy_on and lidar is not None and not len(lidar.poses()[0]):
+    def nothing_produced(self) -> str | None:
+        params, lidar = self.params, self.lidar
+        if not self.occupancy_on and lidar is not None and not len(lidar.poses()[0]):
             return f"no 3D map: no cloud on {params.lidar.lidar_topic} could be registered"
-        if not occupancy_on or occ.grid.logodds.size:
+        if not self.occupancy_on or self.occ.grid.logodds.size:
             return None
-        return f"no map: no scan on {params.occupancy.scan_topic} could be placed (pose source {source})"
+        return f"no map: no scan on {params.occupancy.scan_topic} could be placed (pose source {self.source})"
 
-    return Pipeline("mapping", nodes, inputs, optional, outputs, write_artifacts, skipped, info, nothing_produced)
+
+@register
+class Mapping(PipelineSpec):
+    """2D occupancy mapping (or SLAM) and 3D LiDAR mapping; scored by ``navlog metrics``."""
+
+    name = "mapping"
+    params_class = Params
+    facts = PipelineSpec.facts | {"metrics"}
+    summary_facts = ("metrics",)
+    scored_by_metrics = True
+
+    @classmethod
+    def settle(cls, params: Params, reader: Any, log_to: dict[str, str]) -> Params:
+        return settle(params, reader, log_to)
+
+    @classmethod
+    def build(cls, params: Params, log_topics: set[str]) -> Pipeline:
+        return build(params, log_topics)
+
+    @classmethod
+    def map_resolution(cls, params: Params) -> float:
+        return float(params.occupancy.grid.resolution)
 
 
 def slam_node(params: Params) -> SlamNode:

@@ -21,17 +21,19 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from navlog.errors import ConfigError
 from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import load_nav2_params
-from navlog.replay.pipelines import safety
-from navlog.replay.pipelines.planner import load_named_goals
+from navlog.replay.pipelines import PipelineSpec, existing_file, register, safety
+from navlog.replay.pipelines.planner import load_goals, load_named_goals
+from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.pipeline import Pipeline
 
-# `navlog replay/record --pipeline navigation --params nav2_params.yaml` fills this key
-PARAMS_FILE_KEY = "nav2_params"
+if TYPE_CHECKING:
+    from navlog.replay.nodes.navigation import NavGoal, NavigationStack
+
 NAV2_BLOCKS = ("global_costmap", "local_costmap", "planner_server", "controller_server")
 DEFAULT_NAV2 = "nav_go2"
 
@@ -108,9 +110,36 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         outputs += [t for t in filters.outputs if t not in outputs]
     optional = [t for t in dict.fromkeys(optional) if t not in inputs and t not in produced]
 
-    def report() -> dict[str, Any]:
+    info = {
+        "nav2_params": str(path),
+        "goals": params.goals or "/goal_pose from the log",
+        "velocity_smoother": switches["velocity_smoother"],
+        "collision_monitor": switches["collision_monitor"],
+    }
+    return NavigationRun(path, stack, goals, filters, nodes, inputs, optional, outputs, info)
+
+
+class NavigationRun(Pipeline):
+    """Nav2's stack on ``goals`` (empty: /goal_pose from the log), then the safety ``filters`` when on."""
+
+    def __init__(
+        self,
+        path: Path,
+        stack: NavigationStack,
+        goals: list[NavGoal],
+        filters: Pipeline | None,
+        nodes: list[Node],
+        inputs: list[str],
+        optional: list[str],
+        outputs: list[str],
+        info: dict[str, str],
+    ) -> None:
+        super().__init__("navigation", nodes, inputs, optional, outputs, info=info)
+        self.path, self.stack, self.goals, self.filters = path, stack, goals, filters
+
+    def report(self) -> dict[str, Any]:
         out: dict[str, Any] = {
-            "nav2_params": path.name,
+            "nav2_params": self.path.name,
             "goals": [
                 {
                     "name": r.name,
@@ -122,54 +151,59 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
                     "recoveries": r.recoveries,
                     "replans": r.replans,
                 }
-                for r in stack.results
+                for r in self.stack.results
             ],
         }
-        out["planned_goals"] = len(goals)
-        out["succeeded"] = sum(r.status == "succeeded" for r in stack.results)
-        out["failed"] = sum(r.status == "failed" for r in stack.results)
-        if filters is not None:
-            out["safety_filters"] = {"chain": filters.info.get("chain", "")}
+        out["planned_goals"] = len(self.goals)
+        out["succeeded"] = sum(r.status == "succeeded" for r in self.stack.results)
+        out["failed"] = sum(r.status == "failed" for r in self.stack.results)
+        if self.filters is not None:
+            out["safety_filters"] = {"chain": self.filters.info.get("chain", "")}
         return out
 
-    def write_artifacts(out: Path) -> dict[str, Path]:
+    def write_artifacts(self, out: Path) -> dict[str, Path]:
         written: dict[str, Path] = {}
-        if filters is not None:
-            written.update(filters.write_artifacts(out))
+        if self.filters is not None:
+            written.update(self.filters.write_artifacts(out))
         nav = out / "navigation.json"
-        nav.write_text(json.dumps(report(), indent=2, sort_keys=True) + "\n")
+        nav.write_text(json.dumps(self.report(), indent=2, sort_keys=True) + "\n")
         written["navigation"] = nav
         return written
 
-    def skipped() -> dict[str, int]:
-        out = {f"navigation: {k}": v for k, v in stack.skipped().items()}
-        if filters is not None:
-            out.update(filters.skipped())
+    def skipped(self) -> dict[str, int]:
+        out = {f"navigation: {k}": v for k, v in self.stack.skipped().items()}
+        if self.filters is not None:
+            out.update(self.filters.skipped())
         return out
 
-    def nothing_produced() -> str | None:
-        if stack.results:
+    def nothing_produced(self) -> str | None:
+        if self.stack.results:
             return None
-        if not goals:
+        if not self.goals:
             return "no goal: the log has no /goal_pose; give the goals with --set goals=GOALS.yaml"
         return "no goal ended: the log ends before the first goal was reached or failed"
 
-    info = {
-        "nav2_params": str(path),
-        "goals": params.goals or "/goal_pose from the log",
-        "velocity_smoother": switches["velocity_smoother"],
-        "collision_monitor": switches["collision_monitor"],
-    }
-    return Pipeline(
-        name="navigation",
-        nodes=nodes,
-        inputs=inputs,
-        optional_inputs=optional,
-        outputs=outputs,
-        write_artifacts=write_artifacts,
-        skipped=skipped,
-        info=info,
-        nothing_produced=nothing_produced,
-        done=lambda: stack.done,
-        report=report,
-    )
+    def done(self) -> bool:
+        return bool(self.stack.done)
+
+
+@register
+class Navigation(PipelineSpec):
+    """Nav2's planner, controller, behaviours and navigator on goals, then the safety filters; it drives the robot."""
+
+    name = "navigation"
+    params_class = Params
+    params_file_key = "nav2_params"  # `navlog replay/record --pipeline navigation --params nav2_params.yaml`
+    facts = PipelineSpec.facts | {"goals", "min_clearance", "safety", "navigation", "all_goals_reached"}
+
+    @classmethod
+    def build(cls, params: Params, log_topics: set[str]) -> Pipeline:
+        return build(params, log_topics)
+
+    @classmethod
+    def static_map(cls, params: Params) -> Path | None:
+        return existing_file(params.map)
+
+    @classmethod
+    def goal_count(cls, params: Params) -> int | None:
+        return len(load_goals(params.goals)[0]) if params.goals else None

@@ -38,11 +38,9 @@ from navlog.replay.nav2.params import parse_nav2_params
 from navlog.replay.nav2.planners import PLANNER_NAMES, PLANNERS, PlanningError, PlanResult, Pose2D, make_planner
 from navlog.replay.nodes.planner import CostmapNode, PlannerNode, costmap_msg, path_msg
 from navlog.replay.occupancy_map import OccupancyMap
+from navlog.replay.pipelines import PipelineSpec, existing_file, register
 from navlog.replay.runtime.executor import Envelope
 from navlog.replay.runtime.pipeline import Pipeline
-
-# `navlog replay --pipeline planner --params nav2_params.yaml` fills this key
-PARAMS_FILE_KEY = "nav2_params"
 
 
 @dataclass(frozen=True)
@@ -179,7 +177,18 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
     if not params.goals:
         inputs.append("/goal_pose")
 
-    def write_artifacts(out: Path) -> dict[str, Path]:
+    return PlannerRun(cm_node, pl, inputs, optional)
+
+
+class PlannerRun(Pipeline):
+    """The global costmap and the planner of one run; plans.json written after it."""
+
+    def __init__(self, cm_node: CostmapNode, pl: PlannerNode, inputs: list[str], optional: list[str]) -> None:
+        outputs = ["/global_costmap/costmap", "/global_costmap/published_footprint", "/plan", "/navlog/events"]
+        super().__init__("planner", [cm_node, pl], inputs, optional, outputs)
+        self.cm_node, self.pl = cm_node, pl
+
+    def write_artifacts(self, out: Path) -> dict[str, Path]:
         path = out / "plans.json"
         rows = [
             {
@@ -191,29 +200,45 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
                 "poses": len(p.poses),
                 "notes": p.notes,
             }
-            for t, p in pl.plans
+            for t, p in self.pl.plans
         ]
-        fails = [{"time_ns": t, "error": e} for t, e in pl.failures]
+        fails = [{"time_ns": t, "error": e} for t, e in self.pl.failures]
         path.write_text(json.dumps({"plans": rows, "failures": fails}, indent=2, sort_keys=True) + "\n")
         return {"plans": path}
 
-    def skipped() -> dict[str, int]:
-        out = dict(cm_node.skipped)
-        out.update(cm_node.costmap.skipped)
-        for k, v in pl.skipped.items():
+    def skipped(self) -> dict[str, int]:
+        out = dict(self.cm_node.skipped)
+        out.update(self.cm_node.costmap.skipped)
+        for k, v in self.pl.skipped.items():
             out[k] = out.get(k, 0) + v
         return out
 
-    return Pipeline(
-        name="planner",
-        nodes=[cm_node, pl],
-        inputs=inputs,
-        optional_inputs=optional,
-        outputs=["/global_costmap/costmap", "/global_costmap/published_footprint", "/plan", "/navlog/events"],
-        write_artifacts=write_artifacts,
-        skipped=skipped,
-        nothing_produced=lambda: None if pl.plans or pl.failures else "no plan: no goal was planned for",
-    )
+    def nothing_produced(self) -> str | None:
+        return None if self.pl.plans or self.pl.failures else "no plan: no goal was planned for"
+
+
+@register
+class Planner(PipelineSpec):
+    """Nav2's global costmap and planner server on the log's map or scans, TF and goals."""
+
+    name = "planner"
+    params_class = Params
+    params_file_key = "nav2_params"  # `navlog replay --pipeline planner --params nav2_params.yaml`
+    facts = PipelineSpec.facts | {"plans", "goals", "min_clearance", "all_goals_reached", "no_plan_failures"}
+    summary_facts = ("plans",)
+    world_map_key = "map"  # a CI case's world map is its static layer
+
+    @classmethod
+    def build(cls, params: Params, log_topics: set[str]) -> Pipeline:
+        return build(params, log_topics)
+
+    @classmethod
+    def static_map(cls, params: Params) -> Path | None:
+        return existing_file(params.map)
+
+    @classmethod
+    def goal_count(cls, params: Params) -> int | None:
+        return len(load_goals(params.goals)[0]) if params.goals else None
 
 
 # ---------------------------------------------------------------- one plan on a map

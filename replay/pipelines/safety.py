@@ -35,11 +35,10 @@ from navlog.replay.nav2.costmap import robot_footprint
 from navlog.replay.nav2.velocity_smoother import VelocitySmootherParams
 from navlog.replay.nodes.collision_monitor import EVENTS_TOPIC, CollisionMonitorNode
 from navlog.replay.nodes.velocity_smoother import VelocitySmootherNode
+from navlog.replay.pipelines import PipelineSpec, register
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.pipeline import Pipeline
 
-# `navlog replay/record --pipeline safety --params nav2_params.yaml` fills this key
-PARAMS_FILE_KEY = "nav2_params"
 DEFAULT_NAV2 = "kibot_safety"
 # the monitor's action types as the summary counts them
 ACTION_COUNTS = {"stop": "stopped", "slowdown": "slowed", "limit": "limited", "approach": "approach"}
@@ -198,9 +197,44 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
     nodes.append(summary)
     outputs = ([smoother.output_topic] if smoother else []) + ([params.output_topic, EVENTS_TOPIC] if monitor else [])
 
-    def report() -> dict[str, Any]:
-        out = summary.summary()
-        out["nav2_params"] = Path(nav2.source).name
+    info = {
+        "chain": " -> ".join(
+            [params.input_topic]
+            + (["velocity_smoother", smoother.output_topic] if smoother else [])
+            + (["collision_monitor", params.output_topic] if monitor else [])
+        ),
+        "nav2_params": nav2.source,
+    }
+    if monitor is not None and any(s.is_set() for s in monitor.monitor.footprint_shapes()):
+        info["footprint"] = "costmap footprint from the Nav2 file"
+    commands = (params.input_topic, topic)
+    return SafetyRun(params, nav2, smoother, monitor, summary, nodes, inputs, optional, outputs, info, commands)
+
+
+class SafetyRun(Pipeline):
+    """The velocity smoother and the collision monitor of one run (either may be off), counted by ``summary``."""
+
+    def __init__(
+        self,
+        params: Params,
+        nav2: Nav2Params,
+        smoother: VelocitySmootherNode | None,
+        monitor: CollisionMonitorNode | None,
+        summary: SafetySummary,
+        nodes: list[Node],
+        inputs: list[str],
+        optional: list[str],
+        outputs: list[str],
+        info: dict[str, str],
+        commands: tuple[str, str],
+    ) -> None:
+        super().__init__("safety", nodes, inputs, optional, outputs, info=info, commands=commands)
+        self.params, self.nav2, self.smoother, self.monitor, self.summary = params, nav2, smoother, monitor, summary
+
+    def report(self) -> dict[str, Any]:
+        smoother, monitor = self.smoother, self.monitor
+        out = self.summary.summary()
+        out["nav2_params"] = Path(self.nav2.source).name
         if smoother is not None:
             out["velocity_smoother"] = {
                 "published": smoother.published,
@@ -213,46 +247,36 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
             }
         return out
 
-    def write_artifacts(out: Path) -> dict[str, Path]:
+    def write_artifacts(self, out: Path) -> dict[str, Path]:
         path = out / "safety.json"
-        path.write_text(json.dumps(report(), indent=2, sort_keys=True) + "\n")
+        path.write_text(json.dumps(self.report(), indent=2, sort_keys=True) + "\n")
         return {"safety": path}
 
-    def skipped() -> dict[str, int]:
+    def skipped(self) -> dict[str, int]:
         out: dict[str, int] = {}
-        if smoother is not None:
-            out.update({f"velocity_smoother: {k}": v for k, v in smoother.counts().items()})
-        if monitor is not None:
-            out.update({f"collision_monitor: {k}": v for k, v in monitor.skipped_counts().items()})
+        if self.smoother is not None:
+            out.update({f"velocity_smoother: {k}": v for k, v in self.smoother.counts().items()})
+        if self.monitor is not None:
+            out.update({f"collision_monitor: {k}": v for k, v in self.monitor.skipped_counts().items()})
         return out
 
-    def nothing_produced() -> str | None:
-        if summary.commands_in:
+    def nothing_produced(self) -> str | None:
+        if self.summary.commands_in:
             return None
-        return (
-            f"no command on {params.input_topic} (for a teleop log, read its commands with "
-            f"--remap {params.input_topic}=/cmd_vel)"
-        )
+        topic = self.params.input_topic
+        return f"no command on {topic} (for a teleop log, read its commands with --remap {topic}=/cmd_vel)"
 
-    info = {
-        "chain": " -> ".join(
-            [params.input_topic]
-            + (["velocity_smoother", smoother.output_topic] if smoother else [])
-            + (["collision_monitor", params.output_topic] if monitor else [])
-        ),
-        "nav2_params": nav2.source,
-    }
-    if monitor is not None and any(s.is_set() for s in monitor.monitor.footprint_shapes()):
-        info["footprint"] = "costmap footprint from the Nav2 file"
-    return Pipeline(
-        name="safety",
-        nodes=nodes,
-        inputs=inputs,
-        optional_inputs=optional,
-        outputs=outputs,
-        write_artifacts=write_artifacts,
-        skipped=skipped,
-        info=info,
-        nothing_produced=nothing_produced,
-        commands=(params.input_topic, topic),
-    )
+
+@register
+class Safety(PipelineSpec):
+    """Nav2's velocity smoother and collision monitor between a controller's commands and the robot."""
+
+    name = "safety"
+    params_class = Params
+    params_file_key = "nav2_params"  # `navlog replay/record --pipeline safety --params nav2_params.yaml`
+    facts = PipelineSpec.facts | {"safety"}
+    summary_facts = ("safety",)
+
+    @classmethod
+    def build(cls, params: Params, log_topics: set[str]) -> Pipeline:
+        return build(params, log_topics)

@@ -16,7 +16,8 @@ from navlog.recorder.record import prepare, record, scenario_command_topic
 from navlog.recorder.scenarios import check_scenario
 from navlog.recorder.world import clearance
 from navlog.replay.io import open_log
-from navlog.replay.session import load_pipeline_module, pipeline_params, run_replay
+from navlog.replay.pipelines import pipeline_spec
+from navlog.replay.session import pipeline_params, run_replay
 
 pytestmark = pytest.mark.slow
 
@@ -27,7 +28,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 def run(tmp_path: Path, scenario: str, filters: bool):
     setup = prepare("walled_room", "kibot", scenario, seed=2)
-    pipe = load_pipeline_module("safety").build(pipeline_params("safety"), setup.topics()) if filters else None
+    pipe = pipeline_spec("safety").build(pipeline_params("safety"), setup.topics()) if filters else None
     res = record(setup, tmp_path / f"{scenario}_{filters}.mcap", progress=False, pipeline=pipe)
     with open_log(res.path) as r:
         events = [(e.msg.kind, e.msg.source, e.msg.detail) for e in r.messages(["/navlog/events"])]
@@ -99,9 +100,9 @@ def test_expect_contact_is_an_explicit_checked_opt_in():
 
 def test_the_scenario_publishes_where_the_live_pipeline_takes_commands():
     setup = prepare("walled_room", "kibot", "teleop_wall")
-    safety = load_pipeline_module("safety")
+    safety = pipeline_spec("safety")
     assert scenario_command_topic(None) == "/cmd_vel"
-    mapping = load_pipeline_module("mapping").build(pipeline_params("mapping"), setup.topics())
+    mapping = pipeline_spec("mapping").build(pipeline_params("mapping"), setup.topics())
     assert scenario_command_topic(mapping) == "/cmd_vel"
     assert scenario_command_topic(safety.build(pipeline_params("safety"), setup.topics())) == "/cmd_vel_nav"
     off = safety.build(pipeline_params("safety", overrides=["output_topic=/cmd_vel_safe"]), setup.topics())

@@ -11,11 +11,12 @@ import pytest
 from mcap.writer import Writer
 
 from navlog.analysis.ci.baselines import Baseline
-from navlog.analysis.ci.cache import log_layout_sha256, log_sha256
+from navlog.analysis.ci.cache import log_layout_sha256
 from navlog.analysis.ci.result import Status
 from navlog.analysis.ci.runner import _provenance_checks
 from navlog.analysis.ci.suite import Recipe
 from navlog.errors import NavlogError
+from navlog.replay.identity import log_sha256
 
 RECIPE = Recipe("walled_room", "kibot", "teleop_wall", 0, True)
 

@@ -204,6 +204,6 @@ def test_ctrl_c_leaves_completed_outputs_and_no_half_written_ones(fleet_dir, tmp
     for name in done:
         manifest = json.loads((out / name / "manifest.json").read_text())
         for o in manifest["outputs"].values():
-            from navlog.replay.session import sha256_file
+            from navlog.replay.identity import sha256_file
 
             assert sha256_file(out / name / o["file"]) == o["sha256"]

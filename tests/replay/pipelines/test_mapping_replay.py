@@ -203,7 +203,7 @@ def test_double_replay_in_fresh_processes_is_byte_identical(teleop_log, tmp_path
 
 def test_live_mapping_during_record_equals_replay(tmp_path):
     from navlog.recorder.record import prepare, record
-    from navlog.replay.session import load_pipeline_module
+    from navlog.replay.pipelines import pipeline_spec
 
     setup = prepare("indoor_room", "go2", "teleop", seed=5)
     params = pipeline_params("mapping")
@@ -218,7 +218,7 @@ def test_live_mapping_during_record_equals_replay(tmp_path):
         "/clock",
         "/cmd_vel",
     }
-    pipe = load_pipeline_module("mapping").build(params, setup.topics())
+    pipe = pipeline_spec("mapping").build(params, setup.topics())
     log = tmp_path / "live.mcap"
     record(setup, log, progress=False, live_nodes=pipe.nodes)
     res = run_replay(log, "mapping", tmp_path / "out", params=params, progress=False)

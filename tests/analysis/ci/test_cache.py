@@ -1,0 +1,45 @@
+"""The CI cache names a replay by its identity: the key ``run_replay`` gives and a fleet's resume check keeps."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from navlog.analysis.ci import run_suite
+from navlog.analysis.fleet import replay_fleet
+from navlog.replay.identity import log_sha256, replay_identity
+from navlog.replay.session import pipeline_params, run_replay
+
+OVERRIDES = ["lidar_mapper=off"]  # the 2D mapper only: about a second on the teleop log
+
+
+def test_a_replay_run_alone_by_a_fleet_and_by_ci_has_one_identity(teleop_log: Path, tmp_path: Path) -> None:
+    params = pipeline_params("mapping", overrides=OVERRIDES)
+    key = replay_identity(log_sha256(teleop_log), "mapping", params, {})
+    alone = run_replay(teleop_log, "mapping", tmp_path / "alone", params=params, progress=False)
+    assert alone.identity == key
+
+    fleet = replay_fleet([teleop_log], "mapping", tmp_path / "fleet", overrides=OVERRIDES, workers=1, progress=False)
+    name = fleet.results[0].name
+    assert json.loads((tmp_path / "fleet" / ".fleet" / f"{name}.json").read_text())["key"] == key
+
+    suite = tmp_path / "one.navlog-suite.yaml"
+    suite.write_text(f"cases:\n  - {{name: m, pipeline: mapping, log: {teleop_log}, overrides: [lidar_mapper=off]}}\n")
+    cache = tmp_path / "cache"
+    first = run_suite(suite, cache_dir=cache, baseline_dir=tmp_path / "b")
+    assert [p.name for p in (cache / "replays").iterdir()] == [key]
+    assert not first.case("m").replay_cached
+    assert run_suite(suite, cache_dir=cache, baseline_dir=tmp_path / "b").case("m").replay_cached
+    rerun = replay_fleet([teleop_log], "mapping", tmp_path / "fleet", params=params, workers=1, progress=False)
+    assert rerun.results[0].cached
+    # the three made the same bytes
+    for out in (tmp_path / "alone", tmp_path / "fleet" / name, cache / "replays" / key):
+        assert (out / "map.pgm").read_bytes() == (tmp_path / "alone" / "map.pgm").read_bytes()
+
+    # a changed parameter is another replay for each of them
+    changed = pipeline_params("mapping", overrides=[*OVERRIDES, "occupancy.grid.resolution=0.1"])
+    assert replay_identity(log_sha256(teleop_log), "mapping", changed, {}) != key
+    again = replay_fleet([teleop_log], "mapping", tmp_path / "fleet", params=changed, workers=1, progress=False)
+    assert not again.results[0].cached
+    state = json.loads((tmp_path / "fleet" / ".fleet" / f"{name}.json").read_text())
+    assert state["key"] == replay_identity(log_sha256(teleop_log), "mapping", changed, {}) != key
