@@ -1,4 +1,5 @@
-"""Robots from YAML: body, drive, frames and sensor set, and their MuJoCo model.
+"""Robots from YAML (or description files: ``navlog.recorder.description``): body, drive, frames and
+sensor set, and their MuJoCo model.
 
 Two drives:
 - ``legged``: a legged-base stand-in (legs are not simulated). The trunk rides on planar joints
@@ -15,10 +16,14 @@ Two drives:
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Literal
 
-from navlog.replay.config import load_config, named_config
+from navlog.errors import ConfigError
+from navlog.recorder.robot_model import RobotModel
+from navlog.replay.config import from_mapping, load_config, load_yaml, named_config, to_mapping
 from navlog.replay.geometry import quat_from_rpy, quat_to_wxyz
 
 Vec3 = tuple[float, float, float]
@@ -158,19 +163,141 @@ class RobotSpec:
     imu: ImuConfig | None = None
     odom: OdomConfig = field(default_factory=OdomConfig)
     timestep: float = 0.005  # physics step (s); the sim ticks every 5 ms
+    model: RobotModel | None = None  # the links of a robot from a description file (navlog.recorder.description)
 
     def frame(self, name: str) -> str:
         """A robot frame with the robot's prefix (map and world are never prefixed)."""
         return f"{self.frame_prefix}{name}" if name else ""
 
+    @property
+    def cmd_topic(self) -> str:
+        """The topic the robot drives on: its drive plugin's, else ``CMD_VEL_TOPIC``."""
+        return self.model.cmd_topic if self.model is not None else CMD_VEL_TOPIC
 
-def load_robot(name: str) -> RobotSpec:
-    return load_config(RobotSpec, named_config("robots", name))
+
+def load_robot(
+    name: str,
+    args: Mapping[str, str] | None = None,
+    package_paths: Sequence[Path | str] = (),
+    drive: str | None = None,
+) -> RobotSpec:
+    """A robot by name, YAML path, or description file (``.urdf``, ``.sdf``, ``.urdf.xacro``, ``.sdf.xacro``:
+    ``navlog.recorder.description.describe`` with the xacro ``args``, ``package_paths`` and ``drive``).
+
+    A robot YAML with ``description_file: PATH`` (relative to the YAML) takes the robot of that file and
+    adds what its other keys give (merged key by key: e.g. ``odom`` noise, a ``lidar``); its ``drive``
+    ``type`` (``diff_drive``, ``omni``) stands for ``drive`` when the file declares no drive plugin."""
+    from navlog.recorder.description import is_description
+
+    if is_description(name):
+        from navlog.recorder.description import describe
+
+        return describe(name, args, package_paths, drive)
+    path = named_config("robots", name)
+    data = load_yaml(path)
+    if not (isinstance(data, dict) and "description_file" in data):
+        return load_config(RobotSpec, path)
+    return _described_yaml(path, dict(data), args, package_paths, drive)
+
+
+def _merged(base: dict, extra: Mapping) -> dict:
+    out = dict(base)
+    for key, value in extra.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), dict):
+            out[key] = _merged(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def _described_yaml(
+    path: Path, data: dict, args: Mapping[str, str] | None, package_paths: Sequence[Path | str], drive: str | None
+) -> RobotSpec:
+    from navlog.recorder.description import describe
+
+    file = data.pop("description_file")
+    if not isinstance(file, str) or not file:
+        raise ConfigError(f"{path}: description_file must be a path to a .urdf, .sdf or .xacro file")
+    yaml_drive = data.get("drive")
+    if isinstance(yaml_drive, Mapping) and drive is None:
+        drive = yaml_drive.get("type")
+        if drive == "omni":  # an omni base runs on the kinematic carriage of the legged drive
+            data["drive"] = {k: v for k, v in yaml_drive.items() if k != "type"}
+    try:
+        described = describe(path.parent / file, args, package_paths, drive)
+        return from_mapping(RobotSpec, _merged(to_mapping(described), data))
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
 
 
 # ---------------------------------------------------------------- MuJoCo model
 
 ROBOT_GROUP = 3  # every robot geom lives in this group
+# a described robot's wheels: MuJoCo's soft friction lets a wheel creep under load (small, light wheels
+# creep most); the no-slip solver's passes remove it
+NOSLIP_ITERATIONS = 4
+
+
+def add_carriage(body) -> None:
+    """The planar carriage of a kinematic base on ``body``: x, y, yaw joints driven in velocity (``act_x``,
+    ``act_y``, ``act_yaw``); z, pitch, roll held by position actuators (``act_z``, ``act_pitch``, ``act_roll``)."""
+    import mujoco
+
+    for name, jtype, axis in (
+        ("x", mujoco.mjtJoint.mjJNT_SLIDE, [1, 0, 0]),
+        ("y", mujoco.mjtJoint.mjJNT_SLIDE, [0, 1, 0]),
+        ("z", mujoco.mjtJoint.mjJNT_SLIDE, [0, 0, 1]),
+        ("yaw", mujoco.mjtJoint.mjJNT_HINGE, [0, 0, 1]),
+        ("pitch", mujoco.mjtJoint.mjJNT_HINGE, [0, 1, 0]),
+        ("roll", mujoco.mjtJoint.mjJNT_HINGE, [1, 0, 0]),
+    ):
+        body.add_joint(
+            name=f"base_{name}", type=jtype, axis=axis, damping=[1.0, 0, 0] if name in "xyz" else [0.2, 0, 0]
+        )
+
+
+def _add_carriage_actuators(spec, mass: float) -> None:
+    import mujoco
+
+    m = mass
+    spec.add_actuator(name="act_x", target="base_x", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
+    spec.add_actuator(name="act_y", target="base_y", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
+    spec.add_actuator(name="act_yaw", target="base_yaw", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=20.0)
+    spec.add_actuator(name="act_z", target="base_z", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
+        kp=6000.0, kv=400.0
+    )
+    spec.add_actuator(name="act_pitch", target="base_pitch", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
+        kp=400.0, kv=20.0
+    )
+    spec.add_actuator(name="act_roll", target="base_roll", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
+        kp=400.0, kv=20.0
+    )
+
+
+def _add_described(spec, robot: RobotSpec, model: RobotModel, start: tuple[float, float, float]) -> None:
+    """A robot from a description file (``navlog.recorder.robot_bodies``)."""
+    from navlog.recorder.robot_bodies import add_bodies, wheel_gain
+
+    x, y, yaw = start
+    if robot.drive.type == "legged":  # an omni base: the carriage, as the legged drive's, without contacts
+        root = spec.worldbody.add_body(name=model.root, pos=[0.0, 0.0, model.height], gravcomp=1.0)
+        add_carriage(root)
+        add_bodies(spec, model, root, None)
+        for geom in spec.geoms:
+            if geom.group == ROBOT_GROUP:
+                geom.contype = geom.conaffinity = 0
+        for body in spec.bodies:
+            body.gravcomp = 1.0
+        _add_carriage_actuators(spec, robot.body.mass)
+    else:
+        root = spec.worldbody.add_body(
+            name=model.root, pos=[x, y, model.height], quat=list(quat_to_wxyz(quat_from_rpy(0.0, 0.0, yaw)))
+        )
+        root.add_freejoint(name="base_free")
+        spec.option.noslip_iterations = NOSLIP_ITERATIONS
+        d = robot.drive
+        add_bodies(spec, model, root, wheel_gain(robot.body.mass, d.wheel_radius))
+    root.add_site(name="imu", pos=list(robot.imu.mount[:3]) if robot.imu else [0, 0, 0])
 
 
 def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> None:
@@ -182,22 +309,14 @@ def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> No
     G = mujoco.mjtGeom
     spec.option.timestep = robot.timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    if robot.drive.type == "legged":
+    if robot.model is not None:
+        _add_described(spec, robot, robot.model, start)
+    elif robot.drive.type == "legged":
         # planar carriage carrying the trunk: x, y, yaw driven in velocity; z, pitch, roll held by
         # position actuators that follow the gait sway; gravity compensated on the trunk.
         # the carriage starts at the origin; the simulator sets the start pose on the x, y, yaw joints
         base = spec.worldbody.add_body(name="base_link", pos=[0.0, 0.0, robot.body.height], gravcomp=1.0)
-        for name, jtype, axis in (
-            ("x", mujoco.mjtJoint.mjJNT_SLIDE, [1, 0, 0]),
-            ("y", mujoco.mjtJoint.mjJNT_SLIDE, [0, 1, 0]),
-            ("z", mujoco.mjtJoint.mjJNT_SLIDE, [0, 0, 1]),
-            ("yaw", mujoco.mjtJoint.mjJNT_HINGE, [0, 0, 1]),
-            ("pitch", mujoco.mjtJoint.mjJNT_HINGE, [0, 1, 0]),
-            ("roll", mujoco.mjtJoint.mjJNT_HINGE, [1, 0, 0]),
-        ):
-            base.add_joint(
-                name=f"base_{name}", type=jtype, axis=axis, damping=[1.0, 0, 0] if name in "xyz" else [0.2, 0, 0]
-            )
+        add_carriage(base)
         base.add_geom(
             name="trunk",
             type=G.mjGEOM_BOX,
@@ -207,19 +326,7 @@ def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> No
             contype=0,
             conaffinity=0,
         )
-        m = robot.body.mass
-        spec.add_actuator(name="act_x", target="base_x", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
-        spec.add_actuator(name="act_y", target="base_y", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
-        spec.add_actuator(name="act_yaw", target="base_yaw", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=20.0)
-        spec.add_actuator(name="act_z", target="base_z", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
-            kp=6000.0, kv=400.0
-        )
-        spec.add_actuator(name="act_pitch", target="base_pitch", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
-            kp=400.0, kv=20.0
-        )
-        spec.add_actuator(name="act_roll", target="base_roll", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
-            kp=400.0, kv=20.0
-        )
+        _add_carriage_actuators(spec, robot.body.mass)
         base.add_site(name="imu", pos=list(robot.imu.mount[:3]) if robot.imu else [0, 0, 0])
     else:
         d = robot.drive
