@@ -274,16 +274,16 @@ class _Reader:
             if kind == "box":
                 return Geometry("box", size=tuple(_floats(_text(shape, "size"), 3, f"{where} box size")))  # type: ignore[arg-type]
             if kind in ("cylinder", "capsule"):
-                r = _number(shape, ["radius"], where, math.nan)
-                length = _number(shape, ["length"], where, math.nan)
-                return Geometry(kind, radius=float(r or 0), length=float(length or 0))  # type: ignore[arg-type]
+                radius = _number(shape, ["radius"], where, math.nan)
+                height = _number(shape, ["length"], where, math.nan)
+                return Geometry(kind, radius=float(radius or 0), length=float(height or 0))  # type: ignore[arg-type]
             if kind == "sphere":
                 return Geometry("sphere", radius=float(_number(shape, ["radius"], where, math.nan) or 0))
             if kind == "mesh":
                 uri = _text(shape, "uri", "") or ""
                 file = self.mesh(uri, link, visual=False)
-                scale = _floats(_text(shape, "scale"), 3, f"{where} scale", (1, 1, 1))
-                return Geometry("mesh", mesh=file or "", scale=tuple(scale))  # type: ignore[arg-type]
+                scales = _floats(_text(shape, "scale"), 3, f"{where} scale", (1, 1, 1))
+                return Geometry("mesh", mesh=file or "", scale=tuple(scales))  # type: ignore[arg-type]
         log.warning("%s: %s geometry is not simulated", where, kind)
         return None
 
@@ -307,10 +307,10 @@ def _parse_urdf(root: ET.Element, reader: _Reader) -> _Parsed:
     src = reader.path
     joints: dict[str, tuple[ET.Element, str]] = {}  # child link -> (joint, parent link)
     for j in root.findall("joint"):
-        parent, child = j.find("parent"), j.find("child")
-        if parent is None or child is None:
+        parent_el, child_el = j.find("parent"), j.find("child")
+        if parent_el is None or child_el is None:
             raise ConfigError(f"{src}: joint '{j.get('name')}' needs <parent link=...> and <child link=...>")
-        joints[child.get("link", "")] = (j, parent.get("link", ""))
+        joints[child_el.get("link", "")] = (j, parent_el.get("link", ""))
     elements = {el.get("name", ""): el for el in root.findall("link")}
     links: dict[str, Link] = {}
     for name, el in elements.items():
@@ -336,11 +336,12 @@ def _parse_urdf(root: ET.Element, reader: _Reader) -> _Parsed:
                 _floats(o.get("xyz") if o is not None else None, 3, where, (0, 0, 0)),
                 _floats(o.get("rpy") if o is not None else None, 3, where, (0, 0, 0)),
             )
-            m = ie.find("mass")
+            mass_el = ie.find("mass")
             i_el = ie.find("inertia")
             ia = i_el.attrib if i_el is not None else {}
             inertia = tuple(float(ia.get(k, "0")) for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"))
-            inertial = Inertial(float(m.get("value", "0")) if m is not None else 0.0, _pose(pose), inertia)  # type: ignore[arg-type]
+            mass = float(mass_el.get("value", "0")) if mass_el is not None else 0.0
+            inertial = Inertial(mass, _pose(pose), inertia)  # type: ignore[arg-type]
         link = Link(name, inertial=inertial, collisions=collisions)
         if name in joints:
             j, parent = joints[name]

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -38,7 +39,7 @@ WHEEL_RESPONSE = 0.002  # s: the wheel servos' time constant for the robot's who
 def _mesh(path: str) -> tuple[np.ndarray, np.ndarray]:
     import trimesh
 
-    loaded = trimesh.load(path, force="mesh", process=False)
+    loaded: Any = trimesh.load(path, force="mesh", process=False)
     vertices = np.asarray(loaded.vertices, dtype=np.float64)
     faces = np.asarray(loaded.faces, dtype=np.int32)
     vertices.flags.writeable = False
