@@ -68,7 +68,9 @@ from navlog.recorder.robot_model import (
     Pose,
     RobotModel,
     StaticFrame,
+    pose_matrix,
 )
+from navlog.replay.config import from_mapping, load_config, load_yaml, named_config, to_mapping
 from navlog.replay.geometry import make_transform, matrix_to_quat, quat_from_rpy, rigid_inverse
 
 log = logging.getLogger("navlog")
@@ -167,11 +169,6 @@ def _pose(t: np.ndarray) -> Pose:
     qx, qy, qz, qw = matrix_to_quat(t[:3, :3])
     x, y, z = (float(v) for v in t[:3, 3])
     return (x, y, z, float(qx), float(qy), float(qz), float(qw))
-
-
-def pose_matrix(p: Pose) -> np.ndarray:
-    """The 4x4 transform of a ``Pose``."""
-    return make_transform(p[:3], p[3:])
 
 
 def mount_of(t: np.ndarray) -> tuple[float, float, float, float, float, float]:
@@ -365,15 +362,15 @@ def _parse_urdf(root: ET.Element, reader: _Reader) -> _Parsed:
             )
         links[name] = link
     parsed = _Parsed(root.get("name", src.stem), links)
-    for g in root.findall("gazebo"):
-        ref = g.get("reference")
-        for s in g.findall("sensor"):
-            link = ref or ""
-            if link not in links:
-                raise ConfigError(f"{src}: sensor '{s.get('name')}' refers to link '{link}', which is not in the file")
+    for gz in root.findall("gazebo"):
+        ref = gz.get("reference")
+        for s in gz.findall("sensor"):
+            owner = ref or ""
+            if owner not in links:
+                raise ConfigError(f"{src}: sensor '{s.get('name')}' refers to link '{owner}', which is not in the file")
             pose = _sdf_pose(s, f"{src}: sensor '{s.get('name')}'")
-            parsed.sensors.append(_Sensor(s, link, pose))
-        parsed.plugins += g.findall("plugin")
+            parsed.sensors.append(_Sensor(s, owner, pose))
+        parsed.plugins += gz.findall("plugin")
     return parsed
 
 
@@ -904,3 +901,55 @@ def _robot(
         timestep=DESCRIBED_TIMESTEP,
         model=model,
     )
+
+
+# ---------------------------------------------------------------- loading by name
+
+
+def load_robot(
+    name: str,
+    args: Mapping[str, str] | None = None,
+    package_paths: Sequence[Path | str] = (),
+    drive: str | None = None,
+) -> RobotSpec:
+    """A robot by name, YAML path, or description file (``.urdf``, ``.sdf``, ``.urdf.xacro``, ``.sdf.xacro``:
+    ``describe`` with the xacro ``args``, ``package_paths`` and ``drive``).
+
+    A robot YAML with ``description_file: PATH`` (relative to the YAML) takes the robot of that file and
+    adds what its other keys give (merged key by key: e.g. ``odom`` noise, a ``lidar``); its ``drive``
+    ``type`` (``diff_drive``, ``omni``) stands for ``drive`` when the file declares no drive plugin."""
+    if is_description(name):
+        return describe(name, args, package_paths, drive)
+    path = named_config("robots", name)
+    data = load_yaml(path)
+    if not (isinstance(data, dict) and "description_file" in data):
+        return load_config(RobotSpec, path)
+    return _described_yaml(path, dict(data), args, package_paths, drive)
+
+
+def _merged(base: dict, extra: Mapping) -> dict:
+    out = dict(base)
+    for key, value in extra.items():
+        if isinstance(value, Mapping) and isinstance(out.get(key), dict):
+            out[key] = _merged(out[key], value)
+        else:
+            out[key] = value
+    return out
+
+
+def _described_yaml(
+    path: Path, data: dict, args: Mapping[str, str] | None, package_paths: Sequence[Path | str], drive: str | None
+) -> RobotSpec:
+    file = data.pop("description_file")
+    if not isinstance(file, str) or not file:
+        raise ConfigError(f"{path}: description_file must be a path to a .urdf, .sdf or .xacro file")
+    yaml_drive = data.get("drive")
+    if isinstance(yaml_drive, Mapping) and drive is None:
+        drive = yaml_drive.get("type")
+        if drive == "omni":  # an omni base runs on the kinematic carriage of the legged drive
+            data["drive"] = {k: v for k, v in yaml_drive.items() if k != "type"}
+    try:
+        described = describe(path.parent / file, args, package_paths, drive)
+        return from_mapping(RobotSpec, _merged(to_mapping(described), data))
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None

@@ -27,8 +27,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from navlog.errors import ConfigError
+from navlog.recorder.description import load_robot
 from navlog.recorder.range_sensors import start_range_sensors
-from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, load_robot
+from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec
 from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
 from navlog.recorder.world import World, load_world
 from navlog.replay.config import config_hash, to_mapping
@@ -165,7 +166,7 @@ def prepare(
     map -> odom (odom -> base only, drifting), as a real robot's log for a SLAM node to map.
 
     ``robot_args``, ``package_paths``, ``drive``: for a robot from a description file
-    (``navlog.recorder.robot.load_robot``)."""
+    (``navlog.recorder.description.load_robot``)."""
     if localization not in LOCALIZATIONS:
         raise ConfigError(f"localization '{localization}' is not one of: {', '.join(LOCALIZATIONS)}")
     s = load_scenario(scenario)

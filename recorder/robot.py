@@ -1,4 +1,4 @@
-"""Robots from YAML (or description files: ``navlog.recorder.description``): body, drive, frames and
+"""Robots from YAML (description files: ``navlog.recorder.description``): body, drive, frames and
 sensor set, and their MuJoCo model.
 
 Two drives:
@@ -16,14 +16,12 @@ Two drives:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Literal
 
-from navlog.errors import ConfigError
+from navlog.recorder.robot_bodies import ROBOT_GROUP
 from navlog.recorder.robot_model import RobotModel
-from navlog.replay.config import from_mapping, load_config, load_yaml, named_config, to_mapping
+from navlog.replay.config import load_config, named_config
 from navlog.replay.geometry import quat_from_rpy, quat_to_wxyz
 
 Vec3 = tuple[float, float, float]
@@ -175,64 +173,13 @@ class RobotSpec:
         return self.model.cmd_topic if self.model is not None else CMD_VEL_TOPIC
 
 
-def load_robot(
-    name: str,
-    args: Mapping[str, str] | None = None,
-    package_paths: Sequence[Path | str] = (),
-    drive: str | None = None,
-) -> RobotSpec:
-    """A robot by name, YAML path, or description file (``.urdf``, ``.sdf``, ``.urdf.xacro``, ``.sdf.xacro``:
-    ``navlog.recorder.description.describe`` with the xacro ``args``, ``package_paths`` and ``drive``).
-
-    A robot YAML with ``description_file: PATH`` (relative to the YAML) takes the robot of that file and
-    adds what its other keys give (merged key by key: e.g. ``odom`` noise, a ``lidar``); its ``drive``
-    ``type`` (``diff_drive``, ``omni``) stands for ``drive`` when the file declares no drive plugin."""
-    from navlog.recorder.description import is_description
-
-    if is_description(name):
-        from navlog.recorder.description import describe
-
-        return describe(name, args, package_paths, drive)
-    path = named_config("robots", name)
-    data = load_yaml(path)
-    if not (isinstance(data, dict) and "description_file" in data):
-        return load_config(RobotSpec, path)
-    return _described_yaml(path, dict(data), args, package_paths, drive)
-
-
-def _merged(base: dict, extra: Mapping) -> dict:
-    out = dict(base)
-    for key, value in extra.items():
-        if isinstance(value, Mapping) and isinstance(out.get(key), dict):
-            out[key] = _merged(out[key], value)
-        else:
-            out[key] = value
-    return out
-
-
-def _described_yaml(
-    path: Path, data: dict, args: Mapping[str, str] | None, package_paths: Sequence[Path | str], drive: str | None
-) -> RobotSpec:
-    from navlog.recorder.description import describe
-
-    file = data.pop("description_file")
-    if not isinstance(file, str) or not file:
-        raise ConfigError(f"{path}: description_file must be a path to a .urdf, .sdf or .xacro file")
-    yaml_drive = data.get("drive")
-    if isinstance(yaml_drive, Mapping) and drive is None:
-        drive = yaml_drive.get("type")
-        if drive == "omni":  # an omni base runs on the kinematic carriage of the legged drive
-            data["drive"] = {k: v for k, v in yaml_drive.items() if k != "type"}
-    try:
-        described = describe(path.parent / file, args, package_paths, drive)
-        return from_mapping(RobotSpec, _merged(to_mapping(described), data))
-    except ConfigError as exc:
-        raise ConfigError(f"{path}: {exc}") from None
+def load_robot(name: str) -> RobotSpec:
+    """A robot YAML by name or path (``navlog.recorder.description.load_robot`` also takes description files)."""
+    return load_config(RobotSpec, named_config("robots", name))
 
 
 # ---------------------------------------------------------------- MuJoCo model
 
-ROBOT_GROUP = 3  # every robot geom lives in this group
 # a described robot's wheels: MuJoCo's soft friction lets a wheel creep under load (small, light wheels
 # creep most); the no-slip solver's passes remove it
 NOSLIP_ITERATIONS = 4

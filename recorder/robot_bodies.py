@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 
 from navlog.errors import ConfigError
-from navlog.recorder.robot import ROBOT_GROUP
-from navlog.recorder.robot_model import Link, RobotModel
+from navlog.recorder.robot_model import Link, RobotModel, pose_matrix
 
+ROBOT_GROUP = 3  # every robot geom lives in this group
 ROBOT_CONTYPE, ROBOT_CONAFFINITY = 2, 1  # collide with the world's geoms (contype 1), not with each other
 RESTING = 0.002  # m: a geom whose lowest point is this close to the floor rests on it
 MIN_MASS, MIN_INERTIA = 1e-6, 1e-9  # a moving link the file gives no inertial
@@ -131,8 +131,6 @@ def _add_link(
 
 def resting_geoms(model: RobotModel) -> set[tuple[str, int]]:
     """(link, collision index) of the geoms, other than the wheels', whose lowest point is on the floor."""
-    from navlog.recorder.description import pose_matrix
-
     wheels = model.wheel_joints or ()
     out = set()
     in_root: dict[str, np.ndarray] = {}

@@ -12,8 +12,17 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
+import numpy as np
+
+from navlog.replay.geometry import make_transform
+
 Pose = tuple[float, float, float, float, float, float, float]  # x, y, z, qx, qy, qz, qw
 IDENTITY: Pose = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+
+
+def pose_matrix(p: Pose) -> np.ndarray:
+    """The 4x4 transform of a ``Pose``."""
+    return make_transform(p[:3], p[3:])
 
 
 @dataclass(frozen=True)

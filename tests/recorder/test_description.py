@@ -12,9 +12,9 @@ import pytest
 
 from navlog.cli import main
 from navlog.errors import ConfigError
-from navlog.recorder.description import describe, pose_matrix
+from navlog.recorder.description import describe, load_robot
 from navlog.recorder.record import prepare, record
-from navlog.recorder.robot import load_robot
+from navlog.recorder.robot_model import pose_matrix
 from navlog.replay.io import open_log
 
 
