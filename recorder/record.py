@@ -22,13 +22,14 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from navlog.errors import ConfigError
+from navlog.recorder.description import load_robot
 from navlog.recorder.range_sensors import start_range_sensors
-from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, load_robot
+from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec
 from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
 from navlog.recorder.world import World, load_world
 from navlog.replay.config import config_hash, to_mapping
@@ -54,6 +55,7 @@ class RecordResult:
     metadata: dict[str, str] = field(default_factory=dict)
     collisions: int = 0  # robot-world contacts (the simulator's collision events)
     navigation: dict | None = None  # a navigate scenario's goal results (the navigation pipeline's report)
+    notes: list[str] = field(default_factory=list)  # what the summary adds (a described robot's drive and sensors)
 
     @property
     def failed(self) -> str | None:
@@ -91,14 +93,27 @@ class RecordSetup:
     def topics(self) -> set[str]:
         """The topics the simulator and the scenario publish."""
         r = self.robot
-        out = {"/clock", "/tf", "/tf_static", "/cmd_vel", r.odom.topic, r.odom.ground_truth_topic}
+        out = {"/clock", "/tf", "/tf_static", r.cmd_topic, r.odom.topic, r.odom.ground_truth_topic}
         out.update(cfg.topic for cfg in (r.scan, r.lidar, r.imu) if cfg is not None)
+        if r.model is not None and r.model.wheel_joints is not None:
+            out.add(r.model.joint_states_topic)
+        return out
+
+    def notes(self) -> list[str]:
+        """The summary's lines about a robot from a description file: where its drive came from, and the
+        sensors it declares that navlog does not simulate."""
+        m = self.robot.model
+        if m is None:
+            return []
+        out = [f"robot from {m.source}: drive {self.robot.drive.type} from {m.drive_plugin or 'the --drive option'}"]
+        if m.other_sensors:
+            out.append(f"{len(m.other_sensors)} sensor(s) not simulated: {', '.join(m.other_sensors)}")
         return out
 
     def metadata(self) -> dict[str, str]:
         full = {
             "world": to_mapping(self.world.spec),
-            "robot": to_mapping(self.robot),
+            "robot": robot_mapping(self.robot),
             "scenario": to_mapping(self.scenario),
             "seed": self.seed,
             "noise": self.noise,
@@ -119,6 +134,15 @@ class RecordSetup:
         }
 
 
+def robot_mapping(robot: RobotSpec) -> dict:
+    """The robot's configuration for the metadata's hash (without ``model`` when it has none, as before it
+    existed)."""
+    out = to_mapping(robot)
+    if robot.model is None:
+        del out["model"]
+    return out
+
+
 def prepare(
     world: str | None,
     robot: str | None,
@@ -126,6 +150,10 @@ def prepare(
     seed: int = 0,
     noise: bool = True,
     localization: str = "perfect",
+    *,
+    robot_args: Mapping[str, str] | None = None,
+    package_paths: Sequence[Path | str] = (),
+    drive: str | None = None,
 ) -> RecordSetup:
     """Load and check world, robot and scenario; raises ConfigError before anything runs.
 
@@ -135,12 +163,15 @@ def prepare(
     ``amcl`` block, started at the scenario's start pose): it publishes map -> odom from /scan and the
     drifting odometry, as on a real robot (a navigate scenario's navigation then runs on it);
     ``perfect`` publishes map -> odom as the true correction; ``none`` publishes no
-    map -> odom (odom -> base only, drifting), as a real robot's log for a SLAM node to map."""
+    map -> odom (odom -> base only, drifting), as a real robot's log for a SLAM node to map.
+
+    ``robot_args``, ``package_paths``, ``drive``: for a robot from a description file
+    (``navlog.recorder.description.load_robot``)."""
     if localization not in LOCALIZATIONS:
         raise ConfigError(f"localization '{localization}' is not one of: {', '.join(LOCALIZATIONS)}")
     s = load_scenario(scenario)
     w = load_world(world or s.world or DEFAULT_WORLD)
-    r = load_robot(robot or s.robot or DEFAULT_ROBOT)
+    r = load_robot(robot or s.robot or DEFAULT_ROBOT, robot_args, package_paths, drive)
     check_scenario(s, r, w)
     return RecordSetup(w, r, s, seed, noise, localization)
 
@@ -175,7 +206,7 @@ def record(
     """
     out = Path(out)
     check_output(out, force)
-    command_topic = scenario_command_topic(pipeline)
+    command_topic = scenario_command_topic(pipeline, setup.robot.cmd_topic)
     # the sensor worker first, so that its start-up runs beside MuJoCo's import and model compilation
     if sensor_worker is None:
         sensor_worker = usable_cpus() > 1
@@ -244,7 +275,16 @@ def record(
             counts[topic] = (types.get(topic, ""), n)
         report = navigation.report() if navigation is not None and navigation.report is not None else None
         return RecordResult(
-            out, ex.now / 1e9, wall, out.stat().st_size, counts, interrupted, meta, collisions.count, report
+            out,
+            ex.now / 1e9,
+            wall,
+            out.stat().st_size,
+            counts,
+            interrupted,
+            meta,
+            collisions.count,
+            report,
+            setup.notes(),
         )
     finally:
         sim.close()  # the sensor worker ends with the run, however it ends
@@ -269,16 +309,16 @@ class CollisionCounter(Node):
             self.count += 1
 
 
-def scenario_command_topic(pipeline: Pipeline | None) -> str:
-    """Where the scenario publishes its commands: the robot's /cmd_vel, or the topic a live pipeline
-    filters into it (ConfigError when that pipeline's commands would not reach the robot)."""
+def scenario_command_topic(pipeline: Pipeline | None, robot_topic: str = CMD_VEL_TOPIC) -> str:
+    """Where the scenario publishes its commands: the robot's command topic (``robot_topic``), or the topic a
+    live pipeline filters into it (ConfigError when that pipeline's commands would not reach the robot)."""
     if pipeline is None or pipeline.commands is None:
-        return CMD_VEL_TOPIC
+        return robot_topic
     takes, gives = pipeline.commands
-    if gives != CMD_VEL_TOPIC:
+    if gives != robot_topic:
         raise ConfigError(
-            f"pipeline '{pipeline.name}' gives its commands on {gives}, but the robot drives on {CMD_VEL_TOPIC}; "
-            f"run it live with its output on {CMD_VEL_TOPIC} (e.g. --set output_topic={CMD_VEL_TOPIC})"
+            f"pipeline '{pipeline.name}' gives its commands on {gives}, but the robot drives on {robot_topic}; "
+            f"run it live with its output on {robot_topic} (e.g. --set output_topic={robot_topic})"
         )
     return takes
 
@@ -320,6 +360,7 @@ def format_summary(res: RecordResult) -> str:
         rows.append((topic, typ, n, f"{rate:.2f} Hz"))
     if rows:
         lines.append(format_table(("topic", "type", "msgs", "rate"), rows, align=("left", "left", "right", "right")))
+    lines += res.notes
     if res.navigation is not None:
         goals = [
             (g["name"], g["status"], g["code"] or "", f"{g['time_s']:.1f} s", g["recoveries"], g["message"])

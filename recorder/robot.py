@@ -1,4 +1,5 @@
-"""Robots from YAML: body, drive, frames and sensor set, and their MuJoCo model.
+"""Robots from YAML (description files: ``navlog.recorder.description``): body, drive, frames and
+sensor set, and their MuJoCo model.
 
 Two drives:
 - ``legged``: a legged-base stand-in (legs are not simulated). The trunk rides on planar joints
@@ -18,6 +19,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Literal
 
+from navlog.recorder.robot_bodies import ROBOT_GROUP
+from navlog.recorder.robot_model import RobotModel
 from navlog.replay.config import load_config, named_config
 from navlog.replay.geometry import quat_from_rpy, quat_to_wxyz
 
@@ -158,19 +161,90 @@ class RobotSpec:
     imu: ImuConfig | None = None
     odom: OdomConfig = field(default_factory=OdomConfig)
     timestep: float = 0.005  # physics step (s); the sim ticks every 5 ms
+    model: RobotModel | None = None  # the links of a robot from a description file (navlog.recorder.description)
 
     def frame(self, name: str) -> str:
         """A robot frame with the robot's prefix (map and world are never prefixed)."""
         return f"{self.frame_prefix}{name}" if name else ""
 
+    @property
+    def cmd_topic(self) -> str:
+        """The topic the robot drives on: its drive plugin's, else ``CMD_VEL_TOPIC``."""
+        return self.model.cmd_topic if self.model is not None else CMD_VEL_TOPIC
+
 
 def load_robot(name: str) -> RobotSpec:
+    """A robot YAML by name or path (``navlog.recorder.description.load_robot`` also takes description files)."""
     return load_config(RobotSpec, named_config("robots", name))
 
 
 # ---------------------------------------------------------------- MuJoCo model
 
-ROBOT_GROUP = 3  # every robot geom lives in this group
+# a described robot's wheels: MuJoCo's soft friction lets a wheel creep under load (small, light wheels
+# creep most); the no-slip solver's passes remove it
+NOSLIP_ITERATIONS = 4
+
+
+def add_carriage(body) -> None:
+    """The planar carriage of a kinematic base on ``body``: x, y, yaw joints driven in velocity (``act_x``,
+    ``act_y``, ``act_yaw``); z, pitch, roll held by position actuators (``act_z``, ``act_pitch``, ``act_roll``)."""
+    import mujoco
+
+    for name, jtype, axis in (
+        ("x", mujoco.mjtJoint.mjJNT_SLIDE, [1, 0, 0]),
+        ("y", mujoco.mjtJoint.mjJNT_SLIDE, [0, 1, 0]),
+        ("z", mujoco.mjtJoint.mjJNT_SLIDE, [0, 0, 1]),
+        ("yaw", mujoco.mjtJoint.mjJNT_HINGE, [0, 0, 1]),
+        ("pitch", mujoco.mjtJoint.mjJNT_HINGE, [0, 1, 0]),
+        ("roll", mujoco.mjtJoint.mjJNT_HINGE, [1, 0, 0]),
+    ):
+        body.add_joint(
+            name=f"base_{name}", type=jtype, axis=axis, damping=[1.0, 0, 0] if name in "xyz" else [0.2, 0, 0]
+        )
+
+
+def _add_carriage_actuators(spec, mass: float) -> None:
+    import mujoco
+
+    m = mass
+    spec.add_actuator(name="act_x", target="base_x", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
+    spec.add_actuator(name="act_y", target="base_y", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
+    spec.add_actuator(name="act_yaw", target="base_yaw", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=20.0)
+    spec.add_actuator(name="act_z", target="base_z", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
+        kp=6000.0, kv=400.0
+    )
+    spec.add_actuator(name="act_pitch", target="base_pitch", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
+        kp=400.0, kv=20.0
+    )
+    spec.add_actuator(name="act_roll", target="base_roll", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
+        kp=400.0, kv=20.0
+    )
+
+
+def _add_described(spec, robot: RobotSpec, model: RobotModel, start: tuple[float, float, float]) -> None:
+    """A robot from a description file (``navlog.recorder.robot_bodies``)."""
+    from navlog.recorder.robot_bodies import add_bodies, wheel_gain
+
+    x, y, yaw = start
+    if robot.drive.type == "legged":  # an omni base: the carriage, as the legged drive's, without contacts
+        root = spec.worldbody.add_body(name=model.root, pos=[0.0, 0.0, model.height], gravcomp=1.0)
+        add_carriage(root)
+        add_bodies(spec, model, root, None)
+        for geom in spec.geoms:
+            if geom.group == ROBOT_GROUP:
+                geom.contype = geom.conaffinity = 0
+        for body in spec.bodies:
+            body.gravcomp = 1.0
+        _add_carriage_actuators(spec, robot.body.mass)
+    else:
+        root = spec.worldbody.add_body(
+            name=model.root, pos=[x, y, model.height], quat=list(quat_to_wxyz(quat_from_rpy(0.0, 0.0, yaw)))
+        )
+        root.add_freejoint(name="base_free")
+        spec.option.noslip_iterations = NOSLIP_ITERATIONS
+        d = robot.drive
+        add_bodies(spec, model, root, wheel_gain(robot.body.mass, d.wheel_radius))
+    root.add_site(name="imu", pos=list(robot.imu.mount[:3]) if robot.imu else [0, 0, 0])
 
 
 def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> None:
@@ -182,22 +256,14 @@ def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> No
     G = mujoco.mjtGeom
     spec.option.timestep = robot.timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    if robot.drive.type == "legged":
+    if robot.model is not None:
+        _add_described(spec, robot, robot.model, start)
+    elif robot.drive.type == "legged":
         # planar carriage carrying the trunk: x, y, yaw driven in velocity; z, pitch, roll held by
         # position actuators that follow the gait sway; gravity compensated on the trunk.
         # the carriage starts at the origin; the simulator sets the start pose on the x, y, yaw joints
         base = spec.worldbody.add_body(name="base_link", pos=[0.0, 0.0, robot.body.height], gravcomp=1.0)
-        for name, jtype, axis in (
-            ("x", mujoco.mjtJoint.mjJNT_SLIDE, [1, 0, 0]),
-            ("y", mujoco.mjtJoint.mjJNT_SLIDE, [0, 1, 0]),
-            ("z", mujoco.mjtJoint.mjJNT_SLIDE, [0, 0, 1]),
-            ("yaw", mujoco.mjtJoint.mjJNT_HINGE, [0, 0, 1]),
-            ("pitch", mujoco.mjtJoint.mjJNT_HINGE, [0, 1, 0]),
-            ("roll", mujoco.mjtJoint.mjJNT_HINGE, [1, 0, 0]),
-        ):
-            base.add_joint(
-                name=f"base_{name}", type=jtype, axis=axis, damping=[1.0, 0, 0] if name in "xyz" else [0.2, 0, 0]
-            )
+        add_carriage(base)
         base.add_geom(
             name="trunk",
             type=G.mjGEOM_BOX,
@@ -207,19 +273,7 @@ def add_to_spec(spec, robot: RobotSpec, start: tuple[float, float, float]) -> No
             contype=0,
             conaffinity=0,
         )
-        m = robot.body.mass
-        spec.add_actuator(name="act_x", target="base_x", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
-        spec.add_actuator(name="act_y", target="base_y", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=m / 0.02)
-        spec.add_actuator(name="act_yaw", target="base_yaw", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_velocity(kv=20.0)
-        spec.add_actuator(name="act_z", target="base_z", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
-            kp=6000.0, kv=400.0
-        )
-        spec.add_actuator(name="act_pitch", target="base_pitch", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
-            kp=400.0, kv=20.0
-        )
-        spec.add_actuator(name="act_roll", target="base_roll", trntype=mujoco.mjtTrn.mjTRN_JOINT).set_to_position(
-            kp=400.0, kv=20.0
-        )
+        _add_carriage_actuators(spec, robot.body.mass)
         base.add_site(name="imu", pos=list(robot.imu.mount[:3]) if robot.imu else [0, 0, 0])
     else:
         d = robot.drive

@@ -57,7 +57,7 @@ from navlog.recorder.range_sensors import (
     RangeSensorsLike,
     start_range_sensors,
 )
-from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, add_to_spec
+from navlog.recorder.robot import RobotSpec, add_to_spec
 from navlog.recorder.world import World, build_spec, import_mujoco
 from navlog.replay import messages
 from navlog.replay.geometry import (
@@ -175,7 +175,8 @@ class SimNode(Node):
         # (ticket, topic, type name, place)
         self._late: dict[str, deque[tuple[int, str, str, Deferred]]] = {SCAN: deque(), LIDAR: deque()}
         self.legged = robot.drive.type == "legged"
-        self._bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "base_link")
+        base_body = robot.model.root if robot.model is not None else "base_link"
+        self._bid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, base_body)
         # contacts: which geoms are the robot's, which are world obstacles (static, not the floor)
         world_geom = self.model.geom_bodyid == 0
         self._robot_geom = ~world_geom
@@ -250,6 +251,7 @@ class SimNode(Node):
             self._imu_noise = _Normals(
                 self.rng_imu, [i.gyro_noise] * 3 + [i.accel_noise] * 3 + [i.orientation_noise] * 3
             )
+        self._joints = WheelJoints(self.model, robot) if robot.model is not None and robot.model.wheel_joints else None
         f = robot.frames
         self._frame_names = {
             "scan": robot.frame(robot.scan.frame) if robot.scan else "",
@@ -277,10 +279,10 @@ class SimNode(Node):
             self._act = {
                 n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"act_wheel_{n}") for n in ("left", "right")
             }
-            self._wheel_dof = [
-                m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, f"wheel_{n}_joint")]
-                for n in ("left", "right")
-            ]
+            model = self.robot.model
+            wheels = model.wheel_joints if model is not None else None
+            joints = wheels if wheels is not None else tuple(f"wheel_{n}_joint" for n in ("left", "right"))
+            self._wheel_dof = [m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j)] for j in joints]
         mujoco.mj_forward(m, d)
 
     @property
@@ -313,7 +315,7 @@ class SimNode(Node):
 
     # ------------------------------------------------------------ node
     def setup(self) -> None:
-        self.subscribe(CMD_VEL_TOPIC, self._on_cmd)
+        self.subscribe(self.robot.cmd_topic, self._on_cmd)
         self.create_timer(TICK_NS, self._tick, start_ns=0)
 
     def _on_cmd(self, msg, t_ns: int) -> None:
@@ -380,6 +382,8 @@ class SimNode(Node):
             self._publish_scan(t_ns, base)
         if p["lidar"] and t_ns % p["lidar"] == 0 and t_ns > 0:
             self._publish_lidar(t_ns)
+        if self._joints is not None and t_ns % self._joints.period_ns == 0:
+            self._joints.publish(self, t_ns)
 
     def _raw(self, topic: str) -> bool:
         """Publish ``topic`` as CDR bytes: only sinks (the recorder) see it."""
@@ -439,6 +443,13 @@ class SimNode(Node):
         r = self.robot
         f = r.frames
         tfs = [messages.transform_stamped(t_ns, f.world, f.map, (0, 0, 0), (0, 0, 0, 1))]
+        if r.model is not None:  # the description's fixed joints and sensor frames
+            for s in r.model.static_frames:
+                tfs.append(
+                    messages.transform_stamped(t_ns, r.frame(s.parent), r.frame(s.child), s.pose[:3], s.pose[3:])
+                )
+            self.publish("/tf_static", messages.TF_MESSAGE, messages.tf_message(tfs))
+            return
         for cfg in (r.scan, r.lidar, r.imu):
             if cfg is None:
                 continue
@@ -614,3 +625,45 @@ class SimNode(Node):
         """End the sensor worker, if any (``finish`` does; call it when a run ends otherwise)."""
         if self._ranges is not None:
             self._ranges.close()
+
+
+JOINT_STATE = "sensor_msgs/msg/JointState"
+
+
+class WheelJoints:
+    """``/joint_states`` of a described robot's wheel joints, and their links' transforms on ``/tf``, at the
+    joint state publisher's rate: what Gazebo's JointStatePublisher and robot_state_publisher publish."""
+
+    def __init__(self, model, robot: RobotSpec) -> None:
+        described = robot.model
+        assert described is not None and described.wheel_joints is not None
+        self.topic = described.joint_states_topic
+        self.period_ns = _period_ns(described.joint_states_rate)
+        self.names = list(described.wheel_joints)
+        ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in self.names]
+        self._qpos = [int(model.jnt_qposadr[i]) for i in ids]
+        self._dof = [int(model.jnt_dofadr[i]) for i in ids]
+        links = {link.joint: link for link in described.links}
+        self._bodies = []
+        for j in self.names:
+            link = links[j]
+            parent = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, link.parent)
+            child = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, link.name)
+            self._bodies.append((robot.frame(link.parent), robot.frame(link.name), parent, child))
+
+    def publish(self, node: SimNode, t_ns: int) -> None:
+        d = node.data
+        state = messages.msg_class(JOINT_STATE)(
+            header=messages.header(t_ns, ""),
+            name=self.names,
+            position=np.array([d.qpos[i] for i in self._qpos], dtype=np.float64),
+            velocity=np.array([d.qvel[i] for i in self._dof], dtype=np.float64),
+            effort=np.zeros(0, dtype=np.float64),
+        )
+        node.publish(self.topic, JOINT_STATE, state)
+        tfs = []
+        for parent_frame, child_frame, parent, child in self._bodies:
+            rp, rc = d.xmat[parent].reshape(3, 3), d.xmat[child].reshape(3, 3)
+            xyz = rp.T @ (d.xpos[child] - d.xpos[parent])
+            tfs.append((parent_frame, child_frame, tuple(xyz.tolist()), mat_to_quat(rp.T @ rc)))
+        node._publish_tf(t_ns, tfs)

@@ -23,7 +23,32 @@ def register(sub) -> None:
         "A navigate scenario exits 1 when a goal failed or the robot hit something.",
     )
     p.add_argument("--world", help="world name or YAML path (default: the scenario's world, else indoor_room)")
-    p.add_argument("--robot", help="robot name or YAML path (default: the scenario's robot, else go2)")
+    p.add_argument(
+        "--robot",
+        help="robot name, YAML path, or description file: .urdf, .sdf, .urdf.xacro, .sdf.xacro "
+        "(default: the scenario's robot, else go2)",
+    )
+    p.add_argument(
+        "--robot-arg",
+        action="append",
+        default=[],
+        metavar="NAME:=VALUE",
+        help="a xacro argument of the robot's description file, as ros2 launch takes it (repeatable)",
+    )
+    p.add_argument(
+        "--package-path",
+        action="append",
+        default=[],
+        type=Path,
+        metavar="DIR",
+        help="a folder holding ROS packages (folders with a package.xml), searched for package:// and $(find) "
+        "before ROS_PACKAGE_PATH and AMENT_PREFIX_PATH (repeatable)",
+    )
+    p.add_argument(
+        "--drive",
+        choices=("diff_drive", "omni"),
+        help="the drive of a description file that declares no drive plugin (diff_drive: its two wheel joints)",
+    )
     p.add_argument("--scenario", default="mapping", help="scenario name or YAML path (default: mapping)")
     p.add_argument("--seed", type=int, default=0, help="seed of all sensor and odometry noise (default: 0)")
     p.add_argument("--no-noise", action="store_true", help="switch every sensor and odometry noise off")
@@ -89,11 +114,32 @@ def stop_on_ctrl_c() -> Iterator[threading.Event]:
         signal.signal(signal.SIGINT, previous)
 
 
+def robot_args(words: list[str]) -> dict[str, str]:
+    """``NAME:=VALUE`` words as a mapping (ConfigError for another form)."""
+    from navlog.errors import ConfigError
+
+    out = {}
+    for word in words:
+        name, sep, value = word.partition(":=")
+        if not sep or not name:
+            raise ConfigError(f"--robot-arg '{word}': expected NAME:=VALUE")
+        out[name] = value
+    return out
+
+
 def run(args) -> int:
     from navlog.recorder.record import format_summary, prepare, record
 
     setup = prepare(
-        args.world, args.robot, args.scenario, seed=args.seed, noise=not args.no_noise, localization=args.localization
+        args.world,
+        args.robot,
+        args.scenario,
+        seed=args.seed,
+        noise=not args.no_noise,
+        localization=args.localization,
+        robot_args=robot_args(args.robot_arg),
+        package_paths=args.package_path,
+        drive=args.drive,
     )
     pipe = navigation = None
     if args.pipeline:

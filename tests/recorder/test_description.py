@@ -1,0 +1,257 @@
+"""Robots from Nav2's own description files (URDF, SDF, xacro): their numbers, a recording, and bad input."""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navlog.cli import main
+from navlog.errors import ConfigError
+from navlog.recorder.description import describe, load_robot
+from navlog.recorder.record import prepare, record
+from navlog.recorder.robot_model import pose_matrix
+from navlog.replay.io import open_log
+
+
+@pytest.fixture(scope="module")
+def nav2_sim(shared_dir: Path) -> Path:
+    return shared_dir / "external-data" / "nav2_sim"
+
+
+@pytest.fixture(scope="module")
+def waffle_sdf(nav2_sim: Path) -> Path:
+    return nav2_sim / "nav2_minimal_tb3_sim" / "urdf" / "gz_waffle.sdf.xacro"
+
+
+@pytest.fixture(scope="module")
+def tb4(nav2_sim: Path) -> Path:
+    return nav2_sim / "nav2_minimal_tb4_description" / "urdf" / "standard" / "turtlebot4.urdf.xacro"
+
+
+def _static(robot, child: str):
+    assert robot.model is not None
+    return next(f for f in robot.model.static_frames if f.child == child)
+
+
+def test_waffle_sdf_xacro_has_nav2s_numbers(waffle_sdf):
+    r = describe(waffle_sdf)
+    d = r.drive
+    assert (d.type, d.wheel_separation, d.wheel_radius) == ("diff_drive", 0.287, 0.033)
+    assert (d.max_vx, d.min_vx, d.max_wz, d.max_accel) == (0.46, -0.46, 1.9, (1.0, 0.0, 2.0))
+    assert r.model.wheel_joints == ("wheel_left_joint", "wheel_right_joint")
+    assert r.model.drive_plugin == "gz-sim-diff-drive-system"
+    assert (r.cmd_topic, r.odom.topic, r.odom.rate) == ("/cmd_vel", "/odom", 30.0)
+    assert (r.frames.odom, r.frames.base, r.frames.base_footprint) == ("odom", "base_footprint", "")
+    assert (r.model.joint_states_topic, r.model.joint_states_rate) == ("/joint_states", 30.0)
+    s = r.scan
+    assert (s.topic, s.frame, s.samples, s.rate, s.noise_std) == ("/scan", "base_scan", 360, 5.0, 0.01)
+    assert (s.range_min, s.range_max) == (0.00001, 20.0)
+    # Gazebo's increment: 6.28 over 359 steps; the last beam at the file's max_angle
+    inc = (s.angle_max - s.angle_min) / s.samples
+    assert inc == pytest.approx(6.28 / 359) and s.angle_min + inc * 359 == pytest.approx(6.28)
+    # the sensor sits at its <pose> in base_scan (a link at the model's origin): its frame is published there
+    assert s.mount == pytest.approx((-0.064, 0.0, 0.15, 0.0, 0.0, 0.0))
+    assert _static(r, "base_scan").pose[:3] == pytest.approx((-0.064, 0.0, 0.15))
+    assert _static(r, "base_scan").parent == "base_link"
+    assert (r.imu.topic, r.imu.frame, r.imu.rate) == ("/imu", "imu_link", 200.0)
+    assert (r.imu.gyro_noise, r.imu.accel_noise) == (2e-4, 1.7e-2)
+    assert r.lidar is None
+    assert r.model.other_sensors == ["intel_realsense_r200_depth (depth)"]
+    # the masses of the file, and the robot standing on its wheels and casters (1 cm below the model's origin)
+    assert r.body.mass == pytest.approx(1.0 + 0.125 + 2 * 0.1 + 2 * 0.001 + 0.035)
+    assert r.model.height == pytest.approx(0.010, abs=1e-4)
+    wheel = r.model.link("wheel_left_link")
+    assert wheel.joint_type == "revolute" and wheel.joint_pos == pytest.approx((0.0, 0.144, 0.023))
+    assert wheel.axis == pytest.approx((0.0, 1.0, 0.0), abs=1e-3)  # the joint frame's z, rolled by -1.57
+
+
+def test_waffle_urdf_names_the_plugins_it_understands_then_measures_its_wheels(nav2_sim):
+    urdf = nav2_sim / "nav2_minimal_tb3_sim" / "urdf" / "turtlebot3_waffle.urdf"
+    with pytest.raises(ConfigError, match="no drive plugin.*gz-sim-diff-drive-system.*libgazebo_ros_diff_drive.so"):
+        describe(urdf)
+    r = describe(urdf, drive="diff_drive")
+    assert r.drive.wheel_separation == pytest.approx(0.288) and r.drive.wheel_radius == 0.033
+    assert r.model.wheel_joints == ("wheel_left_joint", "wheel_right_joint")
+    assert _static(r, "base_link").pose[:3] == (0.0, 0.0, 0.010)
+    assert _static(r, "base_scan").pose[:3] == (-0.064, 0.0, 0.122)
+    rgb = _static(r, "camera_rgb_optical_frame")
+    assert rgb.parent == "camera_rgb_frame"
+    assert pose_matrix(rgb.pose)[:3, :3] @ np.array([0, 0, 1.0]) == pytest.approx([1.0, 0.0, 0.0], abs=1e-3)
+    assert r.scan is None and r.imu is None  # the plain URDF declares no sensor
+    assert r.body.mass == pytest.approx(1.3729096 + 2 * 0.028498940 + 2 * 0.005 + 0.114, abs=0.01)
+
+
+def test_turtlebot4_xacro_loads_with_its_two_missing_visual_meshes_as_warnings(tb4, caplog):
+    with caplog.at_level(logging.WARNING, logger="navlog"):
+        r = describe(tb4)
+    missing = [m for m in caplog.messages if "visual mesh" in m]
+    assert len(missing) == 2
+    assert any("shell.dae" in m and "shell_link" in m for m in missing)
+    assert any("oakd_pro.dae" in m and "oakd_link" in m for m in missing)
+    assert (r.drive.wheel_separation, r.drive.wheel_radius) == (0.233, 0.03575)
+    assert r.model.wheel_joints == ("left_wheel_joint", "right_wheel_joint")
+    assert (r.frames.base, r.odom.rate) == ("base_link", 100.0)
+    s = r.scan
+    assert (s.topic, s.frame, s.samples, s.range_min, s.range_max, s.rate) == (
+        "/scan",
+        "rplidar_link",
+        360,
+        0.164,
+        20.0,
+        10.0,
+    )
+    assert s.mount[:3] == pytest.approx((-0.04, 0.0, 0.0642 + 0.03 + 0.098715))
+    assert s.mount[5] == pytest.approx(math.pi / 2)
+    shell = r.model.link("shell_link").collisions[0].geometry
+    assert shell.shape == "mesh" and shell.mesh.endswith("shell_collision.dae")
+    assert "rgbd_camera (rgbd_camera)" in r.model.other_sensors
+
+
+def test_xacro_arguments_name_the_topics(waffle_sdf):
+    r = load_robot(str(waffle_sdf), {"namespace": "/tb3"})
+    assert (r.cmd_topic, r.odom.topic, r.scan.topic, r.imu.topic) == (
+        "/tb3/cmd_vel",
+        "/tb3/odom",
+        "/tb3/scan",
+        "/tb3/imu",
+    )
+
+
+def test_a_robot_yaml_adds_what_the_description_lacks(waffle_sdf, tmp_path):
+    yaml = tmp_path / "my_waffle.yaml"
+    yaml.write_text(
+        f"description_file: {os.path.relpath(waffle_sdf, tmp_path)}\n"
+        "odom: {linear_noise: 0.02, angular_noise: 0.03}\n"
+        "lidar: {topic: /points, frame: base_scan, lines: 16, columns: 360}\n"
+    )
+    r = load_robot(str(yaml))
+    assert (r.odom.linear_noise, r.odom.angular_noise, r.odom.rate) == (0.02, 0.03, 30.0)
+    assert r.lidar is not None and (r.lidar.lines, r.lidar.columns) == (16, 360)
+    assert r.drive.wheel_separation == 0.287 and r.scan.samples == 360
+
+
+def test_the_waffle_records_the_files_topics_and_drives_as_commanded(waffle_sdf, tmp_path):
+    scenario = tmp_path / "straight.yaml"
+    scenario.write_text(
+        "name: straight\nkind: teleop\nstart: [0.0, 0.0, 0.0]\n"
+        "commands:\n  - {duration: 3.0, cmd: [0.3, 0.0, 0.0]}\n  - {duration: 2.0, cmd: [0.0, 0.0, 0.5]}\nhold: 0.5\n"
+    )
+    out = tmp_path / "waffle.mcap"
+    res = record(prepare("walled_room", str(waffle_sdf), str(scenario)), out, progress=False, sensor_worker=False)
+    for topic in ("/scan", "/imu", "/odom", "/tf", "/tf_static", "/joint_states", "/odom/ground_truth"):
+        assert res.topics[topic][1] > 0, topic
+    assert res.topics["/scan"][1] == int(res.sim_s * 5) + 1  # 5 Hz, from t = 0
+    assert any("intel_realsense_r200_depth (depth)" in n for n in res.notes)
+    with open_log(out) as r:
+        scan = next(iter(r.messages(["/scan"]))).msg
+        odom = [(e.log_time_ns if hasattr(e, "log_time_ns") else 0, e.msg) for e in r.messages(["/odom"])]
+        truth = [e.msg for e in r.messages(["/odom/ground_truth"])]
+        static = next(iter(r.messages(["/tf_static"]))).msg
+        joints = [e.msg for e in r.messages(["/joint_states"])]
+    assert scan.header.frame_id == "base_scan" and len(scan.ranges) == 360
+    assert odom[0][1].header.frame_id == "odom" and odom[0][1].child_frame_id == "base_footprint"
+    assert {(t.header.frame_id, t.child_frame_id) for t in static.transforms} >= {
+        ("base_footprint", "base_link"),
+        ("base_link", "base_scan"),
+        ("base_link", "imu_link"),
+    }
+    assert list(joints[-1].name) == ["wheel_left_joint", "wheel_right_joint"]
+    # 3 s forward at 0.3 m/s: the true speed at its end, and the distance along x
+    at_3s = truth[int(3.0 * 30 * 0.95)]  # odometry at 28.6 Hz (35 ms periods)
+    assert at_3s.twist.twist.linear.x == pytest.approx(0.3, rel=0.1)
+    p = at_3s.pose.pose.position
+    assert 0.7 < p.x < 0.95 and abs(p.y) < 0.02
+    # then 2 s turning left at 0.5 rad/s: the yaw grows in the commanded direction
+    q = truth[-1].pose.pose.orientation
+    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+    assert 0.7 < yaw < 1.1
+    # the wheels' odometry follows the truth
+    last = odom[-1][1].pose.pose.position
+    assert last.x == pytest.approx(truth[-1].pose.pose.position.x, abs=0.08)
+
+
+# ---------------------------------------------------------------- bad input
+
+
+def _record(tmp_path: Path, robot: Path, *extra: str) -> tuple[int, Path]:
+    out = tmp_path / "out.mcap"
+    code = main(
+        [
+            "-q",
+            "record",
+            "--robot",
+            str(robot),
+            "--world",
+            "walled_room",
+            "--scenario",
+            "teleop",
+            *extra,
+            "-o",
+            str(out),
+        ]
+    )
+    return code, out
+
+
+URDF_HEAD = '<?xml version="1.0"?>\n<robot name="bad">\n'
+
+
+def test_a_missing_collision_mesh_names_the_file_and_the_link(tmp_path, capsys):
+    urdf = tmp_path / "bad.urdf"
+    urdf.write_text(
+        URDF_HEAD + '<link name="base_link"><collision><geometry><mesh filename="meshes/gone.stl"/></geometry>'
+        "</collision></link>\n</robot>\n"
+    )
+    code, out = _record(tmp_path, urdf, "--drive", "omni")
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert "link 'base_link'" in err and "gone.stl" in err and "collision mesh" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_a_xacro_error_names_the_file_and_the_line(tmp_path, capsys):
+    xacro = tmp_path / "bad.urdf.xacro"
+    xacro.write_text(
+        '<?xml version="1.0"?>\n<robot name="bad" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+        '  <link name="base_link"/>\n  <joint name="j" type="fixed">\n'
+        '    <origin xyz="0 0 ${undefined_height}"/>\n  </joint>\n</robot>\n'
+    )
+    code, out = _record(tmp_path, xacro)
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert f"{xacro}:5: xacro:" in err and "undefined_height" in err
+
+
+def test_a_malformed_xacro_names_the_line(tmp_path, capsys):
+    xacro = tmp_path / "bad.sdf.xacro"
+    xacro.write_text('<?xml version="1.0"?>\n<sdf version="1.6">\n  <model name="m">\n  </modle>\n</sdf>\n')
+    code, out = _record(tmp_path, xacro)
+    assert code == 2 and not out.exists()
+    assert f"{xacro}:4" in capsys.readouterr().err
+
+
+def test_no_drive_plugin_lists_the_understood_ones(nav2_sim, tmp_path, capsys):
+    code, out = _record(tmp_path, nav2_sim / "nav2_minimal_tb3_sim" / "urdf" / "turtlebot3_waffle.urdf")
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert "libgazebo_ros_diff_drive.so" in err and "--drive" in err
+
+
+def test_a_sensor_with_zero_samples_is_an_error(waffle_sdf, tmp_path, capsys):
+    bad = tmp_path / "zero.sdf.xacro"
+    bad.write_text(waffle_sdf.read_text().replace("<samples>360</samples>", "<samples>0</samples>"))
+    code, out = _record(tmp_path, bad, "--package-path", str(waffle_sdf.parents[2]))
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert "hls_lfcd_lds" in err and "0 horizontal" in err
+
+
+def test_robot_arg_needs_name_and_value(waffle_sdf, tmp_path, capsys):
+    code, out = _record(tmp_path, waffle_sdf, "--robot-arg", "namespace=/x")
+    assert code == 2 and not out.exists()
+    assert "NAME:=VALUE" in capsys.readouterr().err
