@@ -29,9 +29,9 @@ from pathlib import Path
 from navlog.errors import ConfigError
 from navlog.recorder.range_sensors import start_range_sensors
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec, load_robot
-from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
+from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario, scenario_world
 from navlog.recorder.world import World, load_world
-from navlog.replay.config import config_hash, to_mapping
+from navlog.replay.config import config_hash, named_config, to_mapping
 from navlog.replay.io.logwriter import McapLogWriter, check_output
 from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Executor, Node
@@ -54,6 +54,7 @@ class RecordResult:
     metadata: dict[str, str] = field(default_factory=dict)
     collisions: int = 0  # robot-world contacts (the simulator's collision events)
     navigation: dict | None = None  # a navigate scenario's goal results (the navigation pipeline's report)
+    notes: list[str] = field(default_factory=list)  # what loading the world ignored or assumed
 
     @property
     def failed(self) -> str | None:
@@ -126,10 +127,15 @@ def prepare(
     seed: int = 0,
     noise: bool = True,
     localization: str = "perfect",
+    *,
+    resource_paths: Sequence[Path | str] = (),
+    wall_height: float | None = None,
 ) -> RecordSetup:
     """Load and check world, robot and scenario; raises ConfigError before anything runs.
 
-    ``world``/``robot`` None: the scenario's own (its ``world``/``robot`` fields), else indoor_room / go2.
+    ``world``/``robot`` None: the scenario's own (its ``world``/``robot`` fields; a world given by path
+    is relative to the scenario file), else indoor_room / go2. ``resource_paths`` and ``wall_height``:
+    how an SDF world finds its models and a map world's wall height (``load_world``).
 
     ``localization``: ``amcl`` runs Nav2's AMCL live on the world's map (the scenario's Nav2 file's
     ``amcl`` block, started at the scenario's start pose): it publishes map -> odom from /scan and the
@@ -139,9 +145,12 @@ def prepare(
     if localization not in LOCALIZATIONS:
         raise ConfigError(f"localization '{localization}' is not one of: {', '.join(LOCALIZATIONS)}")
     s = load_scenario(scenario)
-    w = load_world(world or s.world or DEFAULT_WORLD)
+    folder = named_config("scenarios", scenario).parent
+    w = load_world(
+        world or scenario_world(s, folder) or DEFAULT_WORLD, resource_paths=resource_paths, wall_height=wall_height
+    )
     r = load_robot(robot or s.robot or DEFAULT_ROBOT)
-    check_scenario(s, r, w)
+    check_scenario(s, r, w, folder)
     return RecordSetup(w, r, s, seed, noise, localization)
 
 
@@ -244,7 +253,16 @@ def record(
             counts[topic] = (types.get(topic, ""), n)
         report = navigation.report() if navigation is not None and navigation.report is not None else None
         return RecordResult(
-            out, ex.now / 1e9, wall, out.stat().st_size, counts, interrupted, meta, collisions.count, report
+            out,
+            ex.now / 1e9,
+            wall,
+            out.stat().st_size,
+            counts,
+            interrupted,
+            meta,
+            collisions.count,
+            report,
+            list(setup.world.notes),
         )
     finally:
         sim.close()  # the sensor worker ends with the run, however it ends
@@ -313,6 +331,7 @@ def format_summary(res: RecordResult) -> str:
         f"sim time {res.sim_s:.2f} s, wall time {res.wall_s:.2f} s, real-time factor {res.real_time_factor:.1f}x",
         f"world {res.metadata.get('world')}, robot {res.metadata.get('robot')}, scenario {res.metadata.get('scenario')}, "
         f"seed {res.metadata.get('seed')}, noise {res.metadata.get('noise')}",
+        *(f"world: {note}" for note in res.notes),
     ]
     rows = []
     for topic, (typ, n) in res.topics.items():

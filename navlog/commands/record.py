@@ -22,7 +22,11 @@ def register(sub) -> None:
         "  navlog record --scenario nav_tour --params config/nav2/nav_go2_mppi.yaml -o nav_mppi.mcap\n"
         "A navigate scenario exits 1 when a goal failed or the robot hit something.",
     )
-    p.add_argument("--world", help="world name or YAML path (default: the scenario's world, else indoor_room)")
+    p.add_argument(
+        "--world",
+        help="world name, world YAML, Gazebo SDF world (.sdf, .world, .sdf.xacro) or map_server map YAML "
+        "(default: the scenario's world, else indoor_room)",
+    )
     p.add_argument("--robot", help="robot name or YAML path (default: the scenario's robot, else go2)")
     p.add_argument("--scenario", default="mapping", help="scenario name or YAML path (default: mapping)")
     p.add_argument("--seed", type=int, default=0, help="seed of all sensor and odometry noise (default: 0)")
@@ -45,6 +49,7 @@ def register(sub) -> None:
     )
     p.add_argument("-o", "--output", required=True, type=Path, help="output .mcap file")
     p.add_argument("--force", action="store_true", help="overwrite the output if it exists")
+    add_world_options(p)
     p.add_argument(
         "--pipeline",
         help="also run a replay pipeline's nodes live (e.g. mapping) and record their outputs; the safety "
@@ -89,11 +94,37 @@ def stop_on_ctrl_c() -> Iterator[threading.Event]:
         signal.signal(signal.SIGINT, previous)
 
 
+def add_world_options(p) -> None:
+    """The options of a world read from an SDF file or a map (``navlog record``, ``navlog world-map``)."""
+    p.add_argument(
+        "--resource-path",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="a folder of Gazebo models (model://NAME) or ROS packages (package://PKG) for an SDF world, searched "
+        "before GZ_SIM_RESOURCE_PATH, GAZEBO_MODEL_PATH, ROS_PACKAGE_PATH and AMENT_PREFIX_PATH (repeatable)",
+    )
+    p.add_argument(
+        "--wall-height",
+        type=float,
+        default=None,
+        metavar="M",
+        help="a map_server map as a world: the height of the walls its occupied cells become (default 2.0)",
+    )
+
+
 def run(args) -> int:
     from navlog.recorder.record import format_summary, prepare, record
 
     setup = prepare(
-        args.world, args.robot, args.scenario, seed=args.seed, noise=not args.no_noise, localization=args.localization
+        args.world,
+        args.robot,
+        args.scenario,
+        seed=args.seed,
+        noise=not args.no_noise,
+        localization=args.localization,
+        resource_paths=args.resource_path,
+        wall_height=args.wall_height,
     )
     pipe = navigation = None
     if args.pipeline:
