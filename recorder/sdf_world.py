@@ -313,7 +313,8 @@ class _Reader:
                 self.out.ignored["plane (not the ground)"] += 1
         elif g.tag == "mesh":
             uri = (g.findtext("uri") or "").strip()
-            scale = tuple(_floats(g.findtext("scale") or "1 1 1", 3, f"{what} scale"))
+            sx, sy, sz = _floats(g.findtext("scale") or "1 1 1", 3, f"{what} scale")
+            scale = (sx, sy, sz)
             try:
                 path = resolve_uri(uri, base, self.search_paths)
             except ConfigError as exc:
@@ -324,7 +325,7 @@ class _Reader:
             if key not in self.meshes:
                 from navlog.recorder.meshes import read_mesh_file
 
-                self.meshes[key] = read_mesh_file(path, scale)  # type: ignore[arg-type]
+                self.meshes[key] = read_mesh_file(path, scale)
             self.add_mesh(name, *self.meshes[key], pose)
         else:
             self.out.ignored[f"<{g.tag}> geometry"] += 1
