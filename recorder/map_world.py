@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from navlog.errors import ConfigError
+from navlog.recorder.solids import Solid
 from navlog.replay.geometry import se2_compose
 
 DEFAULT_WALL_HEIGHT = 2.0  # m
@@ -55,7 +56,6 @@ def merge_cells(occupied: np.ndarray) -> list[tuple[int, int, int, int]]:
 
 def map_solids(path: Path, wall_height: float = DEFAULT_WALL_HEIGHT) -> tuple[list, list[str]]:
     """The walls of the map_server map ``path`` as box solids, and notes for the summary."""
-    from navlog.recorder.world import Solid
     from navlog.replay.io.map_server import load_map
 
     if not (0 < wall_height < math.inf):

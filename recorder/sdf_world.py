@@ -27,6 +27,7 @@ import numpy as np
 
 from navlog.errors import ConfigError
 from navlog.recorder.resources import resolve_uri
+from navlog.recorder.solids import Solid, mesh_solid
 from navlog.recorder.xacro_files import read_description
 
 SDF_SUFFIXES = (".sdf", ".world")  # and either followed by .xacro
@@ -40,7 +41,7 @@ ROUND_SECTIONS = 32  # sides of a tilted cylinder's or a capsule's mesh
 class SdfWorld:
     """What an SDF file holds as world geometry (``Solid`` list) and what was ignored or is missing."""
 
-    solids: list = field(default_factory=list)  # list[Solid]
+    solids: list[Solid] = field(default_factory=list)
     ground: bool = False  # a plane facing up at height 0: the world's floor
     ignored: Counter[str] = field(default_factory=Counter)
     warnings: list[str] = field(default_factory=list)
@@ -272,14 +273,13 @@ class _Reader:
             self.out.warnings.append(f"warning: {file}: link '{link}' visual '{vis.get('name', '')}': {exc}")
 
     def geometry(self, g: ET.Element, pose: np.ndarray, base: Path, where: str, name: str) -> None:
-        from navlog.recorder.world import Solid
-
         rot, pos = pose[:3, :3], pose[:3, 3]
         upright = abs(rot[2, 2]) > 1 - 1e-9
         yaw = math.atan2(rot[1, 0], rot[0, 0])
         what = f"{where} <{g.tag}>"
         if g.tag == "box":
-            size = tuple(_floats(g.findtext("size"), 3, f"{what} size"))
+            sx, sy, sz = _floats(g.findtext("size"), 3, f"{what} size")
+            size = (sx, sy, sz)
             _positive(size, what)
             if upright:
                 self.out.solids.append(Solid(name, "box", _xyz(pos), yaw, size))
@@ -332,7 +332,6 @@ class _Reader:
 
     def add_mesh(self, name: str, vertices: np.ndarray, faces: np.ndarray, pose: np.ndarray) -> None:
         from navlog.recorder.meshes import split_components
-        from navlog.recorder.world import mesh_solid
 
         world_vertices = vertices @ pose[:3, :3].T + pose[:3, 3]
         pieces = split_components(world_vertices, faces)
