@@ -30,7 +30,6 @@ from navlog.recorder.resources import resolve_uri
 from navlog.recorder.solids import Solid, mesh_solid
 from navlog.recorder.xacro_files import read_description
 
-SDF_SUFFIXES = (".sdf", ".world")  # and either followed by .xacro
 COUNTED = ("light", "plugin", "sensor", "joint", "actor", "gui", "physics", "scene")  # ignored, named in the summary
 MODEL_KEYS = ("link", "model", "include", "pose", "static", "frame", "name")
 SPHERE_SUBDIVISIONS = 2  # an icosphere of 320 triangles stands for a sphere
@@ -57,16 +56,10 @@ class SdfWorld:
         return out + self.warnings
 
 
-def is_sdf_path(name: str) -> bool:
-    """True for a file name that ``load_sdf_world`` reads (``.sdf``, ``.world``, with or without ``.xacro``)."""
-    stem = name[: -len(".xacro")] if name.endswith(".xacro") else name
-    return stem.endswith(SDF_SUFFIXES)
-
-
 def sdf_stem(path: Path) -> str:
     """The file name without its ``.sdf``/``.world`` and ``.xacro`` suffixes (the world's name)."""
-    name = path.name[: -len(".xacro")] if path.name.endswith(".xacro") else path.name
-    for suffix in SDF_SUFFIXES:
+    name = path.name.removesuffix(".xacro")
+    for suffix in (".sdf", ".world"):
         if name.endswith(suffix):
             return name[: -len(suffix)]
     return name

@@ -37,6 +37,8 @@ from navlog.recorder.solids import Solid
 from navlog.replay.config import load_config, named_config, to_mapping
 from navlog.replay.geometry import cell_to_world, se2_compose
 
+SDF_SUFFIXES = (".sdf", ".world")  # a Gazebo SDF world, also with .xacro after it
+
 
 @dataclass(frozen=True)
 class Part:
@@ -132,9 +134,8 @@ def load_world(
     files; ``wall_height``: a map's walls (default 2 m); ``args``: an ``.sdf.xacro`` world's xacro
     arguments."""
     from navlog.recorder.map_world import DEFAULT_WALL_HEIGHT, is_map_yaml
-    from navlog.recorder.sdf_world import is_sdf_path
 
-    if is_sdf_path(name):
+    if name.removesuffix(".xacro").endswith(SDF_SUFFIXES):
         return load_sdf_world(Path(name), resource_paths, args)
     if is_map_yaml(Path(name)):
         return load_map_world(Path(name), DEFAULT_WALL_HEIGHT if wall_height is None else wall_height)
