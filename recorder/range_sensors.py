@@ -67,7 +67,8 @@ import numpy as np
 from navlog.errors import NavlogError
 from navlog.recorder import sensors
 from navlog.recorder.robot import LaserConfig, LidarConfig, RobotSpec
-from navlog.recorder.world import Solid, World, WorldSpec, world_mesh
+from navlog.recorder.solids import Solid
+from navlog.recorder.world import World, WorldSpec, world_mesh
 from navlog.replay.config import from_mapping, to_mapping
 
 SCAN, LIDAR = "scan", "lidar"

@@ -30,9 +30,9 @@ from navlog.errors import ConfigError
 from navlog.recorder.description import load_robot
 from navlog.recorder.range_sensors import start_range_sensors
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec
-from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario
+from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario, scenario_world
 from navlog.recorder.world import World, load_world
-from navlog.replay.config import config_hash, to_mapping
+from navlog.replay.config import config_hash, named_config, to_mapping
 from navlog.replay.io.logwriter import McapLogWriter, check_output
 from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Executor, Node
@@ -55,7 +55,9 @@ class RecordResult:
     metadata: dict[str, str] = field(default_factory=dict)
     collisions: int = 0  # robot-world contacts (the simulator's collision events)
     navigation: dict | None = None  # a navigate scenario's goal results (the navigation pipeline's report)
-    notes: list[str] = field(default_factory=list)  # what the summary adds (a described robot's drive and sensors)
+    notes: list[str] = field(
+        default_factory=list
+    )  # what the summary adds: the robot's drive and sensors, what the world ignored
 
     @property
     def failed(self) -> str | None:
@@ -154,10 +156,14 @@ def prepare(
     robot_args: Mapping[str, str] | None = None,
     package_paths: Sequence[Path | str] = (),
     drive: str | None = None,
+    resource_paths: Sequence[Path | str] = (),
+    wall_height: float | None = None,
 ) -> RecordSetup:
     """Load and check world, robot and scenario; raises ConfigError before anything runs.
 
-    ``world``/``robot`` None: the scenario's own (its ``world``/``robot`` fields), else indoor_room / go2.
+    ``world``/``robot`` None: the scenario's own (its ``world``/``robot`` fields; a world given by path
+    is relative to the scenario file), else indoor_room / go2. ``resource_paths`` and ``wall_height``:
+    how an SDF world finds its models and a map world's wall height (``load_world``).
 
     ``localization``: ``amcl`` runs Nav2's AMCL live on the world's map (the scenario's Nav2 file's
     ``amcl`` block, started at the scenario's start pose): it publishes map -> odom from /scan and the
@@ -170,9 +176,12 @@ def prepare(
     if localization not in LOCALIZATIONS:
         raise ConfigError(f"localization '{localization}' is not one of: {', '.join(LOCALIZATIONS)}")
     s = load_scenario(scenario)
-    w = load_world(world or s.world or DEFAULT_WORLD)
+    folder = named_config("scenarios", scenario).parent
+    w = load_world(
+        world or scenario_world(s, folder) or DEFAULT_WORLD, resource_paths=resource_paths, wall_height=wall_height
+    )
     r = load_robot(robot or s.robot or DEFAULT_ROBOT, robot_args, package_paths, drive)
-    check_scenario(s, r, w)
+    check_scenario(s, r, w, folder)
     return RecordSetup(w, r, s, seed, noise, localization)
 
 
@@ -284,7 +293,7 @@ def record(
             meta,
             collisions.count,
             report,
-            setup.notes(),
+            setup.notes() + list(setup.world.notes),
         )
     finally:
         sim.close()  # the sensor worker ends with the run, however it ends
@@ -353,6 +362,7 @@ def format_summary(res: RecordResult) -> str:
         f"sim time {res.sim_s:.2f} s, wall time {res.wall_s:.2f} s, real-time factor {res.real_time_factor:.1f}x",
         f"world {res.metadata.get('world')}, robot {res.metadata.get('robot')}, scenario {res.metadata.get('scenario')}, "
         f"seed {res.metadata.get('seed')}, noise {res.metadata.get('noise')}",
+        *(f"world: {note}" for note in res.notes),
     ]
     rows = []
     for topic, (typ, n) in res.topics.items():

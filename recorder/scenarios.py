@@ -23,6 +23,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -89,6 +90,22 @@ def load_scenario(name: str) -> ScenarioSpec:
     return load_config(ScenarioSpec, named_config("scenarios", name))
 
 
+WORLD_FILE_SUFFIXES = (".yaml", ".yml", ".sdf", ".world", ".xacro")
+
+
+def _world_file(name: str) -> bool:
+    """True when a scenario's ``world`` names a file (a path) rather than a world of config/worlds."""
+    return "/" in name or name.endswith(WORLD_FILE_SUFFIXES)
+
+
+def scenario_world(scenario: ScenarioSpec, folder: Path | None) -> str:
+    """The world a scenario names: a name as it is, a path relative to the scenario file's ``folder``."""
+    if not scenario.world or not _world_file(scenario.world) or folder is None:
+        return scenario.world
+    path = Path(scenario.world)
+    return str(path if path.is_absolute() else folder / path)
+
+
 def intended_path(scenario: ScenarioSpec, robot: RobotSpec, step: float = 0.05) -> np.ndarray:
     """Points (N, 2) along the path the scenario means to drive, for the clearance check."""
     if scenario.kind == "tour":
@@ -113,9 +130,18 @@ def intended_path(scenario: ScenarioSpec, robot: RobotSpec, step: float = 0.05) 
     return np.array(out)
 
 
-def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World) -> None:
-    """Refuse, before simulating, a start pose or path that comes closer than the robot's radius."""
-    if scenario.world and scenario.world != world.name:
+def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World, folder: Path | None = None) -> None:
+    """Refuse, before simulating, a start pose or path that comes closer than the robot's radius.
+
+    ``folder``: the scenario file's folder, where a ``world`` given as a path starts."""
+    if scenario.world and _world_file(scenario.world):
+        wanted = Path(scenario_world(scenario, folder))
+        if wanted.resolve() != Path(world.path).resolve():
+            raise ConfigError(
+                f"scenario '{scenario.name}' is laid out for world {wanted}, not {world.path}; "
+                f"use --world {wanted} or a scenario made for {world.name}"
+            )
+    elif scenario.world and scenario.world != world.name:
         raise ConfigError(
             f"scenario '{scenario.name}' is laid out for world '{scenario.world}', not '{world.name}'; "
             f"use --world {scenario.world} or a scenario made for {world.name}"

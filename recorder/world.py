@@ -1,4 +1,12 @@
-"""Worlds from YAML: a walled room and objects, as solid boxes and cylinders in the world frame.
+"""Worlds: a walled room and objects from YAML, a Gazebo SDF world, or a map_server map, as solids.
+
+A world is one of:
+
+- navlog's world YAML (below);
+- a Gazebo SDF world (``.sdf``, ``.world``, ``.sdf.xacro``): the collision geometry of its models
+  (``navlog.recorder.sdf_world``), meshes as triangles;
+- a map_server map (a YAML naming its ``image``): its occupied cells as walls
+  (``navlog.recorder.map_world``).
 
 A world file (``config/worlds/NAME.yaml``) places objects by ``pose: [x, y, yaw]`` (yaw in radians,
 the object's base on the floor). An object is either a primitive (``shape: box | cylinder``) or an
@@ -17,6 +25,7 @@ import os
 import sys
 import threading
 import types
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -24,8 +33,11 @@ from typing import Literal
 import numpy as np
 
 from navlog.errors import ConfigError
+from navlog.recorder.solids import Solid
 from navlog.replay.config import load_config, named_config, to_mapping
 from navlog.replay.geometry import cell_to_world, se2_compose
+
+SDF_SUFFIXES = (".sdf", ".world")  # a Gazebo SDF world, also with .xacro after it
 
 
 @dataclass(frozen=True)
@@ -73,26 +85,12 @@ class WorldSpec:
     floor: bool = True
 
 
-@dataclass(frozen=True)
-class Solid:
-    """One piece of static geometry in the world frame."""
-
-    name: str
-    shape: str  # box | cylinder
-    center: tuple[float, float, float]
-    yaw: float
-    size: tuple[float, float, float]  # box: full sizes; cylinder: (2r, 2r, height)
-
-    @property
-    def z_range(self) -> tuple[float, float]:
-        return self.center[2] - self.size[2] / 2, self.center[2] + self.size[2] / 2
-
-
 @dataclass
 class World:
     spec: WorldSpec
     solids: list[Solid]
     path: Path
+    notes: list[str] = field(default_factory=list)  # what loading ignored or assumed, for the summary
 
     @property
     def name(self) -> str:
@@ -122,8 +120,25 @@ def _numbers(node: object) -> list[float]:
     return [node] if isinstance(node, (int, float)) and not isinstance(node, bool) else []
 
 
-def load_world(name: str) -> World:
-    """Load ``config/worlds/NAME.yaml`` (or a path) and resolve it into solids."""
+def load_world(
+    name: str,
+    *,
+    resource_paths: Sequence[Path | str] = (),
+    wall_height: float | None = None,
+    args: dict[str, str] | None = None,
+) -> World:
+    """Load a world: ``config/worlds/NAME.yaml`` or a path to a world YAML, an SDF world or a
+    map_server map (module docstring), resolved into solids.
+
+    ``resource_paths``: folders searched first for an SDF world's ``model://`` and ``package://``
+    files; ``wall_height``: a map's walls (default 2 m); ``args``: an ``.sdf.xacro`` world's xacro
+    arguments."""
+    from navlog.recorder.map_world import DEFAULT_WALL_HEIGHT, is_map_yaml
+
+    if name.removesuffix(".xacro").endswith(SDF_SUFFIXES):
+        return load_sdf_world(Path(name), resource_paths, args)
+    if is_map_yaml(Path(name)):
+        return load_map_world(Path(name), DEFAULT_WALL_HEIGHT if wall_height is None else wall_height)
     path = named_config("worlds", name)
     spec = load_config(WorldSpec, path)
     if not np.isfinite(np.array(_numbers(to_mapping(spec)), dtype=float)).all():
@@ -172,6 +187,26 @@ def load_world(name: str) -> World:
     return World(spec, solids, path)
 
 
+def load_sdf_world(path: Path, resource_paths: Sequence[Path | str] = (), args: dict[str, str] | None = None) -> World:
+    """An SDF world file as a World named after the file (``navlog.recorder.sdf_world``)."""
+    from navlog.recorder.sdf_world import read_sdf_world, sdf_stem
+
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such world file")
+    sdf = read_sdf_world(path, resource_paths, args)
+    spec = WorldSpec(sdf_stem(path), description=f"SDF world {path.name}", floor=True)
+    notes = sdf.notes() + ([] if sdf.ground else ["no ground plane in the file: a floor at z = 0 added"])
+    return World(spec, sdf.solids, path, notes)
+
+
+def load_map_world(path: Path, wall_height: float) -> World:
+    """A map_server map as a World named after the file (``navlog.recorder.map_world``)."""
+    from navlog.recorder.map_world import map_solids
+
+    solids, notes = map_solids(path, wall_height)
+    return World(WorldSpec(path.stem, description=f"map_server map {path.name}", floor=True), solids, path, notes)
+
+
 # ---------------------------------------------------------------- geometry queries
 
 
@@ -183,21 +218,31 @@ def clearance(world: World, xy: np.ndarray, z_min: float = 0.0, z_max: float = 2
     pts = np.atleast_2d(np.asarray(xy, dtype=np.float64))
     best = np.full(len(pts), np.inf)
     for s in world.solids:
-        lo, hi = s.z_range
-        if hi < z_min or lo > z_max:
-            continue
-        d = pts - np.asarray(s.center[:2])
-        if s.shape == "cylinder":
-            dist = np.hypot(d[:, 0], d[:, 1]) - s.size[0] / 2
-        else:
-            c, sn = math.cos(s.yaw), math.sin(s.yaw)
-            local = np.stack([c * d[:, 0] + sn * d[:, 1], -sn * d[:, 0] + c * d[:, 1]], axis=1)
-            q = np.abs(local) - np.asarray(s.size[:2]) / 2
-            outside = np.hypot(np.maximum(q[:, 0], 0), np.maximum(q[:, 1], 0))
-            inside = np.minimum(np.maximum(q[:, 0], q[:, 1]), 0)
-            dist = outside + inside
-        best = np.minimum(best, dist)
+        dist = solid_distance(s, pts, z_min, z_max)
+        if dist is not None:
+            best = np.minimum(best, dist)
     return best
+
+
+def solid_distance(s: Solid, pts: np.ndarray, z_min: float, z_max: float) -> np.ndarray | None:
+    """Horizontal distance (m) from each point (n, 2) to solid ``s`` (negative inside its footprint),
+    or None when ``s`` does not reach into heights [z_min, z_max]."""
+    lo, hi = s.z_range
+    if hi < z_min or lo > z_max:
+        return None
+    if s.shape == "mesh":
+        from navlog.recorder.meshes import footprint_distance
+
+        return footprint_distance(*s.triangles(), s.closed, pts, z_min, z_max)
+    d = pts - np.asarray(s.center[:2])
+    if s.shape == "cylinder":
+        return np.hypot(d[:, 0], d[:, 1]) - s.size[0] / 2
+    c, sn = math.cos(s.yaw), math.sin(s.yaw)
+    local = np.stack([c * d[:, 0] + sn * d[:, 1], -sn * d[:, 0] + c * d[:, 1]], axis=1)
+    q = np.abs(local) - np.asarray(s.size[:2]) / 2
+    outside = np.hypot(np.maximum(q[:, 0], 0), np.maximum(q[:, 1], 0))
+    inside = np.minimum(np.maximum(q[:, 0], q[:, 1]), 0)
+    return outside + inside
 
 
 _OPEN3D_LOCK = threading.Lock()
@@ -253,6 +298,10 @@ def world_mesh(world: World, with_floor: bool | None = None):
 
     mesh = o3d.geometry.TriangleMesh()
     for s in world.solids:
+        if s.shape == "mesh":
+            v, f = s.triangles()
+            mesh += o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(v), o3d.utility.Vector3iVector(f))
+            continue
         if s.shape == "box":
             m = o3d.geometry.TriangleMesh.create_box(*s.size)
             m.translate(-np.asarray(s.size) / 2)
@@ -274,7 +323,11 @@ def world_mesh(world: World, with_floor: bool | None = None):
 
 
 def build_spec(world: World):
-    """The world as a MuJoCo MjSpec: a floor plane and every solid as a static geom."""
+    """The world as a MuJoCo MjSpec: a floor plane and every solid as a static geom.
+
+    A convex mesh is one mesh geom; MuJoCo collides a mesh by its convex hull, so a mesh that is not
+    convex (a ring of walls: its hull would fill the room) is one thin convex slab per triangle
+    (``navlog.recorder.meshes.triangle_prisms``), named ``SOLID#k``."""
     mujoco = import_mujoco()
 
     spec = mujoco.MjSpec()
@@ -283,7 +336,9 @@ def build_spec(world: World):
     if world.spec.floor:
         body.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], pos=[0, 0, 0])
     for s in world.solids:
-        if s.shape == "box":
+        if s.shape == "mesh":
+            _add_mesh_geoms(spec, s)
+        elif s.shape == "box":
             body.add_geom(
                 name=s.name,
                 type=mujoco.mjtGeom.mjGEOM_BOX,
@@ -299,6 +354,19 @@ def build_spec(world: World):
                 pos=list(s.center),
             )
     return spec
+
+
+def _add_mesh_geoms(spec, s: Solid) -> None:
+    from navlog.recorder.meshes import triangle_prisms
+
+    mujoco = import_mujoco()
+    v, f = s.triangles()
+    pieces = [v] if s.convex else triangle_prisms(v, f)
+    for k, piece in enumerate(pieces):
+        name = s.name if s.convex else f"{s.name}#{k}"
+        centre = (piece.min(axis=0) + piece.max(axis=0)) / 2  # vertices near the origin: a well-conditioned hull
+        spec.add_mesh(name=name, uservert=(piece - centre).reshape(-1).tolist())
+        spec.worldbody.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name, pos=centre.tolist())
 
 
 MAX_GRID_CELLS = 200_000_000  # 200 M cells (a 700 m square at 5 cm): beyond it, a resolution typo
@@ -338,9 +406,20 @@ def occupancy(
         )
     xs = cell_to_world(np.arange(nx), ox, resolution)
     ys = cell_to_world(np.arange(ny), oy, resolution)
-    gx, gy = np.meshgrid(xs, ys)
-    d = clearance(world, np.stack([gx.ravel(), gy.ravel()], axis=1), z_min, z_max).reshape(ny, nx)
-    data = np.where(d <= margin + resolution / 2, 100, 0).astype(np.int8)
+    reach = margin + resolution / 2  # a cell is occupied within this distance of a solid
+    d = np.full((ny, nx), np.inf)
+    for s in world.solids:  # each solid over the cells it can reach (its footprint grown by one more cell)
+        bx0, by0, bx1, by1 = s.footprint_box()
+        i0, i1 = np.searchsorted(xs, (bx0 - reach - resolution, bx1 + reach + resolution))
+        j0, j1 = np.searchsorted(ys, (by0 - reach - resolution, by1 + reach + resolution))
+        if i0 >= i1 or j0 >= j1:
+            continue
+        gx, gy = np.meshgrid(xs[i0:i1], ys[j0:j1])
+        dist = solid_distance(s, np.stack([gx.ravel(), gy.ravel()], axis=1), z_min, z_max)
+        if dist is not None:
+            window = d[j0:j1, i0:i1]
+            np.minimum(window, dist.reshape(window.shape), out=window)
+    data = np.where(d <= reach, 100, 0).astype(np.int8)
     return OccupancyMap(data=data, resolution=resolution, origin=(ox, oy, 0.0))
 
 

@@ -22,7 +22,11 @@ def register(sub) -> None:
         "  navlog record --scenario nav_tour --params config/nav2/nav_go2_mppi.yaml -o nav_mppi.mcap\n"
         "A navigate scenario exits 1 when a goal failed or the robot hit something.",
     )
-    p.add_argument("--world", help="world name or YAML path (default: the scenario's world, else indoor_room)")
+    p.add_argument(
+        "--world",
+        help="world name, world YAML, Gazebo SDF world (.sdf, .world, .sdf.xacro) or map_server map YAML "
+        "(default: the scenario's world, else indoor_room)",
+    )
     p.add_argument(
         "--robot",
         help="robot name, YAML path, or description file: .urdf, .sdf, .urdf.xacro, .sdf.xacro "
@@ -70,6 +74,7 @@ def register(sub) -> None:
     )
     p.add_argument("-o", "--output", required=True, type=Path, help="output .mcap file")
     p.add_argument("--force", action="store_true", help="overwrite the output if it exists")
+    add_world_options(p)
     p.add_argument(
         "--pipeline",
         help="also run a replay pipeline's nodes live (e.g. mapping) and record their outputs; the safety "
@@ -127,6 +132,25 @@ def robot_args(words: list[str]) -> dict[str, str]:
     return out
 
 
+def add_world_options(p) -> None:
+    """The options of a world read from an SDF file or a map (``navlog record``, ``navlog world-map``)."""
+    p.add_argument(
+        "--resource-path",
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="a folder of Gazebo models (model://NAME) or ROS packages (package://PKG) for an SDF world, searched "
+        "before GZ_SIM_RESOURCE_PATH, GAZEBO_MODEL_PATH, ROS_PACKAGE_PATH and AMENT_PREFIX_PATH (repeatable)",
+    )
+    p.add_argument(
+        "--wall-height",
+        type=float,
+        default=None,
+        metavar="M",
+        help="a map_server map as a world: the height of the walls its occupied cells become (default 2.0)",
+    )
+
+
 def run(args) -> int:
     from navlog.recorder.record import format_summary, prepare, record
 
@@ -140,6 +164,8 @@ def run(args) -> int:
         robot_args=robot_args(args.robot_arg),
         package_paths=args.package_path,
         drive=args.drive,
+        resource_paths=args.resource_path,
+        wall_height=args.wall_height,
     )
     pipe = navigation = None
     if args.pipeline:

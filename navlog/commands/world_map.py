@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from navlog.commands.record import add_world_options
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -15,7 +17,7 @@ def register(sub) -> None:
         "--height H keeps what crosses one horizontal plane, e.g. a 2D laser's scan plane.",
         epilog="example:\n  navlog world-map indoor_room --margin 0.15 --resolution 0.05 -o gt.yaml",
     )
-    p.add_argument("world", help="world name or YAML path")
+    p.add_argument("world", help="world name, world YAML, Gazebo SDF world or map_server map YAML")
     p.add_argument("--margin", type=float, default=0.15, help="safety margin around obstacles in m (default 0.15)")
     p.add_argument("--resolution", type=float, default=0.05, help="cell size in m (default 0.05)")
     p.add_argument("--z-min", type=float, default=0.0, help="lowest height that counts (default 0)")
@@ -29,15 +31,19 @@ def register(sub) -> None:
         "the reference of `navlog metrics --reference-mesh`",
     )
     p.add_argument("--force", action="store_true", help="overwrite existing files")
+    add_world_options(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
-    from navlog.recorder.world import write_world_map
+    from navlog.recorder.world import load_world, write_world_map
 
+    world = load_world(args.world, resource_paths=args.resource_path, wall_height=args.wall_height)
+    for note in world.notes:
+        print(f"world: {note}")
     z_min, z_max = (args.height, args.height) if args.height is not None else (args.z_min, args.z_max)
     res = write_world_map(
-        args.world,
+        world,
         args.output,
         margin=args.margin,
         resolution=args.resolution,

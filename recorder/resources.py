@@ -1,0 +1,131 @@
+"""Where the files a robot or world description names are: ``model://``, ``package://``, ``file://`` and paths.
+
+Gazebo and ROS name the files a description uses by URI:
+
+- ``model://NAME/rest`` is the model folder ``NAME`` (a folder holding ``model.config``) found in a
+  folder of the resource path: the folders given (``--resource-path``), then ``GZ_SIM_RESOURCE_PATH``,
+  ``IGN_GAZEBO_RESOURCE_PATH``, ``SDF_PATH`` and ``GAZEBO_MODEL_PATH``;
+- ``package://PKG/rest`` is the package folder ``PKG`` (a folder holding ``package.xml``) found in a
+  folder of the package path: the folders given, then ``ROS_PACKAGE_PATH``, and ``share/`` below each
+  prefix of ``AMENT_PREFIX_PATH`` and ``COLCON_PREFIX_PATH``. A package is the folder named PKG itself,
+  or any folder below a search folder whose ``package.xml`` is named PKG;
+  (then, as a last resort, the folder above the naming file and its ``models`` folder: a package's
+  ``worlds/`` next to its ``models/``, a model's meshes naming their own model);
+- ``file://PATH`` and plain paths are relative to the folder of the file that names them.
+
+``resolve_uri`` answers the file, or raises ``ConfigError`` naming the URI and every folder searched
+(an ``https://`` URI, e.g. a Gazebo Fuel model, is never fetched: it names the model folder of the
+same name, ``.../models/NAME``, when one is on the resource path).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Sequence
+from pathlib import Path
+
+from navlog.errors import ConfigError
+
+MODEL_PATH_ENV = ("GZ_SIM_RESOURCE_PATH", "IGN_GAZEBO_RESOURCE_PATH", "SDF_PATH", "GAZEBO_MODEL_PATH")
+PACKAGE_PATH_ENV = ("ROS_PACKAGE_PATH",)
+PREFIX_PATH_ENV = ("AMENT_PREFIX_PATH", "COLCON_PREFIX_PATH")  # packages in PREFIX/share/PKG
+PACKAGE_SEARCH_DEPTH = 3  # how deep below a search folder a package.xml is looked for
+
+
+def _env_folders(names: Sequence[str], suffix: str = "") -> list[Path]:
+    out = []
+    for name in names:
+        for item in os.environ.get(name, "").split(os.pathsep):
+            if item:
+                out.append(Path(item) / suffix if suffix else Path(item))
+    return out
+
+
+def search_folders(search_paths: Sequence[Path | str] = (), kind: str = "model") -> list[Path]:
+    """The folders searched for a ``model://`` (``kind="model"``) or ``package://`` (``"package"``) URI,
+    in order: ``search_paths``, then the environment's (module docstring); each once."""
+    folders = [Path(p) for p in search_paths]
+    if kind == "model":
+        folders += _env_folders(MODEL_PATH_ENV)
+    else:
+        folders += _env_folders(PACKAGE_PATH_ENV) + _env_folders(PREFIX_PATH_ENV, "share")
+    seen: set[Path] = set()
+    out = []
+    for f in folders:
+        key = f.resolve()
+        if key not in seen:
+            seen.add(key)
+            out.append(f)
+    return out
+
+
+def _package_name(folder: Path) -> str | None:
+    try:
+        text = (folder / "package.xml").read_text(errors="replace")
+    except OSError:
+        return None
+    m = re.search(r"<name>\s*([^<\s]+)\s*</name>", text)
+    return m.group(1) if m else folder.name
+
+
+def find_package(name: str, folders: Sequence[Path]) -> Path | None:
+    """The folder of package ``name`` (holding ``package.xml``) in or below ``folders``, or None."""
+    for root in folders:
+        if (root / name / "package.xml").is_file():
+            return root / name
+        if (root / "package.xml").is_file() and _package_name(root) == name:
+            return root
+        for depth in range(1, PACKAGE_SEARCH_DEPTH + 1):
+            for xml in sorted(root.glob("/".join(["*"] * depth) + "/package.xml")):
+                if _package_name(xml.parent) == name:
+                    return xml.parent
+    return None
+
+
+def find_model(name: str, folders: Sequence[Path]) -> Path | None:
+    """The model folder ``name`` (holding ``model.config``) in ``folders``, or None."""
+    for root in folders:
+        if (root / name / "model.config").is_file():
+            return root / name
+    return None
+
+
+def resolve_uri(uri: str, base_dir: Path | str, search_paths: Sequence[Path | str] = ()) -> Path:
+    """The local file or folder ``uri`` names (module docstring); ConfigError when there is none.
+
+    ``base_dir``: the folder of the file that names ``uri`` (relative paths start there);
+    ``search_paths``: folders searched first for ``model://`` and ``package://`` URIs."""
+    uri = uri.strip()
+    base = Path(base_dir)
+    for scheme, kind, finder in (("model://", "model", find_model), ("package://", "package", find_package)):
+        if uri.startswith(scheme):
+            name, _, rest = uri[len(scheme) :].partition("/")
+            folders = search_folders(search_paths, kind)
+            if kind == "model":  # then beside the file that names it, and a models folder next to its folder
+                folders = [*folders, base.parent, base.parent / "models"]
+            root = finder(name, folders)
+            if root is None or not (root / rest).exists():
+                where = ", ".join(str(f) for f in folders) or "no folder"
+                what = f"no {kind} '{name}'" if root is None else f"no {rest} in {root}"
+                opts = "--resource-path" if kind == "model" else "--resource-path or ROS_PACKAGE_PATH"
+                raise ConfigError(f"cannot resolve {uri}: {what} (searched {where}; add folders with {opts})")
+            return root / rest
+    if "://" in uri and not uri.startswith("file://"):
+        folders = search_folders(search_paths, "model")
+        m = re.search(r"/models/([^/]+)", uri)  # a Fuel URL: a copy of that model on the resource path
+        if m is not None:
+            for name in dict.fromkeys((m.group(1), m.group(1).lower())):
+                root = find_model(name, folders)
+                if root is not None:
+                    return root
+        where = ", ".join(str(f) for f in folders) or "no folder"
+        raise ConfigError(
+            f"cannot resolve {uri}: only model://, package://, file:// and local paths are read (no download; "
+            f"searched {where}); download the model into a folder and give it with --resource-path"
+        )
+    path = Path(uri[len("file://") :] if uri.startswith("file://") else uri)
+    path = path if path.is_absolute() else base / path
+    if not path.exists():
+        raise ConfigError(f"cannot resolve {uri}: no such file {path}")
+    return path
