@@ -23,7 +23,6 @@ frame) in the map frame: the current map -> odom times odom -> that frame at the
 from __future__ import annotations
 
 import math
-from collections import Counter
 from typing import Any
 
 import numpy as np
@@ -89,7 +88,6 @@ class AmclNode(Node):
         self.tf_topic = tf_topic
         self.initial_pose_topic = initial_pose_topic
         self._waiting = WaitingForTransforms(int(transform_timeout * 1e9))  # scans waiting for odometry
-        self.skipped: Counter[str] = Counter()
         self.trajectory: list[tuple[int, np.ndarray]] = []
         self.updates = 0
         self.resamples = 0
@@ -243,7 +241,7 @@ class AmclNode(Node):
     def finish(self) -> None:
         self._drain(final=True)
 
-    def counts(self) -> dict[str, int]:
+    def skipped_counts(self) -> dict[str, int]:
         """Skipped inputs by reason."""
         out = dict(self.skipped)
         own = self.tf_published if self.tf_topic == "/tf" else 0

@@ -199,7 +199,6 @@ class CollisionMonitorNode(Node):
             for shape in self.monitor.shapes
             if shape.params.visualize and isinstance(shape, Polygon | Circle)
         ]
-        self.skipped: Counter[str] = Counter()
         self.last_decision: Decision | None = None
         self._commands = 0
         self._published = 0

@@ -136,7 +136,6 @@ class LidarMapperNode(Node):
         self.tf = TFBuffer()
         self.gyro = GyroTrack()
         self.odom = PoseTrack()
-        self.skipped: dict[str, int] = {}
         self.frames_in = 0
         self._pending: list[_Pending] = []
         self._odom_fix: dict[str, np.ndarray] = {}  # odom child frame -> base_link

@@ -157,7 +157,6 @@ class NavigationNode(Node):
         self.control_ns = int(round(1e9 / self.cparams.controller_frequency))
         self.behavior_ns = int(round(1e9 / self.bparams.cycle_frequency))
         self.odom_twist: tuple[float, float, float] = (0.0, 0.0, 0.0)
-        self.skipped: dict[str, int] = {}
         self.next_control: int | None = None
         self.follow_result: ActionResult | None = None
         self.behavior: Behavior | None = None

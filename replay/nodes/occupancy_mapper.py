@@ -26,7 +26,6 @@ or so, not for a whole publish period.
 from __future__ import annotations
 
 import math
-from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -77,7 +76,6 @@ class OccupancyMapperNode(Node):
         self._pending: list[tuple[int, np.ndarray]] = []  # (stamp, robot pose) of scans sent, outcome not known
         self.tf = TFBuffer(frame_prefix=params.frame_prefix)
         self.poses = TFBuffer(frame_prefix=params.frame_prefix)
-        self.skipped: Counter = Counter()
         self.trajectory: list[tuple[int, np.ndarray]] = []  # (stamp, robot pose in map) of inserted scans
         self._pose_child: str | None = None
         self._last_pose: np.ndarray | None = None
@@ -228,7 +226,7 @@ class OccupancyMapperNode(Node):
         self._settle()
         self._updates.close()
 
-    def counts(self) -> dict[str, int]:
+    def skipped_counts(self) -> dict[str, int]:
         st = self.grid.stats
         out = dict(self.skipped)
         if st.nan:

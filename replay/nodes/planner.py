@@ -62,7 +62,6 @@ class CostmapNode(Node):
         self.last_publish_ns: int | None = None
         self.last_map: OccupancyMap | None = None
         self.tf = TFBuffer()
-        self.skipped: dict[str, int] = {}
         self.static_map = static_map
         self.map_topic = map_topic
         self.pending: dict[str, tuple[int, Any, ObservationSourceParams]] = {}  # source -> (stamp, msg, params)
@@ -240,7 +239,6 @@ class PlannerNode(Node):
         self.start = start
         self.goal_topic = goal_topic
         self.index = 0
-        self.skipped: dict[str, int] = {}
         self.plans: list[tuple[int, PlanResult]] = []
         self.failures: list[tuple[int, str]] = []
         self.chained = False

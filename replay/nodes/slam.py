@@ -18,7 +18,6 @@ in the map frame at every scan, from the final keyframe poses.
 from __future__ import annotations
 
 import json
-from collections import Counter
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -59,7 +58,6 @@ class SlamNode(Node):
         self.slam = Slam2D(params.slam, replace(params.grid, resolution=params.slam.resolution))
         self.tf = TFBuffer(frame_prefix=params.frame_prefix)
         self.odom = self.tf.name(params.odom_frame)
-        self.skipped: Counter[str] = Counter()
         self.tf_published = 0
         self._log_odom_parents = 0
         self._waiting = WaitingForTransforms(int(params.transform_timeout * 1e9))
@@ -207,7 +205,7 @@ class SlamNode(Node):
             ],
         }
 
-    def counts(self) -> dict[str, int]:
+    def skipped_counts(self) -> dict[str, int]:
         """Skipped inputs by reason."""
         out = dict(self.skipped)
         from_log = self._log_odom_parents - self.tf_published  # its own come back to it on /tf

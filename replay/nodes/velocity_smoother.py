@@ -16,7 +16,6 @@ same output at any speed.
 from __future__ import annotations
 
 import math
-from collections import Counter
 from typing import Any
 
 from navlog.replay import messages
@@ -70,7 +69,6 @@ class VelocitySmootherNode(Node):
         self.output_topic = output_topic
         topic = params.odom_topic if odom_topic is None else odom_topic
         self.odom_topic = topic if topic.startswith("/") else "/" + topic
-        self.skipped: Counter[str] = Counter()
         self.published = 0
 
     @property
@@ -121,7 +119,3 @@ class VelocitySmootherNode(Node):
         if not self.params.enable_stamped_cmd_vel:
             return twist
         return messages.msg_class(messages.TWIST_STAMPED)(messages.header(out.stamp_ns, out.frame_id), twist)
-
-    def counts(self) -> dict[str, int]:
-        """Skipped inputs by reason."""
-        return dict(self.skipped)

@@ -159,7 +159,7 @@ class LocalizationRun(Pipeline):
         return written
 
     def skipped(self) -> dict[str, int]:
-        return self.node.counts()
+        return self.node.skipped_counts()
 
     def nothing_produced(self) -> str | None:
         node, amcl = self.node, self.amcl

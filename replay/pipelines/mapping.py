@@ -148,7 +148,7 @@ class MappingRun(Pipeline):
         return written
 
     def skipped(self) -> dict[str, int]:
-        out = dict(self.occ.counts())
+        out = dict(self.occ.skipped_counts())
         if self.lidar is not None:
             out.update({f"lidar_mapper: {k}": v for k, v in self.lidar.skipped_counts().items()})
         return out

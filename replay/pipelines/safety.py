@@ -238,7 +238,7 @@ class SafetyRun(Pipeline):
         if smoother is not None:
             out["velocity_smoother"] = {
                 "published": smoother.published,
-                "skipped": dict(sorted(smoother.counts().items())),
+                "skipped": dict(sorted(smoother.skipped_counts().items())),
             }
         if monitor is not None:
             s = monitor.summary()
@@ -255,7 +255,7 @@ class SafetyRun(Pipeline):
     def skipped(self) -> dict[str, int]:
         out: dict[str, int] = {}
         if self.smoother is not None:
-            out.update({f"velocity_smoother: {k}": v for k, v in self.smoother.counts().items()})
+            out.update({f"velocity_smoother: {k}": v for k, v in self.smoother.skipped_counts().items()})
         if self.monitor is not None:
             out.update({f"collision_monitor: {k}": v for k, v in self.monitor.skipped_counts().items()})
         return out

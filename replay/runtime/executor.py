@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import heapq
 import threading
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -86,6 +86,11 @@ class Node:
     def __init__(self) -> None:
         self._executor: Executor | None = None
         self.rank = 0
+        self.skipped: Counter[str] = Counter()  # inputs the node could not use, by reason
+
+    def skipped_counts(self) -> dict[str, int]:
+        """The inputs this node could not use, by reason (a node adds the counts its algorithms keep)."""
+        return dict(self.skipped)
 
     # -- called by the executor
     def attach(self, executor: Executor, rank: int) -> None:

@@ -64,7 +64,7 @@ def test_a_scan_far_off_is_counted_and_left_out_of_the_trajectory(grid_process):
     ex.run()
     ex.finish()
     assert [round(float(p[0, 3]), 3) for _, p in node.trajectory] == [0.0, 0.5, 1.0]
-    assert node.counts()["/scan: pose or ranges too far off (the map would exceed its cell budget)"] == 1
+    assert node.skipped_counts()["/scan: pose or ranges too far off (the map would exceed its cell budget)"] == 1
     assert node.grid.stats.scans == 4 and (node.grid.to_map().data == 100).sum() > 50
 
 

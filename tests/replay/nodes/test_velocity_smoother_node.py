@@ -73,7 +73,7 @@ def test_step_ramps_at_kibot_accel_then_times_out_and_falls_silent():
     down = [0.45 - 0.04 * k for k in range(1, 12)] + [0.0]
     assert vx == pytest.approx(up + down, abs=1e-12)
     assert times == list(range(0, 1650, 50))  # one message per 50 ms tick, none after the zero
-    assert vx[-1] == 0.0 and node.published == 33 and node.counts() == {}
+    assert vx[-1] == 0.0 and node.published == 33 and node.skipped_counts() == {}
     assert all(type(msg).__msgtype__ == m.TWIST for _, msg in got)
 
 
@@ -116,7 +116,7 @@ def test_stamped_in_twist_out_and_smoothing_time_stamps():
 def test_nan_commands_are_skipped_and_counted():
     cmds = [(0, m.twist(0.45, 0.0, 0.0)), (20, m.twist(math.nan, 0.0, 0.0)), (30, _stamped(30 * MS, 0.1, math.inf))]
     node, got = _run(KIBOT, cmds, end_ms=200)
-    assert node.counts() == {"/cmd_vel_nav: NaN or infinite commands (skipped)": 2}
+    assert node.skipped_counts() == {"/cmd_vel_nav: NaN or infinite commands (skipped)": 2}
     assert [msg.linear.x for _, msg in got] == pytest.approx([0.04, 0.08, 0.12, 0.16, 0.2], abs=1e-12)
 
 
