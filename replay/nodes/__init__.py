@@ -24,10 +24,11 @@ from navlog.replay import lazy_exports
 if TYPE_CHECKING:
     from navlog.replay.nodes.amcl import AmclNode
     from navlog.replay.nodes.collision_monitor import CollisionMonitorNode
+    from navlog.replay.nodes.costmap import CostmapNode
     from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams
     from navlog.replay.nodes.navigation import GoalResult, NavGoal, NavigationNode, NavigationStack
     from navlog.replay.nodes.occupancy_mapper import OccupancyMapperNode, OccupancyMapperParams
-    from navlog.replay.nodes.planner import CostmapNode, PlannerNode
+    from navlog.replay.nodes.planner import PlannerNode
     from navlog.replay.nodes.slam import SlamNode, SlamNodeParams
     from navlog.replay.nodes.velocity_smoother import VelocitySmootherNode
 
@@ -56,7 +57,7 @@ _MODULES = {
     "LidarMapperParams": "lidar_mapper",
     "OccupancyMapperNode": "occupancy_mapper",
     "OccupancyMapperParams": "occupancy_mapper",
-    "CostmapNode": "planner",
+    "CostmapNode": "costmap",
     "GoalResult": "navigation",
     "NavGoal": "navigation",
     "NavigationNode": "navigation",

@@ -57,7 +57,8 @@ from navlog.replay.nav2.navigator import (
 from navlog.replay.nav2.params import Nav2Params
 from navlog.replay.nav2.planners import PLANNER_NAMES, Planner, PlanningError, PlanResult, make_planner
 from navlog.replay.nodes.collision_monitor import EVENTS_TOPIC
-from navlog.replay.nodes.planner import CostmapNode, path_msg
+from navlog.replay.nodes.costmap import CostmapNode
+from navlog.replay.nodes.planner import path_msg
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TransformError

@@ -36,7 +36,8 @@ from navlog.replay.nav2.costmap.grid import DEFAULT_LAYER_PLUGINS
 from navlog.replay.nav2.overrides import apply_nav2_overrides
 from navlog.replay.nav2.params import parse_nav2_params
 from navlog.replay.nav2.planners import PLANNER_NAMES, PLANNERS, PlanningError, PlanResult, Pose2D, make_planner
-from navlog.replay.nodes.planner import CostmapNode, PlannerNode, costmap_msg, path_msg
+from navlog.replay.nodes.costmap import CostmapNode, costmap_msg
+from navlog.replay.nodes.planner import PlannerNode, path_msg
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.pipelines import PipelineSpec, existing_file, register
 from navlog.replay.runtime.executor import Envelope

@@ -13,7 +13,7 @@ from navlog.replay import messages as m
 from navlog.replay.io.map_server import save_map
 from navlog.replay.nav2.costmap import Costmap2D, CostmapParams, StaticLayerParams
 from navlog.replay.nav2.planners import PlanningError
-from navlog.replay.nodes.planner import costmap_msg, footprint_msg
+from navlog.replay.nodes.costmap import costmap_msg, footprint_msg
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.pipelines.planner import (
     Params,
