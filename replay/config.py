@@ -62,11 +62,17 @@ def known_configs(kind: str) -> list[str]:
     return sorted({p.stem for folder in config_dirs() for p in (folder / kind).glob("*.yaml")})
 
 
-def suggest(word: str, choices: typing.Iterable[str]) -> str:
-    """' (did you mean X?)' for the closest choice, or '' when nothing is close."""
+def closest(word: str, choices: typing.Iterable[str]) -> str | None:
+    """The choice closest to ``word``, or None when nothing is close."""
     # keys read from YAML may be numbers or booleans; compare them as the text they were written as
     match = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
-    return f" (did you mean '{match[0]}'?)" if match else ""
+    return match[0] if match else None
+
+
+def suggest(word: str, choices: typing.Iterable[str]) -> str:
+    """' (did you mean X?)' for the closest choice, or '' when nothing is close."""
+    match = closest(word, choices)
+    return f" (did you mean '{match}'?)" if match is not None else ""
 
 
 def load_yaml(path: Path) -> Any:
