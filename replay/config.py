@@ -319,7 +319,8 @@ class ParamReader:
             members = [a for a in args if a is not type(None)]
             if len(members) == 1:
                 return self._typed(value, members[0], path)
-            for arg in members:  # the first member that takes the value
+            # the first member that takes the value (a collecting reader's section reports its own problems)
+            for arg in members:
                 try:
                     return self._typed(value, arg, path)
                 except ConfigError:
@@ -394,7 +395,7 @@ class ParamReader:
                 self.unknown_key(name, kpath, [*fields, *sections], is_section=isinstance(value, dict))
             if name in read_only:
                 self.add(NOTE, kpath, "read, not implemented by navlog")
-        given = {str(k) for k in data}
+        given = {str(k) for k in data} | set(extra or ())
         for name, f in fields.items():
             if name not in given and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
                 self.add(ERROR, path + (name,), "required key is missing")
