@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
+import functools
 import hashlib
 import importlib.resources
 import json
@@ -229,6 +230,12 @@ def describe(tp: Any) -> str:
     return getattr(tp, "__name__", str(tp))
 
 
+@functools.cache
+def _declared(cls: type) -> tuple[dict[str, Any], tuple[dataclasses.Field, ...]]:
+    """The resolved type of each field of dataclass ``cls``, and its fields set through ``__init__``."""
+    return typing.get_type_hints(cls), tuple(f for f in dataclasses.fields(cls) if f.init)
+
+
 def _not_one_of(value: Any, options: typing.Sequence[Any], shown: str, path: tuple) -> ParamError:
     return ParamError(
         path, f"{value!r} is not one of {shown}{suggest(str(value), [str(o) for o in options])}", mismatch=False
@@ -292,7 +299,8 @@ class ParamReader:
         """(True, the value converted to ``tp`` within the limits ``meta``), or (False, None) once reported."""
         try:
             out = self._typed(self.prepare(value, tp, path), tp, path)
-            self._check_limits(out, meta or {}, path)
+            if meta:
+                self._check_limits(out, meta, path)
         except ParamError as err:
             self.refused(err, value, tp, path)
             return False, None
@@ -378,8 +386,8 @@ class ParamReader:
         if not isinstance(data, dict):
             self.add(ERROR, here, f"expected {describe(cls)}, got {data!r}")
             data = {}
-        hints = typing.get_type_hints(cls)
-        fields = {f.name: f for f in dataclasses.fields(cls) if f.init and self.settable(hints[f.name])}  # type: ignore[arg-type]
+        hints, all_fields = _declared(typing.cast(type, cls))
+        fields = {f.name: f for f in all_fields if self.settable(hints[f.name])}
         read_only = set(getattr(cls, "READ_ONLY", ()))
         kwargs: dict[str, Any] = {}
         for key, value in data.items():
