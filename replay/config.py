@@ -1,21 +1,27 @@
 """Typed configuration from YAML: dataclasses validated once, at the edge, with did-you-mean errors.
 
 Every parameter set in navlog is a frozen dataclass. ``from_mapping`` turns a YAML mapping into one,
-checking every key and type and naming the file and key path of anything wrong; ``to_mapping`` turns
-it back into plain data (for manifests and hashes). ``apply_overrides`` applies ``a.b.c=value`` strings
-from the command line.
+checking every key, type and limit (``param``) and naming the file and key path of anything wrong;
+``to_mapping`` turns it back into plain data (for manifests and hashes). ``apply_overrides`` applies
+``a.b.c=value`` strings from the command line.
+
+``ParamReader`` is the one reader of typed parameters: ``from_mapping`` stops at the first error;
+Nav2 parameter files are read by a subclass that reports every problem at once with its line and
+knows how Nav2 differs (``navlog.replay.nav2.schema.SectionReader``).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import difflib
+import functools
 import hashlib
 import importlib.resources
 import json
 import os
 import types
 import typing
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -57,11 +63,17 @@ def known_configs(kind: str) -> list[str]:
     return sorted({p.stem for folder in config_dirs() for p in (folder / kind).glob("*.yaml")})
 
 
-def suggest(word: str, choices: typing.Iterable[str]) -> str:
-    """' (did you mean X?)' for the closest choice, or '' when nothing is close."""
+def closest(word: str, choices: typing.Iterable[str]) -> str | None:
+    """The choice closest to ``word``, or None when nothing is close."""
     # keys read from YAML may be numbers or booleans; compare them as the text they were written as
     match = difflib.get_close_matches(str(word), [str(c) for c in choices], n=1, cutoff=0.6)
-    return f" (did you mean '{match[0]}'?)" if match else ""
+    return match[0] if match else None
+
+
+def suggest(word: str, choices: typing.Iterable[str]) -> str:
+    """' (did you mean X?)' for the closest choice, or '' when nothing is close."""
+    match = closest(word, choices)
+    return f" (did you mean '{match}'?)" if match is not None else ""
 
 
 def load_yaml(path: Path) -> Any:
@@ -126,98 +138,290 @@ def named_config(kind: str, name: str) -> Path:
     )
 
 
-def _type_name(tp: Any) -> str:
+ERROR = "error"
+WARNING = "warning"
+NOTE = "note"
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing wrong (or worth noting) in a parameter file: its severity, YAML key path and line."""
+
+    severity: str  # error | warning | note
+    path: str  # YAML key path, e.g. global_costmap.global_costmap.ros__parameters.obstacle_layer
+    message: str
+    line: int | None = None
+
+    def format(self, file: str = "") -> str:
+        where = f"{file}:{self.line}: " if file and self.line else (f"{file}: " if file else "")
+        return f"{where}{self.severity}: {self.path}: {self.message}"
+
+
+def param(default: Any = dataclasses.MISSING, *, ge=None, gt=None, le=None, lt=None, choices=None, **kw):
+    """A dataclass field with the limits ``ParamReader`` enforces: a range (``ge``, ``gt``, ``le``, ``lt``)
+    for a number, or the ``choices`` a value must be one of."""
+    meta = {"ge": ge, "gt": gt, "le": le, "lt": lt, "choices": choices}
+    if isinstance(default, (list, dict)):
+        raise TypeError("use tuples for list defaults")
+    return dataclasses.field(default=default, metadata=meta, **kw)
+
+
+class Item(int):
+    """The position of a list's item in a key path, shown as ``[i]``."""
+
+
+def key_path(path: typing.Sequence[Any]) -> str:
+    """``a.b[2].c`` for the key path ``("a", "b", Item(2), "c")``."""
+    out = ""
+    for i, part in enumerate(path):
+        out += f"[{part}]" if isinstance(part, Item) else (f".{part}" if i else str(part))
+    return out
+
+
+class ParamError(ConfigError):
+    """A value that does not fit its declared type (``mismatch``) or its limits, at key path ``path``."""
+
+    def __init__(self, path: tuple, message: str, mismatch: bool = True) -> None:
+        super().__init__(f"{key_path(path)}: {message}")
+        self.path = path
+        self.message = message
+        self.mismatch = mismatch
+
+
+# scalar type -> how a message names one value of it, and several
+_SCALARS: dict[Any, tuple[str, str]] = {
+    float: ("a number", "numbers"),
+    int: ("an integer", "integers"),
+    bool: ("true or false", "true or false values"),
+    str: ("a string", "strings"),
+}
+
+
+# a limit of ``param`` -> whether a value is within it
+_WITHIN = {
+    "ge": lambda v, b: v >= b,
+    "gt": lambda v, b: v > b,
+    "le": lambda v, b: v <= b,
+    "lt": lambda v, b: v < b,
+}
+
+
+def describe(tp: Any) -> str:
+    """What a value of type ``tp`` is, as messages say it: ``a number``, ``a list of strings``, ..."""
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if tp in _SCALARS:
+        return _SCALARS[tp][0]
+    if origin in (typing.Union, types.UnionType):
+        return " or ".join(describe(a) for a in args if a is not type(None))
+    if origin is typing.Literal:
+        return f"one of {', '.join(map(repr, args))}"
+    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
+        return "a mapping of parameters"
+    if origin is dict or tp is dict:
+        return "a mapping"
+    if origin in (list, tuple):
+        fixed = origin is tuple and args[-1] is not Ellipsis
+        items, count = (args, f"{len(args)} ") if fixed else (args[:1], "")
+        if len(set(items)) == 1 and items[0] in _SCALARS:
+            return f"a list of {count}{_SCALARS[items[0]][1]}"
+        return f"a list of {count}values" if count else "a list"
+    if tp in (list, tuple):
+        return "a list"
     return getattr(tp, "__name__", str(tp))
 
 
-def _convert(value: Any, tp: Any, where: str) -> Any:
-    origin = typing.get_origin(tp)
-    args = typing.get_args(tp)
-    if tp is Any:
+@functools.cache
+def _declared(cls: type) -> tuple[dict[str, Any], tuple[dataclasses.Field, ...]]:
+    """The resolved type of each field of dataclass ``cls``, and its fields set through ``__init__``."""
+    return typing.get_type_hints(cls), tuple(f for f in dataclasses.fields(cls) if f.init)
+
+
+def _not_one_of(value: Any, options: typing.Sequence[Any], shown: str, path: tuple) -> ParamError:
+    return ParamError(
+        path, f"{value!r} is not one of {shown}{suggest(str(value), [str(o) for o in options])}", mismatch=False
+    )
+
+
+class ParamReader:
+    """Reads YAML data into typed parameter dataclasses, checking every key, type and limit.
+
+    ``read`` builds a dataclass from a mapping: each key must name a field (or a parameter the class
+    lists in ``READ_ONLY``: accepted and noted as not implemented), each value must fit the field's
+    type (a nested dataclass, a list, tuple, dict, union, ``Literal`` or scalar; an integer is taken
+    as a float) and its ``param`` limits. Every problem becomes a ``Problem`` with its key path and,
+    given ``lines`` (key path -> line), its line.
+
+    A reader with ``strict`` set raises ``ConfigError`` (``path: message``) at the first error; one
+    without collects every problem in ``problems``, leaves a refused value's field at its default
+    and goes on. A subclass adapts the reading to a file format through the hooks ``prepare``,
+    ``settable``, ``refused`` and ``unknown_key`` (Nav2's: ``navlog.replay.nav2.schema``).
+    """
+
+    strict = True
+
+    def __init__(self, lines: typing.Mapping[tuple, int] | None = None) -> None:
+        self.problems: list[Problem] = []
+        self.lines = lines or {}
+
+    def add(self, severity: str, path: tuple, message: str) -> None:
+        """Note a problem at ``path`` (an error raises ConfigError when the reader is strict)."""
+        line = None
+        for n in range(len(path), 0, -1):
+            line = self.lines.get(tuple(path[:n]))
+            if line is not None:
+                break
+        problem = Problem(severity, key_path(path), message, line)
+        if severity == ERROR and self.strict:
+            raise ConfigError(f"{problem.path}: {message}")
+        self.problems.append(problem)
+
+    # -- hooks
+    def prepare(self, value: Any, tp: Any, path: tuple) -> Any:
+        """A field's value as the type conversion takes it (a format's own spelling of a value, rewritten)."""
         return value
-    if origin in (typing.Union, types.UnionType):
-        if value is None and type(None) in args:
-            return None
-        errors = []
-        for arg in args:
-            if arg is type(None):
-                continue
-            try:
-                return _convert(value, arg, where)
-            except ConfigError as exc:
-                errors.append(str(exc))
-        raise ConfigError(errors[0] if len(errors) == 1 else f"{where}: {value!r} fits none of {tp}")
-    if origin is typing.Literal:
-        if isinstance(value, bool) and {"on", "off"} <= set(args):
-            return "on" if value else "off"  # YAML 1.1 reads a bare on/off as a boolean
-        if value in args and not isinstance(value, bool):
+
+    def settable(self, tp: Any) -> bool:
+        """Whether a field of type ``tp`` is set from a key of its name (else only from ``read``'s ``extra``)."""
+        return True
+
+    def refused(self, err: ParamError, value: Any, tp: Any, path: tuple) -> None:
+        """Report the value of field ``path`` that does not fit its type ``tp`` (``err`` says how)."""
+        self.add(ERROR, err.path, err.message)
+
+    def unknown_key(self, key: str, kpath: tuple, known: list[str], is_section: bool = False) -> None:
+        """Report ``key``, which names none of the ``known`` fields and sections."""
+        self.add(ERROR, kpath, f"unknown key{suggest(key, known)}; allowed: {', '.join(known)}")
+
+    # -- values
+    def convert(
+        self, value: Any, tp: Any, path: tuple, meta: typing.Mapping[str, Any] | None = None
+    ) -> tuple[bool, Any]:
+        """(True, the value converted to ``tp`` within the limits ``meta``), or (False, None) once reported."""
+        try:
+            out = self._typed(self.prepare(value, tp, path), tp, path)
+            if meta:
+                self._check_limits(out, meta, path)
+        except ParamError as err:
+            self.refused(err, value, tp, path)
+            return False, None
+        return True, out
+
+    def _check_limits(self, out: Any, meta: typing.Mapping[str, Any], path: tuple) -> None:
+        if isinstance(out, (int, float)) and not isinstance(out, bool):
+            for key, word in (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<")):
+                bound = meta.get(key)
+                if bound is not None and not _WITHIN[key](out, bound):
+                    raise ParamError(path, f"{out} is out of range: must be {word} {bound}", mismatch=False)
+        choices = meta.get("choices")
+        if choices and out not in choices:
+            raise _not_one_of(out, choices, ", ".join(map(str, choices)), path)
+
+    def _typed(self, value: Any, tp: Any, path: tuple) -> Any:
+        origin = typing.get_origin(tp)
+        args = typing.get_args(tp)
+        if tp is Any:
             return value
-        raise ConfigError(
-            f"{where}: {value!r} is not one of {', '.join(map(repr, args))}"
-            f"{suggest(str(value), [str(a) for a in args])}"
-        )
-    if isinstance(tp, type) and dataclasses.is_dataclass(tp):
-        return from_mapping(tp, value, where)
-    if origin in (list, tuple) or tp in (list, tuple):
-        if not isinstance(value, (list, tuple)):
-            raise ConfigError(f"{where}: expected a list, got {value!r}")
-        if origin is tuple and args and args[-1] is not Ellipsis:
-            if len(value) != len(args):
-                raise ConfigError(f"{where}: expected {len(args)} values, got {len(value)}")
-            return tuple(_convert(v, a, f"{where}[{i}]") for i, (v, a) in enumerate(zip(value, args)))
-        item = args[0] if args else Any
-        out = [_convert(v, item, f"{where}[{i}]") for i, v in enumerate(value)]
-        return tuple(out) if origin is tuple or tp is tuple else out
-    if origin is dict or tp is dict:
-        if not isinstance(value, dict):
-            raise ConfigError(f"{where}: expected a mapping, got {value!r}")
-        kt, vt = args if args else (Any, Any)
-        return {_convert(k, kt, where): _convert(v, vt, f"{where}.{k}") for k, v in value.items()}
-    if tp is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ConfigError(f"{where}: expected a number, got {value!r}")
-        return float(value)
-    if tp is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{where}: expected an integer, got {value!r}")
-        return value
-    if tp is bool:
-        if not isinstance(value, bool):
-            raise ConfigError(f"{where}: expected true or false, got {value!r}")
-        return value
-    if tp is str:
-        if not isinstance(value, str):
-            raise ConfigError(f"{where}: expected a string, got {value!r}")
-        return value
-    raise ConfigError(f"{where}: unsupported type {_type_name(tp)}")
+        if origin in (typing.Union, types.UnionType):
+            if value is None and type(None) in args:
+                return None
+            members = [a for a in args if a is not type(None)]
+            if len(members) == 1:
+                return self._typed(value, members[0], path)
+            # the first member that takes the value (a collecting reader's section reports its own problems)
+            for arg in members:
+                try:
+                    return self._typed(value, arg, path)
+                except ConfigError:
+                    continue
+            raise ParamError(path, f"{value!r} fits none of {tp}")
+        if origin is typing.Literal:
+            if isinstance(value, bool) and {"on", "off"} <= set(args):
+                return "on" if value else "off"  # YAML 1.1 reads a bare on/off as a boolean
+            if value in args and not isinstance(value, bool):
+                return value
+            raise _not_one_of(value, args, ", ".join(map(repr, args)), path)
+        if isinstance(tp, type) and dataclasses.is_dataclass(tp):
+            return self.read(tp, value, path)
+        if origin in (list, tuple) or tp in (list, tuple):
+            if not isinstance(value, (list, tuple)):
+                raise ParamError(path, f"expected {describe(tp)}, got {value!r}")
+            if origin is tuple and args and args[-1] is not Ellipsis:
+                if len(value) != len(args):
+                    raise ParamError(path, f"expected {len(args)} values, got {len(value)}")
+                return tuple(self._typed(v, a, path + (Item(i),)) for i, (v, a) in enumerate(zip(value, args)))
+            item = args[0] if args else Any
+            out = [self._typed(v, item, path + (Item(i),)) for i, v in enumerate(value)]
+            return tuple(out) if origin is tuple or tp is tuple else out
+        if origin is dict or tp is dict:
+            if not isinstance(value, dict):
+                raise ParamError(path, f"expected {describe(tp)}, got {value!r}")
+            kt, vt = args if args else (Any, Any)
+            return {self._typed(k, kt, path): self._typed(v, vt, path + (k,)) for k, v in value.items()}
+        if tp in _SCALARS:
+            taken = (int, float) if tp is float else tp
+            if isinstance(value, bool) != (tp is bool) or not isinstance(value, taken):
+                raise ParamError(path, f"expected {describe(tp)}, got {value!r}")
+            return float(value) if tp is float else value
+        raise ParamError(path, f"unsupported type {describe(tp)}", mismatch=False)
+
+    # -- sections
+    def read(
+        self,
+        cls: type[T],
+        data: Any,
+        path: tuple = (),
+        *,
+        sections: tuple[str, ...] = (),
+        extra: dict | None = None,
+        skip: tuple[str, ...] = (),
+    ) -> T:
+        """Build dataclass ``cls`` from mapping ``data`` found at key path ``path``.
+
+        ``sections`` are keys the caller reads itself (listed among the known keys), ``skip`` keys it
+        ignores; ``extra`` gives fields their values directly (those ``settable`` refuses, mostly).
+        """
+        here = path or (cls.__name__,)
+        if data is None:
+            data = {}
+        if not isinstance(data, dict):
+            self.add(ERROR, here, f"expected {describe(cls)}, got {data!r}")
+            data = {}
+        hints, all_fields = _declared(typing.cast(type, cls))
+        fields = {f.name: f for f in all_fields if self.settable(hints[f.name])}
+        read_only = set(getattr(cls, "READ_ONLY", ()))
+        kwargs: dict[str, Any] = {}
+        for key, value in data.items():
+            kpath = path + (key,)
+            name = str(key)
+            if name in sections or name in skip:
+                continue
+            if name in fields:
+                ok, out = self.convert(value, hints[name], kpath, fields[name].metadata)
+                if ok:
+                    kwargs[name] = out
+            elif name not in read_only:
+                self.unknown_key(name, kpath, [*fields, *sections], is_section=isinstance(value, dict))
+            if name in read_only:
+                self.add(NOTE, kpath, "read, not implemented by navlog")
+        given = {str(k) for k in data} | set(extra or ())
+        for name, f in fields.items():
+            if name not in given and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                self.add(ERROR, path + (name,), "required key is missing")
+        kwargs.update(extra or {})
+        try:
+            return cls(**kwargs)
+        except (TypeError, ValueError) as exc:
+            failure = str(exc)
+        self.add(ERROR, here, failure)
+        return cls()
 
 
 def from_mapping(cls: type[T], data: Any, where: str = "") -> T:
-    """Build dataclass ``cls`` from a mapping, checking keys and types; ``where`` prefixes errors."""
-    if data is None:
-        data = {}
-    if not isinstance(data, dict):
-        raise ConfigError(f"{where or cls.__name__}: expected a mapping, got {data!r}")
-    hints = typing.get_type_hints(cls)
-    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}  # type: ignore[arg-type]
-    unknown = [k for k in data if k not in fields]
-    if unknown:
-        key = unknown[0]
-        raise ConfigError(
-            f"{where + '.' if where else ''}{key}: unknown key{suggest(str(key), fields)}; allowed: {', '.join(fields)}"
-        )
-    kwargs = {}
-    for name, field in fields.items():
-        key_where = f"{where + '.' if where else ''}{name}"
-        if name in data:
-            kwargs[name] = _convert(data[name], hints[name], key_where)
-        elif field.default is dataclasses.MISSING and field.default_factory is dataclasses.MISSING:
-            raise ConfigError(f"{key_where}: required key is missing")
-    try:
-        obj = cls(**kwargs)
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(f"{where or cls.__name__}: {exc}") from None
-    return obj
+    """Build dataclass ``cls`` from a mapping, checking keys, types and limits; ``where`` prefixes errors.
+
+    The first problem raises ConfigError naming its key path (``ParamReader``, strict).
+    """
+    return ParamReader().read(cls, data, (where,) if where else ())
 
 
 def load_config(cls: type[T], path: Path, overrides: typing.Sequence[str] = ()) -> T:

@@ -17,7 +17,8 @@ its code, and a registry per plugin kind maps Nav2 plugin type names to both, as
   trees (replanning, recoveries) and the waypoint follower, as a state machine on sim time;
 - ``amcl``: AMCL's particle filter (``ParticleFilter``: motion models, likelihood field, KLD
   resampling, recovery) and its parameters (``AmclParams``);
-- ``params`` (the file), ``overrides``, ``schema`` (typed sections and problems), ``plugins``
+- ``params`` (the file), ``overrides``, ``schema`` (Nav2's reading of a section: the typed-parameter
+  reader of ``navlog.replay.config`` with Nav2's differences), ``plugins``
   (the registry type).
 
 Names are imported on first use, so importing the package stays cheap.

@@ -19,13 +19,12 @@ read the plugin sections a node lists, each as its registered type.
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
 from navlog.errors import ConfigError
-from navlog.replay.config import suggest
+from navlog.replay.config import closest, suggest
 from navlog.replay.nav2.schema import ERROR, NOTE, SectionReader
 
 T = TypeVar("T")
@@ -132,11 +131,11 @@ def read_plugin_type(
             path + ("plugin",),
             f"unknown {kind} plugin '{ptype}'{suggest(norm, registry)}; Nav2 fails to load it at launch",
         )
-        close = difflib.get_close_matches(norm, registry.with_params(), n=1, cutoff=0.6)
-        if close:  # check the rest of the section as the plugin it was meant to be, but do not use it
-            meant = registry[close[0]]
+        close = closest(norm, registry.with_params())
+        if close is not None:  # check the rest of the section as the plugin it was meant to be, but do not use it
+            meant = registry[close]
             assert meant is not None
-            meant.params.read_section(r, section, path, close[0])
+            meant.params.read_section(r, section, path, close)
         return None, None
     plugin = registry[norm]
     if plugin is None:

@@ -1,4 +1,4 @@
-"""Typed configuration: keys, types, suggestions, overrides."""
+"""Typed configuration: keys, types, limits, suggestions, overrides; the reader that collects every problem."""
 
 from __future__ import annotations
 
@@ -8,7 +8,19 @@ from typing import Literal
 import pytest
 
 from navlog.errors import ConfigError
-from navlog.replay.config import apply_overrides, config_hash, from_mapping, load_config
+from navlog.replay.config import (
+    ERROR,
+    Item,
+    ParamReader,
+    Problem,
+    apply_overrides,
+    config_hash,
+    describe,
+    from_mapping,
+    key_path,
+    load_config,
+    param,
+)
 
 
 @dataclass(frozen=True)
@@ -78,3 +90,72 @@ def test_a_map_image_where_yaml_is_expected_names_the_yaml_that_holds_it(tmp_pat
         f"{tmp_path / 'room.pgm'}: not a YAML text file (binary content): this is a map image; give the map's "
         f"YAML (map_server's map.yaml, which names the image); {tmp_path / 'room.yaml'} names this image"
     )
+
+
+@dataclass(frozen=True)
+class Limited:
+    rate: float = param(10.0, gt=0.0, le=100.0)
+    mode: str = param("a", choices=("a", "b"))
+    level: int = param(1, choices=(0, 1, 2))
+    offset: float | None = None
+    pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        ({"rate": 0}, "rate: 0.0 is out of range: must be > 0.0"),
+        ({"rate": 100.5}, "rate: 100.5 is out of range: must be <= 100.0"),
+        ({"mode": "bb"}, "mode: 'bb' is not one of a, b (did you mean 'b'?)"),
+        ({"level": 3}, "level: 3 is not one of 0, 1, 2"),
+        ({"offset": "x"}, "offset: expected a number, got 'x'"),
+        ({"pose": 1}, "pose: expected a list of 3 numbers, got 1"),
+        ({"pose": [0, 0, True]}, "pose[2]: expected a number, got True"),
+        ("x", "Limited: expected a mapping of parameters, got 'x'"),
+    ],
+)
+def test_param_limits_and_types_are_checked_in_plain_configs(data, message):
+    with pytest.raises(ConfigError) as exc:
+        from_mapping(Limited, data)
+    assert str(exc.value) == message
+    assert from_mapping(Limited, {"rate": 100, "level": 0, "offset": None, "pose": [1, 2, 3]}) == Limited(
+        100.0, "a", 0, None, (1.0, 2.0, 3.0)
+    )
+
+
+def test_the_first_problem_in_file_order_is_reported():
+    with pytest.raises(ConfigError, match=r"^values: expected 2 values, got 3$"):
+        from_mapping(Outer, {"name": "a", "values": [1, 2, 3], "innr": {}})
+    with pytest.raises(ConfigError, match=r"^innr: unknown key \(did you mean 'inner'\?\); allowed: name, inner"):
+        from_mapping(Outer, {"innr": {}, "values": [1, 2, 3]})
+
+
+class Collecting(ParamReader):
+    strict = False
+
+
+def test_a_collecting_reader_reports_every_problem_with_its_line_and_keeps_defaults():
+    r = Collecting({("rate",): 3, ("pose",): 5, ("extra",): 6})
+    out = r.read(Limited, {"rate": -1, "mode": "b", "pose": [1, "y", 2], "extra": 1})
+    assert out == Limited(mode="b")  # rate and pose refused: their defaults stay
+    assert [(p.severity, p.path, p.line) for p in r.problems] == [
+        (ERROR, "rate", 3),
+        (ERROR, "pose[1]", 5),
+        (ERROR, "extra", 6),
+    ]
+    assert r.problems[0].format("f.yaml") == "f.yaml:3: error: rate: -1.0 is out of range: must be > 0.0"
+    assert r.problems[2].message == "unknown key; allowed: rate, mode, level, offset, pose"
+    ok, value = r.convert(7, float, ("x",))
+    assert (ok, value, type(value)) == (True, 7.0, float)
+    assert r.convert("7", float, ("x",)) == (False, None)
+    assert r.problems[-1] == Problem(ERROR, "x", "expected a number, got '7'")
+
+
+def test_key_paths_and_type_names():
+    assert key_path(("parts", Item(2), "size", Item(0))) == "parts[2].size[0]"
+    assert key_path(("a", 1, "b")) == "a.1.b"  # a YAML key that is a number stays a key
+    assert describe(tuple[str, ...]) == "a list of strings"
+    assert describe(tuple[float, float]) == "a list of 2 numbers"
+    assert describe(tuple[float, str]) == "a list of 2 values"
+    assert describe(list[int] | None) == "a list of integers"
+    assert describe(Inner) == "a mapping of parameters"
