@@ -88,29 +88,94 @@ def load_yaml(path: Path) -> Any:
     return parse_yaml(text, str(path))
 
 
-def parse_yaml(text: str, source: str) -> Any:
-    """Parse YAML text; a syntax error or a self-referencing alias raises ConfigError naming ``source``."""
+MAX_YAML_DEPTH = 100  # nesting levels of a YAML document (navlog's and Nav2's files use fewer than 10)
+MAX_YAML_NODES = 200_000  # nodes of a YAML document with its aliases expanded (a large Nav2 file: ~3,000)
+
+
+class _BoundedLoader(yaml.SafeLoader):
+    """PyYAML's safe loader, refusing nesting deeper than ``MAX_YAML_DEPTH`` while it composes (so a
+    document of 20,000 levels ends at level ``MAX_YAML_DEPTH``, not in a ``RecursionError``)."""
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self.depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        self.depth += 1
+        try:
+            if self.depth > MAX_YAML_DEPTH:
+                mark = self.peek_event().start_mark
+                raise yaml.composer.ComposerError(None, None, f"nested deeper than {MAX_YAML_DEPTH} levels", mark)
+            return super().compose_node(parent, index)
+        finally:
+            self.depth -= 1
+
+
+def bounded_compose(text: str) -> yaml.Node | None:
+    """The composed YAML node graph of ``text`` (no values built), nesting bounded as ``parse_yaml``'s;
+    ``yaml.YAMLError`` when it is malformed or too deep."""
+    loader = _BoundedLoader(text)
     try:
-        doc = yaml.safe_load(text)
+        return loader.get_single_node()
+    finally:
+        loader.dispose()
+
+
+def parse_yaml(text: str, source: str) -> Any:
+    """Parse YAML text safely (no Python tags) within bounds: ConfigError naming ``source`` for a syntax
+    error, nesting deeper than ``MAX_YAML_DEPTH``, an alias that contains itself, or more than
+    ``MAX_YAML_NODES`` nodes once the aliases are expanded (an alias bomb). The bounds are checked on
+    the composed document before anything is built, in time linear in its size."""
+    loader = _BoundedLoader(text)
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        _check_expanded_size(node, source)
+        return loader.construct_document(node)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = getattr(exc, "problem", None) or str(exc)
         raise ConfigError(f"{source}:{where}: malformed YAML: {problem}") from None
-    _refuse_cycles(doc, source, [])
-    return doc
+    finally:
+        loader.dispose()
 
 
-def _refuse_cycles(node: Any, source: str, inside: list[int]) -> None:
-    """An alias inside its own anchor (``a: &x [*x]``) makes a structure that contains itself."""
-    if not isinstance(node, (dict, list)):
-        return
-    if id(node) in inside:
-        raise ConfigError(f"{source}: malformed YAML: an alias refers to a node that contains it; expand it")
-    inside.append(id(node))
-    for child in node.values() if isinstance(node, dict) else node:
-        _refuse_cycles(child, source, inside)
-    inside.pop()
+def _check_expanded_size(root: yaml.Node, source: str) -> None:
+    """Refuse a composed document whose aliases make it contain itself, or expand it beyond
+    ``MAX_YAML_NODES`` nodes: each node is visited once (a shared node's expanded size is kept)."""
+    size: dict[int, int] = {}
+    entered: set[int] = set()
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, finished = stack.pop()
+        children = _children(node)
+        if finished:
+            size[id(node)] = min(1 + sum(size[id(c)] for c in children), MAX_YAML_NODES + 1)
+            continue
+        if id(node) in size:
+            continue
+        entered.add(id(node))
+        stack.append((node, True))
+        for child in children:
+            if id(child) in entered and id(child) not in size:  # an ancestor: the node contains itself
+                raise ConfigError(f"{source}: malformed YAML: an alias refers to a node that contains it; expand it")
+            if id(child) not in size:
+                stack.append((child, False))
+    if size[id(root)] > MAX_YAML_NODES:
+        raise ConfigError(
+            f"{source}: malformed YAML: more than {MAX_YAML_NODES:,} values once its aliases are expanded "
+            "(an alias bomb?); write the document out"
+        )
+
+
+def _children(node: yaml.Node) -> list[yaml.Node]:
+    if isinstance(node, yaml.SequenceNode):
+        return list(node.value)
+    if isinstance(node, yaml.MappingNode):
+        return [n for pair in node.value for n in pair]
+    return []
 
 
 def _yaml_hint(path: Path) -> str:

@@ -1,7 +1,9 @@
 """pytest plugin (entry point ``pytest11``): a CI suite's cases as tests.
 
-pytest collects every ``*.navlog-suite.yaml`` file below its paths, and the suites given with
-``--navlog-suite FILE``; each case is one test, whose failure lists every check (the sub-results)
+When enabled — ``--navlog-suites`` on the command line, or ``navlog_suites = true`` in the pytest
+ini options — pytest collects every ``*.navlog-suite.yaml`` file below its paths; the suites given
+with ``--navlog-suite FILE`` are collected either way (a plain ``pytest`` run never reads a suite
+file it was not asked for); each case is one test, whose failure lists every check (the sub-results)
 with its status. The case's facts go to the JUnit report as properties. ``--navlog-update`` rewrites
 the baselines (``--update``), ``--navlog-update-new`` writes the missing ones; ``--navlog-cache`` and
 ``--navlog-baselines`` choose the folders. Each test runs its case alone, so ``pytest -n auto``
@@ -23,15 +25,19 @@ SUFFIX = ".navlog-suite.yaml"
 
 def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("navlog", "navlog replay-and-diff suites")
+    group.addoption("--navlog-suites", action="store_true", help="collect every *.navlog-suite.yaml file as tests")
     group.addoption("--navlog-suite", action="append", default=[], metavar="FILE", help="run this navlog CI suite")
     group.addoption("--navlog-update", action="store_true", help="rewrite the suites' baselines")
     group.addoption("--navlog-update-new", action="store_true", help="write the suites' missing baselines")
     group.addoption("--navlog-cache", metavar="DIR", help="the navlog CI cache folder")
     group.addoption("--navlog-baselines", metavar="DIR", help="the baselines folder")
+    parser.addini("navlog_suites", "collect every *.navlog-suite.yaml file as tests", type="bool", default=False)
 
 
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Collector | None:
-    if file_path.name.endswith(SUFFIX):
+    config = parent.config
+    enabled = config.getoption("navlog_suites") or config.getini("navlog_suites")
+    if enabled and file_path.name.endswith(SUFFIX):
         suite: pytest.Collector = SuiteFile.from_parent(parent, path=file_path)
         return suite
     return None

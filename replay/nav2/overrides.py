@@ -14,10 +14,8 @@ import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
-import yaml
-
 from navlog.errors import ConfigError
-from navlog.replay.config import suggest
+from navlog.replay.config import parse_yaml, suggest
 from navlog.replay.nav2.collision_monitor import CollisionMonitorParams, CollisionPolygonParams, CollisionSourceParams
 from navlog.replay.nav2.controllers.checkers import GoalCheckerParams, ProgressCheckerParams
 from navlog.replay.nav2.controllers.mppi import MPPIParams
@@ -125,9 +123,9 @@ def apply_nav2_overrides(doc: dict, overrides: Sequence[str], source: str = "") 
             )
         key, raw = item.split("=", 1)
         try:
-            value = yaml.safe_load(raw)
-        except yaml.YAMLError:
-            raise ConfigError(f"--set '{item}': the value is not valid YAML") from None
+            value = parse_yaml(raw, f"--set '{item}'")
+        except ConfigError as exc:
+            raise ConfigError(f"--set '{item}': the value is not valid YAML ({exc})") from None
         path = resolve_key(out, key.strip())
         node = out
         for p in path[:-1]:

@@ -40,7 +40,7 @@ from typing import Any
 import yaml
 
 from navlog.errors import ConfigError
-from navlog.replay.config import load_yaml, parse_yaml, suggest
+from navlog.replay.config import bounded_compose, load_yaml, parse_yaml, suggest
 from navlog.replay.nav2.amcl import AmclParams, read_amcl
 from navlog.replay.nav2.behaviors import BehaviorServerParams, read_behavior_server
 from navlog.replay.nav2.collision_monitor import CollisionMonitorParams, read_collision_monitor
@@ -119,7 +119,7 @@ def _line_map(text: str) -> dict[tuple, int]:
     """YAML key path -> 1-based line of the key."""
     lines: dict[tuple, int] = {}
     try:
-        root = yaml.compose(text)
+        root = bounded_compose(text)
     except yaml.YAMLError:
         return lines
 

@@ -159,3 +159,56 @@ def test_key_paths_and_type_names():
     assert describe(tuple[float, str]) == "a list of 2 values"
     assert describe(list[int] | None) == "a list of integers"
     assert describe(Inner) == "a mapping of parameters"
+
+
+# ------------------------------------------------------------ YAML within bounds
+def _alias_bomb(levels: int) -> str:
+    """The 'billion laughs': each level a list of nine aliases of the level below (9**levels values)."""
+    lines = ['l0: &l0 ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]']
+    lines += [f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 9)}]" for i in range(1, levels)]
+    return "\n".join(lines) + "\n"
+
+
+def test_an_alias_bomb_is_refused_before_it_is_built():
+    from navlog.replay.config import parse_yaml
+
+    with pytest.raises(ConfigError, match=r"bomb.yaml: malformed YAML: more than 200,000 values once its aliases"):
+        parse_yaml(_alias_bomb(9), "bomb.yaml")  # 387 million values if built
+    small = parse_yaml(_alias_bomb(4), "small.yaml")  # 6,561 values: a document may share its nodes
+    assert len(small["l3"]) == 9 and small["l3"][0][0][0] == ["lol"] * 9
+
+
+def test_nesting_beyond_the_depth_bound_is_a_clear_error_not_a_recursion_error():
+    from navlog.replay.config import MAX_YAML_DEPTH, parse_yaml
+
+    with pytest.raises(
+        ConfigError, match=rf"deep.yaml: line 1, column \d+: malformed YAML: nested deeper than {MAX_YAML_DEPTH}"
+    ):
+        parse_yaml("a: " + "[" * 20_000 + "]" * 20_000, "deep.yaml")
+    doc = parse_yaml("a: " + "[" * 50 + "1" + "]" * 50, "ok.yaml")["a"]
+    for _ in range(49):
+        (doc,) = doc
+    assert doc == [1]
+
+
+def test_an_alias_inside_its_own_anchor_is_refused():
+    from navlog.replay.config import parse_yaml
+
+    with pytest.raises(ConfigError, match="an alias refers to a node that contains it"):
+        parse_yaml("a: &x [1, {b: *x}]\n", "cycle.yaml")
+
+
+def test_every_reader_of_yaml_uses_the_bounded_loader(tmp_path):
+    from navlog.replay.nav2.costmap.footprint import parse_footprint
+    from navlog.replay.nav2.overrides import apply_nav2_overrides
+
+    with pytest.raises(ValueError, match="footprint"):
+        parse_footprint("&a [*a]")
+    with pytest.raises(ConfigError, match=r"--set .*more than 200,000 values"):
+        apply_nav2_overrides({"a": {"b": 1}}, ["a.b=" + _alias_bomb(9).replace("\n", ", ").join("{}")])
+    world = tmp_path / "bomb.yaml"
+    world.write_text(_alias_bomb(9))
+    from navlog.recorder.world import load_world
+
+    with pytest.raises(ConfigError, match=r"bomb.yaml: malformed YAML: more than"):
+        load_world(str(world))

@@ -10,8 +10,9 @@ import math
 from typing import Protocol
 
 import numpy as np
-import yaml
 
+from navlog.errors import ConfigError
+from navlog.replay.config import parse_yaml
 from navlog.replay.nav2.costmap.cost_values import LETHAL, NO_INFORMATION
 from navlog.replay.nav2.costmap.raytrace import bresenham_cells
 
@@ -31,8 +32,8 @@ class FootprintParams(Protocol):
 def parse_footprint(text: str) -> list[tuple[float, float]]:
     """Nav2's footprint string '[[x, y], ...]' as points ('[]' -> [])."""
     try:
-        value = yaml.safe_load(text) if text.strip() else []
-    except yaml.YAMLError:
+        value = parse_yaml(text, "footprint") if text.strip() else []
+    except ConfigError:
         raise ValueError(f"footprint {text!r} is not of the form [[x, y], [x, y], ...]") from None
     if value in (None, []):
         return []

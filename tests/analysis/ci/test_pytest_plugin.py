@@ -16,7 +16,7 @@ def plugin_opts() -> list[str]:
     from importlib.metadata import entry_points
 
     installed = any(ep.value == "navlog.analysis.ci.pytest_plugin" for ep in entry_points(group="pytest11"))
-    return [] if installed else ["-p", "navlog.analysis.ci.pytest_plugin"]
+    return ["--navlog-suites"] + ([] if installed else ["-p", "navlog.analysis.ci.pytest_plugin"])
 
 
 SUITE = """\
@@ -54,6 +54,22 @@ def test_bad_suite_is_a_collection_error(pytester: pytest.Pytester):
     result = pytester.runpytest_subprocess(*plugin_opts())
     result.assert_outcomes(errors=1)
     result.stdout.fnmatch_lines(["*pipline: unknown key (did you mean 'pipeline'?)*"])
+
+
+def test_suite_files_are_collected_only_when_asked_for(pytester: pytest.Pytester):
+    """A plain pytest run never reads a suite file: an alias bomb named *.navlog-suite.yaml is left alone
+    unless --navlog-suites or the ini option asks for suites, and then it is refused, not expanded."""
+    bomb = 'l0: &l0 ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n' + "".join(
+        f"l{i}: &l{i} [{', '.join([f'*l{i - 1}'] * 9)}]\n" for i in range(1, 9)
+    )
+    pytester.makefile(".navlog-suite.yaml", bomb=bomb)
+    pytester.makepyfile(test_other="def test_one():\n    assert True\n")
+    opts = [o for o in plugin_opts() if o != "--navlog-suites"]
+    pytester.runpytest_subprocess(*opts).assert_outcomes(passed=1)
+    pytester.makeini("[pytest]\nnavlog_suites = true\n")
+    result = pytester.runpytest_subprocess(*opts)
+    result.assert_outcomes(passed=1, errors=1)
+    result.stdout.fnmatch_lines(["*more than 200,000 values once its aliases are expanded*"])
 
 
 def test_cases_run_the_same_under_pytest_xdist(pytester: pytest.Pytester, ci_cache: Path):
