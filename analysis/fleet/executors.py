@@ -199,13 +199,17 @@ def import_ray() -> Any:
 def start_local_ray(num_cpus: int | None = None, **options: Any) -> Any:
     """Start a one-machine Ray instance listening on 127.0.0.1 only, without a dashboard; returns ``ray``.
 
-    Ray binds its servers to the node's network address unless it runs as a single-machine instance,
-    which its ``RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0`` setting selects; it is read when ``ray`` is
-    first imported, so it is set here before that (and inherited by Ray's own processes).
+    Ray binds its servers (GCS, raylet, workers, agents) to the node's network address unless it runs
+    as a single-machine instance, which its ``RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER=0`` setting selects.
+    Ray reads that setting once, when ``ray`` is first imported: it is set in the environment here
+    (Ray's own processes inherit it) and, for a ``ray`` imported before this call, on the constant Ray
+    read it into, which Ray consults when it starts its servers.
     """
-    if "ray" not in sys.modules:
-        os.environ.setdefault(RAY_LOCAL_ONLY, "0")
+    os.environ[RAY_LOCAL_ONLY] = "0"
     ray = import_ray()
+    from ray._private import ray_constants
+
+    ray_constants.ENABLE_RAY_CLUSTER = False
     ray.init(
         num_cpus=num_cpus,
         include_dashboard=False,

@@ -4,6 +4,7 @@ with the same output bytes and summary as this process, and a Ray worker killed 
 from __future__ import annotations
 
 import importlib.util
+import json
 import os
 from pathlib import Path
 
@@ -37,6 +38,37 @@ def test_the_local_ray_listens_on_the_loopback_address_only(ray_local):
         c.laddr.ip for c in psutil.net_connections("tcp") if c.status == psutil.CONN_LISTEN and c.pid in ray_pids
     ]
     assert listening and all(ip in ("127.0.0.1", "::ffff:127.0.0.1", "::1") for ip in listening), listening
+
+
+LOOPBACK_CHECK = """
+import json
+import time
+import ray  # imported before navlog starts it: Ray has read its settings already
+import psutil
+from navlog.analysis.fleet.executors import start_local_ray
+r = start_local_ray(1)
+time.sleep(1.0)
+pids = {p.pid for p in psutil.process_iter(["cmdline"]) if any("ray" in a for a in (p.info["cmdline"] or []))}
+pids.add(psutil.Process().pid)
+print(json.dumps(sorted({c.laddr.ip for c in psutil.net_connections("tcp") if c.status == psutil.CONN_LISTEN and c.pid in pids})))
+r.shutdown()
+"""
+
+
+def test_a_local_ray_listens_on_loopback_even_when_ray_was_imported_first(tmp_path):
+    """Ray reads its single-machine setting when first imported: a program that imported ray before
+    asking navlog for a local Ray still gets servers on 127.0.0.1 only (GCS, raylet, workers, agents)."""
+    import subprocess
+    import sys
+
+    if importlib.util.find_spec("ray") is None:
+        pytest.skip("ray is not installed (pip install navlog[fleet])")
+    res = subprocess.run(
+        [sys.executable, "-c", LOOPBACK_CHECK], capture_output=True, text=True, timeout=300, cwd=tmp_path
+    )
+    assert res.returncode == 0, res.stderr[-2000:]
+    listening = json.loads(res.stdout.strip().splitlines()[-1])
+    assert len(listening) >= 1 and set(listening) <= {"127.0.0.1", "::ffff:127.0.0.1", "::1"}, listening
 
 
 def test_ray_writes_the_same_bytes_and_summary_as_this_process(ray_local, fleet_dir, tmp_path):
