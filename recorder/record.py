@@ -33,6 +33,7 @@ from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec
 from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario, scenario_world
 from navlog.recorder.world import World, load_world
 from navlog.replay.config import config_hash, named_config, to_mapping
+from navlog.replay.io.atomic import hold_output
 from navlog.replay.io.logwriter import McapLogWriter, check_output
 from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Executor, Node
@@ -215,6 +216,22 @@ def record(
     """
     out = Path(out)
     check_output(out, force)
+    with hold_output(out):  # one run writes ``out`` at a time
+        return _record(setup, out, force, progress, live_nodes, pipeline, navigation, stop, sensor_worker)
+
+
+def _record(
+    setup: RecordSetup,
+    out: Path,
+    force: bool,
+    progress: bool,
+    live_nodes: Sequence[Node],
+    pipeline: Pipeline | None,
+    navigation: Pipeline | None,
+    stop: threading.Event | None,
+    sensor_worker: bool | None,
+) -> RecordResult:
+    """``record`` once ``out`` is checked and held."""
     command_topic = scenario_command_topic(pipeline, setup.robot.cmd_topic)
     # the sensor worker first, so that its start-up runs beside MuJoCo's import and model compilation
     if sensor_worker is None:

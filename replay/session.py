@@ -24,7 +24,7 @@ from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
 from navlog.replay.identity import input_entries, inputs_sha256, replay_identity, sha256_file
 from navlog.replay.io import cdr_decode
-from navlog.replay.io.atomic import remove_stale, replace_output
+from navlog.replay.io.atomic import hold_output, remove_stale, replace_output, write_error
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import LogReader
@@ -142,52 +142,59 @@ def run_replay(
         raise NavlogError(f"{out_dir}: output is a file, not a folder; choose a folder name for -o")
     if out_dir.exists() and any(out_dir.iterdir()) and not force:
         raise NavlogError(f"{out_dir}: output folder exists and is not empty; choose another or pass --force")
-    with open_log(log, recover=recover) as reader:
-        to_log = dict(remap)  # pipeline topic -> log topic, for remapped topics only
-        log_to = {v: k for k, v in remap.items()}
-        logical_topics = {log_to.get(t, t) for t in reader.topics}
-        params = spec.settle(params, reader, log_to)  # `auto` parameters decided from the log's content
-        pipe = spec.build(params, logical_topics)
-        missing = [t for t in pipe.inputs if to_log.get(t, t) not in reader.topics]
-        if missing:
-            have = ", ".join(f"{t.name} ({t.typename})" for t in sorted(reader.topics.values(), key=lambda t: t.name))
-            raise NavlogError(
-                f"{log}: pipeline '{pipeline}' needs {', '.join(pipe.inputs)}; missing {', '.join(missing)}. "
-                f"The log has: {have}. Map a topic with --remap PIPELINE_TOPIC=LOG_TOPIC "
-                f"(e.g. --remap {missing[0]}=/other_topic), or change the pipeline parameters with --set."
-            )
-        _check_remaps(log, pipeline, pipe, reader, remap)
-        wanted = [to_log.get(t, t) for t in pipe.inputs + pipe.optional_inputs if to_log.get(t, t) in reader.topics]
-        if reader.unknown_types:
-            logger.warning(
-                "%s: skipping topics of types without a definition: %s",
-                reader.path,
-                ", ".join(f"{t} ({ty})" for t, ty in sorted(reader.unknown_types.items())),
-            )
-        remove_stale(out_dir)  # an old output a killed run had moved aside comes back
-        tmp = out_dir.parent / f".{out_dir.name}.partial"
-        shutil.rmtree(tmp, ignore_errors=True)
-        tmp.mkdir(parents=True)
-        try:
-            inputs = _hash_inputs(log)
-            result = _run(reader, pipe, wanted, log_to, tmp, progress)
-            empty = pipe.nothing_produced()
-            if empty is not None:
-                skipped = pipe.skipped()
-                why = "; ".join(f"{reason} x{n}" for reason, n in sorted(skipped.items())) or "no input was skipped"
-                raise NavlogError(
-                    f"{log}: pipeline '{pipeline}' produced nothing: {empty}. Skipped inputs: {why}. "
-                    f"Check the topics it reads ({', '.join(pipe.inputs + pipe.optional_inputs)}) with "
-                    f"`navlog info {log}`: a missing /tf_static or a remapped TF topic leaves every input without a pose."
+    try:
+        out_dir.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise write_error(out_dir.parent, exc) from None
+    with hold_output(out_dir):  # one run writes out_dir at a time
+        with open_log(log, recover=recover) as reader:
+            to_log = dict(remap)  # pipeline topic -> log topic, for remapped topics only
+            log_to = {v: k for k, v in remap.items()}
+            logical_topics = {log_to.get(t, t) for t in reader.topics}
+            params = spec.settle(params, reader, log_to)  # `auto` parameters decided from the log's content
+            pipe = spec.build(params, logical_topics)
+            missing = [t for t in pipe.inputs if to_log.get(t, t) not in reader.topics]
+            if missing:
+                have = ", ".join(
+                    f"{t.name} ({t.typename})" for t in sorted(reader.topics.values(), key=lambda t: t.name)
                 )
-            entries = inputs.result()
-            identity = replay_identity(inputs_sha256(entries, folder=log.is_dir()), pipeline, asked, remap)
-            manifest = _manifest(entries, reader, pipeline, params, pipe, result, tmp, remap)
-            (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
-        except BaseException:
+                raise NavlogError(
+                    f"{log}: pipeline '{pipeline}' needs {', '.join(pipe.inputs)}; missing {', '.join(missing)}. "
+                    f"The log has: {have}. Map a topic with --remap PIPELINE_TOPIC=LOG_TOPIC "
+                    f"(e.g. --remap {missing[0]}=/other_topic), or change the pipeline parameters with --set."
+                )
+            _check_remaps(log, pipeline, pipe, reader, remap)
+            wanted = [to_log.get(t, t) for t in pipe.inputs + pipe.optional_inputs if to_log.get(t, t) in reader.topics]
+            if reader.unknown_types:
+                logger.warning(
+                    "%s: skipping topics of types without a definition: %s",
+                    reader.path,
+                    ", ".join(f"{t} ({ty})" for t, ty in sorted(reader.unknown_types.items())),
+                )
+            remove_stale(out_dir)  # an old output a killed run had moved aside comes back
+            tmp = out_dir.parent / f".{out_dir.name}.partial"
             shutil.rmtree(tmp, ignore_errors=True)
-            raise
-    replace_output(tmp, out_dir)
+            tmp.mkdir(parents=True)
+            try:
+                inputs = _hash_inputs(log)
+                result = _run(reader, pipe, wanted, log_to, tmp, progress)
+                empty = pipe.nothing_produced()
+                if empty is not None:
+                    skipped = pipe.skipped()
+                    why = "; ".join(f"{reason} x{n}" for reason, n in sorted(skipped.items())) or "no input was skipped"
+                    raise NavlogError(
+                        f"{log}: pipeline '{pipeline}' produced nothing: {empty}. Skipped inputs: {why}. "
+                        f"Check the topics it reads ({', '.join(pipe.inputs + pipe.optional_inputs)}) with "
+                        f"`navlog info {log}`: a missing /tf_static or a remapped TF topic leaves every input without a pose."
+                    )
+                entries = inputs.result()
+                identity = replay_identity(inputs_sha256(entries, folder=log.is_dir()), pipeline, asked, remap)
+                manifest = _manifest(entries, reader, pipeline, params, pipe, result, tmp, remap)
+                (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
+            except BaseException:
+                shutil.rmtree(tmp, ignore_errors=True)
+                raise
+        replace_output(tmp, out_dir)
     return ReplayResult(out_dir, manifest, result["wall_s"], identity)
 
 

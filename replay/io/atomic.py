@@ -3,19 +3,26 @@
 A file under its final name is always complete; a process killed mid-write leaves only a temporary
 (``.NAME.PID.part``) file, and a symlink at an output path is replaced, never written through. The next
 run for the same output removes the temporaries that killed runs left beside it (``remove_stale``).
+
+One run writes an output at a time: ``hold_output`` takes a lock beside it (``.NAME.lock``, an
+``flock`` that goes with the process, also when it is killed), and a second run for the same output is
+refused, naming the lock and the process that holds it, instead of mixing its files with the first's.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
 import re
 import shutil
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
 
 from navlog.errors import NavlogError
 
-__all__ = ["open_new", "remove_stale", "replace_output", "temp_path", "write_error", "write_file"]
+__all__ = ["hold_output", "open_new", "remove_stale", "replace_output", "temp_path", "write_error", "write_file"]
 
 
 def open_new(path: Path) -> BinaryIO:
@@ -101,3 +108,45 @@ def write_file(path: Path, data: bytes) -> None:
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+@contextmanager
+def hold_output(out: Path) -> Iterator[None]:
+    """Hold ``out`` for this run (module docstring): NavlogError when another run holds it. The lock file
+    is removed when the run ends; one that a killed run left is taken over (its ``flock`` died with it)."""
+    out = Path(out)
+    lock = out.parent / f".{out.name}.lock"
+    while True:
+        try:
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
+        except OSError as exc:
+            raise write_error(lock, exc) from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
+            os.close(fd)
+            raise NavlogError(
+                f"{out}: another navlog run (pid {holder}) is writing this output (lock {lock}); "
+                "wait for it to end, or choose another output"
+            ) from None
+        try:  # the run that held it may have removed the lock file between our open and our lock
+            same = os.fstat(fd).st_ino == os.stat(lock, follow_symlinks=False).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            break
+        os.close(fd)
+    try:
+        try:  # who holds it, for the error a second run gives (the lock holds without it: a full disk)
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        except OSError:
+            pass
+        yield
+    finally:
+        try:
+            os.unlink(lock)
+        except OSError:
+            pass
+        os.close(fd)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 from navlog.replay.io.atomic import remove_stale, replace_output, temp_path, write_file
@@ -74,3 +75,73 @@ def test_write_file_and_replace_output_leave_only_the_output(tmp_path: Path) -> 
     (tmp_path / "folder").mkdir()
     replace_output(new, tmp_path / "folder")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.json", "folder"]
+
+
+# ------------------------------------------------------------ one writer per output
+def test_a_second_run_for_a_held_output_is_refused_naming_the_lock_and_the_holder(tmp_path: Path) -> None:
+    import pytest
+
+    from navlog.errors import NavlogError
+    from navlog.replay.io.atomic import hold_output
+
+    out = tmp_path / "rec.mcap"
+    holder = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys, time; from pathlib import Path; from navlog.replay.io.atomic import hold_output\n"
+            f"with hold_output(Path({str(out)!r})):\n    print('held', flush=True); time.sleep(60)",
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        with (
+            pytest.raises(
+                NavlogError,
+                match=rf"another navlog run \(pid {holder.pid}\) is writing this output \(lock .*\.rec\.mcap\.lock\)",
+            ),
+            hold_output(out),
+        ):
+            pass
+    finally:
+        holder.kill()
+        holder.wait()
+    # the holder was killed: its lock died with it, the file it left is taken over, and removed at the end
+    assert (tmp_path / ".rec.mcap.lock").exists()
+    with hold_output(out):
+        assert (tmp_path / ".rec.mcap.lock").read_text().strip() == str(os.getpid())
+    assert not (tmp_path / ".rec.mcap.lock").exists()
+
+
+def test_the_commands_refuse_an_output_another_run_writes(tmp_path: Path, teleop_log: Path) -> None:
+    """navlog replay and navlog record given the -o of a run in progress exit 2 and leave its files alone."""
+    from navlog.replay.io.atomic import hold_output
+
+    navlog = str(Path(sys.executable).parent / "navlog")
+    out = tmp_path / "replay"
+    rec = tmp_path / "rec.mcap"
+    with hold_output(out), hold_output(rec):
+        res = subprocess.run(
+            [
+                navlog,
+                "-q",
+                "replay",
+                str(teleop_log),
+                "--pipeline",
+                "safety",
+                "--remap",
+                "/cmd_vel_nav=/cmd_vel",
+                "-o",
+                str(out),
+            ],
+            capture_output=True,
+            text=True,
+        )
+        assert res.returncode == 2 and "is writing this output" in res.stderr, res.stderr
+        res = subprocess.run(
+            [navlog, "-q", "record", "--scenario", "teleop", "-o", str(rec)], capture_output=True, text=True
+        )
+        assert res.returncode == 2 and "is writing this output" in res.stderr, res.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
