@@ -12,8 +12,9 @@ produce the same bytes:
 Only what names the machine or the moment is left out: ``manifest.json``, ``fleet-summary.json`` and
 ``ci-report.json`` are hashed after their wall-clock fields are dropped and the work folder and the
 checkout are replaced by ``OUT`` and ``REPO`` in their paths. A Rerun recording holds random ids and
-wall-clock times (two saves of one log differ in bytes): its entry names the file, and ``--compare``
-compares two recordings' contents with ``rerun rrd compare --unordered``.
+wall-clock times, and the SDK cuts its rows into chunks as the wall clock goes (two saves of one log
+differ in bytes): its entry names the file, and ``--compare`` compares two recordings' contents
+(``rerun rrd optimize`` merges each entity's rows into one chunk, then ``rerun rrd compare --unordered``).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import json
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -188,9 +190,19 @@ def collect(navlog: str, out: Path, only: set[str] | None) -> dict[str, str]:
 
 def _same(x: str | None, y: str | None) -> bool:
     if x is not None and y is not None and x.startswith("rrd:") and y.startswith("rrd:"):
-        rerun = Path(sys.executable).parent / "rerun"
-        cmd = [str(rerun), "rrd", "compare", "--unordered", x[4:], y[4:]]
-        return subprocess.run(cmd, capture_output=True).returncode == 0
+        # the SDK cuts the rows into chunks as the wall clock goes: merge each entity's rows into one
+        # chunk on both sides, then compare the chunks in any order
+        rerun = str(Path(sys.executable).parent / "rerun")
+        with tempfile.TemporaryDirectory() as tmp:
+            merged = []
+            for k, path in enumerate((x[4:], y[4:])):
+                out = f"{tmp}/{k}.rrd"
+                cmd = [rerun, "rrd", "optimize", "--max-rows", "100000000", "--max-size", "4GiB", path, "-o", out]
+                subprocess.run(cmd, capture_output=True, check=True)
+                merged.append(out)
+            return (
+                subprocess.run([rerun, "rrd", "compare", "--unordered", *merged], capture_output=True).returncode == 0
+            )
     return x == y
 
 
