@@ -20,11 +20,11 @@ world mesh while this process compiles the MuJoCo model; this process then never
 from __future__ import annotations
 
 import math
-import threading
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Protocol
 
 from navlog.errors import ConfigError
 from navlog.recorder.description import load_robot
@@ -186,6 +186,13 @@ def prepare(
     return RecordSetup(w, r, s, seed, noise, localization)
 
 
+class StopFlag(Protocol):
+    """What ``record`` looks at to end a run early: a ``threading.Event`` set by another thread or a
+    signal handler (the command line's, on Ctrl-C)."""
+
+    def is_set(self) -> bool: ...
+
+
 def record(
     setup: RecordSetup,
     out: Path | str,
@@ -195,7 +202,7 @@ def record(
     live_nodes: Sequence[Node] = (),
     pipeline: Pipeline | None = None,
     navigation: Pipeline | None = None,
-    stop: threading.Event | None = None,
+    stop: StopFlag | None = None,
     sensor_worker: bool | None = None,
 ) -> RecordResult:
     """Simulate ``setup`` and write every topic to ``out`` (MCAP); see the module docstring.
@@ -228,7 +235,7 @@ def _record(
     live_nodes: Sequence[Node],
     pipeline: Pipeline | None,
     navigation: Pipeline | None,
-    stop: threading.Event | None,
+    stop: StopFlag | None,
     sensor_worker: bool | None,
 ) -> RecordResult:
     """``record`` once ``out`` is checked and held."""
@@ -275,13 +282,12 @@ def _record(
             ex.add_node(node)
         meta = setup.metadata()
         max_ns = int(setup.scenario.max_duration * 1e9)
-        stop = stop if stop is not None else threading.Event()
         start = time.perf_counter()
         with Progress(expected_duration(setup), "recording", "sim s", enabled=progress) as bar:
             with McapLogWriter(out, force=force, metadata={"navlog": meta}, background=True) as writer:
                 ex.add_sink(writer)  # the worker's scans and sweeps in their places (``Node.defer``)
                 t = 0
-                while not stop.is_set():  # looked at after every second of sim time
+                while not (stop is not None and stop.is_set()):  # looked at after every second of sim time
                     t += 1_000_000_000
                     ex.run(until_ns=min(t, max_ns))
                     bar.update(ex.now / 1e9)
@@ -291,7 +297,7 @@ def _record(
                     if ex.now >= max_ns:
                         break
                 ex.finish()
-            interrupted = stop.is_set()
+            interrupted = stop is not None and stop.is_set()
             if not interrupted:  # the run is complete: the estimated length becomes the real one
                 bar.update(ex.now / 1e9, total=ex.now / 1e9)
         wall = time.perf_counter() - start

@@ -23,7 +23,6 @@ from __future__ import annotations
 import math
 import os
 import sys
-import threading
 import types
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -245,9 +244,6 @@ def solid_distance(s: Solid, pts: np.ndarray, z_min: float, z_max: float) -> np.
     return outside + inside
 
 
-_OPEN3D_LOCK = threading.Lock()
-
-
 def import_mujoco():
     """The ``mujoco`` module, imported headless unless the environment chooses a GL backend.
 
@@ -276,20 +272,22 @@ def import_open3d():
     that package while Open3D is imported and is removed after, so that a later
     ``import open3d.visualization`` imports the real package.
     """
-    with _OPEN3D_LOCK:  # one import at a time, when several threads need Open3D
-        if "open3d" in sys.modules:
-            return sys.modules["open3d"]
+    if "open3d" not in sys.modules:
         name = "open3d.visualization"
         placeholder = types.ModuleType(name)
-        sys.modules[name] = placeholder
+        ours = sys.modules.setdefault(name, placeholder) is placeholder  # not another thread's, importing too
         try:
             import open3d
         finally:
-            if sys.modules.get(name) is placeholder:
+            if ours and sys.modules.get(name) is placeholder:
                 del sys.modules[name]
         if getattr(open3d, "visualization", None) is placeholder:
             del open3d.visualization
-        return open3d
+    # a thread that comes while another imports Open3D waits here for the whole module (the import
+    # system locks a module while it runs)
+    import open3d
+
+    return open3d
 
 
 def world_mesh(world: World, with_floor: bool | None = None):

@@ -5,7 +5,11 @@ wants their work to run beside its own thread asks this package, which runs the 
 child process or a thread and gives back the same bits in the same order:
 
 - ``child``: a child Python answering requests over its pipes (frames of an opcode and raw bytes,
-  errors and a dead child named, nothing left behind after a Ctrl-C);
+  errors and a dead child named, nothing left behind after a Ctrl-C), and how every child process
+  here is started and ended;
+- ``ring``: ``RingProcess``, a child Python answering requests in order with large results through a
+  shared-memory ring, the caller never waiting for it while a result is due (the recorder's laser
+  and LiDAR, ``navlog.recorder.range_sensors``);
 - ``grid``: ``GridWorker``, the occupancy grid's scan updates in a child process;
 - ``odometry``: ``OdometryWorker``, the 3D odometry's frames completed in a child process;
 - ``background``: ``in_thread``, pure work (the 3D global map's batches) in a thread beside the caller.
@@ -28,13 +32,15 @@ if TYPE_CHECKING:
     from navlog.replay.workers.child import ChildProcess
     from navlog.replay.workers.grid import GridWorker
     from navlog.replay.workers.odometry import OdometryWorker
+    from navlog.replay.workers.ring import RingProcess
 
-__all__ = ["ChildProcess", "GridWorker", "OdometryWorker", "in_thread"]
+__all__ = ["ChildProcess", "GridWorker", "OdometryWorker", "RingProcess", "in_thread"]
 
 _MODULES = {
     "ChildProcess": "child",
     "GridWorker": "grid",
     "OdometryWorker": "odometry",
+    "RingProcess": "ring",
     "in_thread": "background",
 }
 __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

@@ -17,6 +17,13 @@ The child runs in a process group of its own and ignores SIGINT (a Ctrl-C stops 
 closes the pipes) and exits when its input closes, so an interrupted or failed replay leaves no
 process behind. An exception in the handler
 comes back as ``NavlogError`` with its traceback; a child that died is named with its exit code.
+
+Every child process of this package is started, written to, ended and named by the helpers here
+(``ChildProcess`` and ``navlog.replay.workers.ring`` both use them): ``start_python`` (a new
+interpreter, never a fork of a process with threads, in a process group of its own, SIGINT ignored
+from its first statement, its pipes widened), ``RequestPipe`` (requests written without blocking,
+what the pipe has no room for queued in this process, in order), ``end_process``, and ``failed`` /
+``ended`` (the ``NavlogError`` naming a child that failed or died).
 """
 
 from __future__ import annotations
@@ -31,14 +38,26 @@ import subprocess
 import sys
 import traceback
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import IO, Any, BinaryIO
 
 import numpy as np
 
 from navlog.errors import NavlogError
 
-__all__ = ["ChildProcess", "pack", "read_exactly", "serve", "unpack"]
+__all__ = [
+    "ChildProcess",
+    "RequestPipe",
+    "end_process",
+    "ended",
+    "failed",
+    "pack",
+    "read_exactly",
+    "read_frame",
+    "serve",
+    "start_python",
+    "unpack",
+]
 
 FRAME = struct.Struct("<BI")  # opcode, payload length
 _META = struct.Struct("<I")  # the JSON part's length in ``pack``
@@ -48,33 +67,112 @@ _F_SETPIPE_SZ = getattr(fcntl, "F_SETPIPE_SZ", 1031)
 _QUIET = "import signal; signal.signal(signal.SIGINT, signal.SIG_IGN); "
 
 
+def start_python(
+    code: str, *, args: Sequence[str] = (), pass_fds: Sequence[int] = (), env: Mapping[str, str] | None = None
+) -> subprocess.Popen:
+    """``python -c code *args``, with pipes to its standard input and output (unbuffered, each holding
+    ``_PIPE_BYTES`` where Linux allows it), in a process group of its own, ignoring SIGINT from its first
+    statement; ``pass_fds`` stay open in it, ``env`` is set in its environment beside this process's.
+    Raises ``OSError`` when no child can be started."""
+    # a process group of its own: a Ctrl-C in the terminal reaches the caller only, which ends the child by
+    # closing its pipes; in the caller's group, a child still starting (before its code ignores SIGINT)
+    # died with "Fatal Python error" and a traceback on the terminal
+    process = subprocess.Popen(
+        [sys.executable, "-c", _QUIET + code, *args],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        bufsize=0,
+        pass_fds=tuple(pass_fds),
+        process_group=0,
+        env=None if env is None else {**os.environ, **env},
+    )
+    for stream in (process.stdin, process.stdout):
+        try:
+            assert stream is not None
+            fcntl.fcntl(stream.fileno(), _F_SETPIPE_SZ, _PIPE_BYTES)
+        except OSError:  # not allowed here: the sides then wait sooner for each other
+            pass
+    return process
+
+
+def end_process(process: subprocess.Popen) -> None:
+    """Close the pipes to and from ``process`` (a child started by ``start_python`` exits on that, also
+    while writing to this process) and wait for it; kill it if it has not ended within 10 s."""
+    for stream in (process.stdin, process.stdout):
+        if stream is not None:
+            try:
+                stream.close()
+            except OSError:
+                pass
+    try:
+        process.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+
+
+def failed(name: str, pid: int | str, traceback_text: bytes | bytearray) -> NavlogError:
+    """The error of child ``name`` that failed, with the traceback it sent."""
+    return NavlogError(f"{name} (pid {pid}) failed:\n{traceback_text.decode(errors='replace')}")
+
+
+def ended(name: str, process: subprocess.Popen | None, run: str) -> NavlogError:
+    """The error of child ``name`` that ended before its work was done (``process`` waited for: its exit
+    code is known; None when unknown); ``run``: what stops with it ("replay", "recording")."""
+    pid, code = (process.pid, process.returncode) if process is not None else ("?", "?")
+    return NavlogError(f"{name} (pid {pid}) ended unexpectedly (exit code {code}); the {run} stops here")
+
+
+class RequestPipe:
+    """Requests to a child, written to its input without blocking: what the pipe has no room for waits here,
+    in order, and goes in with later writes (``flush``)."""
+
+    def __init__(self, fd: int) -> None:
+        os.set_blocking(fd, False)  # a write takes what the pipe has room for
+        self.fd = fd
+        self.unsent: deque[tuple[int, memoryview]] = deque()  # (request number, bytes not yet written)
+
+    def put(self, number: int, *parts: bytes) -> None:
+        """Queue the parts of request ``number`` (numbers increase; nothing is written yet)."""
+        self.unsent.extend((number, memoryview(part)) for part in parts if part)
+
+    def flush(self, until: int | None, replies: Callable[[], int | None], take: Callable[[], None]) -> None:
+        """Write the queued requests while the pipe has room; with ``until``, wait for room until request
+        ``until`` is written. While it waits, ``replies()`` names the descriptor the child's replies come
+        from (None: none is owed) and ``take()`` is called whenever it is readable: a child writing a reply
+        and this process writing a request never wait for each other. ``OSError`` (EPIPE): the child is gone."""
+        unsent = self.unsent
+        while unsent:
+            number, view = unsent[0]
+            try:
+                written = os.write(self.fd, view)
+            except BlockingIOError:  # the pipe is full
+                if until is None or number > until:
+                    return
+                listen = replies()
+                readable, _, _ = select.select([] if listen is None else [listen], [self.fd], [])
+                if readable:
+                    take()
+                continue
+            if written < len(view):
+                unsent[0] = (number, view[written:])
+            else:
+                unsent.popleft()
+
+
 class ChildProcess:
     """``python -c code`` (whose code calls ``serve``), and the requests sent to it (module docstring).
     Raises ``OSError`` when no child can be started."""
 
     def __init__(self, name: str, code: str) -> None:
         self.name = name  # how errors name it: "occupancy grid process"
-        # a process group of its own: a Ctrl-C in the terminal reaches the replay only, which ends the child
-        # by closing its pipes; in the replay's group, a child still starting (before its code ignores
-        # SIGINT) died with "Fatal Python error" and a traceback on the terminal
-        self.process: subprocess.Popen | None = subprocess.Popen(
-            [sys.executable, "-c", _QUIET + code],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            bufsize=0,
-            process_group=0,
-        )
+        self.process: subprocess.Popen | None = start_python(code)
         self.owed = 0  # replies asked for and not yet given by ``reply``
         self._early: deque[tuple[int, bytearray]] = deque()  # replies read while sending
         self._started = False
-        for stream in (self.process.stdin, self.process.stdout):
-            try:
-                assert stream is not None
-                fcntl.fcntl(stream.fileno(), _F_SETPIPE_SZ, _PIPE_BYTES)
-            except OSError:  # not allowed here: the sides then wait sooner for each other
-                pass
+        self._sent = 0  # requests sent
         assert self.process.stdin is not None
-        os.set_blocking(self.process.stdin.fileno(), False)  # see ``send``
+        self._pipe = RequestPipe(self.process.stdin.fileno())  # see ``send``
 
     @property
     def pid(self) -> int | None:
@@ -107,28 +205,26 @@ class ChildProcess:
             raise NavlogError(f"{self.name} (pid {self.pid}): unexpected reply {frame[0]} at start-up")
 
     def send(self, op: int, payload: bytes) -> None:
-        """Send request ``op`` (no reply expected)."""
-        process = self.process
-        if process is None or process.stdin is None or process.stdout is None:
+        """Send request ``op`` (no reply expected); returns once it is in the pipe. While the pipe is full,
+        the replies that come are taken (kept for ``reply``)."""
+        if self.process is None:
             raise self._died()
-        fd = process.stdin.fileno()  # non-blocking: a write takes what the pipe has room for
+        number = self._sent
+        self._sent += 1
+        self._pipe.put(number, FRAME.pack(op, len(payload)), payload)
         try:
-            for part in (FRAME.pack(op, len(payload)), payload):
-                view = memoryview(part)
-                while view:
-                    try:
-                        view = view[os.write(fd, view) :]
-                        continue
-                    except BlockingIOError:  # the pipe is full
-                        pass
-                    # a reply may be in the way: the child writes it, we write to it; take replies
-                    # while the pipe to the child is full
-                    owed = self.owed > len(self._early)
-                    readable, _, _ = select.select([process.stdout] if owed else [], [fd], [])
-                    if readable and (frame := self._take_frame()) is not None:
-                        self._early.append(frame)
+            self._pipe.flush(number, self._replies_owed, self._take_early)
         except OSError:  # the child is gone (EPIPE)
-            raise self._died() from None
+            raise self._gone() from None
+
+    def _replies_owed(self) -> int | None:
+        """The descriptor of the child's replies while one is owed and not yet read; else None."""
+        out = self.process.stdout if self.process is not None else None
+        return out.fileno() if out is not None and self.owed > len(self._early) else None
+
+    def _take_early(self) -> None:
+        if (frame := self._take_frame()) is not None:
+            self._early.append(frame)
 
     def ask(self, op: int, payload: bytes = b"") -> None:
         """Send request ``op``, whose reply a later ``reply`` gives (in the order asked)."""
@@ -139,8 +235,7 @@ class ChildProcess:
         """True when the next owed reply can be taken without waiting."""
         out = self.process.stdout if self.process is not None else None
         while not self._early and self.owed and out is not None and select.select([out], [], [], 0)[0]:
-            if (frame := self._take_frame()) is not None:
-                self._early.append(frame)
+            self._take_early()
         return bool(self._early)
 
     def reply(self) -> bytearray:
@@ -159,19 +254,8 @@ class ChildProcess:
     def close(self) -> None:
         """End the child: close its input (it exits on that) and wait for it."""
         process, self.process = self.process, None
-        if process is None:
-            return
-        for stream in (process.stdin, process.stdout):
-            if stream is not None:
-                try:
-                    stream.close()
-                except OSError:
-                    pass
-        try:
-            process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+        if process is not None:
+            end_process(process)
 
     def _take_frame(self) -> tuple[int, bytearray] | None:
         """The next frame from the child; None for its "ready" (which comes first)."""
@@ -185,22 +269,28 @@ class ChildProcess:
         process = self.process
         if process is None or process.stdout is None:
             raise self._died()
-        head = read_exactly(process.stdout, FRAME.size)
-        body = None if head is None else read_exactly(process.stdout, FRAME.unpack(head)[1])
-        if head is None or body is None:
+        frame = read_frame(process.stdout)
+        if frame is None:
             raise self._died()
-        code = FRAME.unpack(head)[0]
+        code, body = frame
         if code == ERROR:
-            pid = process.pid
             self.close()
-            raise NavlogError(f"{self.name} (pid {pid}) failed:\n{body.decode(errors='replace')}")
+            raise failed(self.name, process.pid, body)
         return code, body
+
+    def _gone(self) -> NavlogError:
+        """The error of a child whose input broke: its own, with its traceback, when it failed on a request
+        (it writes that and ends), else that it ended."""
+        try:
+            while True:  # what it wrote before it ended, up to the pipe's end
+                self._read_frame()
+        except NavlogError as error:
+            return error
 
     def _died(self) -> NavlogError:
         process = self.process
         self.close()
-        pid, code = (process.pid, process.returncode) if process is not None else ("?", "?")
-        return NavlogError(f"{self.name} (pid {pid}) ended unexpectedly (exit code {code}); the replay stops here")
+        return ended(self.name, process, "replay")
 
 
 def pack(meta: Any, arrays: Sequence[np.ndarray | None] = ()) -> bytes:
@@ -242,6 +332,16 @@ def read_exactly(stream: IO[bytes] | BinaryIO, n: int) -> bytearray | None:
     return buf
 
 
+def read_frame(stream: IO[bytes] | BinaryIO) -> tuple[int, bytearray] | None:
+    """The next frame from ``stream``: its opcode and payload; None at the stream's end (also mid-frame)."""
+    head = read_exactly(stream, FRAME.size)
+    if head is None:
+        return None
+    code, n = FRAME.unpack(head)
+    body = read_exactly(stream, n)
+    return None if body is None else (code, body)
+
+
 Handler = Callable[[int, bytes | bytearray], "tuple[int, bytes] | None"]
 
 
@@ -254,11 +354,8 @@ def serve(handle: Handler, stdin: BinaryIO | None = None, stdout: BinaryIO | Non
     try:
         out.write(FRAME.pack(READY, 0))
         out.flush()
-        while (head := read_exactly(inp, FRAME.size)) is not None:
-            code, n = FRAME.unpack(head)
-            body = read_exactly(inp, n) if n else b""
-            if body is None:
-                return
+        while (frame := read_frame(inp)) is not None:
+            code, body = frame
             try:
                 reply = handle(code, body)
             except Exception:

@@ -1,4 +1,7 @@
-"""The laser and the LiDAR in a worker process: the same log as in one process, and failures named."""
+"""The laser and the LiDAR in a worker process: the same log as in one process, and failures named.
+
+The transport (requests queued, results through the shared ring or the pipe, in order) is tested with a
+handler of its own in tests/replay/workers/test_ring.py."""
 
 from __future__ import annotations
 
@@ -7,19 +10,20 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from navlog.errors import NavlogError
-from navlog.recorder import range_sensors, sim
+from navlog.recorder import sim
 from navlog.recorder.range_sensors import (
     LIDAR,
+    RING_RESULTS,
     SCAN,
     SensorWorker,
-    _Ring,
+    _pack_arrays,
+    _ring_size,
     start_range_sensors,
 )
 from navlog.recorder.record import prepare, record
@@ -129,7 +133,7 @@ def test_a_scan_from_the_worker_equals_one_cast_here() -> None:
         got = _scan_from_the_origin(worker)
     finally:
         worker.close()
-    assert worker._process.returncode == 0  # ended by the closed pipe, and waited for: no zombie
+    assert worker.ring.process.returncode == 0  # ended by the closed pipe, and waited for: no zombie
     expected = _scan_from_the_origin(here)
     assert got.dtype == np.float32 and len(got) == 720
     np.testing.assert_array_equal(got, expected)
@@ -138,11 +142,11 @@ def test_a_scan_from_the_worker_equals_one_cast_here() -> None:
 
 def test_an_error_in_the_worker_is_raised_with_its_traceback() -> None:
     worker = _worker()
-    with pytest.raises(NavlogError, match=r"sensor worker \(the laser and LiDAR process, pid \d+\) failed:") as info:
+    with pytest.raises(NavlogError, match=r"sensor worker \(pid \d+\) failed:") as info:
         # a sweep with one time and no pose: the worker cannot read the poses it is told of
         worker.result(worker.request("lidar", (0, 0, (0.0,), np.zeros((0, 4, 4)), True)))
     assert "Traceback" in str(info.value) and "ValueError" in str(info.value)
-    assert worker._process.returncode is not None
+    assert worker.ring.process.returncode is not None
 
 
 def test_a_worker_killed_mid_recording_is_an_error_naming_it(tmp_path: Path, monkeypatch) -> None:
@@ -152,14 +156,16 @@ def test_a_worker_killed_mid_recording_is_an_error_naming_it(tmp_path: Path, mon
     def request(self: SensorWorker, kind: str, args: tuple) -> int:
         ticket = real(self, kind, args)
         if ticket == 10:
-            os.kill(self._process.pid, signal.SIGKILL)
+            os.kill(self.ring.process.pid, signal.SIGKILL)
             killed.append(self)
         return ticket
 
     monkeypatch.setattr(SensorWorker, "request", request)
-    with pytest.raises(NavlogError, match=r"sensor worker .* ended unexpectedly \(exit code -9\)"):
+    with pytest.raises(
+        NavlogError, match=r"sensor worker \(pid \d+\) ended unexpectedly \(exit code -9\); the recording stops here"
+    ):
         record(_setup("mapping", 3.0), tmp_path / "run.mcap", progress=False, sensor_worker=True)
-    assert killed and killed[0]._process.returncode == -9
+    assert killed and killed[0].ring.process.returncode == -9
     assert list(tmp_path.iterdir()) == []  # the partial file is removed, as for any failed recording
 
 
@@ -191,18 +197,6 @@ def test_the_command_line_chooses_where_the_sensors_run_and_the_log_is_the_same(
     assert bad.returncode == 2 and "invalid choice: 'gpu'" in bad.stderr and "Traceback" not in bad.stderr
 
 
-def test_the_ring_puts_results_in_order_and_never_over_one_not_taken() -> None:
-    ring = _Ring(100)
-    assert [ring.place(t, 30, 0) for t in range(3)] == [0, 30, 60]
-    assert ring.place(3, 30, 0) is None  # 10 bytes left at the end, none at the start: nothing taken yet
-    assert ring.place(3, 10, 0) == 90  # fits exactly at the end
-    assert ring.place(4, 25, 1) == 0  # result 0 taken: its 30 bytes at the start are free again
-    assert ring.place(5, 6, 1) is None  # 5 bytes before result 1 (at 30) is all there is
-    assert ring.place(5, 35, 3) == 25  # 1 and 2 taken: room from 25 to the start of 3 (at 90)
-    assert ring.place(6, 31, 6) == 0  # all taken: from the start again
-    assert ring.place(7, 101, 7) is None  # larger than the ring
-
-
 def _sweep_request(t_ns: int, frame: int, x: float) -> tuple:
     pose = np.eye(4)
     pose[:3, 3] = (x, 0.0, 0.3)
@@ -211,71 +205,15 @@ def _sweep_request(t_ns: int, frame: int, x: float) -> tuple:
     return (t_ns, frame, times, np.repeat(pose[None], n, axis=0), True)
 
 
-@pytest.mark.parametrize(
-    "ring_bytes", [None, 8192, 0, "no shared memory"], ids=["ring", "scans-only", "no-ring", "no-shared-memory"]
-)
-def test_results_come_through_the_ring_or_the_pipe_with_the_same_bytes(ring_bytes, monkeypatch) -> None:
-    """Scans (3 kB) and sweeps (250 kB) in the default ring, scans only in a ring of 8 kB, and everything
-    through the pipe with no ring, or no shared memory at all (a file-size limit of 0 forbids it); the
-    requests, made without waiting, are more than the request pipe holds (400 sweeps of 2.8 kB: more than
-    its 1 MiB), so the results must be taken while the queued ones are sent."""
-    if ring_bytes == "no shared memory":
-        monkeypatch.setattr(range_sensors, "_shared_file", lambda size: None)
-        ring_bytes = None
-        piped = 800
-    else:
-        piped = {None: 0, 8192: 400, 0: 800}[ring_bytes]
-    world, robot = load_world("indoor_room"), load_robot("go2")
-    here = start_range_sensors(world, robot, 5, True, worker=False)
-    spec = here.sensors.spec  # type: ignore[union-attr]
-    worker = SensorWorker(spec, ring_bytes=ring_bytes)
-    requests = []
-    for k in range(400):
-        requests.append((LIDAR, _sweep_request(k * 100_000_000, k, 0.001 * k)))
-        scan_pose = np.eye(4)
-        scan_pose[:3, 3] = (0.001 * k, 0.0, 0.3)
-        requests.append((SCAN, (k * 100_000_000, scan_pose, True)))
-    got: list = []
-
-    def run() -> None:
-        tickets = [worker.request(kind, args) for kind, args in requests]
-        got.extend(worker.result(t) for t in tickets)
-
-    thread = threading.Thread(target=run, daemon=True)
-    thread.start()
-    thread.join(timeout=120)
-    stuck = thread.is_alive()
-    worker.close()  # also ends a stuck thread: its pipes close
-    assert not stuck, "the worker and this process wait on each other"
-    expected = [here.result(here.request(kind, args)) for kind, args in requests]
-    assert all(isinstance(g, bytes) for g in got) and got == expected
-    assert len(got[0]) > 200_000 and len(got[1]) < 4000  # a sweep of 16 x 720 points, a scan of 720 ranges
-    assert worker.piped == piped
-    assert worker._process.returncode == 0
-
-
-def test_requests_the_pipe_has_no_room_for_wait_in_this_process_while_the_worker_is_stopped() -> None:
-    """The worker stopped (as if still importing Open3D): 400 sweeps of 3 kB are more than the request
-    pipe holds (1 MiB, one 4 KiB page a request), yet every request returns at once, the rest queued
-    here; resumed, the worker answers them all, in order, with the bytes of one process."""
-    world, robot = load_world("indoor_room"), load_robot("go2")
-    here = start_range_sensors(world, robot, 5, True, worker=False)
-    worker = SensorWorker(here.sensors.spec)  # type: ignore[union-attr]
-    requests = [(LIDAR, _sweep_request(k * 100_000_000, k, 0.001 * k)) for k in range(400)]
-    try:
-        os.kill(worker._process.pid, signal.SIGSTOP)
-        try:
-            tickets = [worker.request(kind, args) for kind, args in requests]
-            assert tickets == list(range(400))
-            assert 400 - (1 << 20) // 4096 <= len(worker._unsent) < 400  # the pipe took what it holds
-            assert not worker.ready(0)
-        finally:
-            os.kill(worker._process.pid, signal.SIGCONT)
-        got = [worker.result(t) for t in tickets]
-        assert not worker._unsent
-    finally:
-        worker.close()
-    assert got == [here.result(here.request(kind, args)) for kind, args in requests]
+def test_the_ring_holds_ring_results_of_the_largest_sweep_so_none_goes_through_the_pipe() -> None:
+    """Indoors every ray returns: a sweep of 16 x 720 points, as CDR or as its columns, is the largest result;
+    the worker's ring holds ``RING_RESULTS`` of it (with the rest of a page)."""
+    here = start_range_sensors(load_world("indoor_room"), load_robot("go2"), 5, True, worker=False)
+    cdr = here.result(here.request(LIDAR, _sweep_request(0, 0, 0.0)))
+    columns = here.result(here.request(LIDAR, _sweep_request(0, 1, 0.0)[:-1] + (False,)))
+    largest = max(len(cdr), len(_pack_arrays(columns)))
+    assert largest > 200_000
+    assert RING_RESULTS * largest <= _ring_size(here.sensors.spec) < RING_RESULTS * (largest + 4096)  # type: ignore[union-attr]
 
 
 def _helper_threads_cpu_ticks(pid: int) -> int:
@@ -297,26 +235,15 @@ def test_once_the_simulation_has_ended_the_worker_casts_on_every_core_with_the_s
     requests = [(LIDAR, _sweep_request(k * 100_000_000, k, 0.001 * k)) for k in range(300)]
     try:
         first = [worker.result(worker.request(kind, args)) for kind, args in requests[:150]]
-        before = _helper_threads_cpu_ticks(worker._process.pid)
+        before = _helper_threads_cpu_ticks(worker.ring.process.pid)
         worker.ending()
         rest = [worker.result(worker.request(kind, args)) for kind, args in requests[150:]]
-        after = _helper_threads_cpu_ticks(worker._process.pid)
+        after = _helper_threads_cpu_ticks(worker.ring.process.pid)
     finally:
         worker.close()
     worker.ending()  # after close: nothing
     here.ending()  # in one process there is nothing still to come: no change
     assert first + rest == [here.result(here.request(kind, args)) for kind, args in requests]
-    assert worker._process.returncode == 0
+    assert worker.ring.process.returncode == 0
     if len(os.sched_getaffinity(0)) > 1:
         assert before <= 1 < after
-
-
-def test_requests_after_the_worker_failed_raise_its_error_not_a_broken_pipe() -> None:
-    worker = _worker()
-    worker.request("lidar", (0, 0, (0.0,), np.zeros((0, 4, 4)), True))  # the worker fails on it and ends
-    worker._process.wait(timeout=60)
-    pose = np.eye(4)
-    with pytest.raises(NavlogError, match=r"sensor worker \(the laser and LiDAR process, pid \d+\) failed:") as info:
-        worker.request(SCAN, (0, pose, True))  # its pipe is broken
-    assert "Traceback" in str(info.value) and "ValueError" in str(info.value)
-    assert worker._process.returncode == 0

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -80,3 +82,21 @@ def test_write_world_map_writes_what_it_reports_and_refuses_to_overwrite(tmp_pat
     with pytest.raises(NavlogError, match="already exists"):
         write_world_map("walled_room", tmp_path / "m2.yaml", mesh=tmp_path / "w.ply")
     assert not (tmp_path / "m2.yaml").exists() and not (tmp_path / "m2.pgm").exists()
+
+
+def test_open3d_imported_by_two_threads_at_once_is_whole_in_both_without_its_viewer() -> None:
+    """The second thread waits for the module the first is importing (no lock of the recorder's own), and
+    the viewer's placeholder is gone after: a later ``import open3d.visualization`` imports the real one."""
+    code = (
+        "import sys, threading\n"
+        "from navlog.recorder.world import import_open3d\n"
+        "got = []\n"
+        "threads = [threading.Thread(target=lambda: got.append(import_open3d())) for _ in range(2)]\n"
+        "for t in threads: t.start()\n"
+        "for t in threads: t.join()\n"
+        "print(len(got), got[0] is got[1], hasattr(got[1].t.geometry, 'RaycastingScene'),\n"
+        "      'open3d.visualization' in sys.modules, hasattr(got[0], 'visualization'), 'dash' in sys.modules)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["2", "True", "True", "False", "False", "False"]

@@ -86,3 +86,18 @@ def test_the_child_has_a_process_group_of_its_own_so_a_terminal_ctrl_c_reaches_t
         assert bytes(child.reply()) == b"xx"  # it answers as before
     finally:
         child.close()
+
+
+def test_a_request_after_the_child_failed_raises_its_error_not_a_broken_pipe():
+    child = ChildProcess(
+        "echo process", "from navlog.replay.workers.child import serve; serve(lambda code, body: 1 // 0)"
+    )
+    try:
+        child.send(ord("A"), b"")  # the child fails on it, sends its error and ends
+        assert child.process is not None
+        child.process.wait(timeout=60)
+        with pytest.raises(NavlogError, match=r"echo process \(pid \d+\) failed:\n(?s:.*)ZeroDivisionError"):
+            child.send(ord("A"), b"x")  # its input is closed: the write breaks, its error is read
+    finally:
+        child.close()
+    assert child.process is None
