@@ -273,10 +273,9 @@ class McapLogReader(LogReader):
         stream.read8()
         chunk = Chunk.read(stream)
         if not ci.message_index_offsets:  # no indexes: every record of the chunk is parsed
-            records = breakup_chunk(chunk)
             return sorted(
                 (rec.log_time, pos, rec.channel_id, rec.data)
-                for pos, rec in enumerate(records)
+                for pos, rec in enumerate(breakup_chunk(chunk))
                 if isinstance(rec, Message) and rec.channel_id in channels
             )  # by time, then position (unique: the bytes are never compared)
         records, size = get_chunk_data_stream(chunk)
