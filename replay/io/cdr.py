@@ -347,7 +347,8 @@ class RepeatedShapes:
     def _shape_of(self, data: bytes) -> tuple[Any, Any, Any, Any, list[str]]:
         """Walk ``data`` (raising as ``decode`` does) into its kept shape."""
         self._layout.decode(data, self._max_len)  # the checks, once per shape
-        fmt, shape, numbers, strings = ["<2s2x"], [0], [], []
+        fmt, shape, strings = ["<2s2x"], [0], []  # the struct's format; its fields of counts and strings
+        numbers: list[int] = []  # its fields of primitive values
         count = 1  # fields of the struct so far
 
         def walk(layout: Layout, pos: int) -> int:

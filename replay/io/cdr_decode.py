@@ -196,9 +196,9 @@ def encoder(typename: str) -> Callable[[Any], bytes] | None:
     None (a type without one; a big-endian host, where that serializer writes big-endian CDR)."""
     if typename != messages.TWIST or sys.byteorder != "little":
         return None
-    pack = layout(messages.TWIST).packer()
-    assert pack is not None  # a Twist is six float64
-    pack = pack.pack
+    packer = layout(messages.TWIST).packer()
+    assert packer is not None  # a Twist is six float64
+    pack = packer.pack
 
     def encode(msg: Any) -> bytes:
         lin, ang = msg.linear, msg.angular

@@ -23,7 +23,7 @@ import os
 from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import IO, Any, cast
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
@@ -265,7 +265,7 @@ class McapLogReader(LogReader):
         file position), so this may run in another thread.
         """
         fd = self._file.fileno()
-        stream = ReadDataStream(_PreadFile(fd, ci.chunk_start_offset, self.size_bytes))
+        stream = ReadDataStream(cast(IO[bytes], _PreadFile(fd, ci.chunk_start_offset, self.size_bytes)))
         if stream.read1() != Opcode.CHUNK:
             raise LogError(
                 f"{self.path}: no chunk at offset {ci.chunk_start_offset} (corrupt chunk index); try --recover"
