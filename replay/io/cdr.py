@@ -1,4 +1,4 @@
-"""CDR (ROS 2's XCDR1, little endian) from plain values, without building message objects.
+"""CDR (ROS 2's XCDR1, little endian) from and to plain values, without building message objects.
 
 A ``Layout`` is compiled once per message type from the type store's own definition
 (``messages.typestore()``), so it cannot disagree with the schema written into a log. It flattens
@@ -17,6 +17,11 @@ the type into steps:
 fixed array as its own value (an Imu: sec, nanosec, frame_id, x, y, z, w, 9 covariances, ...), and
 returns the bytes ``Typestore.serialize_cdr(msg, typename)`` gives for the equal message (the 4-byte
 encapsulation header included). ``layout(typename)`` returns the compiled layout, made once.
+
+``Layout.decode(data, max_len)`` is the other way: the values of a message in the same order, as the
+type store's deserializer holds them (a fixed array of primitives as one read-only array over the
+bytes), or an error on bytes that deserializer refuses. ``RepeatedShapes`` reads a stream whose
+messages repeat a few shapes (a /tf stream's frames) with one ``struct`` call per message.
 
 ``GrowingSequence(typename)`` serves a message published again and again with one more element at
 the end of its last field, a sequence of messages (a path of every pose so far): each element is
