@@ -308,52 +308,52 @@ def layout(typename: str) -> Layout:
 
 
 class RepeatedShapes:
-    """``Layout.decode`` for a stream that repeats a few shapes: the numbers and the strings of each message.
+    """``Layout.decode`` for a stream that repeats a few shapes: the numbers, strings and arrays of each message.
 
     Messages of one size whose sequence counts and strings are the same bytes have their fields at the
-    same offsets (a /tf stream: the same frames again and again). The first message of each size is
-    walked step by step (raising on what ``decode`` refuses) and its shape kept: one ``struct`` reading
-    the whole message, counts and string bytes included; a later message of that size whose counts and
-    string bytes equal the kept ones is read with that one call. ``read`` gives the primitive values in
-    field order (sequences of messages flattened) and the strings in field order. For layouts of runs,
-    strings and sequences of messages only (``supports``).
+    same offsets (a /tf stream: the same frames again and again; odometry, IMU samples, scans of one
+    sensor). The first message of each size is walked (``decode``, raising on what it refuses) and its
+    shape kept: one ``struct`` reading the whole message, counts and string bytes included, and where its
+    arrays lie; a later message of that size whose counts and string bytes equal the kept ones is read
+    with that one call. ``read`` gives the primitive values in field order (sequences of messages
+    flattened), the strings in field order, and the arrays (fixed arrays and sequences of primitives) in
+    field order, as read-only arrays over the bytes. Not for sequences of strings (``supports``).
     """
 
     KEEP = 64  # shapes kept; more (strings that keep changing) starts the collection again
 
     def __init__(self, layout: Layout, max_len: int) -> None:
         if not self.supports(layout):
-            raise ValueError(
-                f"{layout.typename}: fixed arrays and sequences of primitives or strings have no kept shape"
-            )
+            raise ValueError(f"{layout.typename}: sequences of strings have no kept shape")
         self._layout, self._max_len = layout, max_len
-        self._by_size: dict[int, tuple[Any, Any, Any, Any, list[str]]] = {}
+        self._by_size: dict[int, tuple[Any, Any, Any, Any, list[str], tuple[tuple[Any, int, int], ...]]] = {}
 
     @staticmethod
     def supports(layout: Layout) -> bool:
         return all(
-            kind in (_RUN, _STRING) or (kind == _SEQ_MSG and RepeatedShapes.supports(arg))
-            for kind, arg, _ in layout._reads
+            kind != _SEQ_STR and (kind != _SEQ_MSG or RepeatedShapes.supports(arg)) for kind, arg, _ in layout._reads
         )
 
-    def read(self, data: bytes) -> tuple[tuple[Any, ...], list[str]]:
+    def read(self, data: bytes) -> tuple[tuple[Any, ...], list[str], list[np.ndarray]]:
         kept = self._by_size.get(len(data))
         if kept is not None:
-            unpack, pick_shape, shape, pick_values, strings = kept
+            unpack, pick_shape, shape, pick_values, strings, arrays = kept
             values = unpack(data)
             if pick_shape(values) == shape:
-                return pick_values(values), strings
+                return pick_values(values), strings, _arrays(data, arrays) if arrays else []
         kept = self._shape_of(data)
         if len(self._by_size) >= self.KEEP:
             self._by_size.clear()
         self._by_size[len(data)] = kept
-        return kept[3](kept[0](data)), kept[4]
+        unpack, _, _, pick_values, strings, arrays = kept
+        return pick_values(unpack(data)), strings, _arrays(data, arrays)
 
-    def _shape_of(self, data: bytes) -> tuple[Any, Any, Any, Any, list[str]]:
+    def _shape_of(self, data: bytes) -> tuple[Any, Any, Any, Any, list[str], tuple[tuple[Any, int, int], ...]]:
         """Walk ``data`` (raising as ``decode`` does) into its kept shape."""
         self._layout.decode(data, self._max_len)  # the checks, once per shape
         fmt, shape, strings = ["<2s2x"], [0], []  # the struct's format; its fields of counts and strings
         numbers: list[int] = []  # its fields of primitive values
+        arrays: list[tuple[Any, int, int]] = []  # (dtype, count, offset in data) of each array
         count = 1  # fields of the struct so far
 
         def walk(layout: Layout, pos: int) -> int:
@@ -366,28 +366,47 @@ class RepeatedShapes:
                     count += n
                     pos += run.size
                     continue
+                if kind == _ARRAY:
+                    dtype, size, length = arg
+                    pad = -pos % size
+                    fmt.append(f"{pad + size * length}x")
+                    arrays.append((dtype, length, 4 + pos + pad))
+                    pos += pad + size * length
+                    continue
                 pad = -pos & 3
                 (size,) = _U32.unpack_from(data, 4 + pos + pad)
+                pos += pad + 4
                 if kind == _STRING:  # its length and bytes, compared as one field
                     fmt.append(f"{pad}x{4 + size}s")
-                    strings.append(str(data[8 + pos + pad : 8 + pos + pad + size - 1], "utf-8"))
-                    pos += pad + 4 + size
+                    strings.append(str(data[4 + pos : 4 + pos + size - 1], "utf-8"))
+                    pos += size
                     shape.append(count)
                     count += 1
-                else:  # _SEQ_MSG
-                    fmt.append(f"{pad}xI")
-                    shape.append(count)
-                    count += 1
-                    pos += pad + 4
+                    continue
+                fmt.append(f"{pad}xI")
+                shape.append(count)
+                count += 1
+                if kind == _SEQ_MSG:
                     for _ in range(size):
                         pos = walk(arg, pos)
+                else:  # _SEQ_PRIM
+                    dtype, item = arg
+                    pad = -pos % item if size else 0
+                    fmt.append(f"{pad + item * size}x")
+                    arrays.append((dtype, size, 4 + pos + pad))
+                    pos += pad + item * size
             return pos
 
         end = walk(self._layout, 0)
         fmt.append(f"{len(data) - 4 - end}x")
         unpack = struct.Struct("".join(fmt)).unpack_from
         pick_shape, pick_values = _picker(shape), _picker(numbers)
-        return unpack, pick_shape, pick_shape(unpack(data)), pick_values, strings
+        return unpack, pick_shape, pick_shape(unpack(data)), pick_values, strings, tuple(arrays)
+
+
+def _arrays(data: bytes, where: tuple[tuple[Any, int, int], ...]) -> list[np.ndarray]:
+    """Read-only arrays over ``data``, one per (dtype, count, offset)."""
+    return [np.frombuffer(data, dtype=dtype, count=count, offset=at) for dtype, count, at in where]
 
 
 def _picker(indices: list[int]) -> Any:

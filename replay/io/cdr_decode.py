@@ -2,12 +2,12 @@
 ``sensor_msgs/msg/Imu``, ``sensor_msgs/msg/LaserScan``, ``geometry_msgs/msg/Twist`` and ``TwistStamped``.
 
 The type store's generated deserializer calls one function per nested type and unpacks field by field.
-These decoders read the bytes with the type's compiled ``cdr.Layout`` (``Layout.decode``: one ``struct``
-call per run of fixed-size fields, arrays as read-only NumPy arrays over the bytes, as the store makes
-them) and build the same message objects, the store's own classes: the byte layout of each type is the
-one ``cdr`` compiles from the type store's definition, the same that writes the logs. A /tf stream
-repeats a few shapes (the same frames), so its messages are read with ``cdr.RepeatedShapes``: one
-``struct`` call for a message whose shape was seen before. A TFMessage also has a light form,
+These decoders read the bytes with the type's compiled ``cdr.Layout`` and build the same message objects,
+the store's own classes (arrays as read-only NumPy arrays over the bytes, as the store makes them): the
+byte layout of each type is the one ``cdr`` compiles from the type store's definition, the same that
+writes the logs. A stream repeats a few shapes (the same frames, the same scan length), so messages are
+read with ``cdr.RepeatedShapes``: one ``struct`` call for a message whose shape was seen before, the
+layout walked (``Layout.decode``) for a new one. A TFMessage also has a light form,
 ``messages.TFTransforms``: the same numbers as tuples, no objects, for the subscribers that accept it
 (TF buffers).
 
@@ -32,6 +32,10 @@ from navlog.replay import messages
 from navlog.replay.io.cdr import RepeatedShapes, layout
 
 
+def _shapes(typename: str, store: Any) -> Callable[[bytes], tuple[tuple[Any, ...], list[str], list[Any]]]:
+    return RepeatedShapes(layout(typename), store.max_sequence_length).read
+
+
 def _tf_decoder(store: Any) -> Callable[[bytes], Any]:
     c = store.types
     tf_message, stamped = c["tf2_msgs/msg/TFMessage"], c["geometry_msgs/msg/TransformStamped"]
@@ -41,10 +45,10 @@ def _tf_decoder(store: Any) -> Callable[[bytes], Any]:
         c["geometry_msgs/msg/Vector3"],
         c["geometry_msgs/msg/Quaternion"],
     )
-    read = RepeatedShapes(layout(messages.TF_MESSAGE), store.max_sequence_length).read
+    read = _shapes(messages.TF_MESSAGE, store)
 
     def decode(data: bytes) -> Any:
-        v, frames = read(data)  # per transform: sec, nanosec, x, y, z, qx, qy, qz, qw; frame_id, child_frame_id
+        v, frames, _ = read(data)  # per transform: sec, nanosec, x, y, z, qx, qy, qz, qw; frame_id, child_frame_id
         return tf_message(
             [
                 stamped(
@@ -62,10 +66,10 @@ def _tf_decoder(store: Any) -> Callable[[bytes], Any]:
 
 
 def _tf_light_decoder(store: Any) -> Callable[[bytes], Any]:
-    read = RepeatedShapes(layout(messages.TF_MESSAGE), store.max_sequence_length).read
+    read = _shapes(messages.TF_MESSAGE, store)
 
     def decode(data: bytes) -> Any:
-        v, frames = read(data)
+        v, frames, _ = read(data)
         return messages.TFTransforms(
             [
                 (frames[j], frames[j + 1], v[k] * 1_000_000_000 + v[k + 1], *v[k + 2 : k + 9])
@@ -80,10 +84,10 @@ def _imu_decoder(store: Any) -> Callable[[bytes], Any]:
     c = store.types
     imu, header, time = c["sensor_msgs/msg/Imu"], c["std_msgs/msg/Header"], c["builtin_interfaces/msg/Time"]
     quaternion, vector3 = c["geometry_msgs/msg/Quaternion"], c["geometry_msgs/msg/Vector3"]
-    read, max_len = layout(messages.IMU).decode, store.max_sequence_length
+    read = _shapes(messages.IMU, store)
 
     def decode(data: bytes) -> Any:
-        sec, nanosec, frame_id, qx, qy, qz, qw, cov_q, wx, wy, wz, cov_w, ax, ay, az, cov_a = read(data, max_len)
+        (sec, nanosec, qx, qy, qz, qw, wx, wy, wz, ax, ay, az), (frame_id,), (cov_q, cov_w, cov_a) = read(data)
         return imu(
             header(time(sec, nanosec), frame_id),
             quaternion(qx, qy, qz, qw),
@@ -100,11 +104,11 @@ def _imu_decoder(store: Any) -> Callable[[bytes], Any]:
 def _laser_scan_decoder(store: Any) -> Callable[[bytes], Any]:
     c = store.types
     scan, header, time = c["sensor_msgs/msg/LaserScan"], c["std_msgs/msg/Header"], c["builtin_interfaces/msg/Time"]
-    read, max_len = layout(messages.LASER_SCAN).decode, store.max_sequence_length
+    read = _shapes(messages.LASER_SCAN, store)
 
     def decode(data: bytes) -> Any:
-        sec, nanosec, frame_id, *values = read(data, max_len)  # angle_min .. range_max, ranges, intensities
-        return scan(header(time(sec, nanosec), frame_id), *values)
+        (sec, nanosec, *values), (frame_id,), (ranges, intensities) = read(data)  # values: angle_min .. range_max
+        return scan(header(time(sec, nanosec), frame_id), *values, ranges, intensities)
 
     return decode
 
@@ -112,10 +116,10 @@ def _laser_scan_decoder(store: Any) -> Callable[[bytes], Any]:
 def _twist_decoder(store: Any) -> Callable[[bytes], Any]:
     c = store.types
     twist, vector3 = c["geometry_msgs/msg/Twist"], c["geometry_msgs/msg/Vector3"]
-    read, max_len = layout(messages.TWIST).decode, store.max_sequence_length
+    read = _shapes(messages.TWIST, store)
 
     def decode(data: bytes) -> Any:
-        lx, ly, lz, ax, ay, az = read(data, max_len)
+        (lx, ly, lz, ax, ay, az), _, _ = read(data)
         return twist(vector3(lx, ly, lz), vector3(ax, ay, az))
 
     return decode
@@ -129,10 +133,10 @@ def _twist_stamped_decoder(store: Any) -> Callable[[bytes], Any]:
         c["builtin_interfaces/msg/Time"],
     )
     twist, vector3 = c["geometry_msgs/msg/Twist"], c["geometry_msgs/msg/Vector3"]
-    read, max_len = layout(messages.TWIST_STAMPED).decode, store.max_sequence_length
+    read = _shapes(messages.TWIST_STAMPED, store)
 
     def decode(data: bytes) -> Any:
-        sec, nanosec, frame_id, lx, ly, lz, ax, ay, az = read(data, max_len)
+        (sec, nanosec, lx, ly, lz, ax, ay, az), (frame_id,), _ = read(data)
         return stamped(header(time(sec, nanosec), frame_id), twist(vector3(lx, ly, lz), vector3(ax, ay, az)))
 
     return decode
@@ -152,12 +156,11 @@ def _odometry_decoder(store: Any) -> Callable[[bytes], Any]:
         c["geometry_msgs/msg/Twist"],
         c["geometry_msgs/msg/Vector3"],
     )
-    read, max_len = layout(messages.ODOMETRY).decode, store.max_sequence_length
+    read = _shapes(messages.ODOMETRY, store)
 
     def decode(data: bytes) -> Any:
-        sec, nanosec, frame_id, child, px, py, pz, qx, qy, qz, qw, pcov, lx, ly, lz, ax, ay, az, tcov = read(
-            data, max_len
-        )
+        numbers, (frame_id, child), (pcov, tcov) = read(data)
+        sec, nanosec, px, py, pz, qx, qy, qz, qw, lx, ly, lz, ax, ay, az = numbers
         return odometry(
             header(time(sec, nanosec), frame_id),
             child,

@@ -139,6 +139,19 @@ def _same(a, b) -> bool:
     return type(a) is type(b) and a == b
 
 
+def _split(values: list) -> list:
+    """``Layout.decode``'s values as ``RepeatedShapes.read`` gives them: [numbers, strings, arrays]."""
+    out: list = [[], [], []]
+    for v in values:
+        if isinstance(v, list):  # a sequence of messages
+            for item in v:
+                for part, more in zip(out, _split(item)):
+                    part += more
+        else:
+            out[1 if isinstance(v, str) else 2 if isinstance(v, np.ndarray) else 0].append(v)
+    return out
+
+
 @pytest.mark.parametrize("typename", TYPES)
 @pytest.mark.parametrize("edge", [False, True])
 def test_decoded_values_are_the_rosbags_deserializers(typename, edge):
@@ -150,6 +163,11 @@ def test_decoded_values_are_the_rosbags_deserializers(typename, edge):
         assert _same(got, _decoded_msg(typename, STORE.deserialize_cdr(data, typename)))
         arrays = [v for v in got if isinstance(v, np.ndarray)]
         assert all(not a.flags.writeable for a in arrays)  # views over the bytes, as the store makes them
+        if RepeatedShapes.supports(lay):  # the same values by the kept shape: first walked, then seen again
+            shapes = RepeatedShapes(lay, STORE.max_sequence_length)
+            for _ in range(2):
+                numbers, strings, arrays = shapes.read(data)
+                assert _same([list(numbers), strings, arrays], _split(got))
     with pytest.raises((ValueError, struct.error)):
         lay.decode(data + bytes(8), STORE.max_sequence_length)  # more than 3 bytes after the message
 
@@ -165,7 +183,7 @@ def test_a_sequence_longer_than_allowed_is_refused():
 
 def test_repeated_shapes_read_the_numbers_and_strings_of_each_message():
     lay = layout(messages.TF_MESSAGE)
-    assert RepeatedShapes.supports(lay) and not RepeatedShapes.supports(layout(messages.IMU))
+    assert RepeatedShapes.supports(lay) and not RepeatedShapes.supports(layout("sensor_msgs/msg/JointState"))
     shapes = RepeatedShapes(lay, STORE.max_sequence_length)
     frames = [("odom", "base"), ("map", "odom"), ("abcd", "efgh"), ("odom", "base"), ("odom", "base")]
     for k, (parent, child) in enumerate(frames):  # all of one size but the second
@@ -175,8 +193,8 @@ def test_repeated_shapes_read_the_numbers_and_strings_of_each_message():
                 messages.transform_stamped(3, "world", parent, (1.0, 2.0, 3.0), (0.0, 0.0, 0.0, 1.0)),
             ]
         )
-        numbers, strings = shapes.read(STORE.serialize_cdr(msg, messages.TF_MESSAGE))
-        assert strings == [parent, child, "world", parent]
+        numbers, strings, arrays = shapes.read(bytes(STORE.serialize_cdr(msg, messages.TF_MESSAGE)))
+        assert strings == [parent, child, "world", parent] and arrays == []
         assert numbers == (k, 7, float(k), float(-k), 0.5, 0.0, 0.0, 0.6, 0.8, 0, 3, 1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0)
     assert len(shapes._by_size) == 2
 
