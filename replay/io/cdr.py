@@ -1,4 +1,4 @@
-"""CDR (ROS 2's XCDR1, little endian) from plain values, without building message objects.
+"""CDR (ROS 2's XCDR1, little endian) from and to plain values, without building message objects.
 
 A ``Layout`` is compiled once per message type from the type store's own definition
 (``messages.typestore()``), so it cannot disagree with the schema written into a log. It flattens
@@ -18,6 +18,11 @@ fixed array as its own value (an Imu: sec, nanosec, frame_id, x, y, z, w, 9 cova
 returns the bytes ``Typestore.serialize_cdr(msg, typename)`` gives for the equal message (the 4-byte
 encapsulation header included). ``layout(typename)`` returns the compiled layout, made once.
 
+``Layout.decode(data, max_len)`` is the other way: the values of a message in the same order, as the
+type store's deserializer holds them (a fixed array of primitives as one read-only array over the
+bytes), or an error on bytes that deserializer refuses. ``RepeatedShapes`` reads a stream whose
+messages repeat a few shapes (a /tf stream's frames) with one ``struct`` call per message.
+
 ``GrowingSequence(typename)`` serves a message published again and again with one more element at
 the end of its last field, a sequence of messages (a path of every pose so far): each element is
 encoded once, when it is added, and ``encode(head)`` joins the other fields to the elements encoded
@@ -26,6 +31,7 @@ so far; the same bytes as ``Layout.encode`` of the whole message, in time propor
 
 from __future__ import annotations
 
+import operator
 import struct
 import sys
 from functools import cache
@@ -36,7 +42,7 @@ from rosbags.interfaces import Nodetype
 
 from navlog.replay import messages
 
-__all__ = ["GrowingSequence", "Layout", "layout"]
+__all__ = ["GrowingSequence", "Layout", "RepeatedShapes", "layout"]
 
 _HEADER = b"\x00\x01\x00\x00"  # CDR_LE, no options
 _U32 = struct.Struct("<I")
@@ -57,7 +63,7 @@ _PRIMITIVES = {
     "float32": ("f", 4),
     "float64": ("d", 8),
 }
-_RUN, _STRING, _SEQ_MSG, _SEQ_PRIM, _SEQ_STR = range(5)
+_RUN, _STRING, _SEQ_MSG, _SEQ_PRIM, _SEQ_STR, _ARRAY = range(6)
 
 if sys.byteorder != "little":  # pragma: no cover - every supported platform is little endian
     raise ImportError("navlog.replay.io.cdr writes little-endian CDR and needs a little-endian machine")
@@ -76,60 +82,85 @@ def _run_formats(codes: list[tuple[str, int]]) -> tuple[struct.Struct, ...]:
     return tuple(out)
 
 
+class _Steps:
+    """The steps of a layout as they are compiled: consecutive primitives gathered into runs."""
+
+    def __init__(self) -> None:
+        self.steps: list[tuple[int, Any, int]] = []
+        self.run: list[tuple[str, int]] = []
+
+    def close_run(self) -> None:
+        if self.run:
+            self.steps.append((_RUN, _run_formats(self.run), len(self.run)))
+            self.run = []
+
+    def add(self, kind: int, arg: Any) -> None:
+        self.close_run()
+        self.steps.append((kind, arg, 1))
+
+
 class Layout:
     """The compiled CDR layout of one message type; see the module docstring."""
 
     def __init__(self, typename: str) -> None:
         self.typename = typename
-        steps: list[tuple[int, Any, int]] = []
-        run: list[tuple[str, int]] = []
+        enc, dec = _Steps(), _Steps()  # ``encode``'s steps and ``decode``'s (a fixed array of primitives as one array)
+        types: set[str] = set()
 
-        def close_run() -> None:
-            if run:
-                steps.append((_RUN, _run_formats(run), len(run)))
-                run.clear()
+        def both(kind: int, arg: Any) -> None:
+            enc.add(kind, arg)
+            dec.add(kind, arg)
 
         def element(node: tuple[Any, Any]) -> None:
             kind, detail = node
             if kind == Nodetype.BASE:
                 name = detail[0]
                 if name == "string":
-                    close_run()
-                    steps.append((_STRING, None, 1))
+                    both(_STRING, None)
                 elif name in _PRIMITIVES:
-                    run.append(_PRIMITIVES[name])
+                    enc.run.append(_PRIMITIVES[name])
+                    dec.run.append(_PRIMITIVES[name])
                 else:
                     raise NotImplementedError(f"{typename}: CDR of {name} fields is not supported")
             elif kind == Nodetype.NAME:
                 struct_fields(detail)
             elif kind == Nodetype.ARRAY:
                 sub, count = detail
-                for _ in range(count):
-                    element(sub)
+                if sub[0] == Nodetype.BASE and sub[1][0] in _PRIMITIVES:
+                    code, size = _PRIMITIVES[sub[1][0]]
+                    enc.run.extend([(code, size)] * count)
+                    dec.add(_ARRAY, (np.dtype("<" + code), size, count))
+                else:
+                    for _ in range(count):
+                        element(sub)
             elif kind == Nodetype.SEQUENCE:
                 sub, _bound = detail
-                close_run()
                 sub_kind, sub_detail = sub
                 if sub_kind == Nodetype.NAME:
-                    steps.append((_SEQ_MSG, layout(sub_detail), 1))
+                    both(_SEQ_MSG, layout(sub_detail))
+                    types.update(layout(sub_detail).types)
                 elif sub_kind == Nodetype.BASE and sub_detail[0] == "string":
-                    steps.append((_SEQ_STR, None, 1))
+                    both(_SEQ_STR, None)
                 elif sub_kind == Nodetype.BASE and sub_detail[0] in _PRIMITIVES:
                     code, size = _PRIMITIVES[sub_detail[0]]
-                    steps.append((_SEQ_PRIM, (np.dtype("<" + code), size), 1))
+                    both(_SEQ_PRIM, (np.dtype("<" + code), size))
                 else:
                     raise NotImplementedError(f"{typename}: CDR of sequences of {sub} is not supported")
             else:  # pragma: no cover - the type store knows no other kinds
                 raise NotImplementedError(f"{typename}: CDR of {kind} fields is not supported")
 
         def struct_fields(name: str) -> None:
+            types.add(name)
             for _field, node in messages.typestore().get_msgdef(name).fields:
                 element(node)
 
         struct_fields(typename)
-        close_run()
-        self._steps = tuple(steps)
-        self.size = sum(n for _, _, n in steps)  # how many values ``encode`` takes
+        enc.close_run()
+        dec.close_run()
+        self._steps = tuple(enc.steps)
+        self._reads = tuple(dec.steps)
+        self.size = sum(n for _, _, n in enc.steps)  # how many values ``encode`` takes
+        self.types = frozenset(types)  # the message types the layout is made of (this one included)
 
     def _head(self) -> Layout:
         """This layout without its last step (``GrowingSequence``)."""
@@ -191,11 +222,201 @@ class Layout:
                     pos += pad + nbytes
         return pos
 
+    def packer(self) -> struct.Struct | None:
+        """For a type of fixed size (primitives only): one ``struct`` whose ``pack(ENCAPSULATION, *values)``
+        gives the bytes ``encode(values)`` gives; else None."""
+        if len(self._steps) != 1 or self._steps[0][0] != _RUN:
+            return None
+        return struct.Struct("<4s" + self._steps[0][1][0].format[1:])
+
+    def decode(self, data: bytes, max_len: int) -> list[Any]:
+        """The values of the CDR message ``data`` (encapsulation header included), in field order: as
+        ``encode`` takes them, but a fixed array of primitives as one read-only array over ``data``, a
+        sequence of primitives as one too, a sequence of messages as a list of value lists.
+
+        Raises ``ValueError`` (or ``struct.error``, ``UnicodeDecodeError``) on bytes the type store's
+        deserializer refuses: not little-endian CDR, cut short, a string without its NUL, a sequence
+        longer than ``max_len`` or than the data, more than 3 bytes after the message.
+        """
+        if len(data) < 4 or data[0] != 0 or data[1] != 1:
+            raise ValueError("not little-endian CDR")
+        out: list[Any] = []
+        pos = self._decode(data, 0, out, max_len)
+        if pos + 4 + 3 < len(data):
+            raise ValueError("CDR message size mismatch")
+        return out
+
+    def _decode(self, data: bytes, pos: int, out: list[Any], max_len: int) -> int:
+        """Append the values at payload offset ``pos`` to ``out``; the offset after them."""
+        for kind, arg, _ in self._reads:
+            if kind == _RUN:
+                fmt = arg[pos & 7]
+                out += fmt.unpack_from(data, 4 + pos)
+                pos += fmt.size
+                continue
+            if kind == _ARRAY:
+                dtype, size, count = arg
+                pos += -pos % size
+                out.append(np.frombuffer(data, dtype=dtype, count=count, offset=4 + pos))
+                pos += size * count
+                continue
+            pos = (pos + 3) & -4
+            (count,) = _U32.unpack_from(data, 4 + pos)
+            pos += 4
+            if kind == _STRING:
+                end = 4 + pos + count
+                if count < 1 or end > len(data) or data[end - 1] != 0:
+                    raise ValueError(f"bad CDR string at offset {pos - 4}")
+                out.append(str(data[4 + pos : end - 1], "utf-8"))
+                pos += count
+                continue
+            if count > max_len or 4 + pos + count > len(data):
+                raise ValueError(f"bad sequence length {count}")
+            if kind == _SEQ_MSG:
+                items = []
+                for _ in range(count):
+                    item: list[Any] = []
+                    pos = arg._decode(data, pos, item, max_len)
+                    items.append(item)
+                out.append(items)
+            elif kind == _SEQ_STR:
+                strings = []
+                for _ in range(count):
+                    pos = (pos + 3) & -4
+                    (size,) = _U32.unpack_from(data, 4 + pos)
+                    end = 4 + pos + 4 + size
+                    if size < 1 or end > len(data) or data[end - 1] != 0:
+                        raise ValueError(f"bad CDR string at offset {pos}")
+                    strings.append(str(data[end - size : end - 1], "utf-8"))
+                    pos += 4 + size
+                out.append(strings)
+            else:  # _SEQ_PRIM
+                dtype, size = arg
+                if count:
+                    pos += -pos % size
+                if 4 + pos + size * count > len(data):
+                    raise ValueError(f"bad sequence length {count}")
+                out.append(np.frombuffer(data, dtype=dtype, count=count, offset=4 + pos))
+                pos += size * count
+        return pos
+
 
 @cache
 def layout(typename: str) -> Layout:
     """The compiled layout of a type of the shared type store, made once per type."""
     return Layout(typename)
+
+
+class RepeatedShapes:
+    """``Layout.decode`` for a stream that repeats a few shapes: the numbers, strings and arrays of each message.
+
+    Messages of one size whose sequence counts and strings are the same bytes have their fields at the
+    same offsets (a /tf stream: the same frames again and again; odometry, IMU samples, scans of one
+    sensor). The first message of each size is walked (``decode``, raising on what it refuses) and its
+    shape kept: one ``struct`` reading the whole message, counts and string bytes included, and where its
+    arrays lie; a later message of that size whose counts and string bytes equal the kept ones is read
+    with that one call. ``read`` gives the primitive values in field order (sequences of messages
+    flattened), the strings in field order, and the arrays (fixed arrays and sequences of primitives) in
+    field order, as read-only arrays over the bytes. Not for sequences of strings (``supports``).
+    """
+
+    KEEP = 64  # shapes kept; more (strings that keep changing) starts the collection again
+
+    def __init__(self, layout: Layout, max_len: int) -> None:
+        if not self.supports(layout):
+            raise ValueError(f"{layout.typename}: sequences of strings have no kept shape")
+        self._layout, self._max_len = layout, max_len
+        self._by_size: dict[int, tuple[Any, Any, Any, Any, list[str], tuple[tuple[Any, int, int], ...]]] = {}
+
+    @staticmethod
+    def supports(layout: Layout) -> bool:
+        return all(
+            kind != _SEQ_STR and (kind != _SEQ_MSG or RepeatedShapes.supports(arg)) for kind, arg, _ in layout._reads
+        )
+
+    def read(self, data: bytes) -> tuple[tuple[Any, ...], list[str], list[np.ndarray]]:
+        kept = self._by_size.get(len(data))
+        if kept is not None:
+            unpack, pick_shape, shape, pick_values, strings, arrays = kept
+            values = unpack(data)
+            if pick_shape(values) == shape:
+                return pick_values(values), strings, _arrays(data, arrays) if arrays else []
+        kept = self._shape_of(data)
+        if len(self._by_size) >= self.KEEP:
+            self._by_size.clear()
+        self._by_size[len(data)] = kept
+        unpack, _, _, pick_values, strings, arrays = kept
+        return pick_values(unpack(data)), strings, _arrays(data, arrays)
+
+    def _shape_of(self, data: bytes) -> tuple[Any, Any, Any, Any, list[str], tuple[tuple[Any, int, int], ...]]:
+        """Walk ``data`` (raising as ``decode`` does) into its kept shape."""
+        self._layout.decode(data, self._max_len)  # the checks, once per shape
+        fmt, shape, strings = ["<2s2x"], [0], []  # the struct's format; its fields of counts and strings
+        numbers: list[int] = []  # its fields of primitive values
+        arrays: list[tuple[Any, int, int]] = []  # (dtype, count, offset in data) of each array
+        count = 1  # fields of the struct so far
+
+        def walk(layout: Layout, pos: int) -> int:
+            nonlocal count
+            for kind, arg, n in layout._reads:
+                if kind == _RUN:
+                    run = arg[pos & 7]
+                    fmt.append(run.format[1:])
+                    numbers.extend(range(count, count + n))
+                    count += n
+                    pos += run.size
+                    continue
+                if kind == _ARRAY:
+                    dtype, size, length = arg
+                    pad = -pos % size
+                    fmt.append(f"{pad + size * length}x")
+                    arrays.append((dtype, length, 4 + pos + pad))
+                    pos += pad + size * length
+                    continue
+                pad = -pos & 3
+                (size,) = _U32.unpack_from(data, 4 + pos + pad)
+                pos += pad + 4
+                if kind == _STRING:  # its length and bytes, compared as one field
+                    fmt.append(f"{pad}x{4 + size}s")
+                    strings.append(str(data[4 + pos : 4 + pos + size - 1], "utf-8"))
+                    pos += size
+                    shape.append(count)
+                    count += 1
+                    continue
+                fmt.append(f"{pad}xI")
+                shape.append(count)
+                count += 1
+                if kind == _SEQ_MSG:
+                    for _ in range(size):
+                        pos = walk(arg, pos)
+                else:  # _SEQ_PRIM
+                    dtype, item = arg
+                    pad = -pos % item if size else 0
+                    fmt.append(f"{pad + item * size}x")
+                    arrays.append((dtype, size, 4 + pos + pad))
+                    pos += pad + item * size
+            return pos
+
+        end = walk(self._layout, 0)
+        fmt.append(f"{len(data) - 4 - end}x")
+        unpack = struct.Struct("".join(fmt)).unpack_from
+        pick_shape, pick_values = _picker(shape), _picker(numbers)
+        return unpack, pick_shape, pick_shape(unpack(data)), pick_values, strings, tuple(arrays)
+
+
+def _arrays(data: bytes, where: tuple[tuple[Any, int, int], ...]) -> list[np.ndarray]:
+    """Read-only arrays over ``data``, one per (dtype, count, offset)."""
+    return [np.frombuffer(data, dtype=dtype, count=count, offset=at) for dtype, count, at in where]
+
+
+def _picker(indices: list[int]) -> Any:
+    """The values at ``indices`` of a tuple, as a tuple."""
+    if not indices:
+        return lambda values: ()
+    if len(indices) == 1:
+        i = indices[0]
+        return lambda values: (values[i],)
+    return operator.itemgetter(*indices)
 
 
 class GrowingSequence:

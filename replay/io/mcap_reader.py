@@ -1,20 +1,34 @@
 """MCAP logs read with the ``mcap`` library: one file (``McapLogReader``), or the files of a rosbag2
 folder with MCAP storage merged by time (``SplitMcapLogReader``).
 
-Only the summary is read up front; messages are streamed chunk by chunk in log-time order, touching
-only the wanted channels. A truncated file is refused unless ``recover=True``, which reads every
-complete chunk and reports how far it got.
+The library reads every record: the summary (``make_reader``), and while streaming each chunk
+(``Chunk``), its message indexes (``MessageIndex``) and the messages they point at (``Message``),
+decompressed by the library (``get_chunk_data_stream``); a truncated file is read through by its
+``StreamReader``. navlog's part is choosing what to read and the order: only the chunks holding a
+wanted topic in the wanted time window are read, and of those only the wanted channels' messages are
+parsed (a 2D replay never parses a LiDAR cloud), merged across chunks in the library's order (log
+time, chunk offset, position in the chunk) with only the chunks whose time has come held open.
+
+One background thread reads and decompresses the next chunk while the current one is replayed: the
+decompression releases the GIL, so it overlaps the replay's own work instead of adding to it. A
+truncated file is refused unless ``recover=True``, which reads every complete chunk and reports how
+far it got.
 """
 
 from __future__ import annotations
 
 import heapq
+import io
 import os
-import struct
 from collections import Counter
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import IO, Any, cast
+
+from mcap.data_stream import ReadDataStream
+from mcap.opcode import Opcode
+from mcap.records import Chunk, ChunkIndex, Message, MessageIndex
+from mcap.stream_reader import breakup_chunk, get_chunk_data_stream
 
 from navlog.errors import LogError, TruncatedLogError
 from navlog.replay.io import cdr_decode
@@ -24,16 +38,12 @@ from navlog.replay.runtime.executor import Envelope
 
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 
-_RECORD_HEAD = struct.Struct("<BQ")  # opcode, record length
-_MESSAGE_HEAD = struct.Struct("<BQHIQQ")  # opcode, length, channel id, sequence, log time, publish time
-_CHUNK_HEAD = struct.Struct("<BQQQQII")  # opcode, length, start, end, uncompressed size, crc, compression length
-_OP_MESSAGE, _OP_CHUNK, _OP_MESSAGE_INDEX = 0x05, 0x06, 0x07
 _UNSET = object()
 READ_AHEAD = 1  # MCAP chunks read and decompressed (in a second thread) ahead of the one being replayed
 
 
 class McapLogReader(LogReader):
-    """A single MCAP file read with the ``mcap`` library (fast raw path)."""
+    """A single MCAP file read with the ``mcap`` library (module docstring)."""
 
     def __init__(self, path: Path, recover: bool = False, *, types: LogTypestore | None = None) -> None:
         super().__init__(path)
@@ -195,8 +205,8 @@ class McapLogReader(LogReader):
         the rest of the chunk (the LiDAR clouds a 2D replay does not need) is decompressed but not
         parsed. A chunk without message indexes is parsed whole. Chunks are loaded in the order
         their time ranges are reached, ``READ_AHEAD`` of them ahead in a background thread
-        (decompression releases the GIL); each is read and decompressed into the same two buffers
-        and only its wanted messages are copied out, so memory does not depend on the log's length.
+        (decompression releases the GIL); a loaded chunk keeps only its wanted messages, so memory
+        does not depend on the log's length.
         """
         summary = self._summary
         channels = {
@@ -219,10 +229,7 @@ class McapLogReader(LogReader):
         # a chunk is opened when the stream reaches its first message time; sorted, the list is a heap.
         # An open chunk is in the heap by its next message: (time, chunk offset, position, (messages, index))
         queue: list[tuple] = [(ci.message_start_time, ci.chunk_start_offset, -1, None) for ci in chunks]
-        buffers = _ChunkBuffers(
-            max((ci.chunk_length for ci in chunks), default=0), max((ci.uncompressed_size for ci in chunks), default=0)
-        )
-        loader = _ReadAhead(lambda ci: self._chunk_messages(ci, channels, buffers), chunks, READ_AHEAD)
+        loader = _ReadAhead(lambda ci: self._chunk_messages(ci, channels), chunks, READ_AHEAD)
         try:
             while queue:
                 t, chunk_offset, pos, item = heapq.heappop(queue)
@@ -250,59 +257,61 @@ class McapLogReader(LogReader):
         finally:
             loader.close()
 
-    def _chunk_messages(self, ci: Any, channels: dict, buffers: _ChunkBuffers) -> list[tuple[int, int, int, bytes]]:
+    def _chunk_messages(self, ci: ChunkIndex, channels: dict) -> list[tuple[int, int, int, bytes]]:
         """(log time, position, channel id, bytes) of the wanted messages in one chunk, sorted.
 
-        Reads with ``os.preadv`` (no shared file position), so it may run in another thread; one
-        call at a time per ``buffers``.
+        The chunk, its message indexes and its messages are the ``mcap`` library's records, read
+        with its parsers and decompressed by it; the file is read with ``os.pread`` (no shared
+        file position), so this may run in another thread.
         """
         fd = self._file.fileno()
-        raw = buffers.read(fd, ci.chunk_start_offset, ci.chunk_length)
-        if len(raw) < _CHUNK_HEAD.size:
-            raise LogError(f"{self.path}: chunk at offset {ci.chunk_start_offset} is cut short; try --recover")
-        op, _, _, _, size, _, clen = _CHUNK_HEAD.unpack_from(raw, 0)
-        if op != _OP_CHUNK:
+        stream = ReadDataStream(cast(IO[bytes], _PreadFile(fd, ci.chunk_start_offset, self.size_bytes)))
+        if stream.read1() != Opcode.CHUNK:
             raise LogError(
                 f"{self.path}: no chunk at offset {ci.chunk_start_offset} (corrupt chunk index); try --recover"
             )
-        at = _CHUNK_HEAD.size
-        compression = bytes(raw[at : at + clen]).decode()
-        at += clen
-        (dlen,) = struct.unpack_from("<Q", raw, at)
-        buf = buffers.decompress(raw[at + 8 : at + 8 + dlen], compression, size)
-        if len(buf) != size:
+        stream.read8()
+        chunk = Chunk.read(stream)
+        if not ci.message_index_offsets:  # no indexes: every record of the chunk is parsed
+            return sorted(
+                (rec.log_time, pos, rec.channel_id, rec.data)
+                for pos, rec in enumerate(breakup_chunk(chunk))
+                if isinstance(rec, Message) and rec.channel_id in channels
+            )  # by time, then position (unique: the bytes are never compared)
+        records, size = get_chunk_data_stream(chunk)
+        if size != chunk.uncompressed_size:
             raise LogError(
                 f"{self.path}: chunk at offset {ci.chunk_start_offset} does not decompress to its size; try --recover"
             )
-        out = []
-        if not ci.message_index_offsets:  # no indexes: every record of the chunk is looked at
-            pos = 0
-            while pos < len(buf):
-                op, length = _RECORD_HEAD.unpack_from(buf, pos)
-                if op == _OP_MESSAGE:
-                    cid, _, t, _ = struct.unpack_from("<HIQQ", buf, pos + 9)
-                    if cid in channels:
-                        out.append((t, pos, cid, bytes(buf[pos + 31 : pos + 9 + length])))
-                pos += 9 + length
-            out.sort()  # by time, then position (unique: the bytes are never compared)
-            return out
+        data = io.BytesIO(records.read(size))  # the decompressed bytes themselves (BytesIO does not copy them)
+        records = ReadDataStream(data)
         first = min(ci.message_index_offsets.values())
-        index = os.pread(fd, ci.chunk_start_offset + ci.chunk_length + ci.message_index_length - first, first)
+        index_bytes = io.BytesIO(
+            os.pread(fd, ci.chunk_start_offset + ci.chunk_length + ci.message_index_length - first, first)
+        )
+        index = ReadDataStream(index_bytes)
+        out = []
         for cid, offset in ci.message_index_offsets.items():
             if cid not in channels:
                 continue
-            at = offset - first
-            op, _, icid, nbytes = struct.unpack_from("<BQHI", index, at)
-            if op != _OP_MESSAGE_INDEX or icid != cid:
+            index_bytes.seek(offset - first)
+            if index.read1() != Opcode.MESSAGE_INDEX:
                 raise LogError(f"{self.path}: bad message index for channel {cid} at offset {offset}; try --recover")
-            entries = struct.unpack_from(f"<{nbytes // 8}Q", index, at + 15)
-            for pos in entries[1::2]:
-                op, length, mcid, _, t, _ = _MESSAGE_HEAD.unpack_from(buf, pos)
-                if op != _OP_MESSAGE or mcid != cid or pos + 9 + length > len(buf):
-                    raise LogError(
-                        f"{self.path}: message index of channel {cid} points at no message of it; try --recover"
-                    )
-                out.append((t, pos, cid, bytes(buf[pos + 31 : pos + 9 + length])))
+            index.read8()
+            entries = MessageIndex.read(index)
+            if entries.channel_id != cid:
+                raise LogError(f"{self.path}: bad message index for channel {cid} at offset {offset}; try --recover")
+            for _, pos in entries.records:
+                data.seek(pos)
+                if pos + 9 > size or records.read1() != Opcode.MESSAGE:
+                    raise _not_a_message(self.path, cid)
+                length = records.read8()
+                if length < 22 or pos + 9 + length > size:
+                    raise _not_a_message(self.path, cid)
+                msg = Message.read(records, length)
+                if msg.channel_id != cid:
+                    raise _not_a_message(self.path, cid)
+                out.append((msg.log_time, pos, cid, msg.data))
         out.sort()  # by time, then position (unique: the bytes are never compared)
         return out
 
@@ -435,40 +444,18 @@ class _ReadAhead:
             self._pool.shutdown(wait=True)
 
 
-class _ChunkBuffers:
-    """The two buffers a chunk is read and decompressed into, reused from chunk to chunk.
+class _PreadFile:
+    """A file read from ``offset`` on with ``os.pread`` (no shared file position: any thread may read it),
+    never past ``size`` (a corrupt length reads what is there, not gigabytes of nothing)."""
 
-    Allocating a few MB afresh for every chunk makes the heap grow and fragment (more so from a
-    second thread); the views returned are valid until the next call.
-    """
+    def __init__(self, fd: int, offset: int, size: int) -> None:
+        self._fd, self._at, self._size = fd, offset, size
 
-    def __init__(self, raw_size: int, data_size: int) -> None:
-        self._raw = bytearray(raw_size)
-        self._data = bytearray(data_size)
+    def read(self, n: int) -> bytes:
+        data = os.pread(self._fd, max(0, min(n, self._size - self._at)), self._at)
+        self._at += len(data)
+        return data
 
-    def read(self, fd: int, offset: int, length: int) -> memoryview:
-        view = memoryview(self._raw)[:length]
-        got = os.preadv(fd, [view], offset)
-        return view[:got]
 
-    def decompress(self, data: memoryview, compression: str, size: int) -> memoryview:
-        """The uncompressed records of a chunk (MCAP allows zstd, lz4 and none)."""
-        if compression == "":
-            return data
-        if compression == "lz4":
-            import lz4.frame
-
-            return memoryview(lz4.frame.decompress(data))
-        if compression != "zstd":
-            raise LogError(f"unsupported MCAP chunk compression '{compression}'")
-        import zstandard
-
-        out = memoryview(self._data)[:size]
-        got = 0
-        with zstandard.ZstdDecompressor().stream_reader(data) as reader:
-            while got < size:
-                n = reader.readinto(out[got:])
-                if n == 0:
-                    break
-                got += n
-        return out[:got]
+def _not_a_message(path: Path, cid: int) -> LogError:
+    return LogError(f"{path}: message index of channel {cid} points at no message of it; try --recover")

@@ -1,4 +1,4 @@
-"""Direct CDR encoding gives the rosbags serializer's bytes, for random and edge values."""
+"""Direct CDR encoding gives the rosbags serializer's bytes, and decoding its values, for random and edge values."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 from rosbags.interfaces import Nodetype
 
 from navlog.replay import messages
-from navlog.replay.io.cdr import GrowingSequence, layout
+from navlog.replay.io.cdr import GrowingSequence, RepeatedShapes, layout
 
 STORE = messages.typestore()
 EDGE_FLOATS = (0.0, -0.0, 1.5, -1e300, 5e-324, math.inf, -math.inf, math.nan)
@@ -105,6 +105,98 @@ def test_bytes_equal_the_rosbags_serializer(typename, edge):
         msg, flat = _random_msg(typename, rng, edge)
         assert len(flat) == lay.size
         assert lay.encode(flat) == STORE.serialize_cdr(msg, typename)
+
+
+def _decoded(node, value):
+    """``value`` of a field node as ``Layout.decode`` gives it (a list of values, see there)."""
+    kind, detail = node
+    if kind == Nodetype.BASE:
+        return [value]
+    if kind == Nodetype.NAME:
+        return _decoded_msg(detail, value)
+    sub = detail[0]
+    if sub[0] == Nodetype.BASE and sub[1][0] != "string":
+        return [value]  # an array, fixed or not
+    if kind == Nodetype.ARRAY:
+        return [v for item in value for v in _decoded(sub, item)]
+    if sub[0] == Nodetype.BASE:  # a sequence of strings
+        return [list(value)]
+    return [[_decoded_msg(sub[1], item) for item in value]]
+
+
+def _decoded_msg(typename: str, msg) -> list:
+    return [v for name, node in STORE.get_msgdef(typename).fields for v in _decoded(node, getattr(msg, name))]
+
+
+def _same(a, b) -> bool:
+    """Equal values: arrays by dtype and bytes, floats by bits."""
+    if isinstance(a, np.ndarray):
+        return isinstance(b, np.ndarray) and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+    if isinstance(a, list):
+        return isinstance(b, list) and len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    if isinstance(a, float):
+        return type(b) is float and struct.pack("<d", a) == struct.pack("<d", b)
+    return type(a) is type(b) and a == b
+
+
+def _split(values: list) -> list:
+    """``Layout.decode``'s values as ``RepeatedShapes.read`` gives them: [numbers, strings, arrays]."""
+    out: list = [[], [], []]
+    for v in values:
+        if isinstance(v, list):  # a sequence of messages
+            for item in v:
+                for part, more in zip(out, _split(item)):
+                    part += more
+        else:
+            out[1 if isinstance(v, str) else 2 if isinstance(v, np.ndarray) else 0].append(v)
+    return out
+
+
+@pytest.mark.parametrize("typename", TYPES)
+@pytest.mark.parametrize("edge", [False, True])
+def test_decoded_values_are_the_rosbags_deserializers(typename, edge):
+    rng = np.random.default_rng([TYPES.index(typename), edge, 1])
+    lay = layout(typename)
+    for _ in range(10):
+        data = bytes(STORE.serialize_cdr(_random_msg(typename, rng, edge)[0], typename))  # as a log reader gives them
+        got = lay.decode(data, STORE.max_sequence_length)
+        assert _same(got, _decoded_msg(typename, STORE.deserialize_cdr(data, typename)))
+        arrays = [v for v in got if isinstance(v, np.ndarray)]
+        assert all(not a.flags.writeable for a in arrays)  # views over the bytes, as the store makes them
+        if RepeatedShapes.supports(lay):  # the same values by the kept shape: first walked, then seen again
+            shapes = RepeatedShapes(lay, STORE.max_sequence_length)
+            for _ in range(2):
+                numbers, strings, arrays = shapes.read(data)
+                assert _same([list(numbers), strings, arrays], _split(got))
+    with pytest.raises((ValueError, struct.error)):
+        lay.decode(data + bytes(8), STORE.max_sequence_length)  # more than 3 bytes after the message
+
+
+def test_a_sequence_longer_than_allowed_is_refused():
+    data = bytes(STORE.serialize_cdr(messages.tf_message([]), messages.TF_MESSAGE))
+    lay = layout(messages.TF_MESSAGE)
+    assert lay.decode(data, 10) == [[]]
+    long = data[:4] + struct.pack("<I", 11) + bytes(11 * 64)
+    with pytest.raises(ValueError, match="bad sequence length 11"):
+        lay.decode(long, 10)
+
+
+def test_repeated_shapes_read_the_numbers_and_strings_of_each_message():
+    lay = layout(messages.TF_MESSAGE)
+    assert RepeatedShapes.supports(lay) and not RepeatedShapes.supports(layout("sensor_msgs/msg/JointState"))
+    shapes = RepeatedShapes(lay, STORE.max_sequence_length)
+    frames = [("odom", "base"), ("map", "odom"), ("abcd", "efgh"), ("odom", "base"), ("odom", "base")]
+    for k, (parent, child) in enumerate(frames):  # all of one size but the second
+        msg = messages.tf_message(
+            [
+                messages.transform_stamped(10**9 * k + 7, parent, child, (k, -k, 0.5), (0.0, 0.0, 0.6, 0.8)),
+                messages.transform_stamped(3, "world", parent, (1.0, 2.0, 3.0), (0.0, 0.0, 0.0, 1.0)),
+            ]
+        )
+        numbers, strings, arrays = shapes.read(bytes(STORE.serialize_cdr(msg, messages.TF_MESSAGE)))
+        assert strings == [parent, child, "world", parent] and arrays == []
+        assert numbers == (k, 7, float(k), float(-k), 0.5, 0.0, 0.0, 0.6, 0.8, 0, 3, 1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0)
+    assert len(shapes._by_size) == 2
 
 
 def test_an_imu_sample_by_hand():
