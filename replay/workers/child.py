@@ -194,16 +194,6 @@ class ChildProcess:
             raise NavlogError(f"{self.name} (pid {process.pid}): unexpected reply {frame[0]} at start-up")
         return True
 
-    def wait_started(self) -> None:
-        """Wait until the child says it is ready; ``NavlogError`` when it ended before."""
-        if self._started:
-            return
-        if self.process is None:
-            raise self._died()
-        frame = self._take_frame()
-        if frame is not None:
-            raise NavlogError(f"{self.name} (pid {self.pid}): unexpected reply {frame[0]} at start-up")
-
     def send(self, op: int, payload: bytes) -> None:
         """Send request ``op`` (no reply expected); returns once it is in the pipe. While the pipe is full,
         the replies that come are taken (kept for ``reply``)."""

@@ -1,7 +1,7 @@
 """The occupancy grid's scan updates in a child process, beside the replay that produces the scans.
 
-``GridWorker`` runs ``OccupancyGrid2D`` in a child Python (``serve``, which imports only this module
-and the grid's) and takes the scans in order:
+``GridWorker`` runs ``OccupancyGrid2D``'s scan updates (NumPy work the replay's thread would
+otherwise wait for) in a child Python (``serve``, which imports only this module and the grid's) and takes the scans in order:
 
 - ``insert_scan`` sends the scan (pose, beam angles, ranges, limits) and returns at once; the pipe's
   buffer bounds how far the caller runs ahead;
@@ -12,15 +12,15 @@ and the grid's) and takes the scans in order:
 - ``request_map`` asks for the map without waiting: its reply (and the outcomes before it) is taken
   by a later ``poll``, or by any call that waits, in the order asked.
 
-Until the child has started (an interpreter and NumPy: a few tenths of a second) the requests wait in
-this process, in order, and go to the child once it says it is ready; a caller waits for the start
-only when it needs an answer. With ``spawn=False`` (one CPU), or when no child could be started or it
-ended before it was ready, the grid is in this process and the requests made so far are run on it.
-Either way the grid's own code runs on the same arrays in the same order, so the maps and statistics
-are the same bits (tested).
+Until the child has started (an interpreter and NumPy: a few tenths of a second, longer on a busy
+machine) the scans go into a grid in this process; once the child says it is ready, that grid is
+handed to it and the scans go there. A caller never waits for the child's start-up, and with
+``spawn=False`` (one CPU), or when no child could be started or it ended before it was ready, every
+scan stays in this process. Either way the grid's own code runs on the
+same arrays in the same order, so the maps and statistics are the same bits (tested).
 
-The two processes talk through ``navlog.replay.workers.child`` (frames of raw bytes, errors and a
-dead child named, nothing left behind after a Ctrl-C).
+The two processes talk through ``navlog.replay.workers.child`` (frames of raw bytes, errors and a dead
+child named, nothing left behind after a Ctrl-C).
 """
 
 from __future__ import annotations
@@ -43,8 +43,8 @@ from navlog.replay.workers.child import serve as serve_requests
 
 __all__ = ["GridWorker", "serve"]
 
-# parent -> child: parameters, a scan, requests (outcomes only, map, whole grid)
-_PARAMS, _INSERT, _OUTCOMES, _MAP, _SNAPSHOT = (ord(c) for c in "PIOMS")
+# parent -> child: parameters, the grid handed over, a scan, requests (outcomes only, map, whole grid)
+_PARAMS, _GRID, _INSERT, _OUTCOMES, _MAP, _SNAPSHOT = (ord(c) for c in "PGIOMS")
 _LIMITS = struct.Struct("<ddI")  # range_min, range_max, beam count
 _SHAPE = struct.Struct("<ddII")  # origin x, y; ny, nx
 _STATS = [f.name for f in dataclasses.fields(ScanStats)]
@@ -79,27 +79,26 @@ class GridWorker:
 
     def __init__(self, params: OccupancyParams, *, spawn: bool = True) -> None:
         self.params = params
-        self.local: OccupancyGrid2D | None = None  # the grid, when it is in this process
+        self.local: OccupancyGrid2D | None = OccupancyGrid2D(params)  # the grid until the child takes it
         self._outcomes: list[bool] = []
         self._sent = 0  # scans sent to the child since the last request
         # map requests whose reply has not been taken: (scans sent before it, frame id, what takes the map)
         self._requests: deque[tuple[int, str, Callable[[OccupancyMap | None], None]]] = deque()
-        # requests made before the child was ready, in order: a scan's arguments, or a map request
-        self._early: list[_Scan | _MapRequest] | None = []
         self._child: ChildProcess | None = None
         if spawn:
             try:
                 self._child = ChildProcess("occupancy grid process", _CHILD)
-                self._child.send(_PARAMS, json.dumps(dataclasses.asdict(params)).encode())
-            except (OSError, NavlogError):  # no child here (a process limit, no interpreter to run)
-                self._fall_back()
-        else:
-            self._fall_back()
+            except OSError:  # no child here (a process limit, no interpreter to run): the grid stays here
+                return
+            try:
+                self._send(_PARAMS, json.dumps(dataclasses.asdict(params)).encode())
+            except NavlogError:  # the child ended at once: the grid stays here
+                pass
 
     @property
     def in_child(self) -> bool:
         """True once the child holds the grid."""
-        return self._child is not None and self._early is None
+        return self.local is None
 
     @property
     def _process(self) -> subprocess.Popen | None:
@@ -114,28 +113,31 @@ class GridWorker:
         r = np.ascontiguousarray(ranges, dtype=np.float64)
         if len(a) != len(r):
             raise ValueError(f"{len(a)} beam angles for {len(r)} ranges")
-        scan = _Scan(np.array(pose, dtype=np.float64), a, r, float(range_min), float(range_max))
-        self._hand_over_if_ready()
+        if self.local is not None and self._child is not None and self._child.started():
+            self._send(_GRID, _state_bytes(self.local))  # handed over
+            self.local = None
         if self.local is not None:
-            self._insert_here(scan)
-        elif self._early is not None:
-            self._early.append(scan)
-        else:
-            self._send_scan(scan)
+            try:
+                self.local.insert_scan(pose, a, r, range_min, range_max)
+                self._outcomes.append(True)
+            except GridTooLarge:
+                self._outcomes.append(False)
+            return
+        limits = _LIMITS.pack(float(range_min), float(range_max), len(r))
+        pose_bytes = np.ascontiguousarray(pose, dtype=np.float64).tobytes()
+        self._send(_INSERT, b"".join((pose_bytes, limits, a.tobytes(), r.tobytes())))
+        self._sent += 1
 
     def outcomes(self, wait: bool = True) -> list[bool]:
         """Per scan inserted since the last call, in order: True if the grid took it, False if it refused it
         (without ``wait``: those that have come, the first ones)."""
-        if wait and (self._sent or self._requests or self._early):
-            self._wait_started()
-            if self.local is None:
-                self._ask(_OUTCOMES)
+        if wait and (self._sent or self._requests):
+            self._ask(_OUTCOMES)
         out, self._outcomes = self._outcomes, []
         return out
 
     def to_map(self, frame_id: str) -> OccupancyMap | None:
         """The trinary map of every scan so far (``OccupancyGrid2D.to_map``); None while the grid is empty."""
-        self._wait_started()
         if self.local is not None:
             return self.local.to_map(frame_id) if self.local.logodds.size else None
         return self._map(self._ask(_MAP), frame_id)
@@ -144,98 +146,21 @@ class GridWorker:
         """``to_map`` without waiting for the child: ``reply`` gets the map when a later ``poll`` (or a
         call that waits) takes it, after the outcomes of the scans before it; at once while the grid is
         in this process."""
-        self._hand_over_if_ready()
         if self.local is not None:
             reply(self.to_map(frame_id))
-        elif self._early is not None:
-            self._early.append(_MapRequest(frame_id, reply))
-        else:
-            self._ask_map(_MapRequest(frame_id, reply))
+            return
+        assert self._child is not None
+        self._child.ask(_MAP)
+        self._requests.append((self._sent, frame_id, reply))
+        self._sent = 0
 
     def poll(self, at_most: int | None = None) -> None:
         """Take the replies to ``request_map`` that have come, in order, without waiting; with ``at_most``,
         then wait for the oldest until no more than that many are owed."""
-        self._hand_over_if_ready()
-        if at_most is not None and self._early and sum(isinstance(e, _MapRequest) for e in self._early) > at_most:
-            self._wait_started()
         while self._requests and self._child is not None and self._child.reply_ready():
             self._take_request()
         while at_most is not None and len(self._requests) > at_most and self._child is not None:
             self._take_request()
-
-    def snapshot(self) -> OccupancyGrid2D:
-        """The grid after every scan so far, in this process (the child's copy when it holds the grid)."""
-        self._wait_started()
-        if self.local is not None:
-            return self.local
-        return _grid_from_bytes(self.params, self._ask(_SNAPSHOT))
-
-    def close(self) -> None:
-        """End the child: close its input (it exits on that) and wait for it."""
-        if self._child is not None:
-            self._child.close()
-
-    def __del__(self) -> None:
-        self.close()
-
-    # ------------------------------------------------------------ the child's start
-    def _hand_over_if_ready(self) -> None:
-        """Once the child says it is ready (without waiting): the requests made so far go to it, in order."""
-        if self._early is not None and self._child is not None and self._child.started():
-            self._hand_over()
-
-    def _wait_started(self) -> None:
-        """Wait for the child's start, then hand the requests over; the grid comes here if it never starts."""
-        if self._early is None or self._child is None:
-            return
-        try:
-            self._child.wait_started()
-        except NavlogError:  # it ended before it was ready: the grid stays here
-            self._fall_back()
-            return
-        self._hand_over()
-
-    def _hand_over(self) -> None:
-        early, self._early = self._early or [], None
-        for request in early:
-            if isinstance(request, _Scan):
-                self._send_scan(request)
-            else:
-                self._ask_map(request)
-
-    def _fall_back(self) -> None:
-        """The grid in this process, the requests made so far run on it in order."""
-        if self._child is not None:
-            self._child.close()
-            self._child = None
-        self.local = OccupancyGrid2D(self.params)
-        early, self._early = self._early or [], None
-        for request in early:
-            if isinstance(request, _Scan):
-                self._insert_here(request)
-            else:
-                request.reply(self.to_map(request.frame_id))
-
-    def _insert_here(self, scan: _Scan) -> None:
-        assert self.local is not None
-        try:
-            self.local.insert_scan(scan.pose, scan.angles, scan.ranges, scan.range_min, scan.range_max)
-            self._outcomes.append(True)
-        except GridTooLarge:
-            self._outcomes.append(False)
-
-    # ------------------------------------------------------------ talking to the child
-    def _send_scan(self, scan: _Scan) -> None:
-        assert self._child is not None
-        limits = _LIMITS.pack(scan.range_min, scan.range_max, len(scan.ranges))
-        self._child.send(_INSERT, b"".join((scan.pose.tobytes(), limits, scan.angles.tobytes(), scan.ranges.tobytes())))
-        self._sent += 1
-
-    def _ask_map(self, request: _MapRequest) -> None:
-        assert self._child is not None
-        self._child.ask(_MAP)
-        self._requests.append((self._sent, request.frame_id, request.reply))
-        self._sent = 0
 
     def _take_request(self) -> None:
         assert self._child is not None
@@ -251,6 +176,26 @@ class GridWorker:
         data = np.frombuffer(body, np.int8, ny * nx, _SHAPE.size).reshape(ny, nx)
         return OccupancyMap(data=data, resolution=self.params.resolution, origin=(ox, oy, 0.0), frame_id=frame_id)
 
+    def snapshot(self) -> OccupancyGrid2D:
+        """The grid after every scan so far, in this process (the child's copy when it holds the grid)."""
+        if self.local is not None:
+            return self.local
+        return _grid_from_bytes(self.params, self._ask(_SNAPSHOT))
+
+    def close(self) -> None:
+        """End the child: close its input (it exits on that) and wait for it."""
+        if self._child is not None:
+            self._child.close()
+
+    def __del__(self) -> None:
+        self.close()
+
+    # ------------------------------------------------------------ talking to the child
+    def _send(self, op: int, payload: bytes) -> None:
+        if self._child is None:
+            raise NavlogError("occupancy grid process: not started")
+        self._child.send(op, payload)
+
     def _ask(self, op: int) -> bytes | bytearray:
         """Send request ``op``; its reply (after every scan sent, and the replies asked for before), without
         the outcomes it starts with."""
@@ -262,21 +207,6 @@ class GridWorker:
         self._outcomes.extend(bool(b) for b in body[: self._sent])
         body, self._sent = body[self._sent :], 0
         return body
-
-
-@dataclasses.dataclass(frozen=True)
-class _Scan:
-    pose: np.ndarray  # 4x4 float64
-    angles: np.ndarray  # float64, contiguous
-    ranges: np.ndarray
-    range_min: float
-    range_max: float
-
-
-@dataclasses.dataclass(frozen=True)
-class _MapRequest:
-    frame_id: str
-    reply: Callable[[OccupancyMap | None], None]
 
 
 # ------------------------------------------------------------ the child's side
@@ -307,18 +237,22 @@ def _handle(grid: OccupancyGrid2D, outcomes: bytearray, code: int, body: bytes |
 
 
 class _GridServer:
-    """The child's grid: made by the parameters, then scans and requests."""
+    """The child's grid: the parameters, then the grid handed over, then scans and requests."""
 
     def __init__(self) -> None:
+        self.params: OccupancyParams | None = None
         self.grid: OccupancyGrid2D | None = None
         self.outcomes = bytearray()
 
     def __call__(self, code: int, body: bytes | bytearray) -> tuple[int, bytes] | None:
         if code == _PARAMS:
-            self.grid = OccupancyGrid2D(OccupancyParams(**_params(json.loads(body))))
+            self.params = OccupancyParams(**_params(json.loads(body)))
+            return None
+        if self.params is not None and code == _GRID:
+            self.grid = _grid_from_bytes(self.params, body)
             return None
         if self.grid is None:
-            raise ValueError(f"request {code} before the parameters")
+            raise ValueError(f"request {code} before the parameters and the grid")
         return _handle(self.grid, self.outcomes, code, body)
 
 

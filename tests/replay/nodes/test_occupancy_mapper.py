@@ -158,9 +158,8 @@ def test_a_map_the_child_has_sent_goes_out_with_the_next_scan():
     ex.add_source(_drive(90, 3.0))
     ex.run(until_ns=1_000_000_000)
     child = node._updates._child
-    assert child is not None
-    node._updates._wait_started()  # the scans so far go to the child
-    ex.run(until_ns=2_000_000_000)  # /map at 2 s is asked for
+    assert child is not None and select.select([child.process.stdout], [], [], 30.0)[0], "the child did not start"
+    ex.run(until_ns=2_000_000_000)  # the scan at 1.1 s hands the grid over; /map at 2 s is asked for
     assert node._updates.in_child and "/map" not in seen and ex._held
     for _ in range(3000):  # up to 30 s for the child's reply
         if child.reply_ready():
