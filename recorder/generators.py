@@ -69,7 +69,7 @@ class RoomParams:
     max_size: float = 1.0  # largest, m
 
     def __post_init__(self) -> None:
-        if not (1 <= min(self.size) and max(self.size) <= 200):
+        if not (min(self.size) >= 1 and max(self.size) <= 200):
             raise ValueError("size must be 1..200 m on each side")
         if not (0 <= self.obstacles <= 2000 and 0.05 <= self.min_size <= self.max_size <= min(self.size) / 2):
             raise ValueError("obstacles must be 0..2000 and 0.05 <= min_size <= max_size <= half the room")
@@ -103,7 +103,9 @@ class GeneratedWorld:
 # ---------------------------------------------------------------- BARN obstacle fields
 
 
-def cellular_automaton(grid: np.ndarray, iterations: int, fill_threshold: int = 5, clear_threshold: int = 4) -> np.ndarray:
+def cellular_automaton(
+    grid: np.ndarray, iterations: int, fill_threshold: int = 5, clear_threshold: int = 4
+) -> np.ndarray:
     """``iterations`` smoothing steps: a cell becomes an obstacle when at least ``fill_threshold`` of its 8
     neighbours are, free when fewer than ``clear_threshold`` are, else stays (cells outside count as free)."""
     g = grid.astype(np.int8)

@@ -126,6 +126,10 @@ def sample_routes(
     fits = g.clearance >= radius
     regions, _ = label(fits, structure=np.ones((3, 3), dtype=int))
     rows, cols = np.nonzero(g.clearance >= radius + margin)
+    x0, y0, x1, y1 = world.bounds()  # not in the grid's padding, outside the world
+    cx, cy = g.centre(cols, rows)
+    inside = (cx > x0) & (cx < x1) & (cy > y0) & (cy < y1)
+    rows, cols = rows[inside], cols[inside]
     if not len(rows):
         raise ConfigError(
             f"world '{world.name}': no free cell {radius + margin:.2f} m from every obstacle "

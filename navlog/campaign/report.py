@@ -91,7 +91,11 @@ def markdown(summary: dict[str, Any]) -> str:
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, v in summary["variants"].items():
-        rate = "-" if v["success_rate"] is None else f"{v['success_rate']:.3f} [{v['success_ci'][0]:.3f}, {v['success_ci'][1]:.3f}]"
+        rate = (
+            "-"
+            if v["success_rate"] is None
+            else f"{v['success_rate']:.3f} [{v['success_ci'][0]:.3f}, {v['success_ci'][1]:.3f}]"
+        )
         lines.append(
             f"| {name} | {v['runs']} | {rate} | {v['collision']} | {v['timeout']} | {v['aborted']} | {v['failed']} | "
             f"{v['infeasible']} | {_ci(v['barn_metric'], 3)} | {_ci(v['time_s'])} | {_ci(v['path_length_m'])} | "

@@ -300,11 +300,11 @@ def _variant_files(spec: CampaignSpec, folder: Path, out: Path) -> dict[str, Pat
     """Each variant's Nav2 file with its overrides, written to ``OUT/variants/NAME.yaml`` and checked."""
     import yaml
 
+    from navlog.replay.config import load_yaml
     from navlog.replay.io.atomic import write_file
     from navlog.replay.nav2 import load_nav2_params
     from navlog.replay.nav2.params import apply_nav2_overrides
     from navlog.replay.pipelines.safety import nav2_file
-    from navlog.replay.config import load_yaml
 
     (out / "variants").mkdir(parents=True, exist_ok=True)
     files = {}
@@ -413,7 +413,9 @@ def _routes(spec: CampaignSpec, world: Any, winfo: dict[str, Any], radius: float
         return [(tuple(r.start), tuple(r.goal))]
     if r.kind == "auto" and "start" in winfo and "goal" in winfo:
         return [(tuple(winfo["start"]), tuple(winfo["goal"]))]
-    return sample_routes(world, radius, r.count, seed, min_distance=r.min_distance, margin=r.margin, grid=grid)
+    # the margin counts beyond the obstacles' growth on /map: a start Nav2 sees in an obstacle is no route
+    margin = r.margin + spec.map_margin
+    return sample_routes(world, radius, r.count, seed, min_distance=r.min_distance, margin=margin, grid=grid)
 
 
 # ---------------------------------------------------------------- the campaign

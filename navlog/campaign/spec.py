@@ -61,7 +61,7 @@ class RouteSpec:
     kind: Literal["auto", "random", "fixed"] = "auto"
     count: int = 1  # routes per world, robot and seed (random)
     min_distance: float = 2.0  # m between a random start and goal
-    margin: float = 0.1  # m of clearance beyond the robot's radius at a random start or goal
+    margin: float = 0.1  # m of clearance at a random start or goal beyond the robot's radius and map_margin
     start: tuple[float, float, float] = (0.0, 0.0, 0.0)  # fixed: x, y, yaw
     goal: tuple[float, float, float] = (0.0, 0.0, 0.0)  # fixed: x, y, yaw
 
@@ -99,7 +99,7 @@ class CampaignSpec:
             raise ValueError(f"baseline '{self.baseline}' is not a variant{suggest(self.baseline, names)}")
         if any(s < 0 for s in self.seeds) or len(set(self.seeds)) != len(self.seeds):
             raise ValueError("seeds must be unique non-negative integers")
-        if not (0 < self.max_duration <= 86400 and 0 <= self.map_margin <= 5 and 0 < self.wall_timeout):
+        if not (0 < self.max_duration <= 86400 and 0 <= self.map_margin <= 5 and self.wall_timeout > 0):
             raise ValueError("max_duration must be 0..86400 s, map_margin 0..5 m, wall_timeout positive")
         if not 0 < self.alpha < 0.5:
             raise ValueError("alpha must be between 0 and 0.5")

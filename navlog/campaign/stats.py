@@ -61,7 +61,7 @@ def mean_interval(values: list[float], confidence: float = 0.95) -> dict[str, An
 
 def variant_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
     """Counts by result, success rate (Wilson) and means (bootstrap) of one variant's rows."""
-    counts = {r: 0 for r in ("succeeded", "collision", "timeout", "aborted", "failed", "infeasible")}
+    counts = dict.fromkeys(("succeeded", "collision", "timeout", "aborted", "failed", "infeasible"), 0)
     for row in rows:
         counts[row["result"]] = counts.get(row["result"], 0) + 1
     runs = [r for r in rows if r["result"] != "infeasible"]
@@ -103,7 +103,9 @@ def compare(base: list[dict[str, Any]], other: list[dict[str, Any]], alpha: floa
 
     by_key = {_pair_key(r): r for r in base if r["result"] not in ("infeasible", "failed")}
     pairs = [
-        (by_key[_pair_key(r)], r) for r in other if _pair_key(r) in by_key and r["result"] not in ("infeasible", "failed")
+        (by_key[_pair_key(r)], r)
+        for r in other
+        if _pair_key(r) in by_key and r["result"] not in ("infeasible", "failed")
     ]
     b = sum(a["result"] == "succeeded" and o["result"] != "succeeded" for a, o in pairs)  # lost successes
     c = sum(a["result"] != "succeeded" and o["result"] == "succeeded" for a, o in pairs)  # gained successes

@@ -24,7 +24,12 @@ def register(sub) -> None:
     run_p.add_argument("-o", "--output", type=Path, required=True, help="output folder (reused runs are kept)")
     run_p.add_argument("--workers", type=int, help="worker processes (default: the usable CPUs; 1: this process)")
     run_p.add_argument(
-        "--ray", nargs="?", const=True, default=None, metavar="ADDRESS", help="run on Ray (a local instance, or ADDRESS)"
+        "--ray",
+        nargs="?",
+        const=True,
+        default=None,
+        metavar="ADDRESS",
+        help="run on Ray (a local instance, or ADDRESS)",
     )
     run_p.add_argument(
         "--keep-logs",
