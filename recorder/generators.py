@@ -258,7 +258,7 @@ def generate_world(kind: str, seed: int, params: dict[str, Any] | None = None, w
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ConfigError(f"{prefix}seed must be a non-negative integer, got {seed!r}")
     cls, fn = GENERATORS[kind]
-    typed = from_mapping(cls, params or {}, f"{where or kind} params")
+    typed: Any = from_mapping(cls, params or {}, f"{where or kind} params")
     return fn(typed, seed)
 
 

@@ -286,9 +286,9 @@ def _resolve_worlds(spec: CampaignSpec, folder: Path, out: Path) -> list[tuple[s
                 raise ConfigError(f"{where}.glob: '{src.glob}' matches no file (searched {pattern})")
             worlds += [(Path(p).stem, p, {}) for p in found]
         else:
-            p = Path(src.file)
-            path = str(p if p.is_absolute() or not (folder / p).exists() else folder / p)
-            worlds.append((Path(src.file).stem, path, {}))
+            given = Path(src.file)
+            where_file = given if given.is_absolute() or not (folder / given).exists() else folder / given
+            worlds.append((given.stem, str(where_file), {}))
     names = [w[0] for w in worlds]
     dup = sorted({n for n in names if names.count(n) > 1})
     if dup:

@@ -36,7 +36,7 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[f
     return float(ci.low), float(ci.high)
 
 
-def mean_interval(values: list[float], confidence: float = 0.95) -> dict[str, Any] | None:
+def mean_interval(values: list[Any], confidence: float = 0.95) -> dict[str, Any] | None:
     """Mean, 95 % percentile-bootstrap interval and count of the finite ``values`` (None when empty)."""
     from scipy.stats import bootstrap
 
@@ -115,7 +115,8 @@ def compare(base: list[dict[str, Any]], other: list[dict[str, Any]], alpha: floa
         "pairs": len(pairs),
         "success": {"lost": b, "gained": c, "p_value": round(p_success, 6), "test": "exact McNemar"},
     }
-    worse, better = [], []
+    worse: list[str] = []
+    better: list[str] = []
     if b + c and p_success < alpha:
         (worse if b > c else better).append("success")
     for name in ("time_s", "path_length_m"):
