@@ -15,6 +15,7 @@ functions the commands call, with the same arguments:
 - export (``navlog export``): ``export_rosbag2`` (``BagOptions``), ``export_tum``;
 - maps: ``write_world_map`` (``navlog world-map``), ``pcd_to_map`` (``navlog pcd-to-map``);
 - planning (``navlog plan``): ``plan_on_map`` (``MapPlan``);
+- navigation campaigns (``navlog campaign run``): ``run_campaign`` (``CampaignResult``);
 - the main job end to end (``navlog demo``): ``run_demo`` (``DemoResult``);
 - errors meant for users: ``NavlogError`` and its kinds ``ConfigError``, ``LogError``,
   ``TruncatedLogError``; and ``__version__``.
@@ -43,6 +44,7 @@ if TYPE_CHECKING:
     from navlog.analysis.export import pcd_to_map
     from navlog.analysis.fleet import FleetResult, replay_fleet
     from navlog.analysis.view import ViewSummary
+    from navlog.campaign import CampaignResult, run_campaign
     from navlog.demo import DemoResult, run_demo
     from navlog.recorder.record import RecordResult, RecordSetup, prepare, record
     from navlog.recorder.world import write_world_map
@@ -74,12 +76,15 @@ _MODULES = {
     "FleetResult": "analysis.fleet",
     "plan_on_map": "replay.pipelines.planner",
     "MapPlan": "replay.pipelines.planner",
+    "run_campaign": "campaign",
+    "CampaignResult": "campaign",
     "run_demo": "demo",
     "DemoResult": "demo",
 }
 
 __all__ = [
     "BagOptions",
+    "CampaignResult",
     "ConfigError",
     "DemoResult",
     "FleetResult",
@@ -105,6 +110,7 @@ __all__ = [
     "record",
     "recover_mcap",
     "replay_fleet",
+    "run_campaign",
     "run_demo",
     "run_replay",
     "save_view",

@@ -30,6 +30,7 @@ COMMANDS = [
     "recover",
     "replay",
     "world-map",
+    "world-gen",
     "pcd-to-map",
     "metrics",
     "diff",
@@ -38,6 +39,7 @@ COMMANDS = [
     "export",
     "check-config",
     "plan",
+    "campaign",
 ]
 
 

@@ -139,7 +139,11 @@ def load_world(
     if is_map_yaml(Path(name)):
         return load_map_world(Path(name), DEFAULT_WALL_HEIGHT if wall_height is None else wall_height)
     path = named_config("worlds", name)
-    spec = load_config(WorldSpec, path)
+    return resolve_world(load_config(WorldSpec, path), path)
+
+
+def resolve_world(spec: WorldSpec, path: Path) -> World:
+    """A world YAML's ``spec`` (read from ``path``, which errors name) resolved into solids."""
     if not np.isfinite(np.array(_numbers(to_mapping(spec)), dtype=float)).all():
         raise ConfigError(f"{path}: sizes, poses and heights must be finite numbers (found NaN or inf)")
     solids: list[Solid] = []

@@ -1,0 +1,37 @@
+"""The shipped small campaign end to end: 12 recorded runs, their statistics, resumption."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from navlog.campaign.runner import run_campaign
+from navlog.campaign.stats import REGRESSED
+
+SMALL = Path(__file__).parents[2] / "examples" / "campaigns" / "small.yaml"
+
+
+@pytest.mark.slow
+def test_half_speed_is_regressed_on_time_and_a_rerun_reuses_every_run(tmp_path):
+    out = tmp_path / "out"
+    res = run_campaign(SMALL, out, workers=2, progress=False)
+    assert len(res.rows) == 12 and res.cached == 0
+    assert [r["result"] for r in res.rows] == ["succeeded"] * 12
+    base, half = res.summary["variants"]["baseline"], res.summary["variants"]["half_speed"]
+    assert base["success_rate"] == half["success_rate"] == 1.0
+    assert base["success_ci"] == pytest.approx([0.6097, 1.0], abs=1e-4)  # Wilson, 6 of 6
+    assert half["time_s"]["mean"] > 1.4 * base["time_s"]["mean"]
+    c = res.summary["comparisons"]["half_speed"]
+    assert c["pairs"] == 6 and c["verdict"] == REGRESSED and c["worse"] == ["time_s"]
+    assert c["time_s"]["p_value"] == pytest.approx(2 / 2**6)  # all six pairs slower: the exact test's floor
+    for r in res.rows:  # each run's path is the optimal path's length give or take the goal tolerance
+        assert 0.8 * r["optimal_path_m"] < r["path_length_m"] < 1.5 * r["optimal_path_m"]
+        assert r["min_clearance_m"] > 0.22 and r["collisions"] == 0
+    report = (out / "campaign.json").read_bytes()
+    assert (out / "campaign.csv").read_text().count("\n") == 13
+    assert (out / "campaign.png").read_bytes()[:4] == b"\x89PNG"
+    again = run_campaign(SMALL, out, workers=1, progress=False)
+    assert again.cached == 12
+    assert (out / "campaign.json").read_bytes() == report
+    assert not (out / "logs").exists()  # logs only when asked
