@@ -224,7 +224,7 @@ def test_a_xacro_error_names_the_file_and_the_line(tmp_path, capsys):
     code, out = _record(tmp_path, xacro)
     err = capsys.readouterr().err
     assert code == 2 and not out.exists()
-    assert f"{xacro}:5: xacro:" in err and "undefined_height" in err
+    assert f"{xacro}:5: xacro error:" in err and "undefined_height" in err
 
 
 def test_a_malformed_xacro_names_the_line(tmp_path, capsys):
