@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from navlog.recorder.robot import CMD_VEL_TOPIC
 from navlog.recorder.scenarios import ScenarioSpec, scenario_map
 from navlog.recorder.world import World, occupancy
 from navlog.replay.runtime.executor import Node
@@ -55,9 +56,15 @@ def world_map_node(scenario: ScenarioSpec, world: World) -> MapServerNode | None
 
 
 def navigation_pipeline(
-    scenario: ScenarioSpec, seed: int, nav2_params: str | Path | None = None, overrides: Sequence[str] = ()
+    scenario: ScenarioSpec,
+    seed: int,
+    nav2_params: str | Path | None = None,
+    overrides: Sequence[str] = (),
+    command_topic: str = CMD_VEL_TOPIC,
 ) -> Pipeline:
-    """The navigation pipeline of a navigate scenario (``nav2_params`` replaces the scenario's file)."""
+    """The navigation pipeline of a navigate scenario (``nav2_params`` replaces the scenario's file); its
+    commands go to ``command_topic``, the topic the robot drives on (a description file's drive plugin may
+    name another than /cmd_vel, e.g. under a namespace)."""
     from navlog.replay.pipelines import pipeline_spec
     from navlog.replay.session import pipeline_params
 
@@ -66,6 +73,7 @@ def navigation_pipeline(
         f"goals={scenario.goals}",
         f"mode={scenario.navigation}",
         f"seed={seed}",
+        *([f"output_topic={command_topic}"] if command_topic != CMD_VEL_TOPIC else []),
         *overrides,
     ]
     params = pipeline_params("navigation", None, overrides=sets)

@@ -248,7 +248,7 @@ def record(
             from navlog.recorder.navigation import navigation_pipeline, world_map_node
 
             if navigation is None:
-                navigation = navigation_pipeline(setup.scenario, setup.seed)
+                navigation = navigation_pipeline(setup.scenario, setup.seed, command_topic=setup.robot.cmd_topic)
             map_server = world_map_node(setup.scenario, setup.world)
             nodes += [map_server] if map_server is not None else []
         amcl_error = None

@@ -104,3 +104,17 @@ def test_slam_map_of_the_sandbox_agrees_with_nav2s_map(data, tmp_path, capsys):
     out = capsys.readouterr().out
     f1 = float(next(x for x in out.splitlines() if x.strip().startswith("F1 ")).split()[1])
     assert f1 >= 0.9, out
+
+
+def test_navigation_commands_go_to_the_topic_the_robots_drive_plugin_names(data):
+    s = resolve_files(load_scenario("nav2_tb3_sandbox"), None, [data])
+    from navlog.recorder.description import load_robot
+    from navlog.recorder.navigation import navigation_pipeline
+
+    robot = load_robot(s.robot, {"namespace": "/tb3"}, [data])
+    assert robot.cmd_topic == "/tb3/cmd_vel"
+    nav = navigation_pipeline(s, 0, command_topic=robot.cmd_topic)
+    monitor = next(n for n in nav.nodes if type(n).__name__ == "CollisionMonitorNode")
+    assert monitor.output_topic == "/tb3/cmd_vel"  # type: ignore[attr-defined]
+    default = navigation_pipeline(s, 0)
+    assert next(n for n in default.nodes if type(n).__name__ == "CollisionMonitorNode").output_topic == "/cmd_vel"  # type: ignore[attr-defined]
