@@ -126,12 +126,18 @@ def resolve_files(scenario: ScenarioSpec, folder: Path | None, search_paths: Seq
     """``scenario`` with the files it names (world, robot, Nav2 file, goals, map) found (``scenario_file``)."""
     from dataclasses import replace
 
-    found = {
-        key: scenario_file(value, folder, search_paths)
-        for key in ("world", "robot", "nav2_params", "goals", "map")
-        if (value := getattr(scenario, key)) and value not in MAP_KINDS
-    }
-    return replace(scenario, **found)
+    def find(value: str) -> str:
+        return scenario_file(value, folder, search_paths) if value and value not in MAP_KINDS else value
+
+    s = scenario
+    return replace(
+        s,
+        world=find(s.world),
+        robot=find(s.robot),
+        nav2_params=find(s.nav2_params),
+        goals=find(s.goals),
+        map=find(s.map),
+    )
 
 
 def scenario_map(scenario: ScenarioSpec) -> Path | None:
