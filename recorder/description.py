@@ -2,7 +2,7 @@
 
 ``describe(path, ...)`` reads a ``.urdf``, ``.sdf``, ``.urdf.xacro`` or ``.sdf.xacro`` file (xacro is
 expanded by the ``xacro`` package, with ``args`` as ``ros2 launch`` passes them and ``$(find PKG)``
-along the package path of ``navlog.recorder.packages``) and returns the robot:
+along the package path of ``navlog.recorder.resources``) and returns the robot:
 
 - the kinematic tree (``RobotModel``): links, joints, collision geometry (primitives; meshes with their
   scale, checked to exist: a missing collision mesh is an error naming the file and the link, a missing
@@ -39,15 +39,14 @@ import logging
 import math
 import re
 import xml.etree.ElementTree as ET
-from collections.abc import Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from navlog.errors import ConfigError
-from navlog.recorder.packages import find_package, package_path, resolve_uri
+from navlog.recorder.resources import resolve_uri
 from navlog.recorder.robot import (
     BodyConfig,
     DriveConfig,
@@ -70,6 +69,7 @@ from navlog.recorder.robot_model import (
     StaticFrame,
     pose_matrix,
 )
+from navlog.recorder.xacro_files import read_description
 from navlog.replay.config import from_mapping, load_config, load_yaml, named_config, to_mapping
 from navlog.replay.geometry import make_transform, matrix_to_quat, quat_from_rpy, rigid_inverse
 
@@ -91,57 +91,6 @@ NO_LIMIT = math.inf  # a velocity or acceleration the plugin does not bound
 def is_description(name: str) -> bool:
     """Whether ``name`` is a description file's name (by its suffix)."""
     return name.lower().endswith(SUFFIXES)
-
-
-# ---------------------------------------------------------------- xacro
-
-
-@contextmanager
-def _find_along(search: Sequence[Path]) -> Iterator[None]:
-    """xacro's ``$(find PKG)`` along ``search`` instead of the ament index, while the block runs."""
-    import xacro.substitution_args as substitution
-
-    previous = substitution._eval_find
-    substitution._eval_find = lambda pkg: str(find_package(pkg, search))
-    try:
-        yield
-    finally:
-        substitution._eval_find = previous
-
-
-def _line_of(path: Path, text: str) -> int | None:
-    """The first line of ``path`` that holds ``text``, if any."""
-    try:
-        for i, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
-            if text in line:
-                return i
-    except OSError:
-        return None
-    return None
-
-
-def expand_xacro(path: Path, args: Mapping[str, str], search: Sequence[Path]) -> str:
-    """The XML text of xacro file ``path`` with ``args``; ConfigError naming the file and line of an error."""
-    import xml.parsers.expat
-
-    import xacro
-
-    try:
-        with _find_along(search):
-            doc = xacro.process_file(str(path), mappings=dict(args))
-        return str(doc.toxml())
-    except ConfigError as exc:
-        raise ConfigError(f"{path}: xacro: {exc}") from None
-    except (xacro.XacroException, xml.parsers.expat.ExpatError, OSError, KeyError, NameError) as exc:
-        where = xacro.filestack[-1] if xacro.filestack and xacro.filestack[-1] else str(path)
-        line = getattr(exc, "lineno", None)
-        if line is None:
-            quoted = re.search(r"'([^']+)'", str(exc))
-            line = _line_of(Path(where), quoted.group(1)) if quoted else None
-        message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        if isinstance(exc, KeyError):
-            message = f"undefined argument {exc} (give it with --robot-arg NAME:=VALUE)"
-        raise ConfigError(f"{where}{f':{line}' if line else ''}: xacro: {message}") from None
 
 
 # ---------------------------------------------------------------- poses and numbers
@@ -228,7 +177,7 @@ class _Parsed:
 
 
 class _Reader:
-    def __init__(self, path: Path, search: Sequence[Path]) -> None:
+    def __init__(self, path: Path, search: Sequence[Path | str]) -> None:
         self.path = path
         self.search = search
 
@@ -763,21 +712,17 @@ def describe(
 ) -> RobotSpec:
     """The robot of a URDF/SDF (or xacro) file (module docstring); ConfigError for bad input.
 
-    ``args``: xacro arguments; ``package_paths``: folders holding packages (``navlog.recorder.packages``);
+    ``args``: xacro arguments; ``package_paths``: folders holding packages (``navlog.recorder.resources``);
     ``drive``: ``diff_drive`` or ``omni`` for a file that declares no drive plugin."""
     src = Path(path)
     if not src.is_file():
         raise ConfigError(f"robot description {src} not found")
     if drive is not None and drive not in DRIVES:
         raise ConfigError(f"--drive '{drive}' is not one of: {', '.join(DRIVES)}")
-    search = package_path(package_paths, near=src)
-    name = src.name.lower()
-    if name.endswith(".xacro"):
-        text = expand_xacro(src, args or {}, search)
-    else:
-        if args:
-            raise ConfigError(f"{src}: --robot-arg is for xacro files; this one is not")
-        text = src.read_text(errors="replace")
+    search = list(package_paths)
+    if args and not src.name.lower().endswith(".xacro"):
+        raise ConfigError(f"{src}: --robot-arg is for xacro files; this one is not")
+    text = read_description(src, args, search)
     try:
         root = ET.fromstring(text)
     except ET.ParseError as exc:

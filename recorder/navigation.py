@@ -9,11 +9,13 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from navlog.recorder.scenarios import ScenarioSpec
+from navlog.recorder.robot import CMD_VEL_TOPIC
+from navlog.recorder.scenarios import ScenarioSpec, scenario_map
 from navlog.recorder.world import World, occupancy
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.pipeline import Pipeline
@@ -41,16 +43,28 @@ class MapServerNode(Node):
 
 
 def world_map_node(scenario: ScenarioSpec, world: World) -> MapServerNode | None:
-    """The map server of a navigate scenario with ``map: world``, else None."""
-    if scenario.kind != "navigate" or scenario.map != "world":
+    """The map server of a navigate scenario with ``map: world`` (the world's obstacles grown by
+    ``map_margin``) or ``map: FILE`` (that map_server map), else None."""
+    if scenario.kind != "navigate" or scenario.map == "none":
         return None
+    path = scenario_map(scenario)
+    if path is not None:
+        from navlog.replay.io.map_server import load_map
+
+        return MapServerNode(load_map(path))
     return MapServerNode(occupancy(world, margin=scenario.map_margin))
 
 
 def navigation_pipeline(
-    scenario: ScenarioSpec, seed: int, nav2_params: str | Path | None = None, overrides: Sequence[str] = ()
+    scenario: ScenarioSpec,
+    seed: int,
+    nav2_params: str | Path | None = None,
+    overrides: Sequence[str] = (),
+    command_topic: str = CMD_VEL_TOPIC,
 ) -> Pipeline:
-    """The navigation pipeline of a navigate scenario (``nav2_params`` replaces the scenario's file)."""
+    """The navigation pipeline of a navigate scenario (``nav2_params`` replaces the scenario's file); its
+    commands go to ``command_topic``, the topic the robot drives on (a description file's drive plugin may
+    name another than /cmd_vel, e.g. under a namespace)."""
     from navlog.replay.pipelines import pipeline_spec
     from navlog.replay.session import pipeline_params
 
@@ -59,6 +73,7 @@ def navigation_pipeline(
         f"goals={scenario.goals}",
         f"mode={scenario.navigation}",
         f"seed={seed}",
+        *([f"output_topic={command_topic}"] if command_topic != CMD_VEL_TOPIC else []),
         *overrides,
     ]
     params = pipeline_params("navigation", None, overrides=sets)
@@ -67,7 +82,7 @@ def navigation_pipeline(
 
 def amcl_node(scenario: ScenarioSpec, world: World, seed: int) -> Node:
     """Nav2's AMCL, live: the ``amcl`` block of the scenario's Nav2 file (Nav2's defaults without one), the
-    world's obstacles as its map, the filter started at the scenario's start pose, its random numbers
+    scenario's map file as its map (``map: FILE``; else the world's obstacles), the filter started at the scenario's start pose, its random numbers
     from the run's seed (the localization pipeline's stream: a replay with the same seed draws the same)."""
     from dataclasses import replace
 
@@ -83,4 +98,59 @@ def amcl_node(scenario: ScenarioSpec, world: World, seed: int) -> Node:
     x, y, yaw = scenario.start
     params = replace(params, set_initial_pose=True, initial_pose_x=x, initial_pose_y=y, initial_pose_yaw=yaw)
     rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
+    path = scenario_map(scenario)
+    if path is not None:
+        from navlog.replay.io.map_server import load_map
+
+        return AmclNode(params, load_map(path), rng)
     return AmclNode(params, occupancy(world, margin=0.0), rng)
+
+
+class AmclErrorNode(Node):
+    """AMCL's error against the ground truth: after the run, every pose AMCL estimated (``AmclNode.trajectory``,
+    one per scan it processed) against the true pose at the same stamp (interpolated between the two
+    ground-truth messages around it)."""
+
+    name = "amcl_error"
+
+    def __init__(self, amcl: Any, ground_truth_topic: str) -> None:
+        super().__init__()
+        self.amcl, self.topic = amcl, ground_truth_topic
+        self.truth: list[tuple[int, float, float, float]] = []
+
+    def setup(self) -> None:
+        self.subscribe(self.topic, self._on_truth)
+
+    def _on_truth(self, msg: Any, t_ns: int) -> None:
+        from navlog.replay.geometry import yaw_from_quat
+
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        stamp = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        self.truth.append((stamp, p.x, p.y, yaw_from_quat((q.x, q.y, q.z, q.w))))
+
+    def report(self) -> dict[str, float]:
+        """poses; position error mean, RMS, max, final (m); yaw error mean and max (degrees)."""
+        import numpy as np
+
+        from navlog.replay.geometry import wrap_angles
+
+        est = [(t, m[0, 3], m[1, 3], math.atan2(m[1, 0], m[0, 0])) for t, m in self.amcl.trajectory]
+        if not est or len(self.truth) < 2:
+            return {"poses": 0}
+        truth = np.array(self.truth)
+        e = np.array(est)
+        e = e[(e[:, 0] >= truth[0, 0]) & (e[:, 0] <= truth[-1, 0])]
+        x = np.interp(e[:, 0], truth[:, 0], truth[:, 1])
+        y = np.interp(e[:, 0], truth[:, 0], truth[:, 2])
+        yaw = np.interp(e[:, 0], truth[:, 0], np.unwrap(truth[:, 3]))
+        d = np.hypot(e[:, 1] - x, e[:, 2] - y)
+        dyaw = np.degrees(np.abs(wrap_angles(e[:, 3] - yaw)))
+        return {
+            "poses": len(d),
+            "mean_m": float(d.mean()),
+            "rms_m": float(np.sqrt(np.mean(d**2))),
+            "max_m": float(d.max()),
+            "final_m": float(d[-1]),
+            "yaw_mean_deg": float(dyaw.mean()),
+            "yaw_max_deg": float(dyaw.max()),
+        }

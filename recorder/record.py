@@ -30,7 +30,14 @@ from navlog.errors import ConfigError
 from navlog.recorder.description import load_robot
 from navlog.recorder.range_sensors import start_range_sensors
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec
-from navlog.recorder.scenarios import ScenarioNode, ScenarioSpec, check_scenario, load_scenario, scenario_world
+from navlog.recorder.scenarios import (
+    ScenarioNode,
+    ScenarioSpec,
+    check_scenario,
+    load_scenario,
+    resolve_files,
+    scenario_world,
+)
 from navlog.recorder.world import World, load_world
 from navlog.replay.config import config_hash, named_config, to_mapping
 from navlog.replay.io.atomic import hold_output
@@ -59,6 +66,7 @@ class RecordResult:
     notes: list[str] = field(
         default_factory=list
     )  # what the summary adds: the robot's drive and sensors, what the world ignored
+    localization: dict | None = None  # AMCL's error against the ground truth (--localization amcl)
 
     @property
     def failed(self) -> str | None:
@@ -176,12 +184,12 @@ def prepare(
     (``navlog.recorder.description.load_robot``)."""
     if localization not in LOCALIZATIONS:
         raise ConfigError(f"localization '{localization}' is not one of: {', '.join(LOCALIZATIONS)}")
-    s = load_scenario(scenario)
     folder = named_config("scenarios", scenario).parent
+    s = resolve_files(load_scenario(scenario), folder, [*package_paths, *resource_paths])
     w = load_world(
         world or scenario_world(s, folder) or DEFAULT_WORLD, resource_paths=resource_paths, wall_height=wall_height
     )
-    r = load_robot(robot or s.robot or DEFAULT_ROBOT, robot_args, package_paths, drive)
+    r = load_robot(robot or s.robot or DEFAULT_ROBOT, robot_args, [*package_paths, *resource_paths], drive)
     check_scenario(s, r, w, folder)
     return RecordSetup(w, r, s, seed, noise, localization)
 
@@ -264,13 +272,16 @@ def _record(
             from navlog.recorder.navigation import navigation_pipeline, world_map_node
 
             if navigation is None:
-                navigation = navigation_pipeline(setup.scenario, setup.seed)
+                navigation = navigation_pipeline(setup.scenario, setup.seed, command_topic=setup.robot.cmd_topic)
             map_server = world_map_node(setup.scenario, setup.world)
             nodes += [map_server] if map_server is not None else []
+        amcl_error = None
         if setup.localization == "amcl":
-            from navlog.recorder.navigation import amcl_node
+            from navlog.recorder.navigation import AmclErrorNode, amcl_node
 
-            nodes.append(amcl_node(setup.scenario, setup.world, setup.seed))
+            amcl = amcl_node(setup.scenario, setup.world, setup.seed)
+            amcl_error = AmclErrorNode(amcl, setup.robot.odom.ground_truth_topic)
+            nodes += [amcl, amcl_error]
         done = navigation.done if navigation is not None else None
         driver = ScenarioNode(setup.scenario, setup.robot, command_topic=command_topic, navigation_done=done)
         ex = Executor()
@@ -317,6 +328,7 @@ def _record(
             collisions.count,
             report,
             setup.notes() + list(setup.world.notes),
+            amcl_error.report() if amcl_error is not None else None,
         )
     finally:
         sim.close()  # the sensor worker ends with the run, however it ends
@@ -394,6 +406,8 @@ def format_summary(res: RecordResult) -> str:
     if rows:
         lines.append(format_table(("topic", "type", "msgs", "rate"), rows, align=("left", "left", "right", "right")))
     lines += res.notes
+    if res.localization is not None:
+        lines.append(format_localization(res.localization))
     if res.navigation is not None:
         goals = [
             (g["name"], g["status"], g["code"] or "", f"{g['time_s']:.1f} s", g["recoveries"], g["message"])
@@ -410,3 +424,14 @@ def format_summary(res: RecordResult) -> str:
             f"navigation FAILED: {res.failed}" if res.failed else "navigation: every goal reached, no collision"
         )
     return "\n".join(lines)
+
+
+def format_localization(report: dict) -> str:
+    """One line of AMCL's error against the ground truth (``AmclErrorNode.report``)."""
+    if not report.get("poses"):
+        return "AMCL against ground truth: no pose estimated"
+    return (
+        f"AMCL against ground truth ({report['poses']} poses): position error mean {report['mean_m']:.3f} m, "
+        f"RMS {report['rms_m']:.3f} m, max {report['max_m']:.3f} m, final {report['final_m']:.3f} m; "
+        f"yaw error mean {report['yaw_mean_deg']:.2f} deg, max {report['yaw_max_deg']:.2f} deg"
+    )

@@ -5,12 +5,17 @@ Gazebo and ROS name the files a description uses by URI:
 - ``model://NAME/rest`` is the model folder ``NAME`` (a folder holding ``model.config``) found in a
   folder of the resource path: the folders given (``--resource-path``), then ``GZ_SIM_RESOURCE_PATH``,
   ``IGN_GAZEBO_RESOURCE_PATH``, ``SDF_PATH`` and ``GAZEBO_MODEL_PATH``;
-- ``package://PKG/rest`` is the package folder ``PKG`` (a folder holding ``package.xml``) found in a
-  folder of the package path: the folders given, then ``ROS_PACKAGE_PATH``, and ``share/`` below each
-  prefix of ``AMENT_PREFIX_PATH`` and ``COLCON_PREFIX_PATH``. A package is the folder named PKG itself,
-  or any folder below a search folder whose ``package.xml`` is named PKG;
-  (then, as a last resort, the folder above the naming file and its ``models`` folder: a package's
-  ``worlds/`` next to its ``models/``, a model's meshes naming their own model);
+- ``package://PKG/rest`` (and xacro's ``$(find PKG)``) is the package folder ``PKG`` (a folder holding
+  ``package.xml``) found in a folder of the package path: the folders given (``--package-path``,
+  ``--resource-path``), then ``ROS_PACKAGE_PATH``, and ``share/`` below each prefix of
+  ``AMENT_PREFIX_PATH`` and ``COLCON_PREFIX_PATH``, then the folder of the naming file and the two
+  above it (a file inside a package finds its own package and its siblings without any setting). A
+  package is the folder named PKG directly in a search folder (with or without a ``package.xml``: a
+  package's files kept without it, as Nav2's ``nav2_bringup`` params and maps in a source snapshot), or
+  any folder up to ``PACKAGE_SEARCH_DEPTH`` levels below whose ``package.xml`` is named PKG;
+- ``model://NAME`` also looks, as a last resort, in the folder above the naming file and its
+  ``models`` folder: a package's ``worlds/`` next to its ``models/``, a model's meshes naming their own
+  model;
 - ``file://PATH`` and plain paths are relative to the folder of the file that names them.
 
 ``resolve_uri`` answers the file, or raises ``ConfigError`` naming the URI and every folder searched
@@ -42,14 +47,21 @@ def _env_folders(names: Sequence[str], suffix: str = "") -> list[Path]:
     return out
 
 
-def search_folders(search_paths: Sequence[Path | str] = (), kind: str = "model") -> list[Path]:
+def search_folders(
+    search_paths: Sequence[Path | str] = (), kind: str = "model", near: Path | str | None = None
+) -> list[Path]:
     """The folders searched for a ``model://`` (``kind="model"``) or ``package://`` (``"package"``) URI,
-    in order: ``search_paths``, then the environment's (module docstring); each once."""
+    in order: ``search_paths``, then the environment's, then those near ``near``, the folder of the file
+    that names the URI (module docstring); each once."""
     folders = [Path(p) for p in search_paths]
     if kind == "model":
         folders += _env_folders(MODEL_PATH_ENV)
+        if near is not None:
+            folders += [Path(near).parent, Path(near).parent / "models"]
     else:
         folders += _env_folders(PACKAGE_PATH_ENV) + _env_folders(PREFIX_PATH_ENV, "share")
+        if near is not None:
+            folders += [Path(near), *list(Path(near).resolve().parents)[: PACKAGE_SEARCH_DEPTH - 1]]
     seen: set[Path] = set()
     out = []
     for f in folders:
@@ -70,9 +82,9 @@ def _package_name(folder: Path) -> str | None:
 
 
 def find_package(name: str, folders: Sequence[Path]) -> Path | None:
-    """The folder of package ``name`` (holding ``package.xml``) in or below ``folders``, or None."""
+    """The folder of package ``name`` in or below ``folders`` (module docstring), or None."""
     for root in folders:
-        if (root / name / "package.xml").is_file():
+        if (root / name).is_dir():
             return root / name
         if (root / "package.xml").is_file() and _package_name(root) == name:
             return root
@@ -91,6 +103,22 @@ def find_model(name: str, folders: Sequence[Path]) -> Path | None:
     return None
 
 
+def searched(folders: Sequence[Path], kind: str) -> str:
+    """The end of a not-found message: every folder searched and how to add one."""
+    where = ", ".join(str(f) for f in folders) or "no folder"
+    how = "--resource-path or GZ_SIM_RESOURCE_PATH" if kind == "model" else "--package-path or ROS_PACKAGE_PATH"
+    return f"searched {where}; add folders with {how}"
+
+
+def package_folder(name: str, search_paths: Sequence[Path | str] = (), near: Path | str | None = None) -> Path:
+    """The folder of package ``name`` (xacro's ``$(find PKG)``); ConfigError naming every folder searched."""
+    folders = search_folders(search_paths, "package", near=near)
+    root = find_package(name, folders)
+    if root is None:
+        raise ConfigError(f"package '{name}' not found ({searched(folders, 'package')})")
+    return root
+
+
 def resolve_uri(uri: str, base_dir: Path | str, search_paths: Sequence[Path | str] = ()) -> Path:
     """The local file or folder ``uri`` names (module docstring); ConfigError when there is none.
 
@@ -101,15 +129,11 @@ def resolve_uri(uri: str, base_dir: Path | str, search_paths: Sequence[Path | st
     for scheme, kind, finder in (("model://", "model", find_model), ("package://", "package", find_package)):
         if uri.startswith(scheme):
             name, _, rest = uri[len(scheme) :].partition("/")
-            folders = search_folders(search_paths, kind)
-            if kind == "model":  # then beside the file that names it, and a models folder next to its folder
-                folders = [*folders, base.parent, base.parent / "models"]
+            folders = search_folders(search_paths, kind, near=base)
             root = finder(name, folders)
             if root is None or not (root / rest).exists():
-                where = ", ".join(str(f) for f in folders) or "no folder"
                 what = f"no {kind} '{name}'" if root is None else f"no {rest} in {root}"
-                opts = "--resource-path" if kind == "model" else "--resource-path or ROS_PACKAGE_PATH"
-                raise ConfigError(f"cannot resolve {uri}: {what} (searched {where}; add folders with {opts})")
+                raise ConfigError(f"cannot resolve {uri}: {what} ({searched(folders, kind)})")
             return root / rest
     if "://" in uri and not uri.startswith("file://"):
         folders = search_folders(search_paths, "model")

@@ -10,7 +10,8 @@ hulls). A drive wheel's cylinder collides as a sphere of its radius: it touches 
 point, where a cylinder's rim gives MuJoCo several across its width that scrub against each other in
 a turn. Only the wheels of a differential drive get joints (hinges with velocity actuators named
 ``act_wheel_left`` and ``act_wheel_right``); every other joint is held at its rest pose. Geoms that
-rest on the floor other than the wheels (casters, skids) are frictionless. The robot's geoms collide
+rest on the floor other than the wheels (casters, skids) are frictionless (with a higher contact
+priority than the floor's, whose friction MuJoCo would otherwise take for the pair). The robot's geoms collide
 with the world, never with each other.
 
 A differential drive's root link rides on a free joint; an omni base's on the legged drive's planar
@@ -101,7 +102,8 @@ def _add_link(
         if wheel:
             kw["friction"] = [1.0, 0.005, 0.0001]
         elif (link.name, k) in resting:
-            kw.update(friction=[0.0, 0.0, 0.0], condim=1)
+            # priority: MuJoCo takes the larger condim and friction of a pair; the floor's would win otherwise
+            kw.update(friction=[0.0, 0.0, 0.0], condim=1, priority=1)
         if g.shape == "box":
             body.add_geom(type=G.mjGEOM_BOX, size=[v / 2 for v in g.size], **kw)
         elif g.shape == "sphere" or (g.shape == "cylinder" and wheel):  # a wheel: one contact point

@@ -21,7 +21,7 @@ pipeline reads /cmd_vel_nav), on the topic that pipeline takes (``ScenarioNode(c
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -64,7 +64,9 @@ class ScenarioSpec:
     nav2_params: str = ""
     goals: str = ""
     navigation: Literal["waypoints", "through_poses"] = "waypoints"
-    map: Literal["world", "none"] = "world"  # world: the world's obstacles on /map, grown by map_margin
+    # world: the world's obstacles on /map, grown by map_margin; none; or a map_server YAML (a path relative
+    # to the scenario file, or package://PKG/...) served on /map and given to AMCL, as Nav2's map_server does
+    map: str = "world"
     map_margin: float = 0.15
 
     def __post_init__(self) -> None:
@@ -74,6 +76,8 @@ class ScenarioSpec:
             raise ValueError("a teleop scenario needs commands")
         if self.kind == "navigate" and not (self.nav2_params and self.goals):
             raise ValueError("a navigate scenario needs nav2_params (a Nav2 file) and goals (a goals YAML)")
+        if not self.map:
+            raise ValueError("map must be 'world', 'none' or a map_server YAML")
         if not 0 <= self.map_margin <= 5:
             raise ValueError("map_margin must be between 0 and 5 m")
         if self.speed <= 0 or self.turn_rate <= 0 or self.rate <= 0 or self.max_duration <= 0:
@@ -90,7 +94,8 @@ def load_scenario(name: str) -> ScenarioSpec:
     return load_config(ScenarioSpec, named_config("scenarios", name))
 
 
-WORLD_FILE_SUFFIXES = (".yaml", ".yml", ".sdf", ".world", ".xacro")
+WORLD_FILE_SUFFIXES = (".yaml", ".yml", ".sdf", ".world", ".xacro", ".urdf")
+MAP_KINDS = ("world", "none")  # a scenario's ``map`` that is no file
 
 
 def _world_file(name: str) -> bool:
@@ -98,12 +103,46 @@ def _world_file(name: str) -> bool:
     return "/" in name or name.endswith(WORLD_FILE_SUFFIXES)
 
 
-def scenario_world(scenario: ScenarioSpec, folder: Path | None) -> str:
-    """The world a scenario names: a name as it is, a path relative to the scenario file's ``folder``."""
-    if not scenario.world or not _world_file(scenario.world) or folder is None:
-        return scenario.world
-    path = Path(scenario.world)
+def scenario_file(spec: str, folder: Path | None, search_paths: Sequence[Path | str] = ()) -> str:
+    """A file a scenario names: ``package://PKG/...`` or ``model://NAME/...`` along the package and resource
+    paths (``search_paths`` first, then the environment's: ``navlog.recorder.resources``), a path relative to
+    the scenario file's ``folder``; a name (no ``/``, no file suffix) as it is."""
+    if "://" in spec:
+        from navlog.recorder.resources import resolve_uri
+
+        return str(resolve_uri(spec, folder or Path("."), search_paths))
+    if not _world_file(spec) or folder is None:
+        return spec
+    path = Path(spec)
     return str(path if path.is_absolute() else folder / path)
+
+
+def scenario_world(scenario: ScenarioSpec, folder: Path | None, search_paths: Sequence[Path | str] = ()) -> str:
+    """The world a scenario names: a name as it is, a file as ``scenario_file`` finds it."""
+    return scenario_file(scenario.world, folder, search_paths) if scenario.world else ""
+
+
+def resolve_files(scenario: ScenarioSpec, folder: Path | None, search_paths: Sequence[Path | str] = ()) -> ScenarioSpec:
+    """``scenario`` with the files it names (world, robot, Nav2 file, goals, map) found (``scenario_file``)."""
+    from dataclasses import replace
+
+    def find(value: str) -> str:
+        return scenario_file(value, folder, search_paths) if value and value not in MAP_KINDS else value
+
+    s = scenario
+    return replace(
+        s,
+        world=find(s.world),
+        robot=find(s.robot),
+        nav2_params=find(s.nav2_params),
+        goals=find(s.goals),
+        map=find(s.map),
+    )
+
+
+def scenario_map(scenario: ScenarioSpec) -> Path | None:
+    """The map_server YAML a scenario serves on /map (its ``map`` when that is a file), else None."""
+    return None if scenario.map in MAP_KINDS else Path(scenario.map)
 
 
 def intended_path(scenario: ScenarioSpec, robot: RobotSpec, step: float = 0.05) -> np.ndarray:
@@ -146,7 +185,7 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World, folde
             f"scenario '{scenario.name}' is laid out for world '{scenario.world}', not '{world.name}'; "
             f"use --world {scenario.world} or a scenario made for {world.name}"
         )
-    if scenario.robot and scenario.robot != robot.name:
+    if scenario.robot and not _world_file(scenario.robot) and scenario.robot != robot.name:
         raise ConfigError(
             f"scenario '{scenario.name}' is made for robot '{scenario.robot}', not '{robot.name}'; "
             f"use --robot {scenario.robot} or a scenario made for {robot.name}"

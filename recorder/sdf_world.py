@@ -187,7 +187,7 @@ class _Reader:
         except ConfigError as exc:
             raise ConfigError(f"{file}: {exc}") from None
         model_file = model_sdf_file(target) if target.is_dir() else target
-        root = _parse(model_file)
+        root = _parse(model_file, None, self.search_paths)
         model = root.find("model") if root.tag == "sdf" else (root if root.tag == "model" else None)
         if model is None:
             raise ConfigError(f"{model_file}: included by {file} ({uri}), but holds no <model>")
@@ -353,8 +353,8 @@ def _trimesh_primitive(kind: str, dims: Sequence[float]) -> tuple[np.ndarray, np
     return np.asarray(m.vertices, dtype=np.float64), np.asarray(m.faces, dtype=np.int64)
 
 
-def _parse(path: Path, args: Mapping[str, str] | None = None) -> ET.Element:
-    text = read_description(path, args)
+def _parse(path: Path, args: Mapping[str, str] | None = None, search_paths: Sequence[Path | str] = ()) -> ET.Element:
+    text = read_description(path, args, search_paths)
     try:
         return ET.fromstring(text)
     except ET.ParseError as exc:
@@ -388,7 +388,7 @@ def read_sdf_world(
     path: Path, search_paths: Sequence[Path | str] = (), args: Mapping[str, str] | None = None
 ) -> SdfWorld:
     """The solids of the SDF world file ``path`` (module docstring); ConfigError when it has none."""
-    root = _parse(path, args)
+    root = _parse(path, args, search_paths)
     reader = _Reader(search_paths)
     if root.tag != "sdf":
         raise ConfigError(f"{path}: not an SDF file (its root element is <{root.tag}>, not <sdf>)")

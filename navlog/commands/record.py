@@ -177,7 +177,9 @@ def run(args) -> int:
     elif setup.scenario.kind == "navigate":
         from navlog.recorder.navigation import navigation_pipeline
 
-        navigation = navigation_pipeline(setup.scenario, setup.seed, args.params, args.set)
+        navigation = navigation_pipeline(
+            setup.scenario, setup.seed, args.params, args.set, command_topic=setup.robot.cmd_topic
+        )
     elif args.params is not None or args.set:
         from navlog.errors import ConfigError
 

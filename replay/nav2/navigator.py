@@ -98,6 +98,8 @@ class BtNavigatorParams:
         "always_reload_bt_xml",
         "introspection_mode",
         "filter_duration",
+        "default_cancel_timeout",  # Nav2 after Jazzy
+        "error_code_name_prefixes",  # Nav2 after Jazzy: error codes by prefix (navlog reports its own codes)
     )
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import ClassVar
 
 from navlog.replay.geometry import normalize_angle, shortest_angular_distance
 from navlog.replay.nav2.plugins import PluginParams
@@ -40,6 +41,8 @@ class GoalCheckerParams(PluginParams):
     symmetric_yaw_tolerance: bool = False
     trans_stopped_velocity: float = param(0.25, ge=0.0)
     rot_stopped_velocity: float = param(0.25, ge=0.0)
+    # Nav2 after Jazzy: the goal counts only within this length of the path's end (navlog does not check it)
+    READ_ONLY: ClassVar[tuple[str, ...]] = ("path_length_tolerance",)
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ from typing import ClassVar
 from navlog.replay.nav2.controllers.checkers import GoalCheckerParams, ProgressCheckerParams
 from navlog.replay.nav2.controllers.registry import CONTROLLERS, GOAL_CHECKERS, PROGRESS_CHECKERS, ControllerParams
 from navlog.replay.nav2.plugins import read_plugin_list
-from navlog.replay.nav2.schema import WARNING, SectionReader, param
+from navlog.replay.nav2.schema import NOTE, WARNING, SectionReader, param
 
 
 @dataclass(frozen=True)
@@ -46,6 +46,7 @@ class ControllerServerParams:
         "failure_tolerance",
         "publish_zero_velocity",
         "introspection_mode",
+        "path_handler_plugins",  # Nav2 after Jazzy: its plugins' sections are read and noted
     )
 
 
@@ -68,7 +69,22 @@ def read_controller_server(r: SectionReader, params: dict, path: tuple) -> Contr
     )
     known = set(controllers) | set(goal_checkers) | set(progress_checkers)
     listed = set()
-    for key in ("controller_plugins", "goal_checker_plugins", "progress_checker_plugins", "progress_checker_plugin"):
+    handlers = params.get("path_handler_plugins", [])
+    for name in handlers if isinstance(handlers, list) else []:
+        if isinstance(params.get(name), dict):
+            plugin = params[name].get("plugin", "?")
+            r.add(
+                NOTE,
+                path + (name,),
+                f"path handler '{plugin}' is read, not implemented by navlog (its controller prunes the path)",
+            )
+    for key in (
+        "controller_plugins",
+        "goal_checker_plugins",
+        "progress_checker_plugins",
+        "progress_checker_plugin",
+        "path_handler_plugins",
+    ):
         v = params.get(key)
         listed |= {v} if isinstance(v, str) else {x for x in v if isinstance(x, str)} if isinstance(v, list) else set()
     for s in sections:

@@ -12,7 +12,13 @@ from navlog.replay.nav2.plugins import PluginParams
 from navlog.replay.nav2.schema import ERROR, NOTE, WARNING, SectionReader, param
 
 # sections of MPPI's own parameters, not critics
-OWN_SECTIONS = ("TrajectoryVisualizer", "AckermannConstraints")
+OWN_SECTIONS = ("TrajectoryVisualizer", "AckermannConstraints", "TrajectoryValidator")
+# Nav2 after Jazzy: ``motion_model`` names a section whose ``plugin`` is one of these (the model's name before)
+MOTION_MODEL_PLUGINS = {
+    "mppi::DiffDriveMotionModel": "DiffDrive",
+    "mppi::OmniMotionModel": "Omni",
+    "mppi::AckermannMotionModel": "Ackermann",
+}
 
 
 @dataclass(frozen=True)
@@ -67,19 +73,23 @@ class MPPIParams(PluginParams):
         "inversion_yaw_tolerance",
         "shift_control_sequence",
         "transform_tolerance",
+        "model_delay_vx",  # Nav2 after Jazzy: the command's delay is not modelled (navlog has none to model)
+        "model_delay_vy",
+        "model_delay_wz",
     )
 
     @classmethod
     def read_loaded(cls, r: SectionReader, section: Any, path: tuple, plugin: str) -> MPPIParams:
         """The controller's parameters with each listed critic's section read and checked as its type."""
-        sections = tuple(k for k, v in section.items() if isinstance(v, dict)) if isinstance(section, dict) else ()
-        section = section if isinstance(section, dict) else {}
+        section = _motion_model_section(r, section, path) if isinstance(section, dict) else {}
+        sections = tuple(k for k, v in section.items() if isinstance(v, dict))
         obj = r.read(cls, section, path, sections=sections, extra={"plugin": plugin})
         ackermann = r.read(
             AckermannConstraintsParams, section.get("AckermannConstraints", {}), path + ("AckermannConstraints",)
         )
-        if "TrajectoryVisualizer" in section:
-            r.add(NOTE, path + ("TrajectoryVisualizer",), "read, not implemented by navlog")
+        for own in ("TrajectoryVisualizer", "TrajectoryValidator"):
+            if own in section:
+                r.add(NOTE, path + (own,), "read, not implemented by navlog")
         critic_params: dict[str, CriticParams] = {}
         for crit in obj.critics:
             entry = critic_entry(crit)
@@ -106,3 +116,21 @@ class MPPIParams(PluginParams):
                 f"{cc.near_collision_cost} is above 253 (inscribed): no cell reaches it, critical_cost is never added",
             )
         return dataclasses.replace(obj, ackermann=ackermann, critic_params=critic_params)
+
+
+def _motion_model_section(r: SectionReader, section: dict, path: tuple) -> dict:
+    """``section`` with a ``motion_model`` that names a section (Nav2 after Jazzy: ``motion_model: diff_drive``
+    and ``diff_drive: {plugin: mppi::DiffDriveMotionModel}``) replaced by the model it names; that section is
+    then the model's and not a critic's."""
+    name = section.get("motion_model")
+    model = section.get(name) if isinstance(name, str) else None
+    if not isinstance(model, dict):
+        return section
+    plugin = model.get("plugin")
+    if plugin not in MOTION_MODEL_PLUGINS:
+        known = ", ".join(MOTION_MODEL_PLUGINS)
+        r.add(ERROR, path + (str(name), "plugin"), f"unknown motion model plugin {plugin!r}; navlog runs {known}")
+        return section
+    out = {k: v for k, v in section.items() if k != name}
+    out["motion_model"] = MOTION_MODEL_PLUGINS[plugin]
+    return out
