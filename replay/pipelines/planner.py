@@ -250,6 +250,8 @@ class MapPlan:
 
     costmap: Costmap2D
     plan: PlanResult
+    start: Pose2D | None = None  # the pose asked for (the plan may end elsewhere, within the tolerance)
+    goal: Pose2D | None = None
 
 
 def plan_on_map(
@@ -286,7 +288,7 @@ def plan_on_map(
         plan = chosen.plan(cm, start, goal)
     except PlanningError as exc:
         raise PlanningError(f"{where}{exc}") from None
-    return MapPlan(cm, plan)
+    return MapPlan(cm, plan, start, goal)
 
 
 def write_plan_mcap(path: str | Path, result: MapPlan) -> None:
@@ -297,8 +299,16 @@ def write_plan_mcap(path: str | Path, result: MapPlan) -> None:
         w.write(Envelope("/plan", m.PATH, 0, path_msg(result.plan, 0, cm.params.global_frame)))
 
 
+PLAN_RGB = (220, 30, 30)  # vermillion-red cells of the plan
+START_RGB = (0, 158, 115)  # Okabe-Ito bluish green: the start
+GOAL_RGB = (0, 114, 178)  # Okabe-Ito blue: the goal
+MARK_RADIUS_M = 0.15  # the start and goal discs, at least 2 cells
+
+
 def write_plan_png(path: str | Path, result: MapPlan) -> None:
-    """The costmap in grey (free white, lethal black, unknown blue-grey) with the plan's cells in red."""
+    """The costmap in grey (free white, lethal black, unknown blue-grey) with the plan's cells in red, the
+    start as a green disc and the goal as a blue one (the poses asked for, else the plan's ends), each with
+    a tick along its heading."""
     from PIL import Image
 
     cm, plan = result.costmap, result.plan
@@ -306,5 +316,18 @@ def write_plan_png(path: str | Path, result: MapPlan) -> None:
     img[cm.costs == 255] = (120, 120, 160)
     mx, my = cm.world_to_cell(plan.poses[:, 0], plan.poses[:, 1])
     ok = (mx >= 0) & (mx < cm.size_x) & (my >= 0) & (my < cm.size_y)
-    img[my[ok], mx[ok]] = (220, 30, 30)
+    img[my[ok], mx[ok]] = PLAN_RGB
+    start = result.start if result.start is not None else tuple(plan.poses[0, :3])
+    goal = result.goal if result.goal is not None else tuple(plan.poses[-1, :3])
+    radius = max(2.0, MARK_RADIUS_M / cm.resolution)  # cells
+    ys, xs = np.mgrid[0 : cm.size_y, 0 : cm.size_x]
+    for (x, y, yaw), rgb in ((start, START_RGB), (goal, GOAL_RGB)):
+        cx, cy = cm.world_to_cell(np.array([x]), np.array([y]))
+        disc = (xs - cx[0]) ** 2 + (ys - cy[0]) ** 2 <= radius**2
+        steps = np.arange(0.0, 2.0 * radius + 1.0, 0.5)  # the heading tick, twice the disc's radius long
+        tx = np.round(cx[0] + steps * math.cos(yaw)).astype(np.int64)
+        ty = np.round(cy[0] + steps * math.sin(yaw)).astype(np.int64)
+        inside = (tx >= 0) & (tx < cm.size_x) & (ty >= 0) & (ty < cm.size_y)
+        img[disc] = rgb
+        img[ty[inside], tx[inside]] = rgb
     Image.fromarray(img[::-1]).save(path)
