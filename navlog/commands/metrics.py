@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from navlog.commands import add_force, refuse_existing
+
 # The values navlog.analysis.metrics accepts (report.PCD_FRAMES, trajectory.ALIGN_MODES and DELTA_UNITS),
 # written here so that the help needs no numpy; tests/navlog/test_cli.py checks they agree.
 PCD_FRAMES = ("first-pose", "as-is", "aligned")
@@ -91,12 +93,14 @@ def register(sub) -> None:
     p.add_argument("--recover", action="store_true", help="read the complete chunks of a truncated MCAP log")
     p.add_argument("-o", "--output", metavar="metrics.json", help="write the metrics as JSON")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
+    add_force(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     from navlog.analysis.metrics.report import MetricsOptions, compute_metrics, format_table, to_json, write_json
 
+    refuse_existing(args.force, args.output)
     options = MetricsOptions(
         tau=args.tau,
         taus_3d=tuple(args.tau_3d),
