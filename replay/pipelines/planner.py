@@ -3,7 +3,8 @@
 Nav2 parameters come from a Nav2 file (``nav2_params``; the defaults of Nav2 when empty) with
 overrides in Nav2 key paths: ``--set global_costmap.global_costmap.ros__parameters.inflation_layer.
 inflation_radius=0.5`` or the shorter ``--set global_costmap.inflation_layer.inflation_radius=0.5``
-(any ordered subset of the path that names one parameter). Goals: /goal_pose from the log, or a goals
+(any ordered subset of the path that names one parameter); ``--set nav2.KEY=VALUE`` takes any key of
+the file (``nav2.GridBased.tolerance=0.2``), as in every pipeline that runs Nav2 nodes. Goals: /goal_pose from the log, or a goals
 YAML (``goals``: a name in config/goals/ or a path), planned in turn from the robot pose.
 
 Outputs: /global_costmap/costmap, /global_costmap/published_footprint, /plan and plan events in
@@ -33,7 +34,7 @@ from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import Nav2Params, default_nav2_params, load_nav2_params
 from navlog.replay.nav2.costmap import Costmap2D, default_costmap_params
 from navlog.replay.nav2.costmap.grid import DEFAULT_LAYER_PLUGINS
-from navlog.replay.nav2.overrides import apply_nav2_overrides
+from navlog.replay.nav2.overrides import apply_nav2_overrides, nav2_override_items
 from navlog.replay.nav2.params import parse_nav2_params
 from navlog.replay.nav2.planners import PLANNER_NAMES, PLANNERS, PlanningError, PlanResult, Pose2D, make_planner
 from navlog.replay.nodes.planner import CostmapNode, PlannerNode, costmap_msg, path_msg
@@ -56,25 +57,15 @@ class Params:
     replan_period_s: float = 1.0
     goal_tolerance: float = 0.25  # the goal counts as reached within this distance (SimpleGoalChecker)
     # Nav2 overrides, as nested mappings under the node names (filled by --set NODE.a.b=value)
-    global_costmap: dict[str, Any] = field(default_factory=dict)
-    planner_server: dict[str, Any] = field(default_factory=dict)
-
-
-def _flatten(prefix: str, d: Any) -> list[str]:
-    if isinstance(d, dict):
-        out = []
-        for k, v in d.items():
-            out += _flatten(f"{prefix}.{k}", v)
-        return out
-    return [f"{prefix}={json.dumps(d)}"]
+    global_costmap: dict[str, Any] = field(default_factory=dict)  # --set global_costmap.KEY=VALUE (KEY full or short)
+    planner_server: dict[str, Any] = field(default_factory=dict)  # --set planner_server.KEY=VALUE
+    nav2: dict[str, Any] = field(default_factory=dict)  # any Nav2 key, full or short: --set nav2.KEY=VALUE
 
 
 def nav2_overrides(params: Params) -> list[str]:
-    return (
-        _flatten("global_costmap", params.global_costmap) + _flatten("planner_server", params.planner_server)
-        if (params.global_costmap or params.planner_server)
-        else []
-    )
+    """The Nav2 overrides of ``--set global_costmap.KEY``, ``planner_server.KEY`` and ``nav2.KEY``."""
+    blocks = {"global_costmap": params.global_costmap, "planner_server": params.planner_server, "nav2": params.nav2}
+    return nav2_override_items(blocks)
 
 
 def load_goals(spec: str) -> tuple[list[tuple[float, float, float]], str]:
