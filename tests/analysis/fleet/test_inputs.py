@@ -129,7 +129,9 @@ def test_a_replay_output_folder_is_not_a_log(tmp_path, capsys):
     out.mkdir()
     (out / "replay.mcap").write_bytes(b"\x89MCAP0\r\n")
     (out / "manifest.json").write_text('{"inputs": [{"file": "teleop.mcap", "bytes": 1, "sha256": "ab"}]}')
-    with pytest.raises(ConfigError, match=r"out is a replay output folder, not a log; replay its input LOG \(teleop.mcap"):
+    with pytest.raises(
+        ConfigError, match=r"out is a replay output folder, not a log; replay its input LOG \(teleop.mcap"
+    ):
         collect_logs([out])
     assert main(["replay", str(out), "--pipeline", "mapping", "-o", str(tmp_path / "again")]) == 2
     err = capsys.readouterr().err
