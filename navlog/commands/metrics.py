@@ -29,7 +29,12 @@ def register(sub) -> None:
         help="the replay output folder (trajectory and map metrics); without it, only the log's own "
         "metrics (navigation: goals, clearance, collisions, recoveries, speed, jerk)",
     )
-    p.add_argument("--reference-map", metavar="MAP.yaml", help="reference grid (e.g. from `navlog world-map`)")
+    p.add_argument(
+        "--reference-map",
+        metavar="MAP.yaml",
+        help="reference grid, without a safety margin (e.g. `navlog world-map WORLD --margin 0`; one with a margin "
+        "is warned about)",
+    )
     p.add_argument("--reference-mesh", metavar="MESH.ply", help="triangle mesh of the true surfaces")
     p.add_argument("--tau", type=float, default=0.05, help="2D tolerance in metres (default 0.05)")
     p.add_argument(
