@@ -21,6 +21,8 @@ from typing import Any
 from navlog.errors import NavlogError
 from navlog.version import __version__
 
+QUIET_HELP = "no progress bars or warnings"
+
 # One module per command, in the order `navlog --help` lists them.
 COMMANDS = [
     "demo",
@@ -72,11 +74,23 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         epilog="Run `navlog COMMAND --help` for the options of one command.",
     )
     parser.add_argument("--version", action="version", version=f"navlog {__version__}")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars or warnings")
+    parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMANDS if command is None else [command]:
         importlib.import_module(f"navlog.commands.{name.replace('-', '_')}").register(sub)
+    _quiet_anywhere(parser)
     return parser
+
+
+def _quiet_anywhere(parser: argparse.ArgumentParser) -> None:
+    """``-q`` after the command too (``navlog replay LOG -q``): every command's parser, and its actions'
+    parsers (``navlog ci run``), take it; given nowhere, the top level's False stands."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in dict.fromkeys(action.choices.values()):
+                if not any("-q" in a.option_strings for a in child._actions):
+                    child.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS, help=QUIET_HELP)
+                _quiet_anywhere(child)
 
 
 def _command(words: list[str]) -> str | None:

@@ -154,10 +154,15 @@ def run_replay(
             params = spec.settle(params, reader, log_to)  # `auto` parameters decided from the log's content
             pipe = spec.build(params, logical_topics)
             missing = [t for t in pipe.inputs if to_log.get(t, t) not in reader.topics]
-            if missing:
-                have = ", ".join(
-                    f"{t.name} ({t.typename})" for t in sorted(reader.topics.values(), key=lambda t: t.name)
+            have = ", ".join(f"{t.name} ({t.typename})" for t in sorted(reader.topics.values(), key=lambda t: t.name))
+            remapped = [t for t in missing if t in to_log]
+            if remapped:
+                which = ", ".join(f"{to_log[t]} (read as {t}, --remap {t}={to_log[t]})" for t in remapped)
+                raise NavlogError(
+                    f"{log}: the remapped topic {which} is not in the log. The log has: {have}. "
+                    "Remap to one of these topics."
                 )
+            if missing:
                 raise NavlogError(
                     f"{log}: pipeline '{pipeline}' needs {', '.join(pipe.inputs)}; missing {', '.join(missing)}. "
                     f"The log has: {have}. Map a topic with --remap PIPELINE_TOPIC=LOG_TOPIC "

@@ -48,6 +48,27 @@ def pipeline_inputs(name: str, log_topics: Iterable[str]) -> list[str]:
     return list(pipeline_spec(name).build(pipeline_params(name), set(log_topics)).inputs)
 
 
+def read_by_pipelines(log_topics: Iterable[str]) -> set[str]:
+    """The topics of a log with ``log_topics`` that some replay pipeline reads (its inputs and optional
+    inputs, with its shipped parameters); a pipeline that needs more than the log to build (localization:
+    a map) adds the topics its parameters name."""
+    from navlog.errors import NavlogError
+    from navlog.replay.pipelines import pipeline_names, pipeline_spec
+    from navlog.replay.session import pipeline_params
+
+    topics = set(log_topics)
+    read: set[str] = set()
+    for name in pipeline_names():
+        params = pipeline_params(name)
+        try:
+            built = pipeline_spec(name).build(params, topics)
+        except NavlogError:  # it needs more than the log: the topics its parameters name
+            read |= {v for v in vars(params).values() if isinstance(v, str) and v.startswith("/")}
+            continue
+        read |= {*built.inputs, *built.optional_inputs}
+    return read
+
+
 def check_log(
     log: LogReader | str | Path,
     *,
@@ -63,7 +84,8 @@ def check_log(
     ``require``: topics that must be present (``pipeline`` adds the inputs of that replay pipeline);
     ``rates``: expected Hz per topic (others are held to their own median rate; a topic with a rate is
     required). When topics are required, a rate, gap, stamp or scan failure on another topic is reported
-    as a WARN: the log is judged for what it will be used for. A path is opened with ``recover=True``
+    as a WARN: the log is judged for what it will be used for; when none are, the same holds for a topic no
+    replay pipeline reads (``read_by_pipelines``). A path is opened with ``recover=True``
     so that a truncated file is checked and reported, not refused.
     """
     if not isinstance(log, LogReader):
@@ -90,9 +112,15 @@ def check_log(
     per_topic += [
         checks.scan_values(s) for s in series if s.typename == "sensor_msgs/msg/LaserScan" and len(s.log_times)
     ]
-    # with topics named, a failure elsewhere is only a warning (TF counts as named when frames are)
-    relevant = (set(needed) | ({"/tf", "/tf_static"} if frames else set())) if needed else set()
-    found += [_as_warning(c) if relevant and c.subject.split(" ")[0] not in relevant else c for c in per_topic]
+    # with topics named, a failure elsewhere is only a warning (TF counts as named when frames are); with
+    # none named, a failure on a topic no pipeline reads
+    if needed:
+        relevant, why = set(needed) | ({"/tf", "/tf_static"} if frames else set()), "not a required topic"
+    elif any(c.status is Status.FAIL for c in per_topic):  # (building the pipelines costs ~0.5 s: only then)
+        relevant, why = read_by_pipelines(reader.topics), "no replay pipeline reads this topic"
+    else:
+        relevant, why = {c.subject.split(" ")[0] for c in per_topic}, ""
+    found += [c if c.subject.split(" ")[0] in relevant else _as_warning(c, why) for c in per_topic]
     if frames:
         tf_span = checks.stamp_span(got, span)
         found += [checks.tf(got, target, source, tf_span, opts) for target, source in frames]
@@ -108,8 +136,8 @@ def check_log(
     )
 
 
-def _as_warning(check: Check) -> Check:
-    """A failure on a topic the caller did not require: reported, but it does not fail the log."""
+def _as_warning(check: Check, why: str) -> Check:
+    """A failure on a topic the log is not judged for: reported, but it does not fail the log."""
     if check.status is not Status.FAIL:
         return check
-    return replace(check, status=Status.WARN, message=f"{check.message} (not a required topic: a warning)")
+    return replace(check, status=Status.WARN, message=f"{check.message} ({why}: a warning)")

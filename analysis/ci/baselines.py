@@ -7,8 +7,10 @@ One folder per case, ``BASELINES/SUITE/CASE/``, holding ``baseline.json``:
 
 Outputs a comparator reads (map_server maps with their image, plans.json, safety.json, metrics.json,
 TUM, PCD) are kept beside it when they are at most 64 KiB, or gzip-compressed (``NAME.gz``, written
-without a time stamp) when that fits; others (``replay.mcap``, large maps) are kept by hash only, so a
-change in them fails without a tolerance (``ignore`` them in the suite to leave them out).
+without a time stamp) when that fits; others (``replay.mcap``, large maps) are kept by hash only: other
+bytes in them are reported as information (a PASS check with ``values["hash_only"]``, and a note of the
+case), never a failure, since no tolerance can judge them; the case is judged by the outputs a
+comparator reads and by its invariants (``ignore`` them in the suite to leave them out).
 """
 
 from __future__ import annotations
@@ -164,12 +166,12 @@ def compare_to_baseline(
     log_rounds_otherwise: bool = False,
 ) -> list[CheckResult]:
     """One check per output (and per moved metric of metrics.json): PASS when the bytes match or the
-    comparator finds the change within tolerance, IMPROVED, or FAIL naming what moved.
+    comparator finds the change within tolerance, IMPROVED, or FAIL naming what moved. An output of
+    which the baseline keeps only the hash cannot be judged: other bytes pass, with a message (and
+    ``values["hash_only"]``) that says so.
 
     ``log_rounds_otherwise``: the replayed log is the baseline's recipe recorded on a machine that
-    rounds otherwise (other bytes, the same layout): an output of which the baseline keeps only the
-    hash cannot be judged then, and passes with a message that says so; the others are compared
-    within their tolerances as always."""
+    rounds otherwise (other bytes, the same layout); the messages of hash-only outputs say so."""
     want = {n: e["sha256"] for n, e in base.outputs.items()}
     have = {n: sha256_file(p) for n, p in current.items()}
     names = sorted((want.keys() | have.keys()) - set(ignore))
@@ -194,14 +196,7 @@ def compare_to_baseline(
                 continue
             kept = [base.stored(n, Path(tmp)) for n in group]
             if file_kind(Path(name)) is None or any(k is None for k in kept):
-                out += [
-                    _check(
-                        n,
-                        Status.FAIL if n in moved and not log_rounds_otherwise else Status.PASS,
-                        _hash_only(n, want[n], have[n], log_rounds_otherwise),
-                    )
-                    for n in group
-                ]
+                out += [_hash_only(n, want[n], have[n], log_rounds_otherwise) for n in group]
                 continue
             found = compare_files(name, Path(tmp) / name, current[name], tolerances) or []
             if file_kind(Path(name)) == "metrics":
@@ -222,16 +217,22 @@ def compare_to_baseline(
     return out
 
 
-def _hash_only(name: str, want: str, have: str, log_rounds_otherwise: bool = False) -> str:
+def _hash_only(name: str, want: str, have: str, log_rounds_otherwise: bool = False) -> CheckResult:
+    """An output the baseline keeps only by hash: other bytes are information (``values["hash_only"]``),
+    not a failure; the case is judged by its other outputs, within their tolerances, and its invariants."""
     if want == have:
-        return "same bytes"
+        return _check(name, Status.PASS, "same bytes", {"sha256": have})
+    values = {"sha256": have, "baseline_sha256": want, "hash_only": True}
     if log_rounds_otherwise:
-        return (
-            f"bytes differ (sha256 {want[:12]} -> {have[:12]}), not judged: the log was recorded with other "
-            f"bytes than the baseline's (the same layout: this machine rounds otherwise) and the baseline keeps "
-            f"only the hash of {name}"
+        why = (
+            "the log was recorded with other bytes than the baseline's (the same layout: this machine rounds otherwise)"
         )
-    return (
-        f"bytes differ (sha256 {want[:12]} -> {have[:12]}); the baseline keeps only the hash of {name}, "
-        "so no tolerance applies (ignore it in the suite to leave it out)"
+    else:
+        why = "no tolerance applies to it; the case is judged by its other outputs and its checks"
+    return _check(
+        name,
+        Status.PASS,
+        f"bytes differ (sha256 {want[:12]} -> {have[:12]}), not judged: the baseline keeps only the hash of "
+        f"{name}; {why}",
+        values,
     )

@@ -15,15 +15,16 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import xml.etree.ElementTree as ET
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from navlog.analysis.ci.result import ORDER, CaseResult, Status, SuiteResult
+from navlog.analysis.ci.result import ORDER, CaseResult, CheckResult, Status, SuiteResult
 from navlog.errors import NavlogError
 
-__all__ = ["format_result", "to_json", "to_junit", "to_markdown", "write_reports"]
+__all__ = ["format_result", "grouped", "to_json", "to_junit", "to_markdown", "write_reports"]
 
 MARKDOWN_LIMIT = 60_000  # characters, below GitHub's 65,536 per comment or summary
 FAILURE = {Status.FAIL, Status.NEW, Status.NONDETERMINISTIC}
@@ -59,6 +60,42 @@ def _summary(result: SuiteResult) -> str:
     return f"{result.status}: suite {result.suite}, {len(result.cases)} cases ({counts}), exit {result.exit_code}"
 
 
+SHOWN_NAMES = 6  # the names a grouped line lists before "and N more"
+
+
+def _cause(check: CheckResult) -> str:
+    """What a check's change comes from: its output file (``metrics.json`` for ``metrics.json:map_2d.iou``;
+    ``map.yaml`` for ``map.pgm`` judged with it)."""
+    judged = re.search(r"\(judged with ([^)]+)\)", check.message)
+    return judged.group(1) if judged else check.name.split(":", 1)[0]
+
+
+def grouped(checks: Sequence[CheckResult]) -> list[tuple[Status, str, str, int]]:
+    """The checks that did not pass, one row per cause: (status, what, message, count). Checks of one
+    status from one output (every moved metric of metrics.json; map.yaml and the map.pgm judged with
+    it) share a row that gives the first one's message and names the others."""
+    groups: dict[tuple[Status, str], list[CheckResult]] = {}
+    for c in checks:
+        if c.status is not Status.PASS:
+            groups.setdefault((c.status, _cause(c)), []).append(c)
+    rows = []
+    for (status, cause), members in groups.items():
+        first = members[0]
+        if len(members) == 1:
+            rows.append((status, first.name, first.message, 1))
+            continue
+        parts = [m.name.split(":", 1)[1] if ":" in m.name else m.name for m in members]
+        unit = "metrics" if all(":" in m.name for m in members) else "checks"
+        rest = parts[1:]
+        listed = ", ".join(rest[:SHOWN_NAMES]) + (
+            f" and {len(rest) - SHOWN_NAMES} more" if len(rest) > SHOWN_NAMES else ""
+        )
+        rows.append(
+            (status, f"{cause} ({len(members)} {unit})", f"{parts[0]}: {first.message}; also {listed}", len(members))
+        )
+    return rows
+
+
 def format_result(result: SuiteResult) -> str:
     """The cases as a table, then every check that did not pass, the notes and unused baselines."""
     from navlog.analysis.tables import indented, render, table
@@ -76,14 +113,12 @@ def format_result(result: SuiteResult) -> str:
             for c in result.cases
         ),
     )
-    parts: list[Any] = [_summary(result), indented(cases)]
+    parts: list[Any] = [_summary(result), *[f"note: {n}" for n in result.notes], indented(cases)]
     for c in _worst_first(result):
-        shown = [k for k in c.checks if k.status is not Status.PASS]
+        shown = grouped(c.checks)
         if shown:
             parts.append(f"{c.name}:")
-            parts.append(
-                indented(table(("Status", "Check", "What"), ((str(k.status), k.name, k.message) for k in shown)))
-            )
+            parts.append(indented(table(("Status", "Check", "What"), ((str(s), name, m) for s, name, m, _ in shown))))
         parts += [f"{c.name}: note: {n}" for n in c.notes]
     if result.unused_baselines:
         parts.append("unused baselines (no case of that name): " + ", ".join(result.unused_baselines))
@@ -137,6 +172,7 @@ def to_markdown(result: SuiteResult) -> str:
     """Markdown for a pull request: the verdict, the cases (worst first), the checks that did not pass."""
     icon = "✅" if result.exit_code == 0 else "❌"
     lines = [f"### {icon} navlog ci: {_summary(result)}", ""]
+    lines += [f"- {_md(n)}" for n in result.notes] + ([""] if result.notes else [])
     lines += ["| status | case | pipeline | log | not passed |", "|---|---|---|---|---|"]
     for c in _worst_first(result):
         bad = [k.name for k in c.checks if k.status is not Status.PASS]
@@ -150,9 +186,9 @@ def to_markdown(result: SuiteResult) -> str:
             continue
         lines += [f"#### {c.status}: `{_md(c.name)}`", ""]
         if shown:
-            shown.sort(key=lambda k: -ORDER.index(k.status))
+            rows = sorted(grouped(shown), key=lambda row: -ORDER.index(row[0]))
             lines += ["| status | check | what |", "|---|---|---|"]
-            lines += [f"| {k.status} | {k.kind} `{_md(k.name)}` | {_md(k.message)} |" for k in shown]
+            lines += [f"| {status} | `{_md(name)}` | {_md(message)} |" for status, name, message, _ in rows]
             lines.append("")
         lines += [f"- {_md(n)}" for n in c.notes]
         if c.notes:

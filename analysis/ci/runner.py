@@ -49,7 +49,7 @@ from navlog.version import __version__
 
 __all__ = ["DEFAULT_BASELINES", "applicable_overrides", "default_executor", "run_case", "run_suite"]
 
-DEFAULT_BASELINES = Path("data/baselines")
+DEFAULT_BASELINES = Path("data/baselines")  # relative to the suite file's folder, as every path of a suite
 METRICS_FILE = "metrics.json"
 DEFAULT_MAP_RESOLUTION = 0.05  # m, a world map's cells when the case does not say
 
@@ -105,8 +105,11 @@ def _has_key(tree: Any, key: str) -> bool:
     return not isinstance(node, dict) or not node
 
 
-def applicable_overrides(suite: Suite, overrides: Sequence[str]) -> dict[str, tuple[str, ...]]:
-    """Case name -> the ``--set`` items its pipeline has; a key no case has raises ``ConfigError``."""
+def applicable_overrides(
+    suite: Suite, overrides: Sequence[str], chosen: Sequence[str] = ()
+) -> dict[str, tuple[str, ...]]:
+    """Case name -> the ``--set`` items its pipeline has. A key no case has raises ``ConfigError``, and so
+    does a key a case named in ``chosen`` (``--case``) lacks: asked for by name, it must take the key."""
     from navlog.replay.config import to_mapping
     from navlog.replay.session import pipeline_params
 
@@ -117,6 +120,12 @@ def applicable_overrides(suite: Suite, overrides: Sequence[str]) -> dict[str, tu
         if not sep or not key.strip():
             raise ConfigError(f"--set '{item}': expected KEY=VALUE, e.g. occupancy.grid.resolution=0.1")
         takers = [p for p, tree in trees.items() if _has_key(tree, key.strip())]
+        for c in suite.cases:
+            if c.pipeline not in takers and c.name in chosen:
+                raise ConfigError(
+                    f"--set '{item}': case '{c.name}' (pipeline {c.pipeline}) has no parameter '{key.strip()}'; "
+                    "it would run without it (leave the case out or the --set)"
+                )
         if not takers:
             from navlog.analysis.diff.metric_values import flatten
 
@@ -129,6 +138,19 @@ def applicable_overrides(suite: Suite, overrides: Sequence[str]) -> dict[str, tu
             if c.pipeline in takers:
                 out[c.name].append(item)
     return {k: tuple(v) for k, v in out.items()}
+
+
+def _override_note(item: str, suite: Suite, applied: dict[str, tuple[str, ...]]) -> str:
+    """What a ``--set`` applied to: every case, or the cases that took it and those that did not."""
+    took = [c.name for c in suite.cases if item in applied[c.name]]
+    left = [f"{c.name} ({c.pipeline})" for c in suite.cases if item not in applied[c.name]]
+    if not left:
+        return f"--set {item}: applied to every case"
+    key = item.partition("=")[0].strip()
+    return (
+        f"--set {item}: applied to {', '.join(took)}; NOT applied to {', '.join(left)}: their pipelines have no "
+        f"parameter '{key}'"
+    )
 
 
 def _record(job: tuple[Recipe, Path]) -> tuple[Path | None, str, float]:
@@ -164,9 +186,9 @@ def run_suite(
     if cases:
         suite = replace(suite, cases=tuple(suite.case(n) for n in cases))
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
-    root = Path(baseline_dir) if baseline_dir is not None else suite.baselines or DEFAULT_BASELINES
+    root = Path(baseline_dir) if baseline_dir is not None else suite.baselines or suite.path.parent / DEFAULT_BASELINES
     folder = root / suite.name
-    extra = applicable_overrides(suite, overrides)
+    extra = applicable_overrides(suite, overrides, chosen=cases)
     recipes = sorted({c.recipe for c in suite.cases if c.recipe is not None}, key=lambda r: repr(r))
     recordings = _map(_record, [(r, cache) for r in recipes], executor(workers, len(recipes)), _recording_lost)
     recorded = dict(zip(recipes, recordings, strict=True))
@@ -180,7 +202,7 @@ def run_suite(
         )
     results = _map(run_case, jobs, executor(workers, len(jobs)), _case_lost)
     unused = [] if cases else unused_baselines(folder, [c.name for c in suite.cases])
-    notes = [f"--set {o}" for o in overrides]
+    notes = [_override_note(o, suite, extra) for o in overrides]
     return SuiteResult(suite.name, str(suite.path), __version__, tuple(results), tuple(unused), tuple(notes))
 
 
@@ -396,6 +418,11 @@ def _provenance_checks(
                 "are compared, but the baseline stays NEW until rewritten (--update-new or --update)",
             )
         )
+    if case.recipe is None and old.get("log", {}).get("sha256") != provenance["log"]["sha256"]:
+        notes.append(
+            f"the log differs from the baseline's (sha256 {str(old.get('log', {}).get('sha256'))[:12]} -> "
+            f"{provenance['log']['sha256'][:12]}): the outputs are compared as for any change"
+        )
     if old.get("parameter_hash") != provenance["parameter_hash"]:
         notes.append(
             f"parameters differ from the baseline's (hash {str(old.get('parameter_hash'))[:12]} -> "
@@ -458,4 +485,7 @@ def _diff(
         message = f"no baseline in {job.baseline}: write it with --update-new (then review and commit it)"
         return [CheckResult("baseline", "baseline", Status.NEW, message)], False
     rounds = _rounds_otherwise(base, provenance)
-    return compare_to_baseline(base, outputs, diff.tolerances, diff.ignore, log_rounds_otherwise=rounds), False
+    found = compare_to_baseline(base, outputs, diff.tolerances, diff.ignore, log_rounds_otherwise=rounds)
+    if not rounds:  # (where the machine rounds otherwise, the recipe check says so once)
+        notes += [f"{c.name}: {c.message}" for c in found if c.values.get("hash_only")]
+    return found, False

@@ -2,7 +2,7 @@
 
 ```yaml
 name: navlog                      # default: the file's name without .yaml / .navlog-suite.yaml
-baselines: ../../data/baselines   # relative to this file; default: data/baselines in the working folder
+baselines: ../../data/baselines   # relative to this file; default: data/baselines beside this file
 cases:
   - name: planner_teleop
     recipe: {world: indoor_room, robot: go2, scenario: teleop, seed: 0, noise: true}   # or log: PATH
@@ -17,7 +17,7 @@ cases:
       - min_clearance >= 0.3
 ```
 
-Every path is relative to the suite file. Errors name the suite file, the case and the key.
+Every path is relative to the suite file (the baselines folder's default too). Errors name the suite file, the case and the key.
 ``checks`` omitted means one diff against the baseline with the default tolerances.
 """
 
@@ -111,7 +111,7 @@ class Suite:
     name: str
     path: Path
     cases: tuple[Case, ...]
-    baselines: Path | None = None  # None: data/baselines in the working folder
+    baselines: Path | None = None  # None: data/baselines in the suite file's folder
 
     def case(self, name: str) -> Case:
         for c in self.cases:

@@ -1,7 +1,8 @@
 """A fleet's logs from what a user names: paths, folders, glob patterns, list files and URLs.
 
 - a log: a ``.mcap`` or ``.db3`` file, or a rosbag2 folder (one with ``metadata.yaml``);
-- a folder that is not a log: every log directly inside it (files and rosbag2 folders), by name;
+- a folder that is not a log: every log directly inside it (files and rosbag2 folders), by name; a
+  replay's output folder (with ``manifest.json``) is refused, naming the log it was replayed from;
 - a glob pattern (``logs/*.mcap``, ``s3://bucket/2026-*/*.mcap``; ``**`` descends): every match;
 - a list file (``lists``): one entry per line, any of the above; blank lines and ``#`` comments are
   skipped, and relative paths are read from the list file's folder;
@@ -28,6 +29,7 @@ from navlog.errors import ConfigError
 __all__ = ["LOG_SUFFIXES", "LogSource", "collect_logs"]
 
 LOG_SUFFIXES = (".mcap", ".db3")
+REPLAY_MANIFEST = "manifest.json"  # what marks a replay's output folder (it holds replay.mcap, not a log)
 GLOB_CHARS = "*?["
 
 
@@ -109,6 +111,10 @@ def _local_logs(path: Path, where: str, *, inside_pattern: bool) -> list[str]:
         raise ConfigError(f"{where}{path}: no such file or folder")
     if path.is_file() or (path / "metadata.yaml").is_file():
         return [os.path.abspath(path)]
+    if (path / REPLAY_MANIFEST).is_file():
+        if inside_pattern:
+            return []
+        raise ConfigError(f"{where}{path} is a replay output folder, not a log; replay its input LOG{_input_of(path)}")
     found = [
         os.path.abspath(p)
         for p in sorted(path.iterdir())
@@ -119,6 +125,18 @@ def _local_logs(path: Path, where: str, *, inside_pattern: bool) -> list[str]:
             f"{where}{path}: no logs in this folder (expected .mcap or .db3 files or rosbag2 folders with metadata.yaml)"
         )
     return found
+
+
+def _input_of(folder: Path) -> str:
+    """' (FILE, as its manifest.json names it)' for the error about a replay output folder, or ''."""
+    import json
+
+    try:
+        inputs = json.loads((folder / REPLAY_MANIFEST).read_text(encoding="utf-8")).get("inputs") or []
+        names = [str(e["file"]) for e in inputs]
+    except (OSError, ValueError, TypeError, KeyError, AttributeError):
+        return ""
+    return f" ({', '.join(names)}, as its {REPLAY_MANIFEST} names it)" if names else ""
 
 
 def _expand_url(url: str, where: str) -> list[str]:

@@ -130,8 +130,43 @@ def replay_fleet(
             f"{private[0]}: this filesystem lives in one process's memory, which workers cannot see; "
             "use --workers 1, or storage every worker reads (a folder, s3://, gs://)"
         )
+    created = not is_url(out_root) and not Path(out_root).exists()
     if not is_url(out_root):
         Path(out_root).mkdir(parents=True, exist_ok=True)
+    try:
+        return _run(executor, sources, pipeline, params, out_root, remap, recover, force, metrics, retries, progress)
+    except BaseException:  # Ctrl-C (or a defect): the logs done stay; a folder this call made and left empty goes
+        if created:
+            _remove_if_empty(Path(out_root))
+        raise
+
+
+def _remove_if_empty(folder: Path) -> None:
+    """Remove ``folder`` when nothing complete is in it (it may hold only hidden partial outputs that a
+    worker had not cleared yet)."""
+    import shutil
+
+    try:
+        entries = list(folder.iterdir())
+    except OSError:
+        return
+    if all(e.name.startswith(".") for e in entries):
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _run(
+    executor: Executor,
+    sources: list[Any],
+    pipeline: str,
+    params: Any,
+    out_root: str,
+    remap: dict[str, str] | None,
+    recover: bool,
+    force: bool,
+    metrics: bool,
+    retries: int,
+    progress: bool,
+) -> FleetResult:
     jobs = [
         LogJob(s, pipeline, params, out_root, tuple(sorted((remap or {}).items())), recover, force, metrics)
         for s in sources

@@ -21,6 +21,10 @@ nearest occupied cell centre of X (a distance transform):
 - coverage: share of the reference's free cells reachable from a seed (the largest free region when
   no seed is given) that the estimate knows as free.
 
+A reference with a safety margin (obstacles inflated, as ``navlog world-map --margin`` draws them for
+planning) has its walls in front of the mapped ones: when most mapped occupied cells lie at least two
+cells (and more than tau) inside the reference's obstacles, ``warnings`` says so (``reference_margin_m``).
+
 3D: accuracy@tau (share of map points within tau of a triangle mesh, exact point-to-mesh distance
 with Open3D's ``RaycastingScene``), completeness@tau (share of caller-given visible surface samples
 within tau of the map), Chamfer and Hausdorff distances between point sets (scipy ``cKDTree``).
@@ -188,6 +192,7 @@ class GridMetrics:
     offset_cells: tuple[int, int] = (0, 0)
     origin_residual_m: float = 0.0
     resampled_from: str = ""  # what the estimate was resampled from ('' when compared as it was)
+    warnings: tuple[str, ...] = ()  # what makes the figures misleading (a reference with a safety margin)
 
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {}
@@ -213,6 +218,8 @@ class GridMetrics:
         out["origin_residual_m"] = float(self.origin_residual_m)
         if self.resampled_from:
             out["resampled_from"] = self.resampled_from
+        if self.warnings:
+            out["warnings"] = list(self.warnings)
         return out
 
 
@@ -298,6 +305,7 @@ def grid_metrics(
     tp_s = int(np.count_nonzero(d_est[surface] <= tau_cells))
     recall_obs = _ratio(tp_s, n_s)
 
+    warnings = _margin_warning(E, R, res, tau)
     counts = {
         "ref_occupied": n_r,
         "est_occupied": n_e,
@@ -327,6 +335,40 @@ def grid_metrics(
         offset_cells=frame.offset_cells,
         origin_residual_m=frame.residual_m,
         resampled_from=source,
+        warnings=warnings,
+    )
+
+
+MARGIN_MIN_CELLS = 2.0  # a reference's walls this far (and more than tau) in front of the mapped ones: a margin
+MARGIN_INSIDE_SHARE = 0.5  # ... for at least this share of the mapped occupied cells
+
+
+def reference_margin_m(est_occupied: np.ndarray, ref_occupied: np.ndarray, resolution: float) -> float | None:
+    """How far inside the reference's obstacles the estimate's occupied cells lie (the median, in m, of
+    their distance to the reference's nearest non-occupied cell less the one cell of an edge), when most
+    of them lie inside; else None.
+
+    A laser maps the surfaces of obstacles, which a reference without margin has on its edge (a depth of
+    up to a cell); a reference with a safety margin (obstacles inflated by ``m``, as ``navlog world-map
+    --margin m`` draws them for planning) has them ``m`` inside, so its occupied edge lies ``m`` in front
+    of every mapped wall, and recall and IoU count that band as missed walls."""
+    inside = est_occupied & ref_occupied
+    if not est_occupied.any() or inside.sum() < MARGIN_INSIDE_SHARE * est_occupied.sum():
+        return None
+    depth = ndimage.distance_transform_edt(ref_occupied)[inside]  # cells to the nearest non-occupied cell
+    return (float(np.median(depth)) - 1.0) * resolution  # an edge cell is one cell from the free space
+
+
+def _margin_warning(
+    est_occupied: np.ndarray, ref_occupied: np.ndarray, resolution: float, tau: float
+) -> tuple[str, ...]:
+    margin = reference_margin_m(est_occupied, ref_occupied, resolution)
+    if margin is None or margin < max(MARGIN_MIN_CELLS * resolution, tau + resolution):
+        return ()
+    return (
+        f"the mapped walls lie {margin:.2f} m (median) inside the reference's obstacles: the reference looks "
+        "inflated by a safety margin, so recall, IoU and the distances count that band as missed walls; "
+        "compare against a reference without margin (`navlog world-map WORLD --margin 0 -o MAP.yaml`)",
     )
 
 

@@ -493,6 +493,7 @@ def format_table(metrics: dict[str, Any]) -> str:
             ("free-space coverage", _f(g["coverage"], "%"), f"of {c['ref_free_reachable']} reachable free cells"),
         ]
         items.append(indented(grid(rows)))
+        items += [f"  warning: {w}" for w in g.get("warnings", [])]
         if g["origin_residual_m"] > 1e-9:
             items.append(
                 f"  note: origins differ by a fraction of a cell ({g['origin_residual_m']:.4f} m); "

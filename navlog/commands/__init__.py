@@ -5,7 +5,31 @@ calls the library function a Python user would call and prints its result. A mod
 library only inside ``run``, so that building the parser (and ``--help``) loads nothing heavy.
 """
 
-__all__ = ["skipped_note"]
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_force", "refuse_existing", "skipped_note"]
+
+FORCE_HELP = "overwrite existing output files"
+
+
+def add_force(parser: argparse.ArgumentParser, help: str = FORCE_HELP) -> None:
+    """``--force``: the one rule of every command that writes files: an existing output needs it."""
+    parser.add_argument("--force", action="store_true", help=help)
+
+
+def refuse_existing(force: bool, *paths: str | Path | None) -> None:
+    """Raise ``NavlogError`` naming the first of ``paths`` that exists, unless ``force``; before anything
+    is computed, so that a refused command has written nothing."""
+    from navlog.errors import NavlogError
+
+    if force:
+        return
+    for path in paths:
+        if path is not None and str(path) and Path(path).exists():
+            raise NavlogError(f"{path}: already exists; choose another name or pass --force to overwrite it")
 
 
 def skipped_note(skipped: dict[str, int]) -> str:

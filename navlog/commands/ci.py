@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from navlog.commands import add_force, refuse_existing
+
 
 def register(sub: Any) -> None:
     p = sub.add_parser(
@@ -35,7 +37,8 @@ def register(sub: Any) -> None:
         action="append",
         default=[],
         metavar="KEY=VALUE",
-        help="a parameter override for every case whose pipeline has KEY (repeatable)",
+        help="a parameter override for every case whose pipeline has KEY (repeatable); the report names the "
+        "cases it was not applied to",
     )
     run_p.add_argument("--workers", type=int, default=1, metavar="N", help="cases in parallel (processes; default 1)")
     run_p.add_argument(
@@ -44,13 +47,21 @@ def register(sub: Any) -> None:
     run_p.add_argument(
         "--baselines",
         metavar="DIR",
-        help="the baselines folder (default: the suite's `baselines`, else data/baselines)",
+        help="the baselines folder (default: the suite's `baselines`, else data/baselines beside the suite file)",
     )
     run_p.add_argument("--json", metavar="FILE", help="write the result as JSON (same results, same bytes)")
     run_p.add_argument("--junit", metavar="FILE", help="write JUnit XML (a test suite per case, a test per check)")
     run_p.add_argument(
         "--markdown", metavar="FILE", help="write Markdown for a pull request (also appended to $GITHUB_STEP_SUMMARY)"
     )
+    run_p.add_argument(
+        "--case",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="run only this case (repeatable); a --set key it lacks is then an error",
+    )
+    add_force(run_p, "overwrite existing --json, --junit and --markdown files")
     run_p.set_defaults(func=run)
 
 
@@ -61,6 +72,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.workers < 1:
         raise ConfigError(f"--workers {args.workers}: expected 1 or more")
+    refuse_existing(args.force, args.json, args.junit, args.markdown)
     result = run_suite(
         args.suite,
         update=args.update,
@@ -70,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
         workers=args.workers,
         cache_dir=args.cache,
         baseline_dir=args.baselines,
+        cases=args.case,
     )
     print(format_result(result))
     for path in write_reports(result, json_path=args.json, junit_path=args.junit, markdown_path=args.markdown):

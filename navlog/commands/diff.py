@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from navlog.commands import add_force, refuse_existing
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -40,6 +42,7 @@ def register(sub) -> None:
     p.add_argument(
         "--rrd", metavar="FILE", help="write A and B overlaid (maps, changed cells, point maps, trajectories) for Rerun"
     )
+    add_force(p)
     p.set_defaults(func=run)
 
 
@@ -48,6 +51,7 @@ def run(args) -> int:
     from navlog.analysis.diff.report import format_report, to_json, to_markdown, write_text
     from navlog.analysis.diff.tolerances import parse_tolerances
 
+    refuse_existing(args.force, args.json, args.markdown, args.rrd)
     report = diff(args.a, args.b, tolerances=parse_tolerances(args.tol), ignore=args.ignore)
     print(format_report(report))
     if args.json:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from navlog.commands import add_force, refuse_existing
+
 # The values navlog.analysis.metrics accepts (report.PCD_FRAMES, trajectory.ALIGN_MODES and DELTA_UNITS),
 # written here so that the help needs no numpy; tests/navlog/test_cli.py checks they agree.
 PCD_FRAMES = ("first-pose", "as-is", "aligned")
@@ -27,7 +29,12 @@ def register(sub) -> None:
         help="the replay output folder (trajectory and map metrics); without it, only the log's own "
         "metrics (navigation: goals, clearance, collisions, recoveries, speed, jerk)",
     )
-    p.add_argument("--reference-map", metavar="MAP.yaml", help="reference grid (e.g. from `navlog world-map`)")
+    p.add_argument(
+        "--reference-map",
+        metavar="MAP.yaml",
+        help="reference grid, without a safety margin (e.g. `navlog world-map WORLD --margin 0`; one with a margin "
+        "is warned about)",
+    )
     p.add_argument("--reference-mesh", metavar="MESH.ply", help="triangle mesh of the true surfaces")
     p.add_argument("--tau", type=float, default=0.05, help="2D tolerance in metres (default 0.05)")
     p.add_argument(
@@ -91,12 +98,14 @@ def register(sub) -> None:
     p.add_argument("--recover", action="store_true", help="read the complete chunks of a truncated MCAP log")
     p.add_argument("-o", "--output", metavar="metrics.json", help="write the metrics as JSON")
     p.add_argument("--json", action="store_true", help="print JSON instead of the table")
+    add_force(p)
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
     from navlog.analysis.metrics.report import MetricsOptions, compute_metrics, format_table, to_json, write_json
 
+    refuse_existing(args.force, args.output)
     options = MetricsOptions(
         tau=args.tau,
         taus_3d=tuple(args.tau_3d),

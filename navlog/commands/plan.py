@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from navlog.commands import add_force, refuse_existing
 from navlog.errors import ConfigError
 
 
@@ -37,7 +38,8 @@ def register(sub) -> None:
         "--set", action="append", default=[], metavar="KEY=VALUE", help="Nav2 override (full or short key path)"
     )
     p.add_argument("-o", "--output", type=Path, help="write the plan (and the costmap) to this MCAP")
-    p.add_argument("--png", type=Path, help="draw costmap and plan to this PNG")
+    p.add_argument("--png", type=Path, help="draw the costmap, the plan, the start and the goal to this PNG")
+    add_force(p)
     p.set_defaults(func=run)
 
 
@@ -45,6 +47,7 @@ def run(args) -> int:
     from navlog.replay.pipelines.planner import plan_on_map, write_plan_mcap, write_plan_png
 
     start, goal = _pose(args.start, "start"), _pose(args.goal, "goal")
+    refuse_existing(args.force, args.output, args.png)
     result = plan_on_map(
         args.map,
         start,

@@ -5,13 +5,19 @@
 parts appear in order in the full path, its last part being the parameter. A key naming no
 parameter, or more than one, is an error with a did-you-mean. A parameter the file does not have
 may be added to an existing section if navlog knows its name.
+
+A pipeline that runs Nav2 nodes takes these overrides through its own parameters (``--set
+controller_server.FollowPath.desired_linear_vel=0.4`` fills the mapping ``controller_server`` of its
+``Params``, ``--set nav2.FollowPath.desired_linear_vel=0.4`` the mapping ``nav2``); ``nav2_override_items``
+turns such mappings back into ``KEY=VALUE`` items for ``apply_nav2_overrides``.
 """
 
 from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Sequence
+import json
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from navlog.errors import ConfigError
@@ -131,4 +137,20 @@ def apply_nav2_overrides(doc: dict, overrides: Sequence[str], source: str = "") 
         for p in path[:-1]:
             node = node[p]
         node[path[-1]] = value
+    return out
+
+
+def _items(prefix: str, tree: Any) -> list[str]:
+    if isinstance(tree, Mapping):
+        return [item for k, v in tree.items() for item in _items(f"{prefix}.{k}" if prefix else str(k), v)]
+    return [f"{prefix}={json.dumps(tree)}"]
+
+
+def nav2_override_items(blocks: Mapping[str, Any]) -> list[str]:
+    """``KEY=VALUE`` items from override mappings as a pipeline's parameters hold them: ``{"controller_server":
+    {"FollowPath": {"desired_linear_vel": 0.4}}}`` gives ``controller_server.FollowPath.desired_linear_vel=0.4``.
+    The mapping named ``nav2`` holds keys from the top of the Nav2 file (full or short), given without it."""
+    out: list[str] = []
+    for name, tree in blocks.items():
+        out += _items("" if name == "nav2" else name, tree)
     return out

@@ -4,12 +4,14 @@
 (``navlog.replay.nodes.amcl``) reads the scan topic, odom -> base from /tf, the laser mount from
 /tf_static and /initialpose; its parameters come from the ``amcl`` block of a Nav2 parameter file
 (``nav2_params``: a path or a name in config/nav2/; ``--params nav2_params.yaml`` fills it; empty:
-Nav2's defaults), checked as ``navlog check-config`` checks them. The log's own map -> odom (a
+Nav2's defaults; ``--set amcl.KEY=VALUE`` or ``nav2.KEY=VALUE`` override its keys, full or short, as the
+planner pipeline's), checked as ``navlog check-config`` checks them. The log's own map -> odom (a
 perfect localiser's, in navlog's logs) is filtered out of the TF tree AMCL reads and counted among
 the skipped inputs: AMCL publishes its own.
 
-The initial pose (``initial_pose``): ``parameters`` (the file's ``set_initial_pose`` and
-``initial_pose``), ``ground_truth`` (the first pose on ``ground_truth_topic``, whose frame is taken
+The initial pose (``initial_pose``): the pose itself, ``--set initial_pose=[x,y,yaw]`` (map frame, m and
+rad), or a mode: ``parameters`` (the file's ``set_initial_pose`` and ``initial_pose``, which ``--set
+amcl.set_initial_pose=true --set amcl.initial_pose.x=1.0`` may override), ``ground_truth`` (the first pose on ``ground_truth_topic``, whose frame is taken
 as the map frame), ``initialpose`` (wait for /initialpose in the log), or ``auto``: the parameters
 when ``set_initial_pose`` is true, else ground truth when the log has it, else /initialpose. The
 filter's random numbers come from ``seed`` (``numpy.random.SeedSequence``): the same log, map,
@@ -24,7 +26,7 @@ localization.json (updates, resamples, particles, the first update's and the las
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -35,6 +37,8 @@ from navlog.replay.io.map_server import load_map
 from navlog.replay.io.tum import write_poses
 from navlog.replay.nav2 import default_nav2_params, load_nav2_params
 from navlog.replay.nav2.amcl import AmclParams
+from navlog.replay.nav2.overrides import apply_nav2_overrides, nav2_override_items
+from navlog.replay.nav2.params import parse_nav2_params
 from navlog.replay.nodes.amcl import AmclNode
 from navlog.replay.pipelines import PipelineSpec, existing_file, register
 from navlog.replay.pipelines.safety import nav2_file
@@ -45,19 +49,38 @@ from navlog.replay.runtime.pipeline import Pipeline
 class Params:
     map: str = ""  # the map_server YAML to localise on (required)
     nav2_params: str = ""  # a Nav2 parameter file with an amcl block: a path or a name in config/nav2/; "": defaults
-    initial_pose: Literal["auto", "parameters", "ground_truth", "initialpose"] = "auto"
+    # a mode, or the pose itself, [x, y, yaw] in the map frame (m, m, rad): --set initial_pose=[1.0,2.0,0.5]
+    initial_pose: Literal["auto", "parameters", "ground_truth", "initialpose"] | tuple[float, float, float] = "auto"
     ground_truth_topic: str = "/odom/ground_truth"
     trajectory_frame: str = "base_link"  # the frame whose map pose trajectory.tum holds ("" = base_frame_id)
     scan_topic: str = ""  # "" = "/" + the amcl block's scan_topic
     seed: int = 0
+    amcl: dict[str, Any] = field(default_factory=dict)  # Nav2 overrides of the amcl block: --set amcl.KEY=VALUE
+    nav2: dict[str, Any] = field(default_factory=dict)  # any Nav2 key, full or short: --set nav2.KEY=VALUE
+
+
+def default_amcl_document() -> dict[str, Any]:
+    """Nav2's amcl defaults as a parameter document, so that ``--set amcl.KEY`` resolves without a file."""
+    values = {
+        f.name: f.default
+        for f in fields(AmclParams)
+        if not f.name.startswith("initial_pose_") and isinstance(f.default, (bool, int, float, str))
+    }
+    pose = {"x": 0.0, "y": 0.0, "z": 0.0, "yaw": 0.0}
+    return {"amcl": {"ros__parameters": {**values, "initial_pose": pose}}}
 
 
 def amcl_params(params: Params) -> tuple[AmclParams, str]:
-    """The amcl block of the Nav2 file (or Nav2's defaults) and where it came from; errors raised at once."""
-    if not params.nav2_params:
-        nav2 = default_nav2_params()
+    """The amcl block of the Nav2 file (or Nav2's defaults) with the ``--set amcl.KEY`` and ``nav2.KEY``
+    overrides, and where it came from; errors raised at once."""
+    overrides = nav2_override_items({"amcl": params.amcl, "nav2": params.nav2})
+    if params.nav2_params:
+        nav2 = load_nav2_params(nav2_file(params.nav2_params), overrides)
+    elif overrides:
+        nav2 = parse_nav2_params(apply_nav2_overrides(default_amcl_document(), overrides), source="<defaults>")
     else:
-        nav2 = load_nav2_params(nav2_file(params.nav2_params)).require_valid(("amcl",))
+        nav2 = default_nav2_params()
+    nav2 = nav2.require_valid(("amcl",))
     return (nav2.amcl or AmclParams()), nav2.source
 
 
@@ -71,6 +94,10 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
     if params.scan_topic:
         amcl = replace(amcl, scan_topic=params.scan_topic)
     mode = params.initial_pose
+    if isinstance(mode, tuple):  # the pose itself
+        x, y, yaw = mode
+        amcl = replace(amcl, set_initial_pose=True, initial_pose_x=x, initial_pose_y=y, initial_pose_yaw=yaw)
+        mode = "parameters"
     if mode == "auto":
         mode = (
             "parameters"

@@ -11,6 +11,11 @@ and the goals, and the robot drives on ``/cmd_vel``) and in replay (``navlog rep
 navigation --params nav2.yaml --set goals=...``): open loop on the log's TF, odometry, scans and map,
 the same parameters regenerate the recorded ``/plan`` and ``/cmd_vel_nav`` bit for bit.
 
+Nav2 parameters: the file (``nav2_params``), with overrides as the planner pipeline takes them: ``--set
+controller_server.FollowPath.desired_linear_vel=0.4`` (a node block, then a full or short key path), or
+any key of the file with ``--set nav2.KEY=VALUE`` (``nav2.velocity_smoother.max_velocity=[0.4,0.0,1.0]``:
+the smoother's and the monitor's names are their switches here). The filters run on the same overrides.
+
 Goals: a goals YAML (``goals``: a name in config/goals/ or a path), or, empty, ``/goal_pose`` from the log.
 Writes ``navigation.json``: per goal its result (succeeded or failed with Nav2's error code), time,
 recoveries and replans; the safety filters' summary when they ran.
@@ -19,13 +24,14 @@ recoveries and replans; the safety filters' summary when they ran.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 from navlog.errors import ConfigError
 from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import load_nav2_params
+from navlog.replay.nav2.overrides import nav2_override_items
 from navlog.replay.pipelines import PipelineSpec, existing_file, register, safety
 from navlog.replay.pipelines.planner import load_goals, load_named_goals
 from navlog.replay.runtime.executor import Node
@@ -50,6 +56,31 @@ class Params:
     output_topic: str = "/cmd_vel"  # what the robot drives on
     odom_topic: str = "/odom"
     seed: int = 0  # the seed of a sampling controller (MPPI)
+    # Nav2 overrides of the file's node blocks (--set NODE.KEY=VALUE, KEY a full or short path, as the planner's)
+    global_costmap: dict[str, Any] = field(default_factory=dict)  # --set global_costmap.KEY=VALUE
+    local_costmap: dict[str, Any] = field(default_factory=dict)  # --set local_costmap.KEY=VALUE
+    planner_server: dict[str, Any] = field(default_factory=dict)  # --set planner_server.KEY=VALUE
+    controller_server: dict[str, Any] = field(default_factory=dict)  # --set controller_server.FollowPath.KEY=VALUE
+    behavior_server: dict[str, Any] = field(default_factory=dict)  # --set behavior_server.KEY=VALUE
+    bt_navigator: dict[str, Any] = field(default_factory=dict)  # --set bt_navigator.KEY=VALUE
+    # any Nav2 key, full or short (the smoother's and monitor's: nav2.velocity_smoother.max_velocity=[...])
+    nav2: dict[str, Any] = field(default_factory=dict)
+
+
+OVERRIDE_BLOCKS = (
+    "global_costmap",
+    "local_costmap",
+    "planner_server",
+    "controller_server",
+    "behavior_server",
+    "bt_navigator",
+    "nav2",
+)
+
+
+def nav2_overrides(params: Params) -> list[str]:
+    """The ``KEY=VALUE`` Nav2 overrides of ``--set NODE.KEY`` and ``--set nav2.KEY``."""
+    return nav2_override_items({name: getattr(params, name) for name in OVERRIDE_BLOCKS})
 
 
 def filter_switches(params: Params, nav2: Any) -> dict[str, str]:
@@ -65,7 +96,8 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
     from navlog.replay.nodes.navigation import NavGoal, NavigationStack
 
     path = safety.nav2_file(params.nav2_params)
-    nav2 = load_nav2_params(path).require_valid(NAV2_BLOCKS)
+    overrides = nav2_overrides(params)
+    nav2 = load_nav2_params(path, overrides).require_valid(NAV2_BLOCKS)
     missing = [name for name in ("controller_server", "planner_server") if getattr(nav2, name) is None]
     if missing:
         raise ConfigError(
@@ -104,6 +136,7 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
                 output_topic=params.output_topic,
             ),
             log_topics | produced,  # the stack publishes its footprint live and in replay alike
+            nav2_overrides=overrides,
         )
         nodes += filters.nodes
         optional += [t for t in filters.inputs + filters.optional_inputs if t not in produced]

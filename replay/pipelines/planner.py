@@ -3,7 +3,8 @@
 Nav2 parameters come from a Nav2 file (``nav2_params``; the defaults of Nav2 when empty) with
 overrides in Nav2 key paths: ``--set global_costmap.global_costmap.ros__parameters.inflation_layer.
 inflation_radius=0.5`` or the shorter ``--set global_costmap.inflation_layer.inflation_radius=0.5``
-(any ordered subset of the path that names one parameter). Goals: /goal_pose from the log, or a goals
+(any ordered subset of the path that names one parameter); ``--set nav2.KEY=VALUE`` takes any key of
+the file (``nav2.GridBased.tolerance=0.2``), as in every pipeline that runs Nav2 nodes. Goals: /goal_pose from the log, or a goals
 YAML (``goals``: a name in config/goals/ or a path), planned in turn from the robot pose.
 
 Outputs: /global_costmap/costmap, /global_costmap/published_footprint, /plan and plan events in
@@ -33,7 +34,7 @@ from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import Nav2Params, default_nav2_params, load_nav2_params
 from navlog.replay.nav2.costmap import Costmap2D, default_costmap_params
 from navlog.replay.nav2.costmap.grid import DEFAULT_LAYER_PLUGINS
-from navlog.replay.nav2.overrides import apply_nav2_overrides
+from navlog.replay.nav2.overrides import apply_nav2_overrides, nav2_override_items
 from navlog.replay.nav2.params import parse_nav2_params
 from navlog.replay.nav2.planners import PLANNER_NAMES, PLANNERS, PlanningError, PlanResult, Pose2D, make_planner
 from navlog.replay.nodes.costmap import CostmapNode, costmap_msg
@@ -57,25 +58,15 @@ class Params:
     replan_period_s: float = 1.0
     goal_tolerance: float = 0.25  # the goal counts as reached within this distance (SimpleGoalChecker)
     # Nav2 overrides, as nested mappings under the node names (filled by --set NODE.a.b=value)
-    global_costmap: dict[str, Any] = field(default_factory=dict)
-    planner_server: dict[str, Any] = field(default_factory=dict)
-
-
-def _flatten(prefix: str, d: Any) -> list[str]:
-    if isinstance(d, dict):
-        out = []
-        for k, v in d.items():
-            out += _flatten(f"{prefix}.{k}", v)
-        return out
-    return [f"{prefix}={json.dumps(d)}"]
+    global_costmap: dict[str, Any] = field(default_factory=dict)  # --set global_costmap.KEY=VALUE (KEY full or short)
+    planner_server: dict[str, Any] = field(default_factory=dict)  # --set planner_server.KEY=VALUE
+    nav2: dict[str, Any] = field(default_factory=dict)  # any Nav2 key, full or short: --set nav2.KEY=VALUE
 
 
 def nav2_overrides(params: Params) -> list[str]:
-    return (
-        _flatten("global_costmap", params.global_costmap) + _flatten("planner_server", params.planner_server)
-        if (params.global_costmap or params.planner_server)
-        else []
-    )
+    """The Nav2 overrides of ``--set global_costmap.KEY``, ``planner_server.KEY`` and ``nav2.KEY``."""
+    blocks = {"global_costmap": params.global_costmap, "planner_server": params.planner_server, "nav2": params.nav2}
+    return nav2_override_items(blocks)
 
 
 def load_goals(spec: str) -> tuple[list[tuple[float, float, float]], str]:
@@ -251,6 +242,8 @@ class MapPlan:
 
     costmap: Costmap2D
     plan: PlanResult
+    start: Pose2D | None = None  # the pose asked for (the plan may end elsewhere, within the tolerance)
+    goal: Pose2D | None = None
 
 
 def plan_on_map(
@@ -287,7 +280,7 @@ def plan_on_map(
         plan = chosen.plan(cm, start, goal)
     except PlanningError as exc:
         raise PlanningError(f"{where}{exc}") from None
-    return MapPlan(cm, plan)
+    return MapPlan(cm, plan, start, goal)
 
 
 def write_plan_mcap(path: str | Path, result: MapPlan) -> None:
@@ -298,8 +291,16 @@ def write_plan_mcap(path: str | Path, result: MapPlan) -> None:
         w.write(Envelope("/plan", m.PATH, 0, path_msg(result.plan, 0, cm.params.global_frame)))
 
 
+PLAN_RGB = (220, 30, 30)  # vermillion-red cells of the plan
+START_RGB = (0, 158, 115)  # Okabe-Ito bluish green: the start
+GOAL_RGB = (0, 114, 178)  # Okabe-Ito blue: the goal
+MARK_RADIUS_M = 0.15  # the start and goal discs, at least 2 cells
+
+
 def write_plan_png(path: str | Path, result: MapPlan) -> None:
-    """The costmap in grey (free white, lethal black, unknown blue-grey) with the plan's cells in red."""
+    """The costmap in grey (free white, lethal black, unknown blue-grey) with the plan's cells in red, the
+    start as a green disc and the goal as a blue one (the poses asked for, else the plan's ends), each with
+    a tick along its heading."""
     from PIL import Image
 
     cm, plan = result.costmap, result.plan
@@ -307,5 +308,18 @@ def write_plan_png(path: str | Path, result: MapPlan) -> None:
     img[cm.costs == 255] = (120, 120, 160)
     mx, my = cm.world_to_cell(plan.poses[:, 0], plan.poses[:, 1])
     ok = (mx >= 0) & (mx < cm.size_x) & (my >= 0) & (my < cm.size_y)
-    img[my[ok], mx[ok]] = (220, 30, 30)
+    img[my[ok], mx[ok]] = PLAN_RGB
+    start = result.start if result.start is not None else tuple(plan.poses[0, :3])
+    goal = result.goal if result.goal is not None else tuple(plan.poses[-1, :3])
+    radius = max(2.0, MARK_RADIUS_M / cm.resolution)  # cells
+    ys, xs = np.mgrid[0 : cm.size_y, 0 : cm.size_x]
+    for (x, y, yaw), rgb in ((start, START_RGB), (goal, GOAL_RGB)):
+        cx, cy = cm.world_to_cell(np.array([x]), np.array([y]))
+        disc = (xs - cx[0]) ** 2 + (ys - cy[0]) ** 2 <= radius**2
+        steps = np.arange(0.0, 2.0 * radius + 1.0, 0.5)  # the heading tick, twice the disc's radius long
+        tx = np.round(cx[0] + steps * math.cos(yaw)).astype(np.int64)
+        ty = np.round(cy[0] + steps * math.sin(yaw)).astype(np.int64)
+        inside = (tx >= 0) & (tx < cm.size_x) & (ty >= 0) & (ty < cm.size_y)
+        img[disc] = rgb
+        img[ty[inside], tx[inside]] = rgb
     Image.fromarray(img[::-1]).save(path)

@@ -5,7 +5,9 @@
 the chain closes over it). Both read a Nav2 parameter file (``nav2_params``: a name in
 config/nav2/ or a path; ``--params nav2_params.yaml`` fills it; default the KiBot configuration,
 ``config/nav2/kibot_safety.yaml``). The monitor reads its observation sources (scans, clouds,
-ranges), /tf and /tf_static; a closed-loop smoother reads odometry. For a teleop log, read its
+ranges), /tf and /tf_static; a closed-loop smoother reads odometry. Override any key of the file with
+``--set nav2.KEY=VALUE`` (full or short: ``nav2.velocity_smoother.max_velocity=[0.4,0.0,1.0]``,
+``nav2.FootprintApproach.time_before_collision=1.5``). For a teleop log, read its
 /cmd_vel as the controller's commands: ``--remap /cmd_vel_nav=/cmd_vel``.
 
 Approach polygons without ``points`` follow the robot footprint: with ``footprint: auto`` the
@@ -23,7 +25,8 @@ from __future__ import annotations
 
 import json
 from collections import Counter
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
@@ -32,6 +35,7 @@ from navlog.replay.config import find_config, known_configs, suggest
 from navlog.replay.nav2 import Nav2Params, load_nav2_params
 from navlog.replay.nav2.collision_monitor import CollisionMonitorParams, Decision
 from navlog.replay.nav2.costmap import robot_footprint
+from navlog.replay.nav2.overrides import nav2_override_items
 from navlog.replay.nav2.velocity_smoother import VelocitySmootherParams
 from navlog.replay.nodes.collision_monitor import EVENTS_TOPIC, CollisionMonitorNode
 from navlog.replay.nodes.velocity_smoother import VelocitySmootherNode
@@ -55,6 +59,8 @@ class Params:
     odom_topic: str = ""  # closed-loop smoother's odometry; empty: "/" + its odom_topic parameter
     # approach polygons without points: auto = the log's footprint topic if it has it, else the costmap's
     footprint: Literal["auto", "topic", "costmap"] = "auto"
+    # Nav2 overrides, any key of the file, full or short: --set nav2.velocity_smoother.max_velocity=[0.4,0.0,1.0]
+    nav2: dict[str, Any] = field(default_factory=dict)
 
 
 def nav2_file(spec: str) -> Path:
@@ -72,9 +78,12 @@ def nav2_file(spec: str) -> Path:
     return found
 
 
-def safety_nav2_params(params: Params) -> Nav2Params:
-    """The Nav2 parameters of the filters that are on, errors in their blocks raised at once."""
-    nav2 = load_nav2_params(nav2_file(params.nav2_params))
+def safety_nav2_params(params: Params, overrides: Sequence[str] | None = None) -> Nav2Params:
+    """The Nav2 parameters of the filters that are on, with ``overrides`` (default: those of ``--set
+    nav2.KEY``), errors in their blocks raised at once."""
+    if overrides is None:
+        overrides = nav2_override_items({"nav2": params.nav2})
+    nav2 = load_nav2_params(nav2_file(params.nav2_params), overrides)
     blocks = [name for name in ("velocity_smoother", "collision_monitor") if getattr(params, name) == "on"]
     return nav2.require_valid(blocks)
 
@@ -164,10 +173,12 @@ class SafetySummary(Node):
         return {"commands_in": self.commands_in, "commands_out": self.commands_out, "polygons": polygons}
 
 
-def build(params: Params, log_topics: set[str]) -> Pipeline:
+def build(params: Params, log_topics: set[str], nav2_overrides: Sequence[str] | None = None) -> Pipeline:
+    """The filters that are on; ``nav2_overrides`` (``KEY=VALUE``) replace those of ``params.nav2`` (the
+    navigation pipeline gives its own, so that its stack and its filters read the same parameters)."""
     if params.velocity_smoother == "off" and params.collision_monitor == "off":
         raise ConfigError("pipeline 'safety': velocity_smoother and collision_monitor are both off; turn one on")
-    nav2 = safety_nav2_params(params)
+    nav2 = safety_nav2_params(params, nav2_overrides)
     nodes: list[Node] = []
     inputs = [params.input_topic]
     optional: list[str] = []

@@ -14,6 +14,7 @@ from navlog.analysis.check.tf_coverage import chain_coverage, covered, intersect
 from navlog.cli import main
 from navlog.errors import ConfigError, LogError
 from navlog.replay import messages as m
+from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from tests.analysis.sample_nav_log import imu, laser_scan, write_sample_log
 
@@ -127,7 +128,8 @@ def test_backward_stamps_a_gap_and_nan_ranges_are_named(defective):
     assert figures(result, "/scan").count == 81
 
     imu = by(result, "stamps", "/imu/data")
-    assert imu.status is Status.FAIL
+    # no pipeline reads /imu/data from this log (a 2D log: the LiDAR mapper is off): a warning
+    assert imu.status is Status.WARN and "no replay pipeline reads this topic: a warning" in imu.message
     assert imu.numbers["stamp_backward"] == 2 and imu.numbers["stamp_first_index"] == 100
     assert imu.numbers["stamp_before_ns"] == 99 * S // 50 and imu.numbers["stamp_after_ns"] == 2 * S - S // 2
     assert imu.numbers["log_time_backward"] == 0
@@ -145,6 +147,34 @@ def test_backward_stamps_a_gap_and_nan_ranges_are_named(defective):
     rate = by(result, "rate", "/scan")  # 81 scans over 9.9 s against a 10 Hz median
     assert rate.status is Status.WARN and rate.numbers["rate_hz"] == pytest.approx(80 / 9.9, rel=1e-6)
     assert by(result, "rate", "/imu/data").status is Status.PASS
+
+
+def test_a_backward_stamp_on_a_topic_no_pipeline_reads_is_a_warning(tmp_path, capsys):
+    """A log every pipeline can replay, with one backward stamp on /diagnostics, which none reads."""
+    path = write_sample_log(tmp_path / "ok.mcap", seconds=3.0)
+    with McapLogWriter(tmp_path / "extra.mcap") as w, open_log(path) as r:
+        for env in r.messages():
+            w.write(env)
+        for i in range(30):
+            t = r.start_ns + i * S // 10
+            msg = imu(t)
+            msg.header.stamp = m.stamp(t - S if i == 12 else t)
+            w.write_raw("/diagnostics_imu", m.IMU, t, m.serialize(msg, m.IMU))
+    result = check_log(tmp_path / "extra.mcap")
+    stamps = by(result, "stamps", "/diagnostics_imu")
+    assert stamps.status is Status.WARN and stamps.numbers["stamp_first_index"] == 12
+    assert "no replay pipeline reads this topic" in stamps.message
+    assert result.status is not Status.FAIL
+    assert main(["check", str(tmp_path / "extra.mcap")]) == 0
+    # the same backward stamp on a topic the mapper reads fails the log
+    with McapLogWriter(tmp_path / "bad.mcap") as w, open_log(path) as r:
+        for i, env in enumerate(r.messages()):
+            w.write(env)
+        for i in range(30):
+            t = r.start_ns + i * S // 10
+            odom = m.odometry(t - S if i == 12 else t, "odom", "x", (0, 0, 0), (0, 0, 0, 1), (0, 0, 0), (0, 0, 0))
+            w.write_raw("/odom", m.ODOMETRY, t, m.serialize(odom, m.ODOMETRY))
+    assert by(check_log(tmp_path / "bad.mcap"), "stamps", "/odom").status is Status.FAIL
 
 
 def test_an_expected_rate_fails_when_missed_and_a_failure_elsewhere_only_warns(defective):
@@ -245,8 +275,14 @@ def test_real_bags_tf_over_a_simulation_clock(bags_dir):
     neato = check_log(bags_dir / "neato_drive_square")
     assert by(neato, "types", str(bags_dir / "neato_drive_square")).numbers["unknown"] == 2
     stable = by(neato, "stamps", "/stable_scan")  # a real defect of this bag: one stamp 6 ms back
-    assert stable.status is Status.FAIL and stable.numbers["stamp_first_index"] == 183
+    # on a topic no pipeline reads (they read /scan): a warning, and the bag replays fine
+    assert stable.status is Status.WARN and stable.numbers["stamp_first_index"] == 183
     assert stable.numbers["stamp_before_ns"] - stable.numbers["stamp_after_ns"] == pytest.approx(6e6, abs=1e6)
+    assert neato.status is not Status.FAIL
+    # read in place of /scan (--remap /scan=/stable_scan), it fails
+    assert by(
+        check_log(bags_dir / "neato_drive_square", require=["/stable_scan"]), "stamps", "/stable_scan"
+    ).status is (Status.FAIL)
     assert math.isclose(figures(neato, "/scan").rate_hz, 4.49, abs_tol=0.01)
 
 

@@ -93,3 +93,20 @@ def test_skipped_note_sums_and_sorts_the_reasons() -> None:
 
     assert skipped_note({}) == "" and skipped_note({"x": 0}) == ""
     assert skipped_note({"undecodable": 1, "cloud_empty": 2}) == "; skipped 3: cloud_empty x2; undecodable x1"
+
+
+def test_quiet_before_or_after_the_command(tmp_path, capsys: pytest.CaptureFixture[str]) -> None:
+    from navlog.cli import build_parser
+
+    replay = ["replay", "a.mcap", "--pipeline", "mapping", "-o", "out"]
+    for command in (None, "replay"):
+        parser = build_parser(command)
+        assert parser.parse_args(["-q", *replay]).quiet is True
+        assert parser.parse_args([*replay, "-q"]).quiet is True
+        assert parser.parse_args([*replay, "--quiet"]).quiet is True
+        assert parser.parse_args(replay).quiet is False
+    assert build_parser().parse_args(["ci", "run", "s.yaml", "-q"]).quiet is True  # an action's parser too
+    assert build_parser().parse_args(["ci", "run", "s.yaml"]).quiet is False
+    # through main: a command with -q after it runs (a bad log is still a one-line error)
+    assert main(["info", str(tmp_path / "nope.mcap"), "-q"]) == 2
+    assert "nope.mcap" in capsys.readouterr().err

@@ -60,3 +60,36 @@ def test_plan_set_without_params_overrides_nav2_defaults(tmp_path, capsys):
     assert main([*base, "--goal", "1.5,0,0", "--set", "global_costmap.inflation_layer.inflation_radius=0.3"]) == 0
     assert main([*base, "--goal", "1.5,0,0", "--set", "tolerence=0.1"]) == 2
     assert "did you mean 'tolerance'" in capsys.readouterr().err
+
+
+def test_plan_png_shows_start_and_goal_and_outputs_need_force(tmp_path, capsys):
+    from PIL import Image
+
+    data = np.zeros((120, 120), dtype=np.int8)
+    data[:2, :] = data[-2:, :] = data[:, :2] = data[:, -2:] = 100
+    yaml_path, _ = save_map(OccupancyMap(data, 0.05, (-3.0, -3.0, 0.0)), tmp_path / "room.yaml")
+    png = tmp_path / "plan.png"
+    args = ["plan", "--map", str(yaml_path), "--start=-1.5,-1,0", "--goal", "1.5,1,1.57", "--png", str(png)]
+    assert main(args) == 0
+    img = np.asarray(Image.open(png))
+    assert img.shape == (120, 120, 3)
+
+    def pixel(x: float, y: float) -> tuple[int, ...]:  # a world point's pixel: row 0 is the map's top
+        col, row = int((x + 3.0) / 0.05), int((y + 3.0) / 0.05)
+        return tuple(int(v) for v in img[119 - row, col])
+
+    assert pixel(-1.5, -1.0) == (0, 158, 115)  # the start: green
+    assert pixel(1.5, 1.0) == (0, 114, 178)  # the goal: blue
+    assert pixel(1.5, 1.0 + 0.25) == (0, 114, 178)  # its heading tick points along +y (yaw 1.57)
+    assert pixel(1.5 + 0.25, 1.0) != (0, 114, 178)
+    assert (img == (220, 30, 30)).all(axis=-1).sum() > 20  # the plan between them: red
+    # an existing output needs --force, and nothing is written without it
+    before = png.read_bytes()
+    png.write_bytes(b"mine")
+    assert main(args) == 2
+    assert "plan.png: already exists; choose another name or pass --force" in capsys.readouterr().err
+    assert png.read_bytes() == b"mine"
+    assert main([*args, "--force"]) == 0 and png.read_bytes() == before
+    mcap = tmp_path / "plan.mcap"
+    mcap.write_bytes(b"mine")
+    assert main([*args[:-2], "-o", str(mcap)]) == 2 and mcap.read_bytes() == b"mine"

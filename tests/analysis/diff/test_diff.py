@@ -74,6 +74,14 @@ def test_reports_are_deterministic_and_regressions_come_first(replays, tmp_path,
     assert main([*args, "--json", str(out1), "--markdown", str(md)]) == 1
     assert main([*args, "--json", str(out2)]) == 1
     assert out1.read_bytes() == out2.read_bytes()
+    # existing report files need --force (one rule for every command); without it nothing is written
+    for option, path in (("--json", out2), ("--markdown", md), ("--rrd", out1)):
+        before = path.read_bytes()
+        assert main([*args, option, str(path)]) == 2
+        assert f"{path}: already exists; choose another name or pass --force" in capsys.readouterr().err
+        assert path.read_bytes() == before
+    assert main([*args, "--json", str(out2), "--markdown", str(md), "--force"]) == 1
+    assert out1.read_bytes() == out2.read_bytes()
     data = json.loads(out1.read_text())
     assert data["passed"] is False and data["first_divergence"]["topic"] == "/map"
     assert data["counts"] == {"CHANGED": 2, "EQUAL": 1, "IMPROVED": 0, "REGRESSED": 0, "WITHIN": 0}

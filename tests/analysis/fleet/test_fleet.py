@@ -207,3 +207,37 @@ def test_ctrl_c_leaves_completed_outputs_and_no_half_written_ones(fleet_dir, tmp
             from navlog.replay.identity import sha256_file
 
             assert sha256_file(out / name / o["file"]) == o["sha256"]
+
+
+class _Interrupted:
+    """An executor interrupted (Ctrl-C) before any log is done."""
+
+    name = "interrupted"
+    slots = 1
+
+    def submit(self, key, fn, job) -> None:
+        pass
+
+    def wait(self):
+        raise KeyboardInterrupt
+
+    def close(self, *, cancel: bool = False) -> None:
+        pass
+
+
+def test_ctrl_c_before_any_log_is_done_leaves_no_output_folder(fleet_dir, tmp_path):
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        replay_fleet([fleet_dir], "mapping", out, overrides=OVERRIDES, executor=_Interrupted(), progress=False)
+    assert not out.exists()
+    # a folder that was there before stays, with what it held
+    out.mkdir()
+    (out / "mine.txt").write_text("kept")
+    with pytest.raises(KeyboardInterrupt):
+        replay_fleet([fleet_dir], "mapping", out, overrides=OVERRIDES, executor=_Interrupted(), progress=False)
+    assert (out / "mine.txt").read_text() == "kept"
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(KeyboardInterrupt):
+        replay_fleet([fleet_dir], "mapping", empty, overrides=OVERRIDES, executor=_Interrupted(), progress=False)
+    assert empty.is_dir()

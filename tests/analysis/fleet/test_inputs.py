@@ -120,3 +120,23 @@ def test_file_urls_are_local_paths_and_other_urls_go_through_fsspec(tmp_path):
             collect_logs(["memory://fleet-inputs/none.mcap"])
     finally:
         fs.rm("/fleet-inputs", recursive=True)
+
+
+def test_a_replay_output_folder_is_not_a_log(tmp_path, capsys):
+    from navlog.cli import main
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "replay.mcap").write_bytes(b"\x89MCAP0\r\n")
+    (out / "manifest.json").write_text('{"inputs": [{"file": "teleop.mcap", "bytes": 1, "sha256": "ab"}]}')
+    with pytest.raises(
+        ConfigError, match=r"out is a replay output folder, not a log; replay its input LOG \(teleop.mcap"
+    ):
+        collect_logs([out])
+    assert main(["replay", str(out), "--pipeline", "mapping", "-o", str(tmp_path / "again")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is a replay output folder, not a log" in err
+    assert not (tmp_path / "again").exists()
+    # inside a pattern such a folder is skipped, as a folder without logs is
+    (tmp_path / "a.mcap").write_bytes(b"")
+    assert [s.name for s in collect_logs([str(tmp_path / "*")])] == ["a"]

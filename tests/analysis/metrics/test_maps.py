@@ -284,3 +284,38 @@ def test_observable_recall_counts_only_surfaces_facing_reachable_space():
     assert m.recall == pytest.approx(m.counts["matched_ref_occupied"] / int((ref == 100).sum()))
     assert m.recall < 0.5
     assert m.recall_observable == 1.0 and m.f1_observable == 1.0
+
+
+def _margin_room(margin_cells: int) -> np.ndarray:
+    """A 4 m x 4 m room at 0.05 m: walls 0.1 m thick (2 cells) around free space, plus a 0.5 m pillar; the
+    reference's obstacles grown by ``margin_cells`` into the free space (a safety margin)."""
+    data = np.zeros((100, 100), dtype=np.int8)
+    data[:10, :] = data[-10:, :] = data[:, :10] = data[:, -10:] = 100  # outside the room
+    data[45:55, 45:55] = 100
+    occupied = data == 100
+    if margin_cells:
+        from scipy import ndimage
+
+        occupied = ndimage.distance_transform_edt(~occupied) <= margin_cells
+    return np.where(occupied, 100, 0).astype(np.int8)
+
+
+def test_a_reference_with_a_safety_margin_is_named():
+    walls = _margin_room(0)
+    # a laser's map: only the surfaces facing the room (one cell) are occupied, the rest free or unknown
+    from scipy import ndimage
+
+    surface = (walls == 100) & ndimage.binary_dilation(walls == 0, structure=np.ones((3, 3), bool))
+    est = OccupancyMap(np.where(surface, 100, np.where(walls == 0, 0, -1)).astype(np.int8), 0.05)
+    plain = mm.grid_metrics(est, OccupancyMap(walls, 0.05), tau=0.05)
+    assert plain.precision == 1.0 and plain.recall_observable == 1.0
+    assert plain.warnings == () and "warnings" not in plain.to_dict()  # metrics.json as before
+    inflated = mm.grid_metrics(est, OccupancyMap(_margin_room(3), 0.05), tau=0.05)
+    # the mapped walls are 3 cells inside the inflated obstacles: the observable recall falls to 0
+    assert inflated.recall_observable == 0.0
+    assert mm.reference_margin_m(surface, _margin_room(3) == 100, 0.05) == pytest.approx(0.15, abs=0.03)
+    assert len(inflated.warnings) == 1 and "0.1" in inflated.warnings[0]
+    assert "safety margin" in inflated.warnings[0] and "--margin 0" in inflated.warnings[0]
+    assert inflated.to_dict()["warnings"] == list(inflated.warnings)
+    # a margin within tau (one cell) is not named
+    assert mm.grid_metrics(est, OccupancyMap(_margin_room(1), 0.05), tau=0.05).warnings == ()

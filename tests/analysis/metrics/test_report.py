@@ -195,6 +195,13 @@ def test_cli_prints_table_and_writes_stable_json(world, capsys):
     again = world["root"] / "m2.json"
     assert main(args[:-1] + [str(again)]) == 0
     assert out_json.read_bytes() == again.read_bytes()
+    # an existing -o file needs --force (one rule for every command), and is left as it was without it
+    again.write_text("mine")
+    assert main(args[:-1] + [str(again)]) == 2
+    assert "m2.json: already exists; choose another name or pass --force" in capsys.readouterr().err
+    assert again.read_text() == "mine"
+    assert main(args[:-1] + [str(again), "--force"]) == 0
+    assert out_json.read_bytes() == again.read_bytes()
 
 
 def test_missing_inputs_are_skipped_with_notes(world, tmp_path, capsys):

@@ -148,6 +148,13 @@ def test_missing_topic_error_lists_needs_and_remap(tmp_path):
         and "--remap" in text
     )
     assert not (tmp_path / "out").exists() and not list(tmp_path.glob(".out*"))
+    # a remap to a topic the log lacks names that topic, not the pipeline's
+    with pytest.raises(NavlogError) as exc:
+        run_replay(log, "mapping", tmp_path / "out", remap={"/scan": "/nonexistent"}, progress=False)
+    text = str(exc.value)
+    assert "the remapped topic /nonexistent (read as /scan, --remap /scan=/nonexistent) is not in the log" in text
+    assert "The log has: /odom (nav_msgs/msg/Odometry)" in text and "missing /scan" not in text
+    assert not (tmp_path / "out").exists()
 
 
 def test_remap_reads_another_topic(tmp_path):

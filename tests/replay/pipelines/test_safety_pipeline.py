@@ -121,3 +121,21 @@ def test_params_default_and_bad_input(tmp_path):
     log = teleop_log(tmp_path / "teleop.mcap", seconds=0.2)
     with pytest.raises(NavlogError, match="missing /cmd_vel_nav.*--remap"):
         run_replay(log, "safety", tmp_path / "out", progress=False)
+
+
+def test_nav2_overrides_reach_the_filters(tmp_path):
+    """``--set nav2.KEY`` overrides the Nav2 file's keys, full or short, as the planner pipeline's do."""
+    log = teleop_log(tmp_path / "teleop.mcap")
+    overrides = ["nav2.velocity_smoother.max_accel=[0.4,0.0,1.5]", "nav2.FootprintApproach.time_before_collision=2.4"]
+    res = run_replay(
+        log, "safety", tmp_path / "out", remap={"/cmd_vel_nav": "/cmd_vel"}, overrides=overrides, progress=False
+    )
+    out = res.out_dir / "replay.mcap"
+    # half KiBot's acceleration: 0.02 m/s per 20 Hz tick instead of 0.04
+    smoothed = [msg.linear.x for _, msg in read(out, "/cmd_vel_smoothed")]
+    assert smoothed[:3] == pytest.approx([0.02, 0.04, 0.06]) and smoothed[-1] == pytest.approx(0.45)
+    # twice the time before collision: the footprint that reaches the wall at 0.6 s scales by 0.6 / 2.4
+    cmd = [msg.linear.x for _, msg in read(out, "/cmd_vel")]
+    assert cmd[-1] == pytest.approx(0.45 * 0.6 / 2.4)
+    with pytest.raises(ConfigError, match="max_acel: no such parameter.*did you mean 'max_accel'"):
+        build(pipeline_params("safety", overrides=["nav2.velocity_smoother.max_acel=[1,0,1]"]), set())
