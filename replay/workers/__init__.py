@@ -11,7 +11,8 @@ child process or a thread and gives back the same bits in the same order:
   shared-memory ring, the caller never waiting for it while a result is due (the recorder's laser
   and LiDAR, ``navlog.recorder.range_sensors``);
 - ``grid``: ``GridWorker``, the occupancy grid's scan updates in a child process;
-- ``odometry``: ``OdometryWorker``, the 3D odometry's frames completed in a child process;
+- ``odometry``: ``OdometryFrames``, the 3D odometry's frames completed here or ahead in a child process
+  (``OdometryWorker``, the child's side);
 - ``background``: ``in_thread``, pure work (the 3D global map's batches) in a thread beside the caller.
 
 Every worker has the same shape: made to run offloaded (or, where it can, in this process: one CPU,
@@ -31,14 +32,15 @@ if TYPE_CHECKING:
     from navlog.replay.workers.background import in_thread
     from navlog.replay.workers.child import ChildProcess
     from navlog.replay.workers.grid import GridWorker
-    from navlog.replay.workers.odometry import OdometryWorker
+    from navlog.replay.workers.odometry import OdometryFrames, OdometryWorker
     from navlog.replay.workers.ring import RingProcess
 
-__all__ = ["ChildProcess", "GridWorker", "OdometryWorker", "RingProcess", "in_thread"]
+__all__ = ["ChildProcess", "GridWorker", "OdometryFrames", "OdometryWorker", "RingProcess", "in_thread"]
 
 _MODULES = {
     "ChildProcess": "child",
     "GridWorker": "grid",
+    "OdometryFrames": "odometry",
     "OdometryWorker": "odometry",
     "RingProcess": "ring",
     "in_thread": "background",
