@@ -46,6 +46,7 @@ from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams,
 from navlog.replay.pointcloud import read_points
 from navlog.replay.runtime.executor import Executor
 from navlog.replay.runtime.tf import TFBuffer
+from navlog.replay.workers.background import in_thread
 
 CONFIG = Path(__file__).resolve().parents[1] / "config"
 # a known planar wall per world: (axis, plane coordinate, (lo, hi) along the wall, (lo, hi) in z)
@@ -185,7 +186,7 @@ def run_navlog_log(
 def run_navlog_sweeps(sw: Sweeps, odometry: LidarOdometryParams) -> tuple[float, np.ndarray, np.ndarray]:
     """navlog's LidarOdometry alone over sweeps without an IMU (sized from the first sweep)."""
     params = for_sweep(odometry, np.linalg.norm(sw.points[0], axis=1))
-    odo = LidarOdometry(params)
+    odo = LidarOdometry(params, background=in_thread)  # the global map's batches beside, as the node runs them
     t0 = time.perf_counter()
     for stamp, pts in zip(sw.stamps, sw.points, strict=True):
         odo.process(stamp, pts)
