@@ -13,8 +13,9 @@ with the wheel odometry alone (the bag's odom -> base_footprint at the same stam
 - **walls**: the share of the occupied cells of a map drawn from the estimate (aligned onto the
   reference) that lie within 0.10 m of an occupied cell of the map drawn from the same scans at
   the reference poses (0.05 m cells, navlog's grid rules);
-- **loops**: loop-closure edges in pose_graph.json; **wall s** / **x real time**: the replay's wall
-  time and the log's duration over it (with the load average: the machine is shared).
+- **loops**: loop-closure edges in pose_graph.json; **wall s** / **x real**: the replay's wall time
+  and the log's duration over it (with the load average: the machine is shared); **x (CPU)**: the
+  log's duration over the CPU time of the replay.
 
 Nothing is asserted; the issue's targets are ATE <= 0.10 m, RE 1 m <= 0.03 m and never above
 odometry, walls >= 0.9, >= 10x real time.
@@ -35,7 +36,8 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from navlog.replay.geometry import planar_matrix, yaw_from_matrix
+from navlog.analysis.metrics import align_planar, planar_relative_error
+from navlog.replay.geometry import planar_matrix
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.tum import read_tum
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
@@ -87,36 +89,6 @@ def read_bag(bag: Path) -> tuple[dict[int, tuple], dict[int, np.ndarray]]:
     return scans, odom
 
 
-def align_se2(est: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """est poses moved by the SE(2) transform that best fits their positions onto ref's."""
-    mu_e, mu_r = est[:, :2].mean(0), ref[:, :2].mean(0)
-    h = (est[:, :2] - mu_e).T @ (ref[:, :2] - mu_r)
-    u, _, vt = np.linalg.svd(h)
-    d = np.diag([1.0, np.sign(np.linalg.det(vt.T @ u.T))])
-    rot = vt.T @ d @ u.T
-    out = est.copy()
-    out[:, :2] = (est[:, :2] - mu_e) @ rot.T + mu_r
-    out[:, 2] = est[:, 2] + np.arctan2(rot[1, 0], rot[0, 0])
-    return out
-
-
-def relative_error(est: np.ndarray, ref: np.ndarray, travel: float) -> float:
-    """Mean translational relative error over ``travel`` m of reference travel (see the docstring)."""
-    cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ref[:, :2], axis=0), axis=1))])
-    errs = []
-    for i in range(len(ref)):
-        j = int(np.searchsorted(cum, cum[i] + travel))
-        if j >= len(ref):
-            break
-        d = []
-        for p in (est, ref):
-            c, s = np.cos(p[i, 2]), np.sin(p[i, 2])
-            dx, dy = p[j, :2] - p[i, :2]
-            d.append(np.array([c * dx + s * dy, -s * dx + c * dy]))
-        errs.append(float(np.linalg.norm(d[0] - d[1])))
-    return float(np.mean(errs)) if errs else float("nan")
-
-
 def draw(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> OccupancyGrid2D:
     grid = OccupancyGrid2D(OccupancyParams(resolution=0.05))
     for t, (x, y, yaw) in zip(stamps.tolist(), poses.tolist(), strict=True):
@@ -145,12 +117,12 @@ def wall_agreement(est_grid: OccupancyGrid2D, ref_grid: OccupancyGrid2D) -> floa
 
 
 def score(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid) -> dict[str, float]:
-    aligned = align_se2(est, ref)
+    aligned = align_planar(est, ref)
     ate = float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
     return {
         "ate": ate,
-        "re1": relative_error(est, ref, 1.0),
-        "re5": relative_error(est, ref, 5.0),
+        "re1": planar_relative_error(est, ref, 1.0),
+        "re5": planar_relative_error(est, ref, 5.0),
         "walls": wall_agreement(draw(aligned, stamps, scans), ref_grid),
     }
 
@@ -162,7 +134,7 @@ def evaluate(name: str, carmen: Path, work: Path, sets: list[str]) -> None:
     ref_grid = draw(ref, ref_t, scans)
     out = work / name
     before = load()
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     run_replay(
         bag,
         "mapping",
@@ -172,6 +144,7 @@ def evaluate(name: str, carmen: Path, work: Path, sets: list[str]) -> None:
         force=True,
     )
     wall = time.perf_counter() - start
+    cpu = time.process_time() - cpu
     est_t, est = tum_xyt(out / "trajectory.tum")
     where = {t: i for i, t in enumerate(est_t.tolist())}
     keep = np.array([t in where for t in ref_t.tolist()])
@@ -184,7 +157,9 @@ def evaluate(name: str, carmen: Path, work: Path, sets: list[str]) -> None:
     travel = float(np.sum(np.linalg.norm(np.diff(ref[:, :2], axis=0), axis=1)))
     for source, est_poses in (("slam", slam), ("odometry", odom)):
         s = score(est_poses, ref[keep], ts, scans, ref_grid)
-        extra = f"{loops:>6} {wall:>7.1f} {duration / wall:>8.1f}x" if source == "slam" else f"{'-':>6} {'-':>7} {'-':>9}"
+        extra = (
+            f"{loops:>6} {wall:>7.1f} {duration / wall:>8.1f}x" if source == "slam" else f"{'-':>6} {'-':>7} {'-':>9}"
+        )
         print(
             f"{name if source == 'slam' else '':<8} {source:<9} {s['ate']:>7.3f} {s['re1']:>7.3f} {s['re5']:>7.3f}"
             f" {s['walls']:>6.2f} {extra}",
@@ -197,11 +172,15 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("names", nargs="*", default=DATASETS, help="datasets in external-data/carmen/")
     ap.add_argument("--shared", type=Path, default=default_shared_dir(), help="the external data folder")
-    ap.add_argument("--set", action="append", default=[], help="a SLAM parameter override, e.g. slam.do_loop_closing=false")
+    ap.add_argument(
+        "--set", action="append", default=[], help="a SLAM parameter override, e.g. slam.do_loop_closing=false"
+    )
     args = ap.parse_args()
     carmen = args.shared / "external-data" / "carmen"
     print(f"machine: {os.cpu_count()} cores, load average {load()}")
-    print(f"{'dataset':<8} {'source':<9} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'loops':>6} {'wall s':>7} {'x real':>9}")
+    print(
+        f"{'dataset':<8} {'source':<9} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'loops':>6} {'wall s':>7} {'x real':>9}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.names:
             evaluate(name, carmen, Path(tmp), args.set)

@@ -144,11 +144,11 @@ class SlamNode(Node):
         self.publish("/tf", messages.TF_MESSAGE, messages.tf_message([ts]))
         self.tf_published += 1
 
-    def _publish_map(self, t_ns: int) -> None:
+    def _publish_map(self, t_ns: int, final: bool = False) -> None:
         if not self.slam.keyframes:
             return
         try:
-            grid = self.slam.grid()
+            grid = self.slam.grid(final)
         except GridTooLarge:
             self.skipped[f"{self.p.scan_topic}: a keyframe's pose or ranges too far off (map not updated)"] += 1
             return
@@ -157,7 +157,7 @@ class SlamNode(Node):
 
     def finish(self) -> None:
         self._drain(final=True)
-        self._publish_map(self.now())
+        self._publish_map(self.now(), final=True)
 
     # ------------------------------------------------------------ results
     @property

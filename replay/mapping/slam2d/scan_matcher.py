@@ -163,6 +163,11 @@ class ScanMatcher:
         no pose reaches ``min_response`` (or either point set is empty)."""
         if len(reference) == 0 or len(scan_points) == 0:
             return None
+        # reference points no placed scan point can come within 3 sigma of change nothing: left out
+        reach = float(np.hypot(scan_points[:, 0], scan_points[:, 1]).max()) + window.linear * 0.75 + 4 * self.sigma
+        reference = reference[np.hypot(reference[:, 0] - prediction[0], reference[:, 1] - prediction[1]) <= reach]
+        if len(reference) == 0:
+            return None
         grid = self.grid(reference, window)
         best = self._search(grid, scan_points, prediction, window, min_response)
         if best is None:

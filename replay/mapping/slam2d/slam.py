@@ -24,7 +24,7 @@ every scan with the final poses (each scan's keyframe pose composed with the odo
 ``grid()`` is the occupancy grid rebuilt from the keyframes' scans at their optimised poses (the
 real-scan rules of ``navlog.replay.mapping.occupancy``), kept up to date incrementally: it is
 rebuilt only when an optimisation has moved a keyframe's scan by more than a map cell since it was
-inserted.
+inserted (while the log plays, at most once per quarter more keyframes: linear work in travel).
 """
 
 from __future__ import annotations
@@ -132,6 +132,7 @@ class Slam2D:
         self._scans: list[tuple[int, int, gtsam.Pose2]] = []  # (stamp, keyframe index, odometry) per scan
         self._grid = OccupancyGrid2D(self.grid_params)
         self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
+        self._grid_drawn = 0  # keyframes when the grid was last redrawn from scratch
         self._since_loop = math.inf  # path length of keyframes since the last loop closure
         self._travel: list[float] = [0.0]  # per keyframe: path length from the first, along the estimate
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
@@ -282,7 +283,11 @@ class Slam2D:
             self.p.coarse_angle_resolution,
         )
         match = self.matcher.match(
-            self._points_of(chain), self.keyframes[new].points, poses[new], window, self.p.loop_match_minimum_response_fine
+            self._points_of(chain),
+            self.keyframes[new].points,
+            poses[new],
+            window,
+            self.p.loop_match_minimum_response_fine,
         )
         if match is None:
             return
@@ -337,8 +342,13 @@ class Slam2D:
         ).reshape(-1, 3)
         return [t for t, _, _ in self._scans], out
 
-    def grid(self) -> OccupancyGrid2D:
-        """The occupancy grid of every keyframe's scan at its current pose (see the module docstring)."""
+    def grid(self, final: bool = True) -> OccupancyGrid2D:
+        """The occupancy grid of every keyframe's scan at its current pose (see the module docstring).
+
+        ``final=False`` (the maps published while the log plays) redraws the grid after an optimisation
+        moved its keyframes only once the keyframes added since the last redraw reach a quarter of all
+        (new keyframes are drawn at once): the total work of the redraws stays linear in the travel
+        however many loops close. ``final=True`` redraws whenever a keyframe moved."""
         poses = self.graph.poses()
         done = len(self._grid_poses)
         if done:
@@ -349,8 +359,10 @@ class Slam2D:
             shift = np.hypot(moved[:, 0], moved[:, 1]) + reach * np.abs(
                 np.remainder(moved[:, 2] + np.pi, 2 * np.pi) - np.pi
             )
-            if float(shift.max()) > self.grid_params.resolution:
+            due = final or len(self.keyframes) - self._grid_drawn >= 0.25 * len(self.keyframes)
+            if float(shift.max()) > self.grid_params.resolution and due:
                 self._grid = OccupancyGrid2D(self.grid_params)
+                self._grid_drawn = len(self.keyframes)
                 done = 0
         for k in self.keyframes[done:]:
             x, y, yaw = poses[k.index]
