@@ -187,6 +187,8 @@ class SlamNode(Node):
                 "odometry_only": c.odometry_only,
                 "loop_attempts": c.loop_attempts,
                 "loops": c.loops,
+                "loops_ambiguous": c.loops_ambiguous,
+                "loops_inconsistent": c.loops_inconsistent,
                 "optimizations": self.slam.graph.optimizations,
             },
             "nodes": [

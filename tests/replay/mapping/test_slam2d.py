@@ -207,3 +207,26 @@ def test_an_ambiguous_corridor_loop_is_refused():
     assert slam.counts.loop_attempts >= 1
     assert slam.counts.loops == 0 and slam.counts.loops_ambiguous >= 1
     assert [e.kind for e in slam.graph.edges].count("loop") == 0
+
+
+def test_a_loop_the_graph_disagrees_with_is_measured_and_taken_back():
+    from navlog.replay.mapping.slam2d import PoseGraph
+
+    graph = PoseGraph()
+    for i in range(6):  # a straight chain, 1 m steps, well known (2 cm, 0.01 rad)
+        graph.add_node((float(i), 0.0, 0.0))
+        if i:
+            graph.add_edge(i - 1, i, (1.0, 0.0, 0.0), (0.02, 0.02, 0.01), "match")
+    before = graph.snapshot()
+    graph.add_edge(0, 5, (5.03, 0.0, 0.0), (0.05, 0.05, 0.02), "loop", huber_k=1.345)  # agrees within 3 cm
+    graph.optimize()
+    assert graph.edge_chi2() < 1.0
+    graph.remove_last_edge(before)
+    graph.add_edge(0, 5, (4.0, 1.0, 0.0), (0.05, 0.05, 0.02), "loop", huber_k=1.345)  # 1.4 m off: false
+    graph.optimize()
+    assert graph.edge_chi2() > 16.3  # SlamParams.loop_match_maximum_chi2
+    graph.remove_last_edge(before)
+    assert [e.kind for e in graph.edges] == ["match"] * 5
+    assert np.allclose(graph.pose(5), (5.0, 0.0, 0.0))
+    graph.optimize()
+    assert np.allclose(graph.pose(5), (5.0, 0.0, 0.0), atol=1e-6)

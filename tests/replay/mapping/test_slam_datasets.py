@@ -31,7 +31,9 @@ def planar(path: Path) -> tuple[np.ndarray, np.ndarray]:
     ("name", "max_ate", "max_re1", "odometry_re1", "min_loops"),
     [("seattle", ATE_SEATTLE := 0.0, RE1_SEATTLE := 0.0, 0.0, 0)],
 )
-def test_slam_on_a_real_building_beats_its_odometry(shared_dir, tmp_path, name, max_ate, max_re1, odometry_re1, min_loops):
+def test_slam_on_a_real_building_beats_its_odometry(
+    shared_dir, tmp_path, name, max_ate, max_re1, odometry_re1, min_loops
+):
     carmen = shared_dir / "external-data" / "carmen"
     if not (carmen / name).is_dir():
         pytest.skip(f"{carmen / name}: not in the external data")
