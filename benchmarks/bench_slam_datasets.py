@@ -158,7 +158,9 @@ def evaluate(name: str, carmen: Path, work: Path, sets: list[str]) -> None:
     for source, est_poses in (("slam", slam), ("odometry", odom)):
         s = score(est_poses, ref[keep], ts, scans, ref_grid)
         extra = (
-            f"{loops:>6} {wall:>7.1f} {duration / wall:>8.1f}x" if source == "slam" else f"{'-':>6} {'-':>7} {'-':>9}"
+            f"{loops:>6} {wall:>7.1f} {duration / wall:>8.1f}x {duration / cpu:>8.1f}x"
+            if source == "slam"
+            else f"{'-':>6} {'-':>7} {'-':>9} {'-':>9}"
         )
         print(
             f"{name if source == 'slam' else '':<8} {source:<9} {s['ate']:>7.3f} {s['re1']:>7.3f} {s['re5']:>7.3f}"
@@ -179,7 +181,7 @@ def main() -> None:
     carmen = args.shared / "external-data" / "carmen"
     print(f"machine: {os.cpu_count()} cores, load average {load()}")
     print(
-        f"{'dataset':<8} {'source':<9} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'loops':>6} {'wall s':>7} {'x real':>9}"
+        f"{'dataset':<8} {'source':<9} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'loops':>6} {'wall s':>7} {'x real':>9} {'x (CPU)':>9}"
     )
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.names:

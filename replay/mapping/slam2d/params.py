@@ -47,7 +47,10 @@ class SlamParams:
     # a sequential scan match in a room that pins it (a direction the scan leaves free gets more: the
     # match's covariance, ScanMatcher.covariance); the match is weighted against the odometry by them
     match_sigmas: tuple[float, float, float] = (0.02, 0.02, 0.01)
-    odometry_sigmas: tuple[float, float, float] = (0.1, 0.1, 0.05)  # odometry between keyframes
+    odometry_sigmas: tuple[float, float, float] = (0.1, 0.1, 0.05)  # odometry between keyframes (at first)
+    # navlog's: after 20 matches, the odometry's noise is the spread of the last 20 differences between
+    # match and odometry (no less than a quarter of odometry_sigmas): measured, not tuned per robot
+    estimate_odometry_noise: bool = True
     loop_sigmas: tuple[float, float, float] = (0.05, 0.05, 0.02)  # a loop closure that pins the scan (Huber kernel)
     loop_huber_k: float = 1.345  # the robust kernel's threshold, in standard deviations
 

@@ -41,6 +41,8 @@ from navlog.replay.mapping.slam2d.params import SlamParams
 from navlog.replay.mapping.slam2d.pose_graph import PoseGraph
 from navlog.replay.mapping.slam2d.scan_matcher import MatchResult, ScanMatcher, SearchWindow, transform_points
 
+ODOMETRY_WINDOW = 20  # matches the odometry's noise is estimated over
+
 
 @dataclass(frozen=True)
 class LaserScan2D:
@@ -134,6 +136,7 @@ class Slam2D:
         self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
         self._grid_drawn = 0  # keyframes when the grid was last redrawn from scratch
         self._since_loop = math.inf  # path length of keyframes since the last loop closure
+        self._innovations: list[np.ndarray] = []  # per match: match - odometry prediction, previous keyframe's frame
         self._travel: list[float] = [0.0]  # per keyframe: path length from the first, along the estimate
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
         self._link = SearchWindow(
@@ -189,8 +192,12 @@ class Slam2D:
             )
             prev = self._pose(i - 1)
             rot = _rotation(prev.theta())
-            odometry_cov = np.diag(np.square(self.p.odometry_sigmas))  # in the previous keyframe's frame
+            odometry_cov = np.diag(np.square(self._odometry_sigmas()))  # in the previous keyframe's frame
             if match is not None:
+                if float(np.linalg.eigvalsh(match.hessian[:2, :2])[0]) > 0.1:  # a match that pins x and y
+                    innovation = rot.T @ (match.pose - pose)
+                    innovation[2] = math.remainder(float(innovation[2]), 2 * math.pi)
+                    self._innovations.append(innovation)
                 pose, cov = self._fuse(pose, rot @ odometry_cov @ rot.T, match)
                 self.counts.matched += 1
                 noise, kind, response = rot.T @ cov @ rot, "match", match.response
@@ -206,6 +213,18 @@ class Slam2D:
         self.keyframes.append(Keyframe(i, stamp, odom, points, scan, surface))
         self.counts.keyframes += 1
         return pose
+
+    def _odometry_sigmas(self) -> np.ndarray:
+        """The odometry's noise between keyframes: ``odometry_sigmas`` until ``ODOMETRY_WINDOW`` matches
+        are in, then (``estimate_odometry_noise``) the robust spread (1.4826 x the median absolute value)
+        of the last ``ODOMETRY_WINDOW`` differences between the match and the odometry's prediction, per
+        axis, no less than a quarter of ``odometry_sigmas``: a good odometry is trusted more, a poor one
+        less, without tuning per robot."""
+        configured = np.asarray(self.p.odometry_sigmas, dtype=np.float64)
+        if not self.p.estimate_odometry_noise or len(self._innovations) < ODOMETRY_WINDOW:
+            return configured
+        recent = np.abs(np.array(self._innovations[-ODOMETRY_WINDOW:]))
+        return np.maximum(1.4826 * np.median(recent, axis=0), 0.25 * configured)
 
     def _fuse(
         self, prediction: np.ndarray, prediction_cov: np.ndarray, match: MatchResult
