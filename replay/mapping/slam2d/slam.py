@@ -216,15 +216,13 @@ class Slam2D:
 
     def _odometry_sigmas(self) -> np.ndarray:
         """The odometry's noise between keyframes: ``odometry_sigmas`` until ``ODOMETRY_WINDOW`` matches
-        are in, then (``estimate_odometry_noise``) the robust spread (1.4826 x the median absolute value)
-        of the last ``ODOMETRY_WINDOW`` differences between the match and the odometry's prediction, per
-        axis, no less than a quarter of ``odometry_sigmas``: a good odometry is trusted more, a poor one
-        less, without tuning per robot."""
+        are in, then (``estimate_odometry_noise``) the RMS of the last ``ODOMETRY_WINDOW`` differences between
+        the match and the odometry's prediction, per axis, no less than a quarter of ``odometry_sigmas``."""
         configured = np.asarray(self.p.odometry_sigmas, dtype=np.float64)
         if not self.p.estimate_odometry_noise or len(self._innovations) < ODOMETRY_WINDOW:
             return configured
-        recent = np.abs(np.array(self._innovations[-ODOMETRY_WINDOW:]))
-        return np.maximum(1.4826 * np.median(recent, axis=0), 0.25 * configured)
+        recent = np.array(self._innovations[-ODOMETRY_WINDOW:])
+        return np.maximum(np.sqrt(np.mean(np.square(recent), axis=0)), 0.25 * configured)
 
     def _fuse(
         self, prediction: np.ndarray, prediction_cov: np.ndarray, match: MatchResult

@@ -27,10 +27,12 @@ def planar(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return t.times_ns, np.column_stack([t.positions[:, :2], yaw])
 
 
-@pytest.mark.parametrize(
-    ("name", "max_ate", "max_re1", "odometry_re1", "min_loops"),
-    [("seattle", ATE_SEATTLE := 0.0, RE1_SEATTLE := 0.0, 0.0, 0)],
-)
+# name, ATE bound (m), relative error over 1 m bound (m), the odometry's relative error over 1 m,
+# loops at least; measured (bench_slam_datasets.py): seattle ATE 0.052 m, RE 1 m 0.023 m, 19 loops
+CASES = [("seattle", 0.07, 0.0245, 0.0250, 12)]
+
+
+@pytest.mark.parametrize(("name", "max_ate", "max_re1", "odometry_re1", "min_loops"), CASES)
 def test_slam_on_a_real_building_beats_its_odometry(
     shared_dir, tmp_path, name, max_ate, max_re1, odometry_re1, min_loops
 ):
@@ -45,6 +47,6 @@ def test_slam_on_a_real_building_beats_its_odometry(
     ate = float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
     re1 = planar_relative_error(est, ref, 1.0)
     assert ate < max_ate
-    assert re1 < max_re1 < odometry_re1
+    assert re1 < max_re1 < odometry_re1  # never worse than the odometry over 1 m
     graph = json.loads((tmp_path / "pose_graph.json").read_text())
     assert sum(e["kind"] == "loop" for e in graph["edges"]) >= min_loops
