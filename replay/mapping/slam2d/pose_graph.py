@@ -35,6 +35,7 @@ class PoseGraph:
         self._graph = gtsam.NonlinearFactorGraph()
         self._values = gtsam.Values()
         self.edges: list[Edge] = []
+        self._gaussians: list[gtsam.noiseModel.Base] = []  # per edge, its noise without the robust kernel
         self.optimizations = 0
 
     def __len__(self) -> int:
@@ -68,6 +69,7 @@ class PoseGraph:
         model: gtsam.noiseModel.Base = (
             gtsam.noiseModel.Gaussian.Covariance(arr) if arr.ndim == 2 else gtsam.noiseModel.Diagonal.Sigmas(arr)
         )
+        self._gaussians.append(model)
         if huber_k is not None:
             model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(huber_k), model)
         elif cauchy_k is not None:
@@ -77,15 +79,11 @@ class PoseGraph:
 
     def edge_chi2(self, k: int = -1) -> float:
         """Squared whitened (Mahalanobis) error of edge ``k`` at the current estimate, before any kernel."""
-        factor = self._graph.at(self._graph.size() - len(self.edges) + (k % len(self.edges)))
         e = self.edges[k]
         measured = gtsam.Pose2(*e.relative)
         actual = self._values.atPose2(e.source).between(self._values.atPose2(e.target))
         err = measured.localCoordinates(actual)
-        model = factor.noiseModel()
-        if isinstance(model, gtsam.noiseModel.Robust):
-            model = model.noise()
-        return float(np.sum(np.square(model.whiten(err))))
+        return float(np.sum(np.square(self._gaussians[k].whiten(err))))
 
     def snapshot(self) -> gtsam.Values:
         """The current estimate, to ``remove_last_edge`` back to."""
@@ -98,6 +96,7 @@ class PoseGraph:
             graph.add(self._graph.at(i))
         self._graph = graph
         self.edges.pop()
+        self._gaussians.pop()
         self._values = restore
 
     def optimize(self) -> None:
