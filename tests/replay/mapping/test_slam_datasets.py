@@ -28,8 +28,9 @@ def planar(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 # name, ATE bound (m), relative error over 1 m bound (m), the odometry's relative error over 1 m,
-# loops at least; measured (bench_slam_datasets.py): seattle ATE 0.052 m, RE 1 m 0.023 m, 19 loops
-CASES = [("seattle", 0.07, 0.0245, 0.0250, 12)]
+# loops at least; measured (bench_slam_datasets.py): seattle ATE 0.058 m, RE 1 m 0.024 m, 20 loops;
+# aces (big loops, long corridors) ATE 0.090 m, RE 1 m 0.048 m, 14 loops
+CASES = [("seattle", 0.07, 0.0245, 0.0250, 12), ("aces", 0.12, 0.055, 0.090, 10)]
 
 
 @pytest.mark.parametrize(("name", "max_ate", "max_re1", "odometry_re1", "min_loops"), CASES)
@@ -46,7 +47,7 @@ def test_slam_on_a_real_building_beats_its_odometry(
     aligned = align_planar(est, ref)
     ate = float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
     re1 = planar_relative_error(est, ref, 1.0)
-    assert ate < max_ate
-    assert re1 < max_re1 < odometry_re1  # never worse than the odometry over 1 m
+    assert ate < max_ate, f"ATE {ate:.4f} m"
+    assert re1 < max_re1 < odometry_re1, f"relative error over 1 m {re1:.4f} m"  # never worse than odometry
     graph = json.loads((tmp_path / "pose_graph.json").read_text())
     assert sum(e["kind"] == "loop" for e in graph["edges"]) >= min_loops
