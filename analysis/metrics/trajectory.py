@@ -497,3 +497,34 @@ def relative_pose_error(
     trans = np.linalg.norm(err[:, :3, 3], axis=1)
     rot = np.degrees(Rotation.from_matrix(err[:, :3, :3]).magnitude())
     return RpeResult(ErrorStats.of(trans), ErrorStats.of(rot), float(delta), unit, len(i))
+
+
+def align_planar(est: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """(N, 3) planar poses (x, y, yaw) ``est`` moved by the rotation and translation in the plane (SE(2))
+    that best fits their positions onto ``ref``'s (Umeyama in 2D: a planar trajectory aligned in 3D may
+    come out mirrored)."""
+    mu_e, mu_r = est[:, :2].mean(0), ref[:, :2].mean(0)
+    u, _, vt = np.linalg.svd((est[:, :2] - mu_e).T @ (ref[:, :2] - mu_r))
+    rot = vt.T @ np.diag([1.0, np.sign(np.linalg.det(vt.T @ u.T))]) @ u.T
+    out = np.array(est, dtype=np.float64)
+    out[:, :2] = (est[:, :2] - mu_e) @ rot.T + mu_r
+    out[:, 2] = est[:, 2] + np.arctan2(rot[1, 0], rot[0, 0])
+    return out
+
+
+def planar_relative_error(est: np.ndarray, ref: np.ndarray, travel: float) -> float:
+    """Mean translational relative error over ``travel`` metres (Kuemmerle et al. 2009): for every pose i
+    the first later j with at least ``travel`` of reference path since i; the norm of the difference of
+    j's position in i's frame, estimated minus reference. NaN when the path is shorter than ``travel``."""
+    cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ref[:, :2], axis=0), axis=1))])
+    i = np.arange(len(ref))
+    j = np.searchsorted(cum, cum + travel)
+    i, j = i[j < len(ref)], j[j < len(ref)]
+    if len(i) == 0:
+        return float("nan")
+    local = []
+    for p in (est, ref):
+        c, s = np.cos(p[i, 2]), np.sin(p[i, 2])
+        dx, dy = (p[j, :2] - p[i, :2]).T
+        local.append(np.stack([c * dx + s * dy, -s * dx + c * dy], axis=1))
+    return float(np.mean(np.linalg.norm(local[0] - local[1], axis=1)))

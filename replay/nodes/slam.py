@@ -142,11 +142,11 @@ class SlamNode(Node):
         self.publish("/tf", messages.TF_MESSAGE, messages.tf_message([ts]))
         self.tf_published += 1
 
-    def _publish_map(self, t_ns: int) -> None:
+    def _publish_map(self, t_ns: int, final: bool = False) -> None:
         if not self.slam.keyframes:
             return
         try:
-            grid = self.slam.grid()
+            grid = self.slam.grid(final)
         except GridTooLarge:
             self.skipped[f"{self.p.scan_topic}: a keyframe's pose or ranges too far off (map not updated)"] += 1
             return
@@ -155,7 +155,7 @@ class SlamNode(Node):
 
     def finish(self) -> None:
         self._drain(final=True)
-        self._publish_map(self.now())
+        self._publish_map(self.now(), final=True)
 
     # ------------------------------------------------------------ results
     @property
@@ -185,6 +185,8 @@ class SlamNode(Node):
                 "odometry_only": c.odometry_only,
                 "loop_attempts": c.loop_attempts,
                 "loops": c.loops,
+                "loops_ambiguous": c.loops_ambiguous,
+                "loops_inconsistent": c.loops_inconsistent,
                 "optimizations": self.slam.graph.optimizations,
             },
             "nodes": [

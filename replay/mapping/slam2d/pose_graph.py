@@ -1,8 +1,9 @@
 """The pose graph of keyframes: Pose2 nodes, relative-pose edges, optimised by gtsam.
 
-Edges are gtsam ``BetweenFactorPose2`` factors with diagonal noise (x, y, yaw standard deviations);
-loop closures sit behind a Huber kernel, so one wrong closure bends the graph less than a right one
-pulls it. The first node is anchored by a tight prior. ``optimize`` runs gtsam's Levenberg-Marquardt
+Edges are gtsam ``BetweenFactorPose2`` factors with Gaussian noise (diagonal standard deviations, or a
+full covariance: a scan match pins some directions better than others); loop closures sit behind a
+robust kernel (Huber or Cauchy), so one wrong closure bends the graph less than a right one pulls it,
+and ``remove_last_edge`` takes back a closure the optimised graph disagrees with. The first node is anchored by a tight prior. ``optimize`` runs gtsam's Levenberg-Marquardt
 on the whole graph from the current estimate (deterministic: the same graph gives the same poses).
 """
 
@@ -34,6 +35,7 @@ class PoseGraph:
         self._graph = gtsam.NonlinearFactorGraph()
         self._values = gtsam.Values()
         self.edges: list[Edge] = []
+        self._gaussians: list[gtsam.noiseModel.Base] = []  # per edge, its noise without the robust kernel
         self.optimizations = 0
 
     def __len__(self) -> int:
@@ -53,19 +55,49 @@ class PoseGraph:
         source: int,
         target: int,
         relative,
-        sigmas,
+        noise,
         kind: EdgeKind,
         *,
         response: float = 0.0,
         huber_k: float | None = None,
+        cauchy_k: float | None = None,
     ) -> None:
-        """An edge measuring ``target``'s pose in ``source``'s frame; robust (Huber) when ``huber_k`` is set."""
+        """An edge measuring ``target``'s pose in ``source``'s frame. ``noise``: three standard deviations
+        (x, y, yaw) or a (3, 3) covariance; robust (Huber or Cauchy) when ``huber_k`` or ``cauchy_k`` is set."""
         rel = tuple(float(v) for v in relative)
-        noise: gtsam.noiseModel.Base = gtsam.noiseModel.Diagonal.Sigmas(np.asarray(sigmas, dtype=np.float64))
+        arr = np.asarray(noise, dtype=np.float64)
+        model: gtsam.noiseModel.Base = (
+            gtsam.noiseModel.Gaussian.Covariance(arr) if arr.ndim == 2 else gtsam.noiseModel.Diagonal.Sigmas(arr)
+        )
+        self._gaussians.append(model)
         if huber_k is not None:
-            noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(huber_k), noise)
-        self._graph.add(gtsam.BetweenFactorPose2(source, target, gtsam.Pose2(*rel), noise))
+            model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(huber_k), model)
+        elif cauchy_k is not None:
+            model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(cauchy_k), model)
+        self._graph.add(gtsam.BetweenFactorPose2(source, target, gtsam.Pose2(*rel), model))
         self.edges.append(Edge(source, target, kind, (rel[0], rel[1], rel[2]), float(response)))
+
+    def edge_chi2(self, k: int = -1) -> float:
+        """Squared whitened (Mahalanobis) error of edge ``k`` at the current estimate, before any kernel."""
+        e = self.edges[k]
+        measured = gtsam.Pose2(*e.relative)
+        actual = self._values.atPose2(e.source).between(self._values.atPose2(e.target))
+        err = measured.localCoordinates(actual)
+        return float(np.sum(np.square(self._gaussians[k].whiten(err))))
+
+    def snapshot(self) -> gtsam.Values:
+        """The current estimate, to ``remove_last_edge`` back to."""
+        return gtsam.Values(self._values)
+
+    def remove_last_edge(self, restore: gtsam.Values) -> None:
+        """Drop the newest edge and return the estimate to ``restore`` (a ``snapshot``)."""
+        graph = gtsam.NonlinearFactorGraph()
+        for i in range(self._graph.size() - 1):
+            graph.add(self._graph.at(i))
+        self._graph = graph
+        self.edges.pop()
+        self._gaussians.pop()
+        self._values = restore
 
     def optimize(self) -> None:
         """Levenberg-Marquardt on the whole graph; the result becomes the current estimate."""

@@ -30,6 +30,9 @@ from scipy import ndimage, optimize
 class MatchResult:
     pose: np.ndarray  # (x, y, yaw) of the scan's frame in the reference's frame
     response: float  # mean likelihood of the scan's points at ``pose``, in [0, 1]
+    # (3, 3) mean over the scan's points near the reference of J^T J, J = d(point-to-line distance)/d(x, y,
+    # yaw): how strongly the match pins each direction (a corridor leaves its axis near zero)
+    hessian: np.ndarray
 
 
 def transform_points(pose, points: np.ndarray) -> np.ndarray:
@@ -160,6 +163,11 @@ class ScanMatcher:
         no pose reaches ``min_response`` (or either point set is empty)."""
         if len(reference) == 0 or len(scan_points) == 0:
             return None
+        # reference points no placed scan point can come within 3 sigma of change nothing: left out
+        reach = float(np.hypot(scan_points[:, 0], scan_points[:, 1]).max()) + window.linear * 0.75 + 4 * self.sigma
+        reference = reference[np.hypot(reference[:, 0] - prediction[0], reference[:, 1] - prediction[1]) <= reach]
+        if len(reference) == 0:
+            return None
         grid = self.grid(reference, window)
         best = self._search(grid, scan_points, prediction, window, min_response)
         if best is None:
@@ -168,7 +176,7 @@ class ScanMatcher:
         response = grid.response(pose, scan_points)
         if response < min_response:
             return None
-        return MatchResult(pose, response)
+        return MatchResult(pose, response, self._hessian(grid, scan_points, pose))
 
     def _search(self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow, min_response: float):
         """Branch and bound over (yaw, x, y): the best full-resolution candidate's pose, or None."""
@@ -235,6 +243,34 @@ class ScanMatcher:
                 best_score, best = found[0], found
         return best
 
+    def _hessian(self, grid: LookupGrid, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
+        """Mean J^T J of point-to-line distances over the scan's points within ``3 sigma`` of the reference:
+        J's rows are d(n . p)/d(x, y, yaw) with n the scan's own surface normal at the point (from its
+        neighbours in beam order), so a point on a wall pins only the direction across the wall."""
+        if len(points) < 3:
+            return np.zeros((3, 3))
+        tangent = points[2:] - points[:-2]
+        length = np.hypot(tangent[:, 0], tangent[:, 1])
+        ok = (length > 0) & (length < 6 * self.sigma)  # both neighbours on the same surface
+        xy, d, _ = grid.nearest(pose, points[1:-1], 3 * self.sigma)
+        ok &= d < 3 * self.sigma
+        if not ok.any():
+            return np.zeros((3, 3))
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        t = tangent[ok] / length[ok, None]
+        normal = np.stack([-(s * t[:, 0] + c * t[:, 1]), c * t[:, 0] - s * t[:, 1]], axis=1)  # map frame
+        jac = _distance_jacobian(xy[ok], normal, pose)
+        return (jac.T @ jac) / len(jac)
+
+    @staticmethod
+    def covariance(match: MatchResult, point_sigma: float, floor) -> np.ndarray:
+        """(3, 3) covariance of a match's pose: ``point_sigma^2 / 2`` over its Hessian (in a room whose
+        surfaces face both axes equally a translation's variance is then ``point_sigma^2``), plus the
+        ``floor`` standard deviations (x, y, yaw) squared on the diagonal. A direction the scan does not
+        pin (a corridor's axis) gets a variance far above the floor."""
+        h = match.hessian + np.eye(3) * 1e-9
+        return 0.5 * point_sigma**2 * np.linalg.inv(h) + np.diag(np.square(np.asarray(floor, dtype=np.float64)))
+
     def _refine(self, grid: LookupGrid, points: np.ndarray, start: np.ndarray) -> np.ndarray:
         """Least squares on the distances to the reference from ``start`` (analytic Jacobian: a distance
         changes along the unit vector away from the nearest reference point), kept within two cells."""
@@ -252,8 +288,7 @@ class ScanMatcher:
 
         def jacobian(p: np.ndarray) -> np.ndarray:
             xy, _, away = evaluate(p)
-            arm = xy - p[:2]  # d(xy)/d(yaw) = (-arm_y, arm_x)
-            return np.stack([away[:, 0], away[:, 1], away[:, 1] * arm[:, 0] - away[:, 0] * arm[:, 1]], axis=1)
+            return _distance_jacobian(xy, away, p)
 
         sol = optimize.least_squares(
             residuals,
@@ -270,3 +305,10 @@ class ScanMatcher:
         if np.any(np.abs(pose[:2] - start[:2]) > 2 * self.res) or not np.all(np.isfinite(pose)):
             return np.asarray(start, dtype=np.float64)
         return pose
+
+
+def _distance_jacobian(xy: np.ndarray, away: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """(N, 3) d(distance)/d(x, y, yaw) of points placed at ``xy`` by ``pose``: a distance changes along the
+    unit vector ``away`` from the nearest reference point; d(xy)/d(yaw) = (-arm_y, arm_x)."""
+    arm = xy - pose[:2]
+    return np.stack([away[:, 0], away[:, 1], away[:, 1] * arm[:, 0] - away[:, 0] * arm[:, 1]], axis=1)

@@ -24,7 +24,7 @@ every scan with the final poses (each scan's keyframe pose composed with the odo
 ``grid()`` is the occupancy grid rebuilt from the keyframes' scans at their optimised poses (the
 real-scan rules of ``navlog.replay.mapping.occupancy``), kept up to date incrementally: it is
 rebuilt only when an optimisation has moved a keyframe's scan by more than a map cell since it was
-inserted.
+inserted (while the log plays, at most once per quarter more keyframes: linear work in travel).
 """
 
 from __future__ import annotations
@@ -39,7 +39,9 @@ from navlog.replay.geometry import planar_matrix
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d.params import SlamParams
 from navlog.replay.mapping.slam2d.pose_graph import PoseGraph
-from navlog.replay.mapping.slam2d.scan_matcher import ScanMatcher, SearchWindow, transform_points
+from navlog.replay.mapping.slam2d.scan_matcher import MatchResult, ScanMatcher, SearchWindow, transform_points
+
+ODOMETRY_WINDOW = 20  # matches the odometry's noise is estimated over
 
 
 @dataclass(frozen=True)
@@ -97,12 +99,20 @@ class SlamCounts:
     odometry_only: int = 0  # keyframes placed by odometry (no or weak match)
     loop_attempts: int = 0
     loops: int = 0
+    loops_ambiguous: int = 0  # loop matches refused: the submap leaves a direction unpinned
+    loops_inconsistent: int = 0  # loop edges taken back: the optimised graph disagreed with them
     empty_scans: int = 0  # scans with no valid reading (not keyframes)
     responses: list[float] = field(default_factory=list)  # of accepted loop closures
 
 
 def _pose2(pose) -> gtsam.Pose2:
     return gtsam.Pose2(float(pose[0]), float(pose[1]), float(pose[2]))
+
+
+def _rotation(yaw: float) -> np.ndarray:
+    """3x3 rotation of (x, y, yaw) covariances by ``yaw`` (the yaw axis stays)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def _xyt(p: gtsam.Pose2) -> np.ndarray:
@@ -124,13 +134,13 @@ class Slam2D:
         self._scans: list[tuple[int, int, gtsam.Pose2]] = []  # (stamp, keyframe index, odometry) per scan
         self._grid = OccupancyGrid2D(self.grid_params)
         self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
+        self._grid_drawn = 0  # keyframes when the grid was last redrawn from scratch
         self._since_loop = math.inf  # path length of keyframes since the last loop closure
+        self._innovations: list[np.ndarray] = []  # per match: match - odometry prediction, previous keyframe's frame
+        self._travel: list[float] = [0.0]  # per keyframe: path length from the first, along the estimate
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
         self._link = SearchWindow(
             params.correlation_search_space_dimension, params.coarse_search_angle_offset, params.coarse_angle_resolution
-        )
-        self._loop = SearchWindow(
-            params.loop_search_space_dimension, params.coarse_search_angle_offset, params.coarse_angle_resolution
         )
 
     # ------------------------------------------------------------ the steps
@@ -181,21 +191,53 @@ class Slam2D:
                 self._buffer_points(prediction), points, pose, self._link, self.p.link_match_minimum_response_fine
             )
             prev = self._pose(i - 1)
+            rot = _rotation(prev.theta())
+            odometry_cov = np.diag(np.square(self._odometry_sigmas()))  # in the previous keyframe's frame
             if match is not None:
-                pose = match.pose
+                if float(np.linalg.eigvalsh(match.hessian[:2, :2])[0]) > 0.1:  # a match that pins x and y
+                    innovation = rot.T @ (match.pose - pose)
+                    innovation[2] = math.remainder(float(innovation[2]), 2 * math.pi)
+                    self._innovations.append(innovation)
+                pose, cov = self._fuse(pose, rot @ odometry_cov @ rot.T, match)
                 self.counts.matched += 1
-                sigmas, kind, response = self.p.match_sigmas, "match", match.response
+                noise, kind, response = rot.T @ cov @ rot, "match", match.response
             else:
                 self.counts.odometry_only += 1
-                sigmas, kind, response = self.p.odometry_sigmas, "odometry", 0.0
+                noise, kind, response = odometry_cov, "odometry", 0.0
             self.graph.add_node(pose)
             rel = prev.between(_pose2(pose))
-            self.graph.add_edge(i - 1, i, _xyt(rel), sigmas, kind, response=response)  # type: ignore[arg-type]
+            self.graph.add_edge(i - 1, i, _xyt(rel), noise, kind, response=response)  # type: ignore[arg-type]
+            self._travel.append(self._travel[-1] + float(np.linalg.norm(pose[:2] - _xyt(prev)[:2])))
         res = self.p.correlation_search_space_resolution
         surface = surface_points(points, res / 2, self.p.correlation_search_space_smear_deviation * 1.5)
         self.keyframes.append(Keyframe(i, stamp, odom, points, scan, surface))
         self.counts.keyframes += 1
         return pose
+
+    def _odometry_sigmas(self) -> np.ndarray:
+        """The odometry's noise between keyframes: ``odometry_sigmas`` until ``ODOMETRY_WINDOW`` matches
+        are in, then (``estimate_odometry_noise``) the RMS of the last ``ODOMETRY_WINDOW`` differences between
+        the match and the odometry's prediction, per axis, no less than a quarter of ``odometry_sigmas``."""
+        configured = np.asarray(self.p.odometry_sigmas, dtype=np.float64)
+        if not self.p.estimate_odometry_noise or len(self._innovations) < ODOMETRY_WINDOW:
+            return configured
+        recent = np.array(self._innovations[-ODOMETRY_WINDOW:])
+        return np.maximum(np.sqrt(np.mean(np.square(recent), axis=0)), 0.25 * configured)
+
+    def _fuse(
+        self, prediction: np.ndarray, prediction_cov: np.ndarray, match: MatchResult
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The match weighted against the odometry prediction by their covariances (map frame): the pose
+        and its covariance. Where the scan pins the pose the match wins; along a direction it leaves free
+        (a corridor's axis) the odometry does."""
+        match_cov = self.matcher.covariance(match, self.p.match_sigmas[0], 0.5 * np.asarray(self.p.match_sigmas))
+        info_m, info_o = np.linalg.inv(match_cov), np.linalg.inv(prediction_cov)
+        cov = np.linalg.inv(info_m + info_o)
+        diff = match.pose - prediction
+        diff[2] = math.remainder(float(diff[2]), 2 * math.pi)
+        pose = prediction + cov @ info_m @ diff
+        pose[2] = math.remainder(float(pose[2]), 2 * math.pi)
+        return pose, 0.5 * (cov + cov.T)
 
     def _buffer_points(self, around: gtsam.Pose2) -> np.ndarray:
         """The running buffer's points in the map frame (keyframes within the buffer distance)."""
@@ -223,7 +265,7 @@ class Slam2D:
     def _close_loop(self) -> None:
         new = len(self.keyframes) - 1
         if new > 0 and math.isfinite(self._since_loop):
-            self._since_loop += float(np.linalg.norm(self._pose_xy(new) - self._pose_xy(new - 1)))
+            self._since_loop += self._travel[new] - self._travel[new - 1]
         if self._since_loop < self.p.loop_search_maximum_distance:
             return
         old_end = new - self.p.scan_buffer_size  # keyframes before this are not in the running buffer
@@ -231,10 +273,18 @@ class Slam2D:
             return
         poses = self.graph.poses()
         d = np.linalg.norm(poses[:old_end, :2] - poses[new, :2], axis=1)
-        near = d <= self.p.loop_search_maximum_distance
+        # the search reaches as far as the path's drift since a keyframe may have carried the estimate
+        # off it: the fixed distance plus loop_search_drift_rate of the travel between them, bounded by
+        # the loop search window
+        travel = self._travel[new] - np.asarray(self._travel[:old_end])
+        reach = np.minimum(
+            self.p.loop_search_maximum_distance + self.p.loop_search_drift_rate * travel,
+            self.p.loop_search_space_dimension / 2,
+        )
+        near = d <= reach
         if not near.any():
             return
-        closest = int(np.argmin(np.where(near, d, np.inf)))
+        closest = int(np.argmin(np.where(near, d / reach, np.inf)))
         lo = hi = closest  # the chain: near keyframes contiguous with the closest one
         while lo > 0 and near[lo - 1]:
             lo -= 1
@@ -244,20 +294,43 @@ class Slam2D:
             return
         self.counts.loop_attempts += 1
         chain = list(range(lo, hi + 1))
+        window = SearchWindow(
+            min(self.p.loop_search_space_dimension, 2 * float(reach[closest]) + 2.0),
+            self.p.coarse_search_angle_offset,
+            self.p.coarse_angle_resolution,
+        )
         match = self.matcher.match(
             self._points_of(chain),
             self.keyframes[new].points,
             poses[new],
-            self._loop,
+            window,
             self.p.loop_match_minimum_response_fine,
         )
         if match is None:
             return
-        rel = _pose2(poses[closest]).between(_pose2(match.pose))
+        cov = self.matcher.covariance(match, self.p.loop_sigmas[0], 0.5 * np.asarray(self.p.loop_sigmas))
+        if float(np.linalg.eigvalsh(cov[:2, :2])[-1]) > self.p.loop_match_maximum_variance_coarse:
+            self.counts.loops_ambiguous += 1  # the submap does not pin the scan (a corridor): no closure
+            return
+        anchor = _pose2(poses[closest])
+        rel = anchor.between(_pose2(match.pose))
+        rot = _rotation(anchor.theta())
+        before = self.graph.snapshot()
         self.graph.add_edge(
-            closest, new, _xyt(rel), self.p.loop_sigmas, "loop", response=match.response, huber_k=self.p.loop_huber_k
+            closest,
+            new,
+            _xyt(rel),
+            rot.T @ cov @ rot,
+            "loop",
+            response=match.response,
+            huber_k=self.p.loop_huber_k,
         )
         self.graph.optimize()
+        if self.graph.edge_chi2() > self.p.loop_match_maximum_chi2:
+            # the rest of the graph disagrees with the closure: a false match, taken back
+            self.graph.remove_last_edge(before)
+            self.counts.loops_inconsistent += 1
+            return
         self.counts.loops += 1
         self.counts.responses.append(match.response)
         self._since_loop = 0.0
@@ -286,8 +359,13 @@ class Slam2D:
         ).reshape(-1, 3)
         return [t for t, _, _ in self._scans], out
 
-    def grid(self) -> OccupancyGrid2D:
-        """The occupancy grid of every keyframe's scan at its current pose (see the module docstring)."""
+    def grid(self, final: bool = True) -> OccupancyGrid2D:
+        """The occupancy grid of every keyframe's scan at its current pose (see the module docstring).
+
+        ``final=False`` (the maps published while the log plays) redraws the grid after an optimisation
+        moved its keyframes only once the keyframes added since the last redraw reach a quarter of all
+        (new keyframes are drawn at once): the total work of the redraws stays linear in the travel
+        however many loops close. ``final=True`` redraws whenever a keyframe moved."""
         poses = self.graph.poses()
         done = len(self._grid_poses)
         if done:
@@ -298,8 +376,10 @@ class Slam2D:
             shift = np.hypot(moved[:, 0], moved[:, 1]) + reach * np.abs(
                 np.remainder(moved[:, 2] + np.pi, 2 * np.pi) - np.pi
             )
-            if float(shift.max()) > self.grid_params.resolution:
+            due = final or len(self.keyframes) - self._grid_drawn >= 0.25 * len(self.keyframes)
+            if float(shift.max()) > self.grid_params.resolution and due:
                 self._grid = OccupancyGrid2D(self.grid_params)
+                self._grid_drawn = len(self.keyframes)
                 done = 0
         for k in self.keyframes[done:]:
             x, y, yaw = poses[k.index]

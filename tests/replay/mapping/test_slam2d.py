@@ -161,3 +161,72 @@ def test_scans_without_a_valid_reading_are_counted_not_placed(scene):
     assert slam.counts.empty_scans == 2 and slam.counts.keyframes == 1
     stamps, poses = slam.trajectory()
     assert stamps == [100_000_000, 200_000_000] and np.allclose(poses[1], (0.6, 0.0, 0.0))
+
+
+def corridor_scan(pose) -> LaserScan2D:
+    """A scan in an endless featureless corridor between the walls y = -1 and y = 1 (no end in range)."""
+    x, y, yaw = pose
+    s = np.sin(ANGLES + yaw)
+    with np.errstate(divide="ignore"):
+        r = np.where(s > 0, (1.0 - y) / s, np.where(s < 0, (-1.0 - y) / s, np.inf))
+    r[(r > RANGE_MAX) | (r <= 0)] = np.inf
+    return scan_of(r)
+
+
+def corridor_run(params: SlamParams) -> tuple[Slam2D, np.ndarray, np.ndarray]:
+    """Down the corridor 16 m at y = 0.2, a turn on the spot, and back: the odometry reads every step
+    8 % long and turns 2 % too much (it ends 1.3 m off along the corridor)."""
+    out = [(0.1 * i, 0.2, 0.0) for i in range(160)]
+    out += [(16.0, 0.2, math.pi * k / 20) for k in range(1, 21)]
+    out += [(16.0 - 0.1 * i, 0.2, math.pi) for i in range(1, 150)]
+    truth = np.array(out)
+    odom = drifting_odometry(truth, 0.02)
+    odom[:, 0] = odom[0, 0] + (odom[:, 0] - odom[0, 0]) * 1.08
+    slam = Slam2D(params)
+    for i, o in enumerate(odom):
+        slam.add_scan(i * 100_000_000, o, corridor_scan(truth[i]))
+    return slam, truth, odom
+
+
+def test_a_corridor_match_falls_back_to_odometry_along_its_axis():
+    slam, truth, odom = corridor_run(SlamParams(do_loop_closing=False))
+    _, poses = slam.trajectory()
+    out = slice(0, 160)  # the way down: odometry is 8 % long along x, the walls say nothing about x
+    along = np.abs(poses[out, 0] - truth[out, 0])
+    assert along[-1] <= np.abs(odom[159, 0] - truth[159, 0]) + 0.02  # never worse than the odometry
+    assert np.allclose(poses[out, 0], odom[out, 0], atol=0.05)
+    # across the corridor and in yaw the walls pin the pose: the odometry's turn error is gone
+    assert np.abs(poses[:, 1] - truth[:, 1]).max() < 0.03
+    assert np.abs(np.remainder(poses[:, 2] - truth[:, 2] + np.pi, 2 * np.pi) - np.pi).max() < 0.01
+
+
+def test_an_ambiguous_corridor_loop_is_refused():
+    # on the way back every old keyframe of the corridor matches the scan equally well at any x: a
+    # closure would pin the along-axis drift to whatever the search returned
+    slam, truth, odom = corridor_run(SlamParams())
+    assert slam.counts.loop_attempts >= 1
+    assert slam.counts.loops == 0 and slam.counts.loops_ambiguous >= 1
+    assert [e.kind for e in slam.graph.edges].count("loop") == 0
+
+
+def test_a_loop_the_graph_disagrees_with_is_measured_and_taken_back():
+    from navlog.replay.mapping.slam2d import PoseGraph
+
+    graph = PoseGraph()
+    for i in range(6):  # a straight chain, 1 m steps, well known (2 cm, 0.01 rad)
+        graph.add_node((float(i), 0.0, 0.0))
+        if i:
+            graph.add_edge(i - 1, i, (1.0, 0.0, 0.0), (0.02, 0.02, 0.01), "match")
+    before = graph.snapshot()
+    graph.add_edge(0, 5, (5.03, 0.0, 0.0), (0.05, 0.05, 0.02), "loop", huber_k=1.345)  # agrees within 3 cm
+    graph.optimize()
+    assert graph.edge_chi2() < 1.0
+    graph.remove_last_edge(before)
+    graph.add_edge(0, 5, (4.0, 1.0, 0.0), (0.05, 0.05, 0.02), "loop", huber_k=1.345)  # 1.4 m off: false
+    graph.optimize()
+    assert graph.edge_chi2() > 16.3  # SlamParams.loop_match_maximum_chi2
+    graph.remove_last_edge(before)
+    assert [e.kind for e in graph.edges] == ["match"] * 5
+    assert np.allclose(graph.pose(5), (5.0, 0.0, 0.0))
+    graph.optimize()
+    assert np.allclose(graph.pose(5), (5.0, 0.0, 0.0), atol=1e-6)

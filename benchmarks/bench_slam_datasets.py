@@ -1,0 +1,192 @@
+"""2D SLAM on the classic public datasets (Intel, ACES, Seattle, FHW): global and local accuracy.
+
+Each CARMEN dataset in external-data/carmen/ of the external data folder (``--shared DIR``; default
+``$NAVLOG_SHARED_DIR``, else ``shared`` beside the repository) is replayed in this process with
+``--pipeline mapping --set pose_source=slam`` (default parameters, ``lidar_mapper=off``) and scored
+against ``NAME.reference.tum`` (the dataset's corrected trajectory at the scan stamps), side by side
+with the wheel odometry alone (the bag's odom -> base_footprint at the same stamps):
+
+- **ATE**: RMSE of the positions after the best SE(2) alignment (Umeyama, no scale);
+- **RE 1 m / 5 m**: relative error in the style of Kuemmerle et al. (2009): for every scan i, the
+  first later scan j with at least 1 m (5 m) of reference travel since i; the error is the norm of
+  the difference between the estimated and the reference translation of j in i's frame; the mean;
+- **walls**: the share of the occupied cells of a map drawn from the estimate (aligned onto the
+  reference) that lie within 0.10 m of an occupied cell of the map drawn from the same scans at
+  the reference poses (0.05 m cells, navlog's grid rules);
+- **loops**: loop-closure edges in pose_graph.json; **wall s** / **x real**: the replay's wall time
+  and the log's duration over it (with the load average: the machine is shared); **x (CPU)**: the
+  log's duration over the CPU time of the replay.
+
+Nothing is asserted; the issue's targets are ATE <= 0.10 m, RE 1 m <= 0.03 m and never above
+odometry, walls >= 0.9, >= 10x real time.
+
+    .venv/bin/python benchmarks/bench_slam_datasets.py [NAME ...] [--shared DIR] [--set KEY=VALUE ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage
+
+from navlog.analysis.metrics import align_planar, planar_relative_error
+from navlog.replay.geometry import planar_matrix
+from navlog.replay.io.formats import open_log
+from navlog.replay.io.tum import read_tum
+from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
+from navlog.replay.session import run_replay
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
+from tests.shared_data import default_shared_dir
+
+DATASETS = ["intel", "aces", "seattle", "fhw"]
+WALL_REACH = 0.10  # m
+
+
+def load() -> str:
+    return " ".join(f"{v:.2f}" for v in os.getloadavg())
+
+
+def tum_xyt(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(stamps ns, (n, 3) x y yaw) of a TUM file."""
+    t = read_tum(path)
+    q = t.quaternions
+    yaw = np.arctan2(2 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2))
+    return t.times_ns, np.column_stack([t.positions[:, :2], yaw])
+
+
+def read_bag(bag: Path) -> tuple[dict[int, tuple], dict[int, np.ndarray]]:
+    """Scans by stamp (angles, ranges, range_min, range_max) and the odometry pose at each scan stamp."""
+    scans: dict[int, tuple] = {}
+    odom_t: list[int] = []
+    odom_p: list[np.ndarray] = []
+    with open_log(bag) as reader:
+        for env in reader.messages(["/scan", "/odom"]):
+            m = env.msg
+            stamp = m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec
+            if env.topic == "/scan":
+                r = np.asarray(m.ranges, dtype=np.float64)
+                a = m.angle_min + m.angle_increment * np.arange(len(r))
+                scans[stamp] = (a, r, float(m.range_min), float(m.range_max))
+            else:
+                p, q = m.pose.pose.position, m.pose.pose.orientation
+                yaw = float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2)))
+                odom_t.append(stamp)
+                odom_p.append(np.array([p.x, p.y, yaw]))
+    ts = np.asarray(odom_t)
+    ps = np.asarray(odom_p)
+    odom = {}
+    for stamp in scans:
+        i = int(np.clip(np.searchsorted(ts, stamp), 1, len(ts) - 1))
+        odom[stamp] = ps[i] if abs(ts[i] - stamp) < abs(ts[i - 1] - stamp) else ps[i - 1]
+    return scans, odom
+
+
+def draw(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> OccupancyGrid2D:
+    grid = OccupancyGrid2D(OccupancyParams(resolution=0.05))
+    for t, (x, y, yaw) in zip(stamps.tolist(), poses.tolist(), strict=True):
+        a, r, lo, hi = scans[t]
+        grid.insert_scan(planar_matrix(x, y, yaw), a, r, lo, hi)
+    return grid
+
+
+def occupied_xy(grid: OccupancyGrid2D) -> np.ndarray:
+    iy, ix = np.nonzero(grid.logodds > 0.6)  # p > 0.65: navlog's occupied threshold
+    return grid.origin + (np.column_stack([ix, iy]) + 0.5) * grid.res
+
+
+def wall_agreement(est_grid: OccupancyGrid2D, ref_grid: OccupancyGrid2D) -> float:
+    ref_occ = ref_grid.logodds > 0.6
+    dist = ndimage.distance_transform_edt(~ref_occ) * ref_grid.res
+    pts = occupied_xy(est_grid)
+    if len(pts) == 0:
+        return float("nan")
+    cells = np.floor((pts - ref_grid.origin) / ref_grid.res).astype(int)
+    ny, nx = ref_occ.shape
+    inside = (cells[:, 0] >= 0) & (cells[:, 0] < nx) & (cells[:, 1] >= 0) & (cells[:, 1] < ny)
+    near = np.zeros(len(pts), dtype=bool)
+    near[inside] = dist[cells[inside, 1], cells[inside, 0]] <= WALL_REACH
+    return float(near.mean())
+
+
+def score(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid) -> dict[str, float]:
+    aligned = align_planar(est, ref)
+    ate = float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
+    return {
+        "ate": ate,
+        "re1": planar_relative_error(est, ref, 1.0),
+        "re5": planar_relative_error(est, ref, 5.0),
+        "walls": wall_agreement(draw(aligned, stamps, scans), ref_grid),
+    }
+
+
+def evaluate(name: str, carmen: Path, work: Path, sets: list[str]) -> None:
+    bag = carmen / name
+    ref_t, ref = tum_xyt(carmen / f"{name}.reference.tum")
+    scans, odom_at = read_bag(bag)
+    ref_grid = draw(ref, ref_t, scans)
+    out = work / name
+    before = load()
+    start, cpu = time.perf_counter(), time.process_time()
+    run_replay(
+        bag,
+        "mapping",
+        out,
+        overrides=["pose_source=slam", "lidar_mapper=off", *sets],
+        progress=False,
+        force=True,
+    )
+    wall = time.perf_counter() - start
+    cpu = time.process_time() - cpu
+    est_t, est = tum_xyt(out / "trajectory.tum")
+    where = {t: i for i, t in enumerate(est_t.tolist())}
+    keep = np.array([t in where for t in ref_t.tolist()])
+    ts = ref_t[keep]
+    slam = est[[where[t] for t in ts.tolist()]]
+    odom = np.array([odom_at[t] for t in ts.tolist()])
+    graph = json.loads((out / "pose_graph.json").read_text())
+    loops = sum(e["kind"] == "loop" for e in graph["edges"])
+    duration = (ref_t[-1] - ref_t[0]) / 1e9
+    travel = float(np.sum(np.linalg.norm(np.diff(ref[:, :2], axis=0), axis=1)))
+    for source, est_poses in (("slam", slam), ("odometry", odom)):
+        s = score(est_poses, ref[keep], ts, scans, ref_grid)
+        extra = (
+            f"{loops:>6} {wall:>7.1f} {duration / wall:>8.1f}x {duration / cpu:>8.1f}x"
+            if source == "slam"
+            else f"{'-':>6} {'-':>7} {'-':>9} {'-':>9}"
+        )
+        print(
+            f"{name if source == 'slam' else '':<8} {source:<9} {s['ate']:>7.3f} {s['re1']:>7.3f} {s['re5']:>7.3f}"
+            f" {s['walls']:>6.2f} {extra}",
+            flush=True,
+        )
+    print(f"{'':<8} ({len(ts)}/{len(ref_t)} scans placed, {travel:.0f} m, load {before} -> {load()})", flush=True)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("names", nargs="*", default=DATASETS, help="datasets in external-data/carmen/")
+    ap.add_argument("--shared", type=Path, default=default_shared_dir(), help="the external data folder")
+    ap.add_argument(
+        "--set", action="append", default=[], help="a SLAM parameter override, e.g. slam.do_loop_closing=false"
+    )
+    args = ap.parse_args()
+    carmen = args.shared / "external-data" / "carmen"
+    print(f"machine: {os.cpu_count()} cores, load average {load()}")
+    print(
+        f"{'dataset':<8} {'source':<9} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'loops':>6} {'wall s':>7} {'x real':>9} {'x (CPU)':>9}"
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in args.names:
+            evaluate(name, carmen, Path(tmp), args.set)
+
+
+if __name__ == "__main__":
+    main()

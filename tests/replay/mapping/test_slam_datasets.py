@@ -1,0 +1,53 @@
+"""2D SLAM on real buildings: the classic CARMEN datasets of the external data (real laser scans, real
+wheel odometry), scored against their corrected trajectories (``NAME.reference.tum``).
+
+Thresholds are measured with ``benchmarks/bench_slam_datasets.py`` (default parameters) with margin;
+the odometry figures are the same benchmark's, for the bag's own wheel odometry at the scan stamps.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from navlog.analysis.metrics import align_planar, planar_relative_error
+from navlog.replay.io.tum import read_tum
+from navlog.replay.session import run_replay
+
+pytestmark = pytest.mark.slow
+
+
+def planar(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    t = read_tum(path)
+    q = t.quaternions
+    yaw = np.arctan2(2 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2))
+    return t.times_ns, np.column_stack([t.positions[:, :2], yaw])
+
+
+# name, ATE bound (m), relative error over 1 m bound (m), the odometry's relative error over 1 m,
+# loops at least; measured (bench_slam_datasets.py): seattle ATE 0.058 m, RE 1 m 0.024 m, 20 loops;
+# aces (big loops, long corridors) ATE 0.090 m, RE 1 m 0.048 m, 14 loops
+CASES = [("seattle", 0.07, 0.0245, 0.0250, 12), ("aces", 0.12, 0.055, 0.090, 10)]
+
+
+@pytest.mark.parametrize(("name", "max_ate", "max_re1", "odometry_re1", "min_loops"), CASES)
+def test_slam_on_a_real_building_beats_its_odometry(
+    shared_dir, tmp_path, name, max_ate, max_re1, odometry_re1, min_loops
+):
+    carmen = shared_dir / "external-data" / "carmen"
+    if not (carmen / name).is_dir():
+        pytest.skip(f"{carmen / name}: not in the external data")
+    run_replay(carmen / name, "mapping", tmp_path, overrides=["pose_source=slam", "lidar_mapper=off"], progress=False)
+    ref_t, ref = planar(carmen / f"{name}.reference.tum")
+    est_t, est = planar(tmp_path / "trajectory.tum")
+    assert np.array_equal(est_t, ref_t)  # every scan placed
+    aligned = align_planar(est, ref)
+    ate = float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
+    re1 = planar_relative_error(est, ref, 1.0)
+    assert ate < max_ate, f"ATE {ate:.4f} m"
+    assert re1 < max_re1 < odometry_re1, f"relative error over 1 m {re1:.4f} m"  # never worse than odometry
+    graph = json.loads((tmp_path / "pose_graph.json").read_text())
+    assert sum(e["kind"] == "loop" for e in graph["edges"]) >= min_loops
