@@ -53,20 +53,28 @@ class RecordResult:
     topics: dict[str, tuple[str, int]]  # topic -> (type, count)
     interrupted: bool = False
     metadata: dict[str, str] = field(default_factory=dict)
-    collisions: int = 0  # robot-world contacts (the simulator's collision events)
+    contacts: list[tuple[float, str]] = field(
+        default_factory=list
+    )  # robot-world contacts: (sim time s, the world geom touched), one per contact episode
     navigation: dict | None = None  # a navigate scenario's goal results (the navigation pipeline's report)
     notes: list[str] = field(
         default_factory=list
     )  # what the summary adds: the robot's drive and sensors, what the world ignored
+    expect_contact: bool = False  # the scenario is meant to reach an obstacle: contacts do not fail the run
+
+    @property
+    def collisions(self) -> int:
+        """The number of robot-world contacts (the simulator's ``collision`` events)."""
+        return len(self.contacts)
 
     @property
     def failed(self) -> str | None:
-        """Why a navigation run failed (a collision, a goal not reached), or None."""
-        if self.navigation is None:
-            return None
+        """Why the run failed (a contact the scenario does not expect, a goal not reached), or None."""
         why = []
-        if self.collisions:
+        if self.contacts and not self.expect_contact:
             why.append(f"{self.collisions} collision(s)")
+        if self.navigation is None:
+            return "; ".join(why) or None
         failed = [g["name"] for g in self.navigation.get("goals", []) if g["status"] != "succeeded"]
         if failed:
             why.append(f"goal(s) failed: {', '.join(failed)}")
@@ -291,22 +299,27 @@ def record(
             counts,
             interrupted,
             meta,
-            collisions.count,
+            collisions.contacts,
             report,
             setup.notes() + list(setup.world.notes),
+            setup.scenario.expect_contact,
         )
     finally:
         sim.close()  # the sensor worker ends with the run, however it ends
 
 
 class CollisionCounter(Node):
-    """Counts the simulator's ``collision`` events (robot-world contacts)."""
+    """Collects the simulator's ``collision`` events (robot-world contacts): (sim time s, geom touched)."""
 
     name = "collision_counter"
 
     def __init__(self) -> None:
         super().__init__()
-        self.count = 0
+        self.contacts: list[tuple[float, str]] = []
+
+    @property
+    def count(self) -> int:
+        return len(self.contacts)
 
     def setup(self) -> None:
         from navlog.recorder.sim import EVENTS_TOPIC
@@ -315,7 +328,7 @@ class CollisionCounter(Node):
 
     def _on_event(self, msg, t_ns: int) -> None:
         if getattr(msg, "kind", "") == "collision":
-            self.count += 1
+            self.contacts.append((t_ns / 1e9, str(msg.detail)))
 
 
 def scenario_command_topic(pipeline: Pipeline | None, robot_topic: str = CMD_VEL_TOPIC) -> str:
@@ -371,6 +384,7 @@ def format_summary(res: RecordResult) -> str:
     if rows:
         lines.append(format_table(("topic", "type", "msgs", "rate"), rows, align=("left", "left", "right", "right")))
     lines += res.notes
+    lines.append(format_contacts(res))
     if res.navigation is not None:
         goals = [
             (g["name"], g["status"], g["code"] or "", f"{g['time_s']:.1f} s", g["recoveries"], g["message"])
@@ -386,4 +400,18 @@ def format_summary(res: RecordResult) -> str:
         lines.append(
             f"navigation FAILED: {res.failed}" if res.failed else "navigation: every goal reached, no collision"
         )
+    elif res.failed:
+        lines.append(f"FAILED: {res.failed}")
     return "\n".join(lines)
+
+
+def format_contacts(res: RecordResult) -> str:
+    """The summary's line about robot-world contacts: how many, the first (time and what), what was touched."""
+    if not res.contacts:
+        return "contacts: none" + (" (the scenario expected contact)" if res.expect_contact else "")
+    t0, first = res.contacts[0]
+    touched = sorted({name for _, name in res.contacts})
+    expected = (
+        "expected by the scenario (expect_contact: true)" if res.expect_contact else "not expected by the scenario"
+    )
+    return f"contacts: {res.collisions} ({expected}), first at {t0:.2f} s with {first}; touched: {', '.join(touched)}"
