@@ -165,7 +165,7 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World, folde
     if c0 < reach:
         raise ConfigError(
             f"spawn pose ({scenario.start[0]:.2f}, {scenario.start[1]:.2f}) of scenario '{scenario.name}' is "
-            f"{'inside' if c0 < 0 else f'only {c0:.2f} m from'} {name0} in world '{world.name}' "
+            f"{'inside an obstacle' if c0 < 0 else f'only {c0:.2f} m from an obstacle'} ({name0}) in world '{world.name}' "
             f"(the robot reaches {reach:.2f} m from its centre: {size}); move 'start'"
         )
     if scenario.kind == "navigate":
