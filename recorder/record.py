@@ -26,6 +26,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from navlog.errors import ConfigError
 from navlog.recorder.description import load_robot
 from navlog.recorder.range_sensors import start_range_sensors
@@ -145,11 +147,14 @@ class RecordSetup:
 
 
 def robot_mapping(robot: RobotSpec) -> dict:
-    """The robot's configuration for the metadata's hash (without ``model`` when it has none, as before it
-    existed)."""
+    """The robot's configuration for the metadata's hash (without ``model`` when it has none, and without
+    ``imu.bandwidth`` when it is 0, as before they existed: the logs of robots that use neither keep
+    their bytes)."""
     out = to_mapping(robot)
     if robot.model is None:
         del out["model"]
+    if robot.imu is not None and robot.imu.bandwidth == 0:
+        del out["imu"]["bandwidth"]
     return out
 
 
@@ -259,7 +264,7 @@ def record(
         driver = ScenarioNode(setup.scenario, setup.robot, command_topic=command_topic, navigation_done=done)
         ex = Executor()
         ex.add_node(sim, source=True)
-        collisions = CollisionCounter()
+        collisions = CollisionCounter(setup.world, setup.robot)
         nodes += [driver, collisions]
         nodes += navigation.nodes if navigation is not None else []
         for node in [*nodes, *live_nodes, *(pipeline.nodes if pipeline is not None else [])]:
@@ -309,13 +314,21 @@ def record(
 
 
 class CollisionCounter(Node):
-    """Collects the simulator's ``collision`` events (robot-world contacts): (sim time s, geom touched)."""
+    """Collects the robot's contacts with the world: (sim time s, what it touched), one per contact episode.
+
+    A wheeled robot's are the simulator's ``collision`` events. A legged robot's trunk does not collide
+    (its legs are not simulated: it passes through obstacles), so with ``world`` and ``robot`` given for
+    one, a contact is where its footprint (a circle of the robot's radius around the true pose, from the
+    ground truth) overlaps an obstacle, episodes apart by more than the simulator's contact gap."""
 
     name = "collision_counter"
 
-    def __init__(self) -> None:
+    def __init__(self, world: World | None = None, robot: RobotSpec | None = None) -> None:
         super().__init__()
         self.contacts: list[tuple[float, str]] = []
+        self._world = world
+        self._robot = robot if robot is not None and robot.drive.type == "legged" else None
+        self._poses: list[tuple[int, float, float]] = []  # a legged robot's true (t_ns, x, y)
 
     @property
     def count(self) -> int:
@@ -325,10 +338,34 @@ class CollisionCounter(Node):
         from navlog.recorder.sim import EVENTS_TOPIC
 
         self.subscribe(EVENTS_TOPIC, self._on_event)
+        if self._robot is not None:
+            self.subscribe(self._robot.odom.ground_truth_topic, self._on_pose)
 
     def _on_event(self, msg, t_ns: int) -> None:
         if getattr(msg, "kind", "") == "collision":
             self.contacts.append((t_ns / 1e9, str(msg.detail)))
+
+    def _on_pose(self, msg, t_ns: int) -> None:
+        p = msg.pose.pose.position
+        self._poses.append((t_ns, p.x, p.y))
+
+    def finish(self) -> None:
+        """A legged robot's footprint contacts, from the poses of the whole run (one vectorised check)."""
+        if self._robot is None or self._world is None or not self._poses:
+            return
+        from navlog.recorder.sim import CONTACT_GAP_NS
+        from navlog.recorder.world import clearance, nearest_solid
+
+        poses = np.array(self._poses)
+        touching = np.flatnonzero(clearance(self._world, poses[:, 1:]) < self._robot.radius)
+        last = None
+        for i in touching.tolist():
+            t_ns = int(poses[i, 0])
+            if last is None or t_ns - last > CONTACT_GAP_NS:
+                name, _ = nearest_solid(self._world, (float(poses[i, 1]), float(poses[i, 2])))
+                self.contacts.append((t_ns / 1e9, name))
+            last = t_ns
+        self.contacts.sort()
 
 
 def scenario_command_topic(pipeline: Pipeline | None, robot_topic: str = CMD_VEL_TOPIC) -> str:

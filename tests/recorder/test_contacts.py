@@ -38,16 +38,16 @@ def test_teleop_with_kibot_in_indoor_room_is_refused_for_its_body_corners():
     prepare("indoor_room", "simple_robot", "teleop")  # its 0.5 x 0.4 m body reaches 0.32 m: clear
 
 
-def _into_the_east_wall(expect_contact: bool) -> RecordSetup:
-    """KiBot 1.4 m before the east wall's inner face (x 4.9) at full speed for 5 s, without the
-    pre-flight check (which refuses this path unless the scenario expects contact)."""
+def _into_the_east_wall(expect_contact: bool, robot_name: str = "kibot", x0: float = 3.5) -> RecordSetup:
+    """The robot ``4.9 - x0`` m before the east wall's inner face (x 4.9) at full speed for 5 s, without
+    the pre-flight check (which refuses this path unless the scenario expects contact)."""
     world = load_world("walled_room")
-    robot: RobotSpec = prepare("walled_room", "kibot", "teleop_wall").robot
+    robot: RobotSpec = prepare("walled_room", robot_name, "teleop_wall").robot
     scenario = ScenarioSpec(
         name="into_wall",
         kind="teleop",
-        start=(3.5, 0.0, 0.0),
-        commands=[TimedCommand(5.0, (0.45, 0.0, 0.0))],
+        start=(x0, 0.0, 0.0),
+        commands=[TimedCommand(5.0, (robot.drive.max_vx, 0.0, 0.0))],
         hold=0.5,
         expect_contact=expect_contact,
     )
@@ -65,6 +65,16 @@ def test_an_unexpected_contact_is_in_the_summary_and_fails_the_run(tmp_path):
     summary = format_summary(res)
     assert f"contacts: 1 (not expected by the scenario), first at {t:.2f} s with wall_1/body" in summary
     assert summary.splitlines()[-1] == "FAILED: 1 collision(s)"
+
+
+def test_a_legged_robot_reports_where_its_footprint_overlaps_an_obstacle(tmp_path):
+    # the Go2's trunk does not collide (its legs are not simulated): it used to drive through the wall
+    # with nothing reported; its 0.22 m footprint reaches the wall's face (x 4.9) when its centre is at
+    # x 4.68: 0.28 m from x0 = 4.4 at 0.3 m/s, after 0.25 s of response
+    res = record(_into_the_east_wall(False, "go2", 4.4), tmp_path / "go2.mcap", progress=False, sensor_worker=False)
+    assert [name for _, name in res.contacts] == ["wall_1/body"]
+    assert 1.0 < res.contacts[0][0] < 1.5
+    assert res.failed == "1 collision(s)"
 
 
 def test_an_expected_contact_is_reported_and_passes(tmp_path):
