@@ -448,7 +448,5 @@ def format_contacts(res: RecordResult) -> str:
         return "contacts: none" + (" (the scenario expected contact)" if res.expect_contact else "")
     t0, first = res.contacts[0]
     touched = sorted({name for _, name in res.contacts})
-    expected = (
-        "expected by the scenario (expect_contact: true)" if res.expect_contact else "not expected by the scenario"
-    )
+    expected = "expected: the scenario sets expect_contact" if res.expect_contact else "not expected by the scenario"
     return f"contacts: {res.collisions} ({expected}), first at {t0:.2f} s with {first}; touched: {', '.join(touched)}"

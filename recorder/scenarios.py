@@ -183,13 +183,16 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World, folde
             )
         return
     if c[i] < reach:
-        name, _ = nearest_solid(world, (float(path[i, 0]), float(path[i, 1])))
-        when = f" after {i * PATH_STEP_S:.1f} s of commands" if scenario.kind == "teleop" else ""
+        j = int(np.argmax(c < reach))  # where the path first comes too close
+        name, _ = nearest_solid(world, (float(path[j, 0]), float(path[j, 1])))
+        when = f" after {j * PATH_STEP_S:.1f} s of commands" if scenario.kind == "teleop" else ""
+        closest = "inside an obstacle" if c[i] < 0 else f"{c[i]:.2f} m from an obstacle"
         raise ConfigError(
-            f"scenario '{scenario.name}' would collide with {name} in world '{world.name}': its path passes "
-            f"({path[i, 0]:.2f}, {path[i, 1]:.2f}){when}, {c[i]:.2f} m from it, and the robot reaches "
-            f"{reach:.2f} m from its centre ({size}); change the scenario's start or commands for this world (a "
-            "scenario meant to reach an obstacle sets expect_contact: true)"
+            f"scenario '{scenario.name}' would collide with {name} in world '{world.name}': its path comes within "
+            f"the robot's reach of it at ({path[j, 0]:.2f}, {path[j, 1]:.2f}){when} and passes "
+            f"({path[i, 0]:.2f}, {path[i, 1]:.2f}), {closest} (the robot reaches {reach:.2f} m from its centre: "
+            f"{size}); change the scenario's start or commands for this world (a scenario meant to reach an "
+            "obstacle sets expect_contact: true)"
         )
 
 

@@ -25,15 +25,16 @@ def test_teleop_with_kibot_in_walled_room_names_the_obstacle_it_would_hit():
     with pytest.raises(ConfigError) as exc:
         prepare("walled_room", "kibot", "teleop")
     text = str(exc.value)
-    assert "would collide with obstacle_1" in text
-    assert "(1.45, 1.79) after 14.0 s of commands, 0.09 m from it" in text
+    assert "would collide with obstacle_1/body" in text
+    assert "within the robot's reach of it at (1.19, 1.64) after 12.5 s of commands" in text
+    assert "passes (1.45, 1.79), 0.09 m from an obstacle" in text
     assert "reaches 0.39 m from its centre" in text and "expect_contact: true" in text
 
 
 def test_teleop_with_kibot_in_indoor_room_is_refused_for_its_body_corners():
     # 0.38 m from wall_block_1 is clear of the 0.34 m radius, not of the body's 0.39 m corners (the run
     # used to pass this check and touch wall_block_1 at 13.16 s)
-    with pytest.raises(ConfigError, match=r"would collide with wall_block_1/right .* 0\.38 m from it"):
+    with pytest.raises(ConfigError, match=r"would collide with wall_block_1/right .* 0\.38 m from an obstacle"):
         prepare("indoor_room", "kibot", "teleop")
     prepare("indoor_room", "simple_robot", "teleop")  # its 0.5 x 0.4 m body reaches 0.32 m: clear
 
@@ -80,7 +81,7 @@ def test_a_legged_robot_reports_where_its_footprint_overlaps_an_obstacle(tmp_pat
 def test_an_expected_contact_is_reported_and_passes(tmp_path):
     res = record(_into_the_east_wall(True), tmp_path / "hit.mcap", progress=False, sensor_worker=False)
     assert res.collisions == 1 and res.failed is None
-    assert "contacts: 1 (expected by the scenario (expect_contact: true))" in format_summary(res)
+    assert "contacts: 1 (expected: the scenario sets expect_contact), first at" in format_summary(res)
 
 
 def test_contact_line_lists_every_object_touched_once():
