@@ -65,7 +65,9 @@ class Plans:
         ctx.rec.send_columns(
             ent,
             indexes=[ctx.time_column([i[0] for i in items])],
-            columns=rr.LineStrips3D.columns(strips=[i[2][:, :3] + np.float32([0, 0, PATH_LIFT_M]) for i in items]),
+            columns=rr.LineStrips3D.columns(
+                strips=[i[2][:, :3] + np.array([0, 0, PATH_LIFT_M], dtype=np.float32) for i in items]
+            ),
         )
         ctx.rec.log(ent, rr.LineStrips3D.from_fields(colors=[color], radii=radius), static=True)
         if len({i[1] for i in items}) > 1:
