@@ -26,6 +26,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol
 
+import numpy as np
+
 from navlog.errors import ConfigError
 from navlog.recorder.description import load_robot
 from navlog.recorder.range_sensors import start_range_sensors
@@ -61,21 +63,29 @@ class RecordResult:
     topics: dict[str, tuple[str, int]]  # topic -> (type, count)
     interrupted: bool = False
     metadata: dict[str, str] = field(default_factory=dict)
-    collisions: int = 0  # robot-world contacts (the simulator's collision events)
+    contacts: list[tuple[float, str]] = field(
+        default_factory=list
+    )  # robot-world contacts: (sim time s, the world geom touched), one per contact episode
     navigation: dict | None = None  # a navigate scenario's goal results (the navigation pipeline's report)
     notes: list[str] = field(
         default_factory=list
     )  # what the summary adds: the robot's drive and sensors, what the world ignored
     localization: dict | None = None  # AMCL's error against the ground truth (--localization amcl)
+    expect_contact: bool = False  # the scenario is meant to reach an obstacle: contacts do not fail the run
+
+    @property
+    def collisions(self) -> int:
+        """The number of robot-world contacts (the simulator's ``collision`` events)."""
+        return len(self.contacts)
 
     @property
     def failed(self) -> str | None:
-        """Why a navigation run failed (a collision, a goal not reached), or None."""
-        if self.navigation is None:
-            return None
+        """Why the run failed (a contact the scenario does not expect, a goal not reached), or None."""
         why = []
-        if self.collisions:
+        if self.contacts and not self.expect_contact:
             why.append(f"{self.collisions} collision(s)")
+        if self.navigation is None:
+            return "; ".join(why) or None
         failed = [g["name"] for g in self.navigation.get("goals", []) if g["status"] != "succeeded"]
         if failed:
             why.append(f"goal(s) failed: {', '.join(failed)}")
@@ -146,11 +156,14 @@ class RecordSetup:
 
 
 def robot_mapping(robot: RobotSpec) -> dict:
-    """The robot's configuration for the metadata's hash (without ``model`` when it has none, as before it
-    existed)."""
+    """The robot's configuration for the metadata's hash (without ``model`` when it has none, and without
+    ``imu.bandwidth`` when it is 0, as before they existed: the logs of robots that use neither keep
+    their bytes)."""
     out = to_mapping(robot)
     if robot.model is None:
         del out["model"]
+    if robot.imu is not None and robot.imu.bandwidth == 0:
+        del out["imu"]["bandwidth"]
     return out
 
 
@@ -286,7 +299,7 @@ def _record(
         driver = ScenarioNode(setup.scenario, setup.robot, command_topic=command_topic, navigation_done=done)
         ex = Executor()
         ex.add_node(sim, source=True)
-        collisions = CollisionCounter()
+        collisions = CollisionCounter(setup.world, setup.robot)
         nodes += [driver, collisions]
         nodes += navigation.nodes if navigation is not None else []
         for node in [*nodes, *live_nodes, *(pipeline.nodes if pipeline is not None else [])]:
@@ -325,32 +338,69 @@ def _record(
             counts,
             interrupted,
             meta,
-            collisions.count,
+            collisions.contacts,
             report,
             setup.notes() + list(setup.world.notes),
             amcl_error.report() if amcl_error is not None else None,
+            setup.scenario.expect_contact,
         )
     finally:
         sim.close()  # the sensor worker ends with the run, however it ends
 
 
 class CollisionCounter(Node):
-    """Counts the simulator's ``collision`` events (robot-world contacts)."""
+    """Collects the robot's contacts with the world: (sim time s, what it touched), one per contact episode.
+
+    A wheeled robot's are the simulator's ``collision`` events. A legged robot's trunk does not collide
+    (its legs are not simulated: it passes through obstacles), so with ``world`` and ``robot`` given for
+    one, a contact is where its footprint (a circle of the robot's radius around the true pose, from the
+    ground truth) overlaps an obstacle, episodes apart by more than the simulator's contact gap."""
 
     name = "collision_counter"
 
-    def __init__(self) -> None:
+    def __init__(self, world: World | None = None, robot: RobotSpec | None = None) -> None:
         super().__init__()
-        self.count = 0
+        self.contacts: list[tuple[float, str]] = []
+        self._world = world
+        self._robot = robot if robot is not None and robot.drive.type == "legged" else None
+        self._poses: list[tuple[int, float, float]] = []  # a legged robot's true (t_ns, x, y)
+
+    @property
+    def count(self) -> int:
+        return len(self.contacts)
 
     def setup(self) -> None:
         from navlog.recorder.sim import EVENTS_TOPIC
 
         self.subscribe(EVENTS_TOPIC, self._on_event)
+        if self._robot is not None:
+            self.subscribe(self._robot.odom.ground_truth_topic, self._on_pose)
 
     def _on_event(self, msg, t_ns: int) -> None:
         if getattr(msg, "kind", "") == "collision":
-            self.count += 1
+            self.contacts.append((t_ns / 1e9, str(msg.detail)))
+
+    def _on_pose(self, msg, t_ns: int) -> None:
+        p = msg.pose.pose.position
+        self._poses.append((t_ns, p.x, p.y))
+
+    def finish(self) -> None:
+        """A legged robot's footprint contacts, from the poses of the whole run (one vectorised check)."""
+        if self._robot is None or self._world is None or not self._poses:
+            return
+        from navlog.recorder.sim import CONTACT_GAP_NS
+        from navlog.recorder.world import clearance, nearest_solid
+
+        poses = np.array(self._poses)
+        touching = np.flatnonzero(clearance(self._world, poses[:, 1:]) < self._robot.radius)
+        last = None
+        for i in touching.tolist():
+            t_ns = int(poses[i, 0])
+            if last is None or t_ns - last > CONTACT_GAP_NS:
+                name, _ = nearest_solid(self._world, (float(poses[i, 1]), float(poses[i, 2])))
+                self.contacts.append((t_ns / 1e9, name))
+            last = t_ns
+        self.contacts.sort()
 
 
 def scenario_command_topic(pipeline: Pipeline | None, robot_topic: str = CMD_VEL_TOPIC) -> str:
@@ -408,6 +458,7 @@ def format_summary(res: RecordResult) -> str:
     lines += res.notes
     if res.localization is not None:
         lines.append(format_localization(res.localization))
+    lines.append(format_contacts(res))
     if res.navigation is not None:
         goals = [
             (g["name"], g["status"], g["code"] or "", f"{g['time_s']:.1f} s", g["recoveries"], g["message"])
@@ -423,6 +474,8 @@ def format_summary(res: RecordResult) -> str:
         lines.append(
             f"navigation FAILED: {res.failed}" if res.failed else "navigation: every goal reached, no collision"
         )
+    elif res.failed:
+        lines.append(f"FAILED: {res.failed}")
     return "\n".join(lines)
 
 
@@ -435,3 +488,13 @@ def format_localization(report: dict) -> str:
         f"RMS {report['rms_m']:.3f} m, max {report['max_m']:.3f} m, final {report['final_m']:.3f} m; "
         f"yaw error mean {report['yaw_mean_deg']:.2f} deg, max {report['yaw_max_deg']:.2f} deg"
     )
+
+
+def format_contacts(res: RecordResult) -> str:
+    """The summary's line about robot-world contacts: how many, the first (time and what), what was touched."""
+    if not res.contacts:
+        return "contacts: none" + (" (the scenario expected contact)" if res.expect_contact else "")
+    t0, first = res.contacts[0]
+    touched = sorted({name for _, name in res.contacts})
+    expected = "expected: the scenario sets expect_contact" if res.expect_contact else "not expected by the scenario"
+    return f"contacts: {res.collisions} ({expected}), first at {t0:.2f} s with {first}; touched: {', '.join(touched)}"

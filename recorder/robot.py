@@ -85,6 +85,14 @@ class ImuConfig:
     gyro_bias: float = 0.001  # rad/s, constant per run, drawn from the seed
     accel_bias: float = 0.01  # m/s^2
     orientation_noise: float = 0.001  # rad
+    # Hz: the IMU's low-pass filter, as a real IMU's digital filter and driver give (e.g. 20 Hz): rates and
+    # accelerations averaged over each physics tick, then filtered (first order); 0: the physics'
+    # instantaneous values (a contact resolved in one physics step is then a spike of several g)
+    bandwidth: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.bandwidth <= 1000.0:
+            raise ValueError("imu.bandwidth must be between 0 (no filter) and 1000 Hz")
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,11 @@
   grown by ``map_margin`` on /map at t = 0, as a map_server would (the Go2 setup's fixed map).
 
 Both are checked before anything is simulated: the start pose and the whole intended path must stay
-at least the robot's radius away from every obstacle (``check_scenario``). A scenario made to test
+at least the robot's reach away from every obstacle (``check_scenario``): the larger of its Nav2 radius
+and its body's half-diagonal, since a box body's corners reach beyond the radius (KiBot: radius
+0.34 m, a 0.6 x 0.5 m body reaching 0.39 m). The check is of the intended path; the simulated robot
+lags its commands and slips, so a path that passes close can still touch: the recorder reports every
+contact and fails the run unless the scenario expects contact. A scenario made to test
 what stops a robot before an obstacle (``teleop_wall``) opts in with ``expect_contact: true``: its
 path must then reach an obstacle, and only its start pose must be clear.
 
@@ -30,7 +34,7 @@ import numpy as np
 
 from navlog.errors import ConfigError
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec
-from navlog.recorder.world import World, clearance
+from navlog.recorder.world import World, clearance, nearest_solid
 from navlog.replay import messages
 from navlog.replay.config import load_config, named_config
 from navlog.replay.geometry import rotate_planar, wrap_angle, yaw_from_quat
@@ -145,6 +149,9 @@ def scenario_map(scenario: ScenarioSpec) -> Path | None:
     return None if scenario.map in MAP_KINDS else Path(scenario.map)
 
 
+PATH_STEP_S = 0.05  # a teleop path's time step (s) in the clearance check
+
+
 def intended_path(scenario: ScenarioSpec, robot: RobotSpec, step: float = 0.05) -> np.ndarray:
     """Points (N, 2) along the path the scenario means to drive, for the clearance check."""
     if scenario.kind == "tour":
@@ -157,7 +164,7 @@ def intended_path(scenario: ScenarioSpec, robot: RobotSpec, step: float = 0.05) 
     x, y, th = scenario.start
     d = robot.drive
     out = [(x, y)]
-    dt = 0.05
+    dt = PATH_STEP_S
     for c in scenario.commands:
         vx, vy, wz = np.clip(c.cmd, [-d.max_vx, -d.max_vy, -d.max_wz], [d.max_vx, d.max_vy, d.max_wz])
         for _ in range(int(round(c.duration / dt))):
@@ -190,13 +197,15 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World, folde
             f"scenario '{scenario.name}' is made for robot '{scenario.robot}', not '{robot.name}'; "
             f"use --robot {scenario.robot} or a scenario made for {robot.name}"
         )
-    start = np.array([scenario.start[:2]])
-    c0 = float(clearance(world, start)[0])
-    if c0 < robot.radius:
+    reach = robot_reach(robot)
+    size = f"robot radius {robot.radius} m, body {robot.body.size[0]:.2f} x {robot.body.size[1]:.2f} m"
+    start = (scenario.start[0], scenario.start[1])
+    name0, c0 = nearest_solid(world, start)
+    if c0 < reach:
         raise ConfigError(
             f"spawn pose ({scenario.start[0]:.2f}, {scenario.start[1]:.2f}) of scenario '{scenario.name}' is "
-            f"{'inside an obstacle' if c0 < 0 else f'only {c0:.2f} m from an obstacle'} in world '{world.name}' "
-            f"(robot radius {robot.radius} m); move 'start'"
+            f"{'inside an obstacle' if c0 < 0 else f'only {c0:.2f} m from an obstacle'} ({name0}) in world '{world.name}' "
+            f"(the robot reaches {reach:.2f} m from its centre: {size}); move 'start'"
         )
     if scenario.kind == "navigate":
         check_goals(scenario, robot, world)
@@ -205,18 +214,31 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World, folde
     c = clearance(world, path)
     i = int(np.argmin(c))
     if scenario.expect_contact:
-        if c[i] >= robot.radius:
+        if c[i] >= reach:
             raise ConfigError(
                 f"scenario '{scenario.name}' sets expect_contact: true, but its path stays {c[i]:.2f} m from every "
-                f"obstacle of world '{world.name}' (robot radius {robot.radius} m); remove expect_contact"
+                f"obstacle of world '{world.name}' (the robot reaches {reach:.2f} m from its centre: {size}); "
+                "remove expect_contact"
             )
         return
-    if c[i] < robot.radius:
+    if c[i] < reach:
+        j = int(np.argmax(c < reach))  # where the path first comes too close
+        name, _ = nearest_solid(world, (float(path[j, 0]), float(path[j, 1])))
+        when = f" after {j * PATH_STEP_S:.1f} s of commands" if scenario.kind == "teleop" else ""
+        closest = "inside an obstacle" if c[i] < 0 else f"{c[i]:.2f} m from an obstacle"
         raise ConfigError(
-            f"scenario '{scenario.name}' would collide: its path passes ({path[i, 0]:.2f}, {path[i, 1]:.2f}), "
-            f"{c[i]:.2f} m from an obstacle of world '{world.name}' (robot radius {robot.radius} m); "
-            "a scenario meant to reach an obstacle sets expect_contact: true"
+            f"scenario '{scenario.name}' would collide with {name} in world '{world.name}': its path comes within "
+            f"the robot's reach of it at ({path[j, 0]:.2f}, {path[j, 1]:.2f}){when} and passes "
+            f"({path[i, 0]:.2f}, {path[i, 1]:.2f}), {closest} (the robot reaches {reach:.2f} m from its centre: "
+            f"{size}); change the scenario's start or commands for this world (a scenario meant to reach an "
+            "obstacle sets expect_contact: true)"
         )
+
+
+def robot_reach(robot: RobotSpec) -> float:
+    """How far the robot reaches from its centre, seen from above: the larger of its Nav2 radius and its
+    body's half-diagonal (a box body's corners reach beyond an inscribed radius)."""
+    return max(robot.radius, math.hypot(robot.body.size[0], robot.body.size[1]) / 2)
 
 
 def navigation_goals(scenario: ScenarioSpec) -> list[tuple[str, tuple[float, float, float]]]:

@@ -28,12 +28,18 @@ message to the sinks in the order published, holding those behind a place until 
 the file does not depend on when a result came: it is the same with or without the worker, however
 fast it was.
 
+IMU: MuJoCo's gyro and accelerometer at the IMU site, instantaneous, or, with ``imu.bandwidth`` set,
+averaged over the tick's physics steps and low-passed (``ImuLowPass``), as a real IMU's filter gives
+them: a diff drive's caster touching the floor is resolved in one physics step, a spike of several g raw.
+
 Odometry model (documented in the README):
 - legged: the true body-frame velocity, scaled by ``1 + linear_scale_error``, plus ``yaw_rate_bias``
   and white noise, integrated at the odometry rate: it drifts like CHAMP's leg odometry.
 - diff_drive: wheel joint speeds times the nominal wheel radius (the true radius differs by
   ``wheel_radius_error``), integrated: wheel slip and the radius error make it drift.
 - ``use_ground_truth_odom``: /odom relays the true pose instead (as the Go2 setup does).
+With no footprint frame (``frames.base_footprint: ""``), ``odom -> base`` carries the odometry's x, y
+and yaw with the true height and tilt, on /odom and /tf alike (one pose for one edge).
 ``map -> odom`` is published as the correction that makes ``map -> base_footprint`` the true pose
 (a perfect localiser); with ground-truth odometry it stays the identity. With ``localization="none"``
 it is not published at all, as on a real robot with no localiser running: /tf then holds only
@@ -233,6 +239,13 @@ class SimNode(Node):
             for name in ("imu_gyro", "imu_accel")
         )
         self._imu_bias = (self._gyro_bias.tolist(), self._accel_bias.tolist())
+        # the IMU's low-pass filter (ImuConfig.bandwidth): gyro and accelerometer (6 values) averaged over the
+        # physics steps of each tick, then filtered once a tick; None: instantaneous values
+        self._imu_lpf: ImuLowPass | None = None
+        if robot.imu is not None and robot.imu.bandwidth > 0:
+            g_adr, a_adr = self._imu_adr
+            self._imu_lpf = ImuLowPass(robot.imu.bandwidth, TICK_NS / 1e9, g_adr, a_adr)
+            self._imu_lpf.start(self.data.sensordata)
         self._imu_rot = np.zeros(9)  # orientation noise as a matrix, overwritten for every sample
         self._imu_frame = robot.frame(robot.imu.frame) if robot.imu else ""
         self._imu_types = tuple(
@@ -360,8 +373,13 @@ class SimNode(Node):
     def _tick(self, t_ns: int) -> None:
         if t_ns > 0:
             self._drive(t_ns)
+            lpf = self._imu_lpf
             for _ in range(self.substeps):
                 mujoco.mj_step(self.model, self.data)
+                if lpf is not None:
+                    lpf.add(self.data.sensordata)
+            if lpf is not None:
+                lpf.tick()
             mujoco.mj_kinematics(self.model, self.data)
             self._publish_contacts(t_ns)
         else:
@@ -500,35 +518,40 @@ class SimNode(Node):
             self._odom_twist = (mx, my, mw)
         ox, oy, oth = self._odom
         tvx, tvy, tw = self._odom_twist
-        child = names["footprint"] or names["base"]
         q_odom = quat_from_yaw(oth)
-        self._publish_odometry_msg(
-            o.topic, t_ns, names["odom"], child, (ox, oy, 0.0), q_odom, (tvx, tvy, 0.0), (0.0, 0.0, tw)
-        )
-        # TF: map -> odom (correction), odom -> footprint (odometry), footprint -> base (height, tilt)
         t_map_fp = planar_matrix(bx, by, yaw)
         t_odom_fp = planar_matrix(ox, oy, oth)
+        # the pose /odom and /tf give the odometry's edge: odom -> footprint (planar), or, with no footprint
+        # frame, odom -> base with the true height and tilt (one pose on both, as a ROS odometry node gives)
+        if names["footprint"]:
+            child, odom_xyz, odom_q = names["footprint"], (ox, oy, 0.0), q_odom
+        else:
+            t_odom_base = t_odom_fp @ np.linalg.inv(t_map_fp) @ base
+            child, odom_xyz, odom_q = names["base"], t_odom_base[:3, 3].tolist(), mat_to_quat(t_odom_base[:3, :3])
+        self._publish_odometry_msg(
+            o.topic, t_ns, names["odom"], child, odom_xyz, odom_q, (tvx, tvy, 0.0), (0.0, 0.0, tw)
+        )
+        # TF: map -> odom (correction), odom -> footprint (odometry), footprint -> base (height, tilt)
         t_map_odom = t_map_fp @ np.linalg.inv(t_odom_fp)
         tfs = []
         if self.options.localization == "perfect":
             tfs.append((names["map"], names["odom"], t_map_odom[:3, 3].tolist(), mat_to_quat(t_map_odom[:3, :3])))
+        tfs.append((names["odom"], child, odom_xyz, odom_q))
         if names["footprint"]:
-            tfs.append((names["odom"], names["footprint"], (ox, oy, 0.0), q_odom))
             t_fp_base = np.linalg.inv(t_map_fp) @ base
             tfs.append((names["footprint"], names["base"], t_fp_base[:3, 3].tolist(), mat_to_quat(t_fp_base[:3, :3])))
-        else:
-            # no footprint frame: odom -> base carries the odometry pose with the true height and tilt
-            t_odom_base = t_odom_fp @ np.linalg.inv(t_map_fp) @ base
-            tfs.append((names["odom"], names["base"], t_odom_base[:3, 3].tolist(), mat_to_quat(t_odom_base[:3, :3])))
         self._publish_tf(t_ns, tfs)
 
     def _publish_imu(self, t_ns: int, base: np.ndarray) -> None:
         cfg = self.robot.imu
         assert cfg is not None  # scheduled only for a configured sensor
-        sd = self.data.sensordata.tolist()
-        g, a = self._imu_adr
-        gx, gy, gz = sd[g : g + 3]
-        ax, ay, az = sd[a : a + 3]
+        if self._imu_lpf is not None:
+            gx, gy, gz, ax, ay, az = self._imu_lpf.value
+        else:
+            sd = self.data.sensordata.tolist()
+            g, a = self._imu_adr
+            gx, gy, gz = sd[g : g + 3]
+            ax, ay, az = sd[a : a + 3]
         if self.options.noise:
             row = self._imu_noise.next()
             n = row.tolist()
@@ -625,6 +648,38 @@ class SimNode(Node):
         """End the sensor worker, if any (``finish`` does; call it when a run ends otherwise)."""
         if self._ranges is not None:
             self._ranges.close()
+
+
+class ImuLowPass:
+    """A real IMU's output filter: the gyro and accelerometer (MuJoCo's values at every physics step)
+    averaged over each tick, the anti-aliasing of a sensor that integrates between samples, then a
+    first-order low-pass at ``bandwidth_hz`` once a tick (an IMU's digital low-pass, as drivers set it)."""
+
+    def __init__(self, bandwidth_hz: float, tick_s: float, gyro_adr: int, accel_adr: int) -> None:
+        self.alpha = 1.0 - math.exp(-2.0 * math.pi * bandwidth_hz * tick_s)
+        self._index = np.r_[gyro_adr : gyro_adr + 3, accel_adr : accel_adr + 3]
+        self._sum = np.zeros(6)
+        self._n = 0
+        self._state = np.zeros(6)
+        self.value: tuple[float, ...] = (0.0,) * 6
+
+    def start(self, sensordata: np.ndarray) -> None:
+        """The filter at rest on the sensors' first values (no start-up transient)."""
+        self._state = sensordata[self._index].astype(np.float64)
+        self.value = tuple(self._state.tolist())
+
+    def add(self, sensordata: np.ndarray) -> None:
+        """One physics step's values."""
+        self._sum += sensordata[self._index]
+        self._n += 1
+
+    def tick(self) -> None:
+        """The tick's mean into the filter."""
+        mean = self._sum / self._n
+        self._state = self._state + self.alpha * (mean - self._state)
+        self.value = tuple(self._state.tolist())
+        self._sum[:] = 0.0
+        self._n = 0
 
 
 JOINT_STATE = "sensor_msgs/msg/JointState"

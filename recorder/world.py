@@ -227,6 +227,18 @@ def clearance(world: World, xy: np.ndarray, z_min: float = 0.0, z_max: float = 2
     return best
 
 
+def nearest_solid(world: World, xy: tuple[float, float], z_min: float = 0.0, z_max: float = 2.0) -> tuple[str, float]:
+    """The name of the solid nearest to point ``xy`` (as ``clearance`` measures) and its distance (m);
+    ("", inf) in a world without solids."""
+    pts = np.array([xy], dtype=np.float64)
+    best = ("", math.inf)
+    for s in world.solids:
+        dist = solid_distance(s, pts, z_min, z_max)
+        if dist is not None and float(dist[0]) < best[1]:
+            best = (s.name, float(dist[0]))
+    return best
+
+
 def solid_distance(s: Solid, pts: np.ndarray, z_min: float, z_max: float) -> np.ndarray | None:
     """Horizontal distance (m) from each point (n, 2) to solid ``s`` (negative inside its footprint),
     or None when ``s`` does not reach into heights [z_min, z_max]."""

@@ -73,11 +73,19 @@ _QOS = """- history: 3
 QOS_VOLATILE = _QOS.format(durability=2)
 QOS_TRANSIENT_LOCAL = _QOS.format(durability=1)
 LATCHED_TOPICS = ("/tf_static", "/map")
+# Nav2's costmap publishers (Costmap2DPublisher: ``costmap``, ``costmap_raw``, ``costmap_updates``) offer
+# QoS(1).transient_local().reliable(), as map_server does for /map: RViz's Nav2 view subscribes so
+LATCHED_SUFFIXES = ("/costmap", "/costmap_raw", "/costmap_updates")
+
+
+def is_latched(topic: str) -> bool:
+    """True for a topic its ROS 2 publisher offers transient-local: /tf_static, /map, Nav2's costmaps."""
+    return topic in LATCHED_TOPICS or topic.endswith(LATCHED_SUFFIXES)
 
 
 def qos_for(topic: str) -> str:
-    """Offered QoS YAML for a topic: transient-local for latched topics, volatile otherwise."""
-    return QOS_TRANSIENT_LOCAL if topic in LATCHED_TOPICS else QOS_VOLATILE
+    """Offered QoS YAML for a topic: transient-local for latched topics (``is_latched``), volatile otherwise."""
+    return QOS_TRANSIENT_LOCAL if is_latched(topic) else QOS_VOLATILE
 
 
 # The ROS 2 (Humble) definitions of the types navlog writes and reads and of the types they use, as

@@ -360,5 +360,6 @@ def test_the_view_command_spawns_through_the_localhost_viewer(monkeypatch, teleo
         raise NavlogError("no display in the test")
 
     monkeypatch.setattr(log_view, "spawn_viewer", spawn)
+    monkeypatch.setenv("DISPLAY", ":99")  # past the display check (--spawn refuses at once without one)
     assert main(["view", str(teleop_log), "--spawn"]) == 2
     assert seen == ["127.0.0.1"] and "no display in the test" in capsys.readouterr().err

@@ -2,11 +2,13 @@
 
 ``export_rosbag2`` copies every selected message's CDR bytes unchanged into a rosbag2 folder written
 with ``rosbags.rosbag2.Writer``: metadata version 8 for Humble, 9 for Jazzy, transient-local QoS for
-``/tf_static`` and ``/map``, every other topic with the QoS it was recorded with, receive times kept.
+``/tf_static``, ``/map`` and Nav2's costmaps (``*/costmap``, ``*/costmap_raw``, ``*/costmap_updates``,
+as Nav2 publishes them, even from a log that recorded them volatile), every other topic with the QoS it
+was recorded with, receive times kept.
 
 A window (``start_s``) keeps what a subscriber joining at its start would still receive: the
 transient-local topics' messages published before it (``/tf_static``: the latest transform of every
-child frame; ``/map`` and any topic recorded transient-local: the latest message), written at the
+child frame; ``/map``, the costmaps and any topic recorded transient-local: the latest message), written at the
 window's start, so that a trimmed bag still has its static transforms and its map.
 
 The folder is written inside a hidden temporary folder next to the output and moved into place only
@@ -90,7 +92,7 @@ def _transient_local(topic: str, source_qos: str) -> bool:
     """A latched topic: /tf_static, /map, or one recorded with transient-local durability."""
     from rosbags.interfaces import QosDurability
 
-    return topic in messages.LATCHED_TOPICS or any(
+    return messages.is_latched(topic) or any(
         q.durability == QosDurability.TRANSIENT_LOCAL for q in _recorded_qos(source_qos)
     )
 
@@ -140,7 +142,7 @@ def _qos_profiles(topic: str, source_qos: str, distro: str) -> list:
         infinite,
         False,
     )
-    if topic in messages.LATCHED_TOPICS:
+    if messages.is_latched(topic):
         return [default._replace(depth=1, durability=QosDurability.TRANSIENT_LOCAL)]
     recorded = _recorded_qos(source_qos)
     return recorded[:1] if recorded else [default]

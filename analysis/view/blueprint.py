@@ -23,14 +23,17 @@ CAMERA_UP_M = 3.0  # ... and this high above it
 NON_3D = ("/top", "/plots", "/events", "/text")
 
 # (title, ((entity prefix, entity suffix), ...)) of the time-series views, in layout order: what was
-# commanded beside what the robot did, in one plot per unit
+# commanded beside what the robot did, in one plot per unit. A title is what is plotted and its unit,
+# in at most TITLE_CHARS characters: a view's tab shows about 18 beside its buttons when four plots
+# share a 1600 px window; the legend names each series (/cmd_vel, /odom, /imu/data yaw rate, ...).
 PLOTS = (
-    ("forward (m/s): command vx, speed", (("/plots/cmd_vel/vx/", ""), ("/plots/speed/", ""))),
-    ("lateral command vy (m/s)", (("/plots/cmd_vel/vy/", ""),)),
-    ("turn (rad/s): command wz, IMU yaw rate", (("/plots/cmd_vel/wz/", ""), ("/plots/imu/", "/wz"))),
-    ("drift from ground truth (m)", (("/plots/metrics/", ""),)),
-    ("IMU accel x (m/s²)", (("/plots/imu/", "/ax"),)),
+    ("forward (m/s)", (("/plots/cmd_vel/vx/", ""), ("/plots/speed/", ""))),
+    ("lateral (m/s)", (("/plots/cmd_vel/vy/", ""),)),
+    ("turn (rad/s)", (("/plots/cmd_vel/wz/", ""), ("/plots/imu/", "/wz"))),
+    ("odom drift (m)", (("/plots/metrics/", ""),)),
+    ("accel x (m/s²)", (("/plots/imu/", "/ax"),)),
 )
+TITLE_CHARS = 16
 
 
 @dataclass(frozen=True)

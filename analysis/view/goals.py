@@ -16,16 +16,30 @@ from navlog.analysis.view.context import COLORS, ViewContext, entity_name
 from navlog.analysis.view.plans import path_positions
 from navlog.analysis.view.trajectories import yaw_vectors
 
+# the kinds of goal event that end a goal: the previous goal's end shares the next goal's stamp
+GOAL_END_WORDS = ("succeeded", "reached", "failed", "aborted", "canceled", "cancelled")
+
 
 def goal_labels(goals: list, events: list[tuple[int, str, str]]) -> list[str]:
-    """'goal N' plus the detail of the goal event that follows it within a second, if any."""
+    """'goal N' plus the detail of the goal event that starts it (accepted, sent) within a second, if any.
+
+    An event that ends a goal (``GOAL_END_WORDS``) names the goal before when it shares the next goal's
+    stamp (the navigator ends one goal and accepts the next in the same tick), so it labels a goal
+    only when no starting event does; each event labels one goal."""
     labels = []
+    used: set[int] = set()
     for i, (t, _, xyz, _) in enumerate(goals):
         label = f"goal {i + 1} ({xyz[0]:.2f}, {xyz[1]:.2f})"
-        for te, text, _ in events:
-            if t <= te <= t + 1_000_000_000 and text.lower().startswith("goal") and ": " in text:
-                label = f"goal {i + 1}: {text.split(': ', 1)[1]}"
-                break
+        near = [
+            k
+            for k, (te, text, _) in enumerate(events)
+            if k not in used and t <= te <= t + 1_000_000_000 and text.lower().startswith("goal") and ": " in text
+        ]
+        starts = [k for k in near if not any(w in events[k][1].split(" ", 1)[0].lower() for w in GOAL_END_WORDS)]
+        chosen = (starts or near)[:1]
+        for k in chosen:
+            used.add(k)
+            label = f"goal {i + 1}: {events[k][1].split(': ', 1)[1]}"
         labels.append(label)
     return labels
 

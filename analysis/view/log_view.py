@@ -18,6 +18,8 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
+import sys
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
@@ -272,6 +274,21 @@ def spawn_viewer(rec: Any, *, bind: str = VIEWER_BIND, port: int = VIEWER_PORT) 
     rec.connect_grpc(viewer_url(bind, port))
 
 
+def display_missing(environ: Mapping[str, str] | None = None, platform: str | None = None) -> str | None:
+    """Why a viewer spawned here could not open a window, or None: on Linux and the BSDs a window needs
+    an X server (``DISPLAY``) or a Wayland compositor (``WAYLAND_DISPLAY``); macOS and Windows always
+    have one."""
+    env = os.environ if environ is None else environ
+    plat = sys.platform if platform is None else platform
+    if plat.startswith(("darwin", "win", "cygwin")) or env.get("DISPLAY") or env.get("WAYLAND_DISPLAY"):
+        return None
+    return (
+        "--spawn needs a display, and neither DISPLAY nor WAYLAND_DISPLAY is set (a headless machine, or SSH "
+        "without X forwarding); write the recording with --save FILE.rrd and open it where there is a display "
+        "(rerun FILE.rrd), or stream it to a viewer running there with --connect rerun+http://HOST:9876/proxy"
+    )
+
+
 def stream_view(
     log_path: Path | str,
     *,
@@ -289,6 +306,8 @@ def stream_view(
     time cursor goes to the log's start, paused or playing as ``options.play_state`` says (default:
     playing); a viewer left following the newest data would open at the log's end."""
     opt = options or ViewOptions()
+    if spawn and (why := display_missing()) is not None:  # before the log is read, not after a timeout
+        raise NavlogError(why)
     with open_log(log_path, recover=recover) as reader:
         rec = new_recording(reader)
         if spawn:

@@ -5,6 +5,9 @@ A Path topic whose name speaks of a plan or waypoints (``/plan``, ``/local_plan`
 the plan colour (a local plan in its own). Any other Path topic (``/lidar_mapper/path``, ``/trajectory``)
 is an estimated trajectory: drawn the same way, thinner, in the colour of its estimate, and left out
 of the top-down view, which draws trajectories from odometry.
+
+In 3D both are drawn ``PATH_LIFT_M`` above their poses: a plan lies on the floor (z = 0), where the
+costmaps are drawn just above the map (``grids.COSTMAP_LIFT_M``) and would hide it.
 """
 
 from __future__ import annotations
@@ -15,6 +18,10 @@ from typing import Any
 import numpy as np
 
 from navlog.analysis.view.context import COLORS, ViewContext, entity_name, trajectory_role
+from navlog.analysis.view.grids import COSTMAP_LIFT_M
+
+# m above a path's poses in 3D: above the highest costmap, so that the plans on the floor show
+PATH_LIFT_M = max(COSTMAP_LIFT_M.values()) + 0.03
 
 
 def path_positions(msg: Any) -> np.ndarray:
@@ -58,7 +65,9 @@ class Plans:
         ctx.rec.send_columns(
             ent,
             indexes=[ctx.time_column([i[0] for i in items])],
-            columns=rr.LineStrips3D.columns(strips=[i[2][:, :3] for i in items]),
+            columns=rr.LineStrips3D.columns(
+                strips=[i[2][:, :3] + np.array([0, 0, PATH_LIFT_M], dtype=np.float32) for i in items]
+            ),
         )
         ctx.rec.log(ent, rr.LineStrips3D.from_fields(colors=[color], radii=radius), static=True)
         if len({i[1] for i in items}) > 1:

@@ -20,7 +20,8 @@ def register(sub) -> None:
         epilog="examples:\n  navlog record --world indoor_room --robot go2 --scenario mapping --seed 7 -o run.mcap\n"
         "  navlog record --scenario nav_tour -o nav.mcap          # Nav2 drives the Go2 through four waypoints\n"
         "  navlog record --scenario nav_tour --params config/nav2/nav_go2_mppi.yaml -o nav_mppi.mcap\n"
-        "A navigate scenario exits 1 when a goal failed or the robot hit something.",
+        "A run exits 1 when the robot touched something its scenario does not expect (expect_contact: true), "
+        "or a navigate scenario's goal failed.",
     )
     p.add_argument(
         "--world",

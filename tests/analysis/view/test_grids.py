@@ -33,3 +33,13 @@ def test_costmaps_are_drawn_above_the_map(tmp_path):
     lifted = column(data, "/grids/global_costmap/costmap", "GridMap:translation")[0][1]
     assert lifted[0][2] - xyz[0][2] == pytest.approx(0.01)
     assert lifted[0][:2] == pytest.approx(xyz[0][:2])  # same known cells: the same crop
+
+
+def test_plans_are_drawn_above_the_costmaps(data):
+    # the sample's /plan lies on the floor (z = 0); the local costmap is drawn 0.02 m above the map
+    from navlog.analysis.view.grids import COSTMAP_LIFT_M
+
+    (_, strips), *_ = column(data, "/plans/plan", "LineStrips3D:strips")
+    z = {round(p[2], 6) for strip in strips for p in strip}
+    assert z == {0.05} and max(COSTMAP_LIFT_M.values()) < 0.05
+    assert [round(p[0], 6) for p in strips[0]][:2] == pytest.approx([sample.MAP_TO_ODOM_X, sample.MAP_TO_ODOM_X + 0.25])
