@@ -68,7 +68,7 @@ def test_suite_files_are_collected_only_when_asked_for(pytester: pytest.Pytester
     pytester.runpytest_subprocess(*opts).assert_outcomes(passed=1)
     pytester.makeini("[pytest]\nnavlog_suites = true\n")
     result = pytester.runpytest_subprocess(*opts)
-    result.assert_outcomes(passed=1, errors=1)
+    result.assert_outcomes(errors=1)  # a collection error stops the session before any test runs
     result.stdout.fnmatch_lines(["*more than 200,000 values once its aliases are expanded*"])
 
 
