@@ -84,12 +84,25 @@ def cli_reference() -> str:
 def params_reference(spec: str) -> str:
     module_name, _, class_name = spec.partition(":")
     cls = getattr(importlib.import_module(module_name), class_name)
-    rows = ["| key | type | default | meaning |", "|---|---|---|---|"]
-    rows += [f"| `{k}` | {t} | {d} | {m} |" for k, t, d, m in _rows(cls, "")]
+    rows = ["| key | type | default | bounds | meaning |", "|---|---|---|---|---|"]
+    rows += [f"| `{k}` | {t} | {d} | {b} | {m} |" for k, t, d, b, m in _rows(cls, "")]
     return "\n".join(rows)
 
 
-def _rows(cls: type, prefix: str) -> list[tuple[str, str, str, str]]:
+def _bounds(f: dataclasses.Field) -> str:
+    """The limits a field declares (``navlog.replay.config.param``): a range, or the choices."""
+    meta = f.metadata
+    if meta.get("choices"):
+        return _cell(" | ".join(repr(c) for c in meta["choices"]))
+    parts = [
+        f"{op} {meta[key]:g}"
+        for key, op in (("ge", "≥"), ("gt", ">"), ("le", "≤"), ("lt", "<"))
+        if meta.get(key) is not None
+    ]
+    return ", ".join(parts)
+
+
+def _rows(cls: type, prefix: str) -> list[tuple[str, str, str, str, str]]:
     hints = typing.get_type_hints(cls)
     notes = field_comments(cls)
     out = []
@@ -102,17 +115,17 @@ def _rows(cls: type, prefix: str) -> list[tuple[str, str, str, str]]:
         key = prefix + f.name
         if nested is not None and default is not dataclasses.MISSING:
             kind = "mapping" if default is not None else "mapping or null"
-            out.append((key, kind, "" if default is not None else "`None`", _cell(notes.get(f.name, ""))))
+            out.append((key, kind, "" if default is not None else "`None`", "", _cell(notes.get(f.name, ""))))
             out += _rows(nested, key + ".")
             continue
         items = typing.get_args(hint)
         if typing.get_origin(hint) is list and items and _dataclass_of(items[0]) is not None:
             shown = "required" if default is dataclasses.MISSING else f"`{_short(default)}`"
-            out.append((key, f"list of {items[0].__name__}", shown, _cell(notes.get(f.name, ""))))
+            out.append((key, f"list of {items[0].__name__}", shown, "", _cell(notes.get(f.name, ""))))
             out += _rows(items[0], key + "[].")
             continue
         shown = "required" if default is dataclasses.MISSING else f"`{_short(default)}`"
-        out.append((key, _cell(_type_name(hint)), shown, _cell(notes.get(f.name, ""))))
+        out.append((key, _cell(_type_name(hint)), shown, _bounds(f), _cell(notes.get(f.name, ""))))
     return out
 
 
