@@ -114,7 +114,7 @@ class _BoundedLoader(yaml.SafeLoader):
 def bounded_compose(text: str) -> yaml.Node | None:
     """The composed YAML node graph of ``text`` (no values built), nesting bounded as ``parse_yaml``'s;
     ``yaml.YAMLError`` when it is malformed or too deep."""
-    loader = _BoundedLoader(text)
+    loader = _BoundedLoader(text)  # a ``yaml.YAMLError`` for unprintable characters, as for the rest
     try:
         return loader.get_single_node()
     finally:
@@ -126,20 +126,23 @@ def parse_yaml(text: str, source: str) -> Any:
     error, nesting deeper than ``MAX_YAML_DEPTH``, an alias that contains itself, or more than
     ``MAX_YAML_NODES`` nodes once the aliases are expanded (an alias bomb). The bounds are checked on
     the composed document before anything is built, in time linear in its size."""
-    loader = _BoundedLoader(text)
     try:
-        node = loader.get_single_node()
-        if node is None:
-            return None
-        _check_expanded_size(node, source)
-        return loader.construct_document(node)
+        loader = _BoundedLoader(text)  # (its reader refuses unprintable characters at once)
+        try:
+            node = loader.get_single_node()
+            if node is None:
+                return None
+            _check_expanded_size(node, source)
+            return loader.construct_document(node)
+        finally:
+            loader.dispose()
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" line {mark.line + 1}, column {mark.column + 1}" if mark else ""
-        problem = getattr(exc, "problem", None) or str(exc)
-        raise ConfigError(f"{source}:{where}: malformed YAML: {problem}") from None
-    finally:
-        loader.dispose()
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ConfigError(
+            f"{source}:{where}: malformed YAML: {problem}" if where else f"{source}: malformed YAML: {problem}"
+        ) from None
 
 
 def _check_expanded_size(root: yaml.Node, source: str) -> None:

@@ -212,3 +212,11 @@ def test_every_reader_of_yaml_uses_the_bounded_loader(tmp_path):
 
     with pytest.raises(ConfigError, match=r"bomb.yaml: malformed YAML: more than"):
         load_world(str(world))
+
+
+def test_unprintable_characters_are_a_clear_error():
+    """PyYAML's reader refuses them while the loader is made: a ConfigError naming the file, not a traceback."""
+    from navlog.replay.config import parse_yaml
+
+    with pytest.raises(ConfigError, match=r"^x.yaml: malformed YAML: unacceptable character #x001b"):
+        parse_yaml("\x1b[31m a: 1\n", "x.yaml")
