@@ -37,10 +37,16 @@ class RecoveryResult:
 
 def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) -> RecoveryResult:
     src, dst = Path(broken), Path(out)
+    if src.is_dir():
+        raise LogError(
+            f"{src}: is a folder; recover expects a truncated .mcap file (e.g. NAME.mcap.part), pass the file inside it"
+        )
     if not src.is_file():
         raise LogError(f"{src}: no such file")
     check_output(dst, force)
     total = src.stat().st_size
+    if total == 0:
+        raise LogError(f"{src}: the file is empty (0 bytes): there is nothing to recover; record it again")
     with open(src, "rb") as f:
         if f.read(8) != MCAP_MAGIC:
             raise LogError(f"{src}: not an MCAP file (bad magic bytes)")

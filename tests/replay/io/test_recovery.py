@@ -168,3 +168,34 @@ def test_a_topic_on_two_channels_counts_and_reads_the_messages_of_both(tmp_path:
         assert reader.report.truncated == cut
         assert {t: i.count for t, i in reader.topics.items()} == {"/chatter": 5}
         assert [bytes(e.msg) for e in reader.messages(decode=False)] == data
+
+
+def test_a_folder_is_named_as_a_folder_with_what_recover_expects(tmp_path: Path, capsys) -> None:
+    from navlog.cli import main
+
+    assert main(["recover", str(tmp_path), "-o", str(tmp_path / "fixed.mcap")]) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path}: is a folder" in err and "truncated .mcap file" in err and "NAME.mcap.part" in err
+    assert "no such file" not in err
+    assert not (tmp_path / "fixed.mcap").exists()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["info", "{log}"],
+        ["check", "{log}"],
+        ["replay", "{log}", "--pipeline", "mapping", "-o", "{out}"],
+        ["recover", "{log}", "-o", "{out}.mcap"],
+    ],
+)
+def test_an_empty_mcap_file_is_called_empty_not_bad_magic(tmp_path: Path, capsys, argv: list[str]) -> None:
+    from navlog.cli import main
+
+    log = tmp_path / "run.mcap"
+    log.write_bytes(b"")
+    out = tmp_path / "out"
+    assert main([a.format(log=log, out=out) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert f"{log}: the file is empty (0 bytes)" in err and "magic" not in err
+    assert not out.exists() and not Path(f"{out}.mcap").exists()
