@@ -176,3 +176,44 @@ def test_default_checkers_without_sections_are_nav2s_simple_checkers() -> None:
         "      plugin: nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController\n"
     )
     assert any("'precise' is listed but has no 'precise:' section" in e.message for e in named.errors)
+
+
+MAP_YAML = "image: map.pgm\nmode: trinary\nresolution: 0.05\norigin: [-10.0, -10.0, 0.0]\nnegate: 0\n"
+
+
+def test_a_map_file_is_named_as_not_a_nav2_file(tmp_path, capsys):
+    from navlog.cli import main
+
+    f = tmp_path / "map.yaml"
+    f.write_text(MAP_YAML + "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    assert main(["check-config", str(f)]) == 2
+    captured = capsys.readouterr()
+    assert f"{f}: not a Nav2 parameter file: it is a map_server map file (image, mode, resolution" in captured.err
+    assert "warning" not in captured.out
+    other = tmp_path / "robot.yaml"
+    other.write_text("name: kibot\nwheels: {radius: 0.05}\n")
+    with pytest.raises(ConfigError, match="not a Nav2 parameter file: no 'ros__parameters' anywhere"):
+        load_nav2_params(other)
+
+
+def test_a_section_the_stack_needs_is_an_error_when_missing(tmp_path, capsys):
+    import yaml
+
+    from navlog.cli import main
+
+    nav = Path(__file__).resolve().parents[3] / "config" / "nav2" / "nav_kibot.yaml"
+    doc = yaml.safe_load(nav.read_text())
+    del doc["global_costmap"]
+    f = tmp_path / "nav.yaml"
+    f.write_text(yaml.safe_dump(doc))
+    assert main(["check-config", str(f)]) == 1
+    out = capsys.readouterr().out
+    assert "error: global_costmap: missing section 'global_costmap': 'planner_server' needs it" in out
+    assert "1 error(s)" in out
+    del doc["local_costmap"], doc["planner_server"]
+    f.write_text(yaml.safe_dump(doc))
+    missing = {p.path for p in load_nav2_params(f).errors}
+    assert missing == {"global_costmap", "local_costmap", "planner_server"}
+    # a planner-only file and an AMCL-only file need nothing more
+    for name in ("kibot_safety.yaml", "amcl_go2.yaml"):
+        assert load_nav2_params(nav.with_name(name)).errors == []
