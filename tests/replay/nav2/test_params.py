@@ -68,21 +68,51 @@ def test_kibot_typos_are_reported_with_suggestions():
     p = load_nav2_params(DATA / "kibot_nav2_fragments.yaml")
     errors = _messages(p)
     base = "global_costmap.global_costmap.ros__parameters.obstacle_layer"
+    # the misspelled plugin type is named once; its section's keys are not checked as a guessed plugin
     assert "did you mean 'nav2_costmap_2d::ObstacleLayer'?" in errors[base + ".plugin"]
-    assert "did you mean 'data_type'?" in errors[base + ".scan.date_type"]
-    # the missing data_type leaves Nav2's default, which it refuses
-    assert "PointCloud" in errors[base + ".scan.data_type"]
-    # and the per-source height trap is pointed out
-    assert "0.0" in _messages(p, "warning")[base + ".scan.max_obstacle_height"]
-    # all at once, with line numbers
-    lines = {q.path: q.line for q in p.errors}
-    assert lines[base + ".plugin"] == 15 and lines[base + ".scan.date_type"] == 19
+    assert "its 2 other key(s) are not checked until the type is fixed" in errors[base + ".plugin"]
+    assert [q for q in p.problems if q.path.startswith(base + ".")] == [
+        q for q in p.problems if q.path == base + ".plugin"
+    ]
     # the rest of the file is read as written
     assert p.planner_server.planners["GridBased"].tolerance == 0.10
     assert p.velocity_smoother.min_velocity == (-0.20, 0.0, -1.2)
     assert p.collision_monitor.source_params["scan"].min_height == 0.15
     with pytest.raises(ConfigError, match="ObstcaleLayer"):
         p.require_valid()
+    # with the type fixed, the section's own typos come out, all at once, with line numbers
+    text = (DATA / "kibot_nav2_fragments.yaml").read_text().replace("ObstcaleLayer", "ObstacleLayer")
+    p = parse_nav2_text(text)
+    errors = _messages(p)
+    assert base + ".plugin" not in errors
+    assert "did you mean 'data_type'?" in errors[base + ".scan.date_type"]
+    # the missing data_type leaves Nav2's default, which it refuses
+    assert "PointCloud" in errors[base + ".scan.data_type"]
+    # and the per-source height trap is pointed out
+    assert "0.0" in _messages(p, "warning")[base + ".scan.max_obstacle_height"]
+    assert {q.path: q.line for q in p.errors}[base + ".scan.date_type"] == 19
+
+
+def test_a_misspelled_plugin_type_does_not_cascade_into_its_keys():
+    text = """
+global_costmap:
+  global_costmap:
+    ros__parameters:
+      plugins: ["voxel_layer"]
+      voxel_layer:
+        plugin: "nav2_costmap_2d::VoxelLayr"
+        z_voxels: 16
+        publish_voxel_map: true
+        observation_sources: scan
+"""
+    p = parse_nav2_text(text)
+    assert [(q.path, q.severity) for q in p.problems if "voxel_layer" in q.path] == [
+        ("global_costmap.global_costmap.ros__parameters.voxel_layer.plugin", "error")
+    ]
+    (err,) = p.errors
+    assert "unknown costmap layer plugin 'nav2_costmap_2d::VoxelLayr'" in err.message
+    assert "did you mean 'nav2_costmap_2d::VoxelLayer'?" in err.message
+    assert "its 3 other key(s) are not checked" in err.message
 
 
 def test_kibot_fixed_has_no_errors():
