@@ -56,7 +56,7 @@ from navlog.replay.nav2.navigator import (
 )
 from navlog.replay.nav2.overrides import apply_nav2_overrides
 from navlog.replay.nav2.planners.server import PlannerServerParams, read_planner_server
-from navlog.replay.nav2.schema import ERROR, NOTE, WARNING, Problem, SectionReader
+from navlog.replay.nav2.schema import DISTROS, ERROR, NOTE, WARNING, Problem, SectionReader
 from navlog.replay.nav2.velocity_smoother import VelocitySmootherParams, read_velocity_smoother
 
 IMPLEMENTED_NODES = (
@@ -185,8 +185,9 @@ class Nav2Params:
         return self
 
 
-def load_nav2_params(path: str | Path, overrides: Sequence[str] = ()) -> Nav2Params:
-    """Read a Nav2 parameter file (YAML syntax errors raise ConfigError with the line)."""
+def load_nav2_params(path: str | Path, overrides: Sequence[str] = (), *, distro: str = "jazzy") -> Nav2Params:
+    """Read a Nav2 parameter file (YAML syntax errors raise ConfigError with the line), checked as a
+    file for Nav2 ``distro`` (``DISTROS``)."""
     path = Path(path)
     doc = load_yaml(path)
     text = path.read_text()
@@ -195,7 +196,7 @@ def load_nav2_params(path: str | Path, overrides: Sequence[str] = ()) -> Nav2Par
     missing = _missing_sections(doc, lines)  # of the file as written, before any override
     if overrides:
         doc = apply_nav2_overrides(doc if isinstance(doc, dict) else {}, overrides, source=str(path))
-    params = parse_nav2_params(doc, source=str(path), lines=lines)
+    params = parse_nav2_params(doc, source=str(path), lines=lines, distro=distro)
     return dataclasses.replace(params, problems=params.problems + missing) if missing else params
 
 
@@ -279,9 +280,15 @@ def _ros_params(r: SectionReader, node_block: Any, path: tuple) -> dict | None:
     return params
 
 
-def parse_nav2_params(doc: Any, source: str = "<string>", lines: dict | None = None) -> Nav2Params:
-    """Read a parsed Nav2 parameter document (``lines``: YAML key path -> line, for the problems)."""
+def parse_nav2_params(
+    doc: Any, source: str = "<string>", lines: dict | None = None, *, distro: str = "jazzy"
+) -> Nav2Params:
+    """Read a parsed Nav2 parameter document (``lines``: YAML key path -> line, for the problems), as a
+    file for Nav2 ``distro``."""
+    if distro not in DISTROS:
+        raise ConfigError(f"Nav2 distro {distro!r}: choose one of {', '.join(DISTROS)}{suggest(distro, DISTROS)}")
     r = SectionReader(lines or {})
+    r.distro = distro
     if doc is None:
         doc = {}
     if not isinstance(doc, dict):

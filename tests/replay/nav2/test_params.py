@@ -247,3 +247,40 @@ def test_a_section_the_stack_needs_is_an_error_when_missing(tmp_path, capsys):
     # a planner-only file and an AMCL-only file need nothing more
     for name in ("kibot_safety.yaml", "amcl_go2.yaml"):
         assert load_nav2_params(nav.with_name(name)).errors == []
+
+
+@pytest.mark.parametrize("name", EXTERNAL[1:])
+def test_a_humble_file_checked_as_humble_gets_no_jazzy_warnings(params_dir, name, capsys):
+    from navlog.cli import main
+
+    key = "controller_server.ros__parameters.progress_checker_plugin"
+    jazzy = _messages(load_nav2_params(params_dir / name), "warning")
+    assert "Humble name; Jazzy reads 'progress_checker_plugins'" in jazzy[key] and "--distro humble" in jazzy[key]
+    humble = _messages(load_nav2_params(params_dir / name, distro="humble"), "warning")
+    assert key not in humble and set(humble) == set(jazzy) - {key}
+    assert main(["check-config", "--distro", "humble", str(params_dir / name)]) == 0
+    assert "progress_checker_plugin" not in capsys.readouterr().out
+
+
+def test_humble_max_points_is_not_called_deprecated():
+    text = """
+collision_monitor:
+  ros__parameters:
+    polygons: ["FootprintApproach"]
+    FootprintApproach:
+      type: "polygon"
+      action_type: "approach"
+      footprint_topic: "/local_costmap/published_footprint"
+      max_points: 3
+      min_points: 4
+"""
+    key = "collision_monitor.ros__parameters.FootprintApproach.max_points"
+    assert "deprecated max_points 3" in _messages(parse_nav2_text(text), "warning")[key]
+    from navlog.replay.config import parse_yaml
+    from navlog.replay.nav2.params import parse_nav2_params
+
+    humble = parse_nav2_params(parse_yaml(text, "<t>"), distro="humble")
+    assert key not in _messages(humble, "warning")
+    assert "acts on more than 3 points" in _messages(humble, "note")[key]
+    with pytest.raises(ConfigError, match="distro 'iron': choose one of jazzy, humble"):
+        parse_nav2_params({}, distro="iron")
