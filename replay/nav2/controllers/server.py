@@ -98,6 +98,13 @@ def read_controller_server(r: SectionReader, params: dict, path: tuple) -> Contr
             "'progress_checker_plugin' is the Humble name; Jazzy reads 'progress_checker_plugins' (a list); "
             "for a Humble file, check it with --distro humble",
         )
+    if r.distro == "humble" and pc_key == "progress_checker_plugins":
+        r.add(
+            WARNING,
+            path + ("progress_checker_plugins",),
+            "'progress_checker_plugins' is the Jazzy name; Humble reads 'progress_checker_plugin' (one name) "
+            "and ignores it",
+        )
     return r.read(
         ControllerServerParams,
         params,

@@ -262,6 +262,14 @@ def test_a_humble_file_checked_as_humble_gets_no_jazzy_warnings(params_dir, name
     assert "progress_checker_plugin" not in capsys.readouterr().out
 
 
+def test_a_jazzy_file_checked_as_humble_gets_humbles_warning_and_not_the_reverse(params_dir):
+    key = "controller_server.ros__parameters.progress_checker_plugins"
+    jazzy_file = params_dir / EXTERNAL[0]
+    assert key not in _messages(load_nav2_params(jazzy_file), "warning")
+    humble = _messages(load_nav2_params(jazzy_file, distro="humble"), "warning")
+    assert "the Jazzy name; Humble reads 'progress_checker_plugin'" in humble[key]
+
+
 def test_humble_max_points_is_not_called_deprecated():
     text = """
 collision_monitor:
