@@ -12,6 +12,13 @@ def register(sub) -> None:
         "parameters, sections Nav2 ignores. Lists what navlog reads but does not implement. Exits 1 on errors.",
     )
     p.add_argument("file", help="a Nav2 parameter file (node: ros__parameters: ...)")
+    p.add_argument(
+        "--distro",
+        choices=("jazzy", "humble"),
+        default="jazzy",
+        help="the Nav2 distribution the file is written for: its own names are not warned about as the "
+        "other's (default: jazzy)",
+    )
     p.add_argument("--notes", action="store_true", help="also list every parameter read but not implemented")
     p.set_defaults(func=run)
 
@@ -19,7 +26,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from navlog.replay.nav2 import ERROR, IMPLEMENTED_NODES, NOTE, WARNING, load_nav2_params
 
-    params = load_nav2_params(args.file)
+    params = load_nav2_params(args.file, distro=args.distro)
     order = {ERROR: 0, WARNING: 1, NOTE: 2}
     problems = sorted(params.problems, key=lambda q: (order[q.severity], q.line or 0, q.path))
     for q in problems:

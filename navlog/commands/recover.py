@@ -28,4 +28,9 @@ def run(args) -> int:
         f"wrote {args.output}: kept {res.messages} messages, {res.seconds:.2f} s of log "
         f"({state}; read {res.bytes_read / 1e6:.1f} of {res.bytes_total / 1e6:.1f} MB)"
     )
+    if res.metadata_lost:
+        print(
+            "metadata lost: navlog writes its metadata record (world, robot, scenario, seed) when it finishes a "
+            "file, and this one was cut before; the messages are kept, `navlog info` will not show them"
+        )
     return 0

@@ -55,6 +55,10 @@ class McapLogReader(LogReader):
         self._fast_store: Any = None  # the store the fast decoders below were made for
         self._fast: dict[tuple[str, bool], Any] = {}  # (type, light form) -> fast decoder or None
         self._recover = recover
+        if self.size_bytes == 0:
+            raise LogError(
+                f"{path}: the file is empty (0 bytes): the recorder wrote nothing; record it again or pass another log"
+            )
         with open(path, "rb") as f:
             head = f.read(8)
             if head != MCAP_MAGIC:

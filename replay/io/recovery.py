@@ -3,6 +3,11 @@
 Every record up to the first incomplete one is copied — schemas, channels, metadata and the messages
 of every complete chunk — into a new, properly finished MCAP file. A file with no complete chunk holding
 a message (a recording cut before its first chunk) is a ``LogError``, and nothing is written.
+
+navlog writes a file's metadata records (a recording's ``navlog`` record: world, robot, scenario,
+seed, config hash) when it finishes the file, after the messages: a cut navlog file has lost them, and
+``RecoveryResult.metadata_lost`` says so. They are not rebuilt: the messages do not hold the seed or
+the configuration, and a guessed record would pass for the real one.
 """
 
 from __future__ import annotations
@@ -11,7 +16,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from mcap.records import Channel, Message, Metadata, Schema
+from mcap.records import Channel, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
@@ -29,6 +34,14 @@ class RecoveryResult:
     bytes_read: int
     bytes_total: int
     complete: bool  # the input was not truncated after all
+    metadata: tuple[str, ...] = ()  # the names of the metadata records kept
+    library: str = ""  # the writer the input's header names ("navlog X.Y" for navlog's files)
+
+    @property
+    def metadata_lost(self) -> bool:
+        """navlog writes its metadata records (a recording's world, robot, scenario, seed) when it finishes
+        a file: a cut navlog file has none, and they cannot be rebuilt from its messages."""
+        return self.library.startswith("navlog") and not self.metadata
 
     @property
     def seconds(self) -> float:
@@ -37,16 +50,22 @@ class RecoveryResult:
 
 def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) -> RecoveryResult:
     src, dst = Path(broken), Path(out)
+    if src.is_dir():
+        raise LogError(
+            f"{src}: is a folder; recover expects a truncated .mcap file (e.g. NAME.mcap.part), pass the file inside it"
+        )
     if not src.is_file():
         raise LogError(f"{src}: no such file")
     check_output(dst, force)
     total = src.stat().st_size
+    if total == 0:
+        raise LogError(f"{src}: the file is empty (0 bytes): there is nothing to recover; record it again")
     with open(src, "rb") as f:
         if f.read(8) != MCAP_MAGIC:
             raise LogError(f"{src}: not an MCAP file (bad magic bytes)")
     tmp = dst.with_name(dst.name + ".part")
     try:
-        n, first, last, read, ok = _copy_complete_records(src, tmp)
+        n, first, last, read, ok, names, library = _copy_complete_records(src, tmp)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         raise write_error(dst, exc) from exc
@@ -64,13 +83,16 @@ def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) ->
             "A recording killed this early has no data to salvage: record it again."
         )
     os.replace(tmp, dst)
-    return RecoveryResult(n, first, last, min(read, total), total, ok)
+    return RecoveryResult(n, first, last, min(read, total), total, ok, names, library)
 
 
-def _copy_complete_records(src: Path, tmp: Path) -> tuple[int, int | None, int | None, int, bool]:
+def _copy_complete_records(src: Path, tmp: Path) -> tuple[int, int | None, int | None, int, bool, tuple[str, ...], str]:
     """Copy every record of ``src`` up to the first incomplete one into a finished MCAP file ``tmp``:
-    (messages, first and last log time, bytes read, whether ``src`` was read to its end)."""
+    (messages, first and last log time, bytes read, whether ``src`` was read to its end, the names
+    of the metadata records copied, the writer library its header names)."""
     n, first, last, ok = 0, None, None, True
+    names: list[str] = []
+    library = ""
     with open(src, "rb") as f, open_new(tmp) as o:
         w = Writer(o, compression=CompressionType.ZSTD)
         w.start(profile="ros2", library="navlog recover")
@@ -100,6 +122,9 @@ def _copy_complete_records(src: Path, tmp: Path) -> tuple[int, int | None, int |
                     last = rec.log_time if last is None else max(last, rec.log_time)
                 elif isinstance(rec, Metadata):
                     w.add_metadata(rec.name, dict(rec.metadata))
+                    names.append(rec.name)
+                elif isinstance(rec, Header):
+                    library = rec.library
         except OSError:
             raise
         except Exception:
@@ -108,4 +133,4 @@ def _copy_complete_records(src: Path, tmp: Path) -> tuple[int, int | None, int |
         w.finish()
         o.flush()
         os.fsync(o.fileno())
-    return n, first, last, read, ok
+    return n, first, last, read, ok, tuple(names), library

@@ -32,6 +32,7 @@ docking_server and the rest in ``READ_ONLY_NODES``.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -55,7 +56,7 @@ from navlog.replay.nav2.navigator import (
 )
 from navlog.replay.nav2.overrides import apply_nav2_overrides
 from navlog.replay.nav2.planners.server import PlannerServerParams, read_planner_server
-from navlog.replay.nav2.schema import ERROR, NOTE, WARNING, Problem, SectionReader
+from navlog.replay.nav2.schema import DISTROS, ERROR, NOTE, WARNING, Problem, SectionReader
 from navlog.replay.nav2.velocity_smoother import VelocitySmootherParams, read_velocity_smoother
 
 IMPLEMENTED_NODES = (
@@ -111,6 +112,17 @@ NODE_READERS: dict[str, Callable[[SectionReader, dict, tuple], Any]] = {
     "behavior_server": read_behavior_server,
     "waypoint_follower": read_waypoint_follower,
 }
+# the sections navlog's pipelines need, by the section that needs them: the planner plans on the global
+# costmap; the controller follows on the local costmap; a navigation stack (bt_navigator or a
+# controller) runs planner and controller, each on its costmap. Nav2's defaults for a missing one are
+# never what the file's author meant (a default costmap has no layers of the robot's sensors).
+REQUIRED_SECTIONS: dict[str, tuple[str, ...]] = {
+    "planner_server": ("global_costmap",),
+    "controller_server": ("local_costmap", "planner_server", "global_costmap"),
+    "bt_navigator": ("planner_server", "global_costmap", "controller_server", "local_costmap"),
+}
+# keys of a map_server map file (NAME.yaml beside NAME.pgm), which is not a parameter file
+MAP_FILE_KEYS = ("image", "resolution", "origin", "occupied_thresh", "free_thresh", "negate", "mode")
 # read, and run as navlog's fixed navigator: the behaviour-tree XML itself is not run (listed in not_implemented)
 PARTIAL_NODES = ("bt_navigator",)
 
@@ -173,14 +185,62 @@ class Nav2Params:
         return self
 
 
-def load_nav2_params(path: str | Path, overrides: Sequence[str] = ()) -> Nav2Params:
-    """Read a Nav2 parameter file (YAML syntax errors raise ConfigError with the line)."""
+def load_nav2_params(path: str | Path, overrides: Sequence[str] = (), *, distro: str = "jazzy") -> Nav2Params:
+    """Read a Nav2 parameter file (YAML syntax errors raise ConfigError with the line), checked as a
+    file for Nav2 ``distro`` (``DISTROS``)."""
     path = Path(path)
     doc = load_yaml(path)
     text = path.read_text()
+    _refuse_other_files(doc, str(path))
+    lines = _line_map(text)
+    missing = _missing_sections(doc, lines)  # of the file as written, before any override
     if overrides:
         doc = apply_nav2_overrides(doc if isinstance(doc, dict) else {}, overrides, source=str(path))
-    return parse_nav2_params(doc, source=str(path), lines=_line_map(text))
+    params = parse_nav2_params(doc, source=str(path), lines=lines, distro=distro)
+    return dataclasses.replace(params, problems=params.problems + missing) if missing else params
+
+
+def _has_ros_parameters(node: Any) -> bool:
+    return isinstance(node, dict) and any(k == "ros__parameters" or _has_ros_parameters(v) for k, v in node.items())
+
+
+def _refuse_other_files(doc: Any, source: str) -> None:
+    """A ConfigError for a YAML file that is not a Nav2 parameter file: no ``ros__parameters`` anywhere
+    and no Nav2 node at its top (a map_server map file is named as one)."""
+    if not isinstance(doc, dict) or not doc or _has_ros_parameters(doc):
+        return
+    keys = [str(k) for k in doc]
+    if any(k in IMPLEMENTED_NODES or k in READ_ONLY_NODES for k in keys):
+        return  # a Nav2 file with its ros__parameters missing: reported key by key
+    map_keys = [k for k in keys if k in MAP_FILE_KEYS]
+    if len(map_keys) >= 2:
+        raise ConfigError(
+            f"{source}: not a Nav2 parameter file: it is a map_server map file ({', '.join(map_keys)}); "
+            "pass a Nav2 parameter file (node: ros__parameters: ...), and the map where a map is expected"
+        )
+    raise ConfigError(
+        f"{source}: not a Nav2 parameter file: no 'ros__parameters' anywhere and no Nav2 node at its top "
+        f"(keys: {', '.join(keys[:5])}{', ...' if len(keys) > 5 else ''}); expected node: ros__parameters: ..."
+    )
+
+
+def _missing_sections(doc: Any, lines: dict) -> tuple[Problem, ...]:
+    """An error for each section the file's servers need but it lacks (``REQUIRED_SECTIONS``)."""
+    if not isinstance(doc, dict):
+        return ()
+    r = SectionReader(lines)
+    reported: set[str] = set()
+    for node, needs in REQUIRED_SECTIONS.items():
+        for need in needs:
+            if node in doc and need not in doc and need not in reported:
+                reported.add(need)
+                r.add(
+                    ERROR,
+                    (need,),
+                    f"missing section '{need}': '{node}' needs it and Nav2's defaults would be used in its "
+                    f"place; add the '{need}' section",
+                )
+    return tuple(r.problems)
 
 
 def default_nav2_params(overrides: Sequence[str] = ()) -> Nav2Params:
@@ -220,9 +280,15 @@ def _ros_params(r: SectionReader, node_block: Any, path: tuple) -> dict | None:
     return params
 
 
-def parse_nav2_params(doc: Any, source: str = "<string>", lines: dict | None = None) -> Nav2Params:
-    """Read a parsed Nav2 parameter document (``lines``: YAML key path -> line, for the problems)."""
+def parse_nav2_params(
+    doc: Any, source: str = "<string>", lines: dict | None = None, *, distro: str = "jazzy"
+) -> Nav2Params:
+    """Read a parsed Nav2 parameter document (``lines``: YAML key path -> line, for the problems), as a
+    file for Nav2 ``distro``."""
+    if distro not in DISTROS:
+        raise ConfigError(f"Nav2 distro {distro!r}: choose one of {', '.join(DISTROS)}{suggest(distro, DISTROS)}")
     r = SectionReader(lines or {})
+    r.distro = distro
     if doc is None:
         doc = {}
     if not isinstance(doc, dict):

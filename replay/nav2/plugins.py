@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
 from navlog.errors import ConfigError
-from navlog.replay.config import closest, suggest
+from navlog.replay.config import suggest
 from navlog.replay.nav2.schema import ERROR, NOTE, SectionReader
 
 T = TypeVar("T")
@@ -44,8 +44,7 @@ class PluginParams:
     def read_section(cls, r: SectionReader, section: Any, path: tuple, plugin: str) -> Any:
         """The parameters of plugin type ``plugin`` from its YAML ``section`` (problems go to ``r``).
 
-        Every key of the section is taken as the plugin's own; this is also how a section whose
-        plugin type is misspelled is checked, as the plugin it was meant to be.
+        Every key of the section is taken as the plugin's own.
         """
         return r.read(cls, section, path, extra={"plugin": plugin})
 
@@ -110,8 +109,8 @@ def read_plugin_type(
 ) -> tuple[str | None, type[PluginParams] | None]:
     """(normalized plugin type, its parameter class) of a plugin section, or None where it has none.
 
-    An unknown type is an error with a did-you-mean; the section is then still checked as the
-    plugin it was most likely meant to be, but not used. A type Nav2 knows and navlog does not read
+    An unknown type is one error with a did-you-mean; the section's other keys are not checked (checked
+    as a guessed plugin, they would bring did-you-means of that plugin's keys, wrong if the guess is). A type Nav2 knows and navlog does not read
     is noted: (type, None).
     """
     kind = registry.kind
@@ -126,16 +125,14 @@ def read_plugin_type(
         return None, None
     norm = normalize_plugin(ptype)
     if norm not in registry:
+        # one error for the section: its keys are not checked against a plugin it may not have meant
+        others = [k for k in section if k != "plugin"] if isinstance(section, dict) else []
+        skipped = f"; its {len(others)} other key(s) are not checked until the type is fixed" if others else ""
         r.add(
             ERROR,
             path + ("plugin",),
-            f"unknown {kind} plugin '{ptype}'{suggest(norm, registry)}; Nav2 fails to load it at launch",
+            f"unknown {kind} plugin '{ptype}'{suggest(norm, registry)}; Nav2 fails to load it at launch{skipped}",
         )
-        close = closest(norm, registry.with_params())
-        if close is not None:  # check the rest of the section as the plugin it was meant to be, but do not use it
-            meant = registry[close]
-            assert meant is not None
-            meant.params.read_section(r, section, path, close)
         return None, None
     plugin = registry[norm]
     if plugin is None:

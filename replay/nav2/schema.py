@@ -25,7 +25,7 @@ from typing import Any
 
 from navlog.replay.config import ERROR, NOTE, WARNING, ParamError, ParamReader, Problem, describe, param, suggest
 
-__all__ = ["ERROR", "NOTE", "RENAMED", "WARNING", "Problem", "SectionReader", "param"]
+__all__ = ["DISTROS", "ERROR", "NOTE", "RENAMED", "WARNING", "Problem", "SectionReader", "param"]
 
 # Parameters Nav2 renamed: old name -> new name. Nav2 ignores the old one silently.
 RENAMED = {
@@ -43,10 +43,19 @@ RENAMED = {
 POLYGON_STRINGS = ("footprint", "points")
 
 
+# the Nav2 distributions a file is checked for (``SectionReader.distro``); Jazzy's parameters are the reference
+DISTROS = ("jazzy", "humble")
+
+
 class SectionReader(ParamReader):
-    """Reads Nav2 parameter sections into dataclasses, collecting every problem with its path and line."""
+    """Reads Nav2 parameter sections into dataclasses, collecting every problem with its path and line.
+
+    ``distro`` is the Nav2 the file is written for: a name that is right in it is not warned about
+    as another distribution's (Humble's ``progress_checker_plugin``, ``max_points``).
+    """
 
     strict = False
+    distro = "jazzy"
 
     def prepare(self, value: Any, tp: Any, path: tuple) -> Any:
         """A list of names given as one string is split; a polygon given as a list is refused, or, in

@@ -160,12 +160,15 @@ def _min_points_from_max(r: SectionReader, sec: dict, path: tuple) -> int | None
         r.add(ERROR, path + ("max_points",), f"expected an integer >= 0, got {value!r} (ignored)")
         return None
     also = f"; it overrides min_points {sec['min_points']}" if "min_points" in sec else ""
-    r.add(
-        WARNING if also else NOTE,
-        path + ("max_points",),
-        f"deprecated max_points {value} read as min_points {value + 1}: acts on >= {value + 1} points "
-        f"(Humble's 'more than {value}'){also}",
-    )
+    if r.distro == "humble":  # Humble's own parameter (it has no min_points)
+        r.add(NOTE, path + ("max_points",), f"max_points {value} (Humble): acts on more than {value} points")
+    else:
+        r.add(
+            WARNING if also else NOTE,
+            path + ("max_points",),
+            f"deprecated max_points {value} read as min_points {value + 1}: acts on >= {value + 1} points "
+            f"(Humble's 'more than {value}'){also}",
+        )
     return value + 1
 
 

@@ -91,11 +91,19 @@ def read_controller_server(r: SectionReader, params: dict, path: tuple) -> Contr
         if s not in known and s not in listed:
             r.add(WARNING, path + (s,), f"section '{s}' is not listed in any *_plugins: Nav2 ignores it")
     skip = ("progress_checker_plugin",) if pc_key == "progress_checker_plugin" else ()
-    if skip:
+    if skip and r.distro != "humble":
         r.add(
             WARNING,
             path + ("progress_checker_plugin",),
-            "'progress_checker_plugin' is the Humble name; Jazzy reads 'progress_checker_plugins' (a list)",
+            "'progress_checker_plugin' is the Humble name; Jazzy reads 'progress_checker_plugins' (a list); "
+            "for a Humble file, check it with --distro humble",
+        )
+    if r.distro == "humble" and pc_key == "progress_checker_plugins":
+        r.add(
+            WARNING,
+            path + ("progress_checker_plugins",),
+            "'progress_checker_plugins' is the Jazzy name; Humble reads 'progress_checker_plugin' (one name) "
+            "and ignores it",
         )
     return r.read(
         ControllerServerParams,

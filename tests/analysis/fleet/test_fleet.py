@@ -49,7 +49,7 @@ def test_every_log_gets_its_folder_and_a_row_and_bad_logs_fail_alone(pool_run, f
         ("trunc", "failed"),
     ]
     empty, trunc = res.results[2], res.results[3]
-    assert empty.reason.startswith(f"{fleet_dir / 'empty.mcap'}: not an MCAP file")
+    assert empty.reason.startswith(f"{fleet_dir / 'empty.mcap'}: the file is empty (0 bytes)")
     assert "truncated" in trunc.reason and "--recover" in trunc.reason
     # each log's folder holds what `navlog replay LOG -o OUT/NAME` writes, byte for byte
     ref = folder_bytes(reference)

@@ -168,3 +168,63 @@ def test_a_topic_on_two_channels_counts_and_reads_the_messages_of_both(tmp_path:
         assert reader.report.truncated == cut
         assert {t: i.count for t, i in reader.topics.items()} == {"/chatter": 5}
         assert [bytes(e.msg) for e in reader.messages(decode=False)] == data
+
+
+def test_a_folder_is_named_as_a_folder_with_what_recover_expects(tmp_path: Path, capsys) -> None:
+    from navlog.cli import main
+
+    assert main(["recover", str(tmp_path), "-o", str(tmp_path / "fixed.mcap")]) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path}: is a folder" in err and "truncated .mcap file" in err and "NAME.mcap.part" in err
+    assert "no such file" not in err
+    assert not (tmp_path / "fixed.mcap").exists()
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["info", "{log}"],
+        ["check", "{log}"],
+        ["replay", "{log}", "--pipeline", "mapping", "-o", "{out}"],
+        ["recover", "{log}", "-o", "{out}.mcap"],
+    ],
+)
+def test_an_empty_mcap_file_is_called_empty_not_bad_magic(tmp_path: Path, capsys, argv: list[str]) -> None:
+    from navlog.cli import main
+
+    log = tmp_path / "run.mcap"
+    log.write_bytes(b"")
+    out = tmp_path / "out"
+    assert main([a.format(log=log, out=out) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert f"{log}: the file is empty (0 bytes)" in err and "magic" not in err
+    assert not out.exists() and not Path(f"{out}.mcap").exists()
+
+
+def test_a_cut_navlog_recording_says_its_metadata_is_lost(tmp_path: Path, capsys) -> None:
+    from navlog.cli import main
+    from navlog.replay.io.logwriter import McapLogWriter
+
+    store = messages.typestore()
+    log = tmp_path / "run.mcap"
+    meta = {"navlog": {"world": "indoor_room", "robot": "kibot", "seed": "7"}}
+    with McapLogWriter(log, metadata=meta, chunk_size=1024) as w:
+        for i in range(60):
+            data = bytes(store.serialize_cdr(store.types[STRING](data=f"message {i:03d} " * 8), STRING))
+            w.write_raw("/chatter", STRING, (i + 1) * 10**8, data)
+    with open_log(log) as reader:
+        assert reader.metadata["navlog"]["seed"] == "7"  # the whole file has it, at its end
+    end, _ = chunk_ends(log)[3]
+    cut = tmp_path / "run.mcap.part"
+    cut.write_bytes(log.read_bytes()[: end + 5])
+    assert main(["recover", str(cut), "-o", str(tmp_path / "fixed.mcap")]) == 0
+    out = capsys.readouterr().out
+    assert "the input was truncated" in out
+    assert "metadata lost: navlog writes its metadata record (world, robot, scenario, seed)" in out
+    with open_log(tmp_path / "fixed.mcap") as reader:
+        assert "navlog" not in reader.metadata and reader.message_count > 0
+    # a whole navlog file keeps its metadata, and says nothing of a loss
+    assert main(["recover", str(log), "-o", str(tmp_path / "whole.mcap")]) == 0
+    assert "metadata lost" not in capsys.readouterr().out
+    with open_log(tmp_path / "whole.mcap") as reader:
+        assert reader.metadata["navlog"] == meta["navlog"]

@@ -68,21 +68,51 @@ def test_kibot_typos_are_reported_with_suggestions():
     p = load_nav2_params(DATA / "kibot_nav2_fragments.yaml")
     errors = _messages(p)
     base = "global_costmap.global_costmap.ros__parameters.obstacle_layer"
+    # the misspelled plugin type is named once; its section's keys are not checked as a guessed plugin
     assert "did you mean 'nav2_costmap_2d::ObstacleLayer'?" in errors[base + ".plugin"]
-    assert "did you mean 'data_type'?" in errors[base + ".scan.date_type"]
-    # the missing data_type leaves Nav2's default, which it refuses
-    assert "PointCloud" in errors[base + ".scan.data_type"]
-    # and the per-source height trap is pointed out
-    assert "0.0" in _messages(p, "warning")[base + ".scan.max_obstacle_height"]
-    # all at once, with line numbers
-    lines = {q.path: q.line for q in p.errors}
-    assert lines[base + ".plugin"] == 15 and lines[base + ".scan.date_type"] == 19
+    assert "its 2 other key(s) are not checked until the type is fixed" in errors[base + ".plugin"]
+    assert [q for q in p.problems if q.path.startswith(base + ".")] == [
+        q for q in p.problems if q.path == base + ".plugin"
+    ]
     # the rest of the file is read as written
     assert p.planner_server.planners["GridBased"].tolerance == 0.10
     assert p.velocity_smoother.min_velocity == (-0.20, 0.0, -1.2)
     assert p.collision_monitor.source_params["scan"].min_height == 0.15
     with pytest.raises(ConfigError, match="ObstcaleLayer"):
         p.require_valid()
+    # with the type fixed, the section's own typos come out, all at once, with line numbers
+    text = (DATA / "kibot_nav2_fragments.yaml").read_text().replace("ObstcaleLayer", "ObstacleLayer")
+    p = parse_nav2_text(text)
+    errors = _messages(p)
+    assert base + ".plugin" not in errors
+    assert "did you mean 'data_type'?" in errors[base + ".scan.date_type"]
+    # the missing data_type leaves Nav2's default, which it refuses
+    assert "PointCloud" in errors[base + ".scan.data_type"]
+    # and the per-source height trap is pointed out
+    assert "0.0" in _messages(p, "warning")[base + ".scan.max_obstacle_height"]
+    assert {q.path: q.line for q in p.errors}[base + ".scan.date_type"] == 19
+
+
+def test_a_misspelled_plugin_type_does_not_cascade_into_its_keys():
+    text = """
+global_costmap:
+  global_costmap:
+    ros__parameters:
+      plugins: ["voxel_layer"]
+      voxel_layer:
+        plugin: "nav2_costmap_2d::VoxelLayr"
+        z_voxels: 16
+        publish_voxel_map: true
+        observation_sources: scan
+"""
+    p = parse_nav2_text(text)
+    assert [(q.path, q.severity) for q in p.problems if "voxel_layer" in q.path] == [
+        ("global_costmap.global_costmap.ros__parameters.voxel_layer.plugin", "error")
+    ]
+    (err,) = p.errors
+    assert "unknown costmap layer plugin 'nav2_costmap_2d::VoxelLayr'" in err.message
+    assert "did you mean 'nav2_costmap_2d::VoxelLayer'?" in err.message
+    assert "its 3 other key(s) are not checked" in err.message
 
 
 def test_kibot_fixed_has_no_errors():
@@ -176,3 +206,89 @@ def test_default_checkers_without_sections_are_nav2s_simple_checkers() -> None:
         "      plugin: nav2_regulated_pure_pursuit_controller::RegulatedPurePursuitController\n"
     )
     assert any("'precise' is listed but has no 'precise:' section" in e.message for e in named.errors)
+
+
+MAP_YAML = "image: map.pgm\nmode: trinary\nresolution: 0.05\norigin: [-10.0, -10.0, 0.0]\nnegate: 0\n"
+
+
+def test_a_map_file_is_named_as_not_a_nav2_file(tmp_path, capsys):
+    from navlog.cli import main
+
+    f = tmp_path / "map.yaml"
+    f.write_text(MAP_YAML + "occupied_thresh: 0.65\nfree_thresh: 0.196\n")
+    assert main(["check-config", str(f)]) == 2
+    captured = capsys.readouterr()
+    assert f"{f}: not a Nav2 parameter file: it is a map_server map file (image, mode, resolution" in captured.err
+    assert "warning" not in captured.out
+    other = tmp_path / "robot.yaml"
+    other.write_text("name: kibot\nwheels: {radius: 0.05}\n")
+    with pytest.raises(ConfigError, match="not a Nav2 parameter file: no 'ros__parameters' anywhere"):
+        load_nav2_params(other)
+
+
+def test_a_section_the_stack_needs_is_an_error_when_missing(tmp_path, capsys):
+    import yaml
+
+    from navlog.cli import main
+
+    nav = Path(__file__).resolve().parents[3] / "config" / "nav2" / "nav_kibot.yaml"
+    doc = yaml.safe_load(nav.read_text())
+    del doc["global_costmap"]
+    f = tmp_path / "nav.yaml"
+    f.write_text(yaml.safe_dump(doc))
+    assert main(["check-config", str(f)]) == 1
+    out = capsys.readouterr().out
+    assert "error: global_costmap: missing section 'global_costmap': 'planner_server' needs it" in out
+    assert "1 error(s)" in out
+    del doc["local_costmap"], doc["planner_server"]
+    f.write_text(yaml.safe_dump(doc))
+    missing = {p.path for p in load_nav2_params(f).errors}
+    assert missing == {"global_costmap", "local_costmap", "planner_server"}
+    # a planner-only file and an AMCL-only file need nothing more
+    for name in ("kibot_safety.yaml", "amcl_go2.yaml"):
+        assert load_nav2_params(nav.with_name(name)).errors == []
+
+
+@pytest.mark.parametrize("name", EXTERNAL[1:])
+def test_a_humble_file_checked_as_humble_gets_no_jazzy_warnings(params_dir, name, capsys):
+    from navlog.cli import main
+
+    key = "controller_server.ros__parameters.progress_checker_plugin"
+    jazzy = _messages(load_nav2_params(params_dir / name), "warning")
+    assert "Humble name; Jazzy reads 'progress_checker_plugins'" in jazzy[key] and "--distro humble" in jazzy[key]
+    humble = _messages(load_nav2_params(params_dir / name, distro="humble"), "warning")
+    assert key not in humble and set(humble) == set(jazzy) - {key}
+    assert main(["check-config", "--distro", "humble", str(params_dir / name)]) == 0
+    assert "progress_checker_plugin" not in capsys.readouterr().out
+
+
+def test_a_jazzy_file_checked_as_humble_gets_humbles_warning_and_not_the_reverse(params_dir):
+    key = "controller_server.ros__parameters.progress_checker_plugins"
+    jazzy_file = params_dir / EXTERNAL[0]
+    assert key not in _messages(load_nav2_params(jazzy_file), "warning")
+    humble = _messages(load_nav2_params(jazzy_file, distro="humble"), "warning")
+    assert "the Jazzy name; Humble reads 'progress_checker_plugin'" in humble[key]
+
+
+def test_humble_max_points_is_not_called_deprecated():
+    text = """
+collision_monitor:
+  ros__parameters:
+    polygons: ["FootprintApproach"]
+    FootprintApproach:
+      type: "polygon"
+      action_type: "approach"
+      footprint_topic: "/local_costmap/published_footprint"
+      max_points: 3
+      min_points: 4
+"""
+    key = "collision_monitor.ros__parameters.FootprintApproach.max_points"
+    assert "deprecated max_points 3" in _messages(parse_nav2_text(text), "warning")[key]
+    from navlog.replay.config import parse_yaml
+    from navlog.replay.nav2.params import parse_nav2_params
+
+    humble = parse_nav2_params(parse_yaml(text, "<t>"), distro="humble")
+    assert key not in _messages(humble, "warning")
+    assert "acts on more than 3 points" in _messages(humble, "note")[key]
+    with pytest.raises(ConfigError, match="distro 'iron': choose one of jazzy, humble"):
+        parse_nav2_params({}, distro="iron")
