@@ -139,6 +139,9 @@ class McapLogWriter:
         comp = {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4, "none": CompressionType.NONE}[compression]
         self._writer = Writer(self._file, compression=comp, chunk_size=chunk_size)
         self._writer.start(profile="ros2", library=f"navlog {__version__}")
+        # the metadata first, before any message: a file cut short (kill -9) still says what it holds
+        for name in sorted(metadata or {}):
+            self._writer.add_metadata(name, {k: str(v) for k, v in (metadata or {})[name].items()})
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._channel_types: dict[str, str] = {}
@@ -152,7 +155,6 @@ class McapLogWriter:
         self._held: tuple[list[tuple[int, int, bytes | bytearray, int]], ...] = ([], [])
         self._held_bytes = [0, 0]
         self._held_since: int | None = None
-        self._metadata = metadata or {}
         self.count = 0
         self.first_ns: int | None = None
         self.last_ns: int | None = None
@@ -307,8 +309,6 @@ class McapLogWriter:
         try:
             with _compressing_at(ZSTD_LEVEL):
                 self._release()
-                for name in sorted(self._metadata):
-                    self._writer.add_metadata(name, {k: str(v) for k, v in self._metadata[name].items()})
                 self._writer.finish()
             self._file.flush()
             os.fsync(self._file.fileno())

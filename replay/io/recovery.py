@@ -5,7 +5,8 @@ of every complete chunk — into a new, properly finished MCAP file. A file with
 a message (a recording cut before its first chunk) is a ``LogError``, and nothing is written.
 
 navlog writes a file's metadata records (a recording's ``navlog`` record: world, robot, scenario,
-seed, config hash) when it finishes the file, after the messages: a cut navlog file has lost them, and
+seed, config hash) first, before any message, so they are copied with the rest; a navlog file cut
+before them (or written by an older navlog, which wrote them at its end) has lost them, and
 ``RecoveryResult.metadata_lost`` says so. They are not rebuilt: the messages do not hold the seed or
 the configuration, and a guessed record would pass for the real one.
 """
@@ -39,8 +40,8 @@ class RecoveryResult:
 
     @property
     def metadata_lost(self) -> bool:
-        """navlog writes its metadata records (a recording's world, robot, scenario, seed) when it finishes
-        a file: a cut navlog file has none, and they cannot be rebuilt from its messages."""
+        """A navlog file without its metadata records (cut before them, or an older navlog's, which wrote
+        them at its end): they cannot be rebuilt from its messages."""
         return self.library.startswith("navlog") and not self.metadata
 
     @property
