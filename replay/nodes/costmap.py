@@ -29,6 +29,7 @@ from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.pointcloud import xyz
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError
+from navlog.replay.scan_geometry import scan_fault
 
 
 class CostmapNode(Node):
@@ -123,6 +124,10 @@ class CostmapNode(Node):
             self.skipped[f"{sname}: no transform {self.params.global_frame} <- {frame}"] += 1
             return None
         if hasattr(msg, "ranges"):
+            fault = scan_fault(msg)
+            if fault is not None:
+                self.skipped[f"{sname}: {fault}"] += 1
+                return None
             pts = scan_points_inf_valid(msg) if sp.inf_is_valid else scan_points(msg)
         else:
             pts = xyz(msg)

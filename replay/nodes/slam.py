@@ -27,10 +27,11 @@ import numpy as np
 from navlog.replay import messages
 from navlog.replay.geometry import planar_matrix, quat_from_yaw, yaw_from_matrix
 from navlog.replay.io.tum import write_poses
-from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyParams, ScanAngles
+from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, Slam2D, SlamParams
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
+from navlog.replay.scan_geometry import ScanAngles
 
 
 @dataclass(frozen=True)
@@ -121,7 +122,7 @@ class SlamNode(Node):
     def _process(self, msg: Any, stamp: int, odom_base: np.ndarray, mount: np.ndarray, to_traj: np.ndarray) -> None:
         angles = self._angles(msg)
         if angles is None:
-            self.skipped[f"{self.p.scan_topic}: {ScanAngles.SKIP_REASON}"] += 1
+            self.skipped[f"{self.p.scan_topic}: {self._angles.fault}"] += 1
             return
         if not np.all(np.isfinite(odom_base)):
             self.skipped[f"{self.p.scan_topic}: odometry not finite at the scan's stamp"] += 1
