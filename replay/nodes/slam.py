@@ -17,7 +17,6 @@ in the map frame at every scan, from the final keyframe poses.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -26,6 +25,7 @@ import numpy as np
 
 from navlog.replay import messages
 from navlog.replay.geometry import planar_matrix, quat_from_yaw, yaw_from_matrix
+from navlog.replay.io import json_text
 from navlog.replay.io.tum import write_poses
 from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, Slam2D, SlamParams
@@ -238,7 +238,7 @@ def slam_artifacts(node: SlamNode, out: Path) -> dict[str, Path]:
     """trajectory.tum (the final poses at every scan) and pose_graph.json (keyframes and edges) in ``out``."""
     traj = node.trajectory
     graph = out / "pose_graph.json"
-    graph.write_text(json.dumps(node.pose_graph(), indent=1, sort_keys=True) + "\n")
+    graph.write_text(json_text.dumps(node.pose_graph(), indent=1, sort_keys=True) + "\n")
     return {
         "trajectory_tum": write_poses(out / "trajectory.tum", [t for t, _ in traj], [p for _, p in traj]),
         "pose_graph": graph,
