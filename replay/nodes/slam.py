@@ -27,7 +27,7 @@ from navlog.replay import messages
 from navlog.replay.geometry import planar_matrix, quat_from_yaw, yaw_from_matrix
 from navlog.replay.io import json_text
 from navlog.replay.io.tum import write_poses
-from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyParams
+from navlog.replay.mapping.occupancy import MAX_COORDINATE, GridTooLarge, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, Slam2D, SlamParams
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
@@ -126,6 +126,9 @@ class SlamNode(Node):
             return
         if not np.all(np.isfinite(odom_base)):
             self.skipped[f"{self.p.scan_topic}: odometry not finite at the scan's stamp"] += 1
+            return
+        if np.abs(odom_base[:2, 3]).max() > MAX_COORDINATE:  # the matcher's window would span it: no memory holds that
+            self.skipped[f"{self.p.scan_topic}: odometry farther than {MAX_COORDINATE:g} m at the scan's stamp"] += 1
             return
         scan = LaserScan2D(
             angles, np.asarray(msg.ranges, dtype=np.float64), float(msg.range_min), float(msg.range_max), mount
