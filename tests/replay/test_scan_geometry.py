@@ -89,3 +89,33 @@ def test_amcl_and_the_collision_monitor_skip_and_count_unusable_scans(teleop_log
     res = run_replay(path, "safety", tmp_path / "c", remap={"/cmd_vel_nav": "/cmd_vel"}, progress=False)
     assert sum(v for k, v in res.manifest["skipped"].items() if k.endswith(WRONG_SIGN)) >= scans
     json.dumps(res.manifest, allow_nan=False)
+
+
+def test_a_costmap_scan_source_skips_and_counts_an_unusable_scan():
+    from navlog.replay.nav2 import load_nav2_params
+    from navlog.replay.nav2.costmap.observation import ObservationSourceParams
+    from navlog.replay.nodes.costmap import CostmapNode
+
+    nav2 = load_nav2_params(Path(__file__).parents[2] / "config" / "nav2" / "nav_go2.yaml")
+    node = CostmapNode(nav2.local_costmap, "local_costmap")
+    node.tf.add(node.params.global_frame, "laser", 0, (1.0, 2.0, 0.0), (0, 0, 0, 1), static=True)
+    scan = m.msg_class(m.LASER_SCAN)(
+        header=m.header(0, "laser"),
+        angle_min=-PI,
+        angle_max=PI,
+        angle_increment=2 * PI / 4,
+        time_increment=0.0,
+        scan_time=0.1,
+        range_min=0.1,
+        range_max=10.0,
+        ranges=[1.0, 1.0, 1.0, 1.0],
+        intensities=[],
+    )
+    sp = ObservationSourceParams(topic="/scan", data_type="LaserScan")
+    obs = node._observation("scan", 0, scan, sp)
+    assert obs is not None and obs.points[0, :2].tolist() == pytest.approx([0.0, 2.0])  # 1 m behind, at (1, 2)
+    scan.angle_increment = -2 * PI / 4
+    assert node._observation("scan", 0, scan, sp) is None
+    scan.angle_increment, scan.ranges = 2 * PI / 4, [1.0] * 8
+    assert node._observation("scan", 0, scan, sp) is None
+    assert node.skipped == {f"scan: {WRONG_SIGN}": 1, f"scan: {INCONSISTENT}": 1}
