@@ -31,6 +31,8 @@ from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError
 from navlog.replay.scan_geometry import scan_fault
 
+FLOAT32_MAX = 3.4028234663852886e38  # the largest finite float32 (a footprint's Point32 coordinates)
+
 
 class CostmapNode(Node):
     def __init__(
@@ -143,11 +145,16 @@ class CostmapNode(Node):
             if not self.costmap.obstacle_layers:
                 return
         robot = self.robot_pose(t)
+        far = robot is not None and not max(abs(robot[0]), abs(robot[1])) <= FLOAT32_MAX
+        if far:  # its footprint (float32 points) cannot be written
+            self.skipped["costmap update: robot pose beyond float32's range (+-3.4e38 m) in the TF tree"] += 1
+            robot = None
         if robot is None:
             if self.costmap.params.rolling_window or self.costmap.obstacle_layers:
-                self.skipped[
-                    f"costmap update: no transform {self.params.global_frame} <- {self.params.robot_base_frame}"
-                ] += 1
+                if not far:
+                    self.skipped[
+                        f"costmap update: no transform {self.params.global_frame} <- {self.params.robot_base_frame}"
+                    ] += 1
                 if not self.costmap.static_layers:
                     return
             robot = (0.0, 0.0, 0.0) if self.robot is None else self.robot

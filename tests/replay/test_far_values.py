@@ -37,3 +37,18 @@ def test_slam_skips_scans_whose_odometry_is_1e39_m_away(teleop_log, tmp_path):
     with open_log(teleop_log) as r:
         scans = r.topics["/scan"].count
     assert 0 < far < scans and (res.out_dir / "map.pgm").exists()
+
+
+def test_the_planner_skips_costmap_updates_whose_robot_pose_is_beyond_float32(teleop_log, tmp_path):
+    # the footprint's Point32 coordinates could not be packed: OverflowError from the CDR writer
+    from navlog.recorder.world import write_world_map
+
+    write_world_map("indoor_room", tmp_path / "map.yaml", margin=0.0)
+    path = tmp_path / "far.mcap"
+    _far_tf(teleop_log, path, 100, 400, 1e39)
+    overrides = [f"map={tmp_path / 'map.yaml'}", "goals=indoor_room_waypoints"]
+    res = run_replay(path, "planner", tmp_path / "out", overrides=overrides, progress=False)
+    far = res.manifest["skipped"]["costmap update: robot pose beyond float32's range (+-3.4e38 m) in the TF tree"]
+    assert far > 0
+    with open_log(res.out_dir / "replay.mcap") as out:  # the footprints of the other updates are written
+        assert out.topics["/global_costmap/published_footprint"].count > 0
