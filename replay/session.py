@@ -9,7 +9,6 @@ a failed replay leaves nothing half-written.
 
 from __future__ import annotations
 
-import json
 import logging
 import shutil
 import threading
@@ -23,7 +22,7 @@ from typing import Any
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
 from navlog.replay.identity import input_entries, inputs_sha256, replay_identity, sha256_file
-from navlog.replay.io import cdr_decode
+from navlog.replay.io import cdr_decode, json_text
 from navlog.replay.io.atomic import hold_output, remove_stale, replace_output, write_error
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
@@ -195,7 +194,7 @@ def run_replay(
                 entries = inputs.result()
                 identity = replay_identity(inputs_sha256(entries, folder=log.is_dir()), pipeline, asked, remap)
                 manifest = _manifest(entries, reader, pipeline, params, pipe, result, tmp, remap)
-                (tmp / "manifest.json").write_text(json.dumps(manifest, indent=2, sort_keys=True) + "\n")
+                (tmp / "manifest.json").write_text(json_text.dumps(manifest, indent=2, sort_keys=True) + "\n")
             except BaseException:
                 shutil.rmtree(tmp, ignore_errors=True)
                 raise

@@ -361,6 +361,16 @@ def scan_values(series: TopicSeries) -> Check:
         "scans_without_finite_range": sv.no_finite,
     }
     counts = f"{sv.nan} NaN, {sv.pos_inf} +inf (no return), {sv.neg_inf} -inf (too close) of {sv.beams} ranges"
+    if sv.bad_geometry:  # (the key only then: the reports of valid logs keep their bytes)
+        numbers["scans_with_bad_geometry"] = sv.bad_geometry
+        return Check(
+            "scan_values",
+            topic,
+            Status.FAIL,
+            f"{topic}: {sv.bad_geometry} of {sv.scans} scan(s) unusable, first: {sv.first_fault}; replay skips "
+            "them: check the laser driver's angle_min, angle_max, angle_increment and beam count",
+            numbers,
+        )
     if sv.scans and sv.no_finite == sv.scans:
         return Check(
             "scan_values",

@@ -24,6 +24,7 @@ import numpy as np
 
 from navlog.replay.io.mcap_reader import McapLogReader, SplitMcapLogReader
 from navlog.replay.io.reader import LogReader
+from navlog.replay.scan_geometry import scan_fault
 
 LASER_SCAN = "sensor_msgs/msg/LaserScan"
 TF_MESSAGE = "tf2_msgs/msg/TFMessage"
@@ -40,6 +41,8 @@ class ScanValues:
     pos_inf: int = 0
     neg_inf: int = 0
     no_finite: int = 0  # scans without a single finite range
+    bad_geometry: int = 0  # scans whose angle fields and beam count disagree (navlog.replay.scan_geometry)
+    first_fault: str | None = None  # why the first of them cannot be used
 
 
 @dataclass
@@ -158,6 +161,10 @@ def _add_scan(series: TopicSeries, msg: Any) -> None:
     sv.pos_inf += pos
     sv.neg_inf += neg
     sv.no_finite += int(nan + pos + neg == r.size)
+    fault = scan_fault(msg)
+    if fault is not None:
+        sv.bad_geometry += 1
+        sv.first_fault = sv.first_fault or fault
 
 
 def _add_tf(edges: dict[tuple[str, str], EdgeSeries], msg: Any, static: bool) -> None:

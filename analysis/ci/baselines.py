@@ -31,6 +31,7 @@ from navlog.analysis.diff.result import Check, Verdict
 from navlog.analysis.diff.tolerances import DiffTolerances
 from navlog.errors import NavlogError
 from navlog.replay.identity import sha256_file
+from navlog.replay.io import json_text
 from navlog.replay.io.atomic import replace_output
 
 __all__ = [
@@ -136,7 +137,7 @@ def write_baseline(folder: Path, outputs: Mapping[str, Path], provenance: Mappin
         for name, src in sorted(outputs.items()):
             entries[name] = {"sha256": sha256_file(src), "bytes": src.stat().st_size, "stored": _keep(name, src, tmp)}
         doc = {"schema": SCHEMA, "case": label, "provenance": dict(provenance), "outputs": entries}
-        (tmp / BASELINE_FILE).write_text(json.dumps(doc, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+        (tmp / BASELINE_FILE).write_text(json_text.dumps(doc, indent=2, sort_keys=True) + "\n", encoding="utf-8")
         replace_output(tmp, folder)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

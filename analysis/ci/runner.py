@@ -45,6 +45,7 @@ from navlog.analysis.fleet.executors import Executor, InProcess, Lost, ProcessPo
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import suggest
 from navlog.replay.identity import log_sha256, parameter_hash, replay_identity
+from navlog.replay.io import json_text
 from navlog.version import __version__
 
 __all__ = ["DEFAULT_BASELINES", "applicable_overrides", "default_executor", "run_case", "run_suite"]
@@ -292,7 +293,7 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
     with tempfile.TemporaryDirectory(prefix="navlog-ci-") as work:
         outputs = {o["file"]: replay_dir / o["file"] for o in manifest["outputs"].values()}
         if metrics is not None:
-            (Path(work) / METRICS_FILE).write_text(json.dumps(metrics, indent=2, sort_keys=True) + "\n")
+            (Path(work) / METRICS_FILE).write_text(json_text.dumps(metrics, indent=2, sort_keys=True) + "\n")
             outputs[METRICS_FILE] = Path(work) / METRICS_FILE
         if case.diff is not None:
             diff_checks, written = _diff(job, base, outputs, provenance, notes)

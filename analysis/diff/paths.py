@@ -42,13 +42,14 @@ class PlanPair:
     hausdorff_m: float
     endpoint_m: float
     cost_change_rel: float
+    nonfinite: bool = False  # a plan holds a NaN or infinite coordinate, length or cost: always a difference
 
     @property
     def success_changed(self) -> bool:
         return self.success_a != self.success_b
 
     def within_tolerance(self, tol: PathTolerance) -> bool:
-        if self.success_changed:
+        if self.success_changed or self.nonfinite:
             return False
         checks = (
             (abs(self.length_change_m), tol.length_m),
@@ -91,7 +92,10 @@ def plan_pair(
     cost = nan
     if cost_a is not None and cost_b is not None:
         cost = 0.0 if cost_a == cost_b else (cost_b - cost_a) / max(abs(cost_a), abs(cost_b))
-    return PlanPair(True, True, lb - la, haus, float(np.linalg.norm(gb - ga)), cost)
+    given = [la, lb, *(c for c in (cost_a, cost_b) if c is not None)]
+    finite = bool(np.isfinite(pa).all() and np.isfinite(pb).all() and np.isfinite(ga).all() and np.isfinite(gb).all())
+    nonfinite = not (finite and all(math.isfinite(v) for v in given))
+    return PlanPair(True, True, lb - la, haus, float(np.linalg.norm(gb - ga)), cost, nonfinite)
 
 
 def _worst(values: Sequence[float], key: Any = abs) -> float | None:
@@ -127,6 +131,10 @@ def compare_plan_streams(
     detail = f"{count_a} -> {count_b} plans, {beyond} beyond tolerance"
     if success_changed:
         detail += f", success changed in {success_changed}"
+    nonfinite = sum(p.nonfinite for p in pairs)
+    if nonfinite:  # (the key only then: the reports of finite plans keep their bytes)
+        values["nonfinite_pairs"] = nonfinite
+        detail += f", {nonfinite} pair(s) with a NaN or infinite coordinate, length or cost"
     return Check(name, "plan", verdict, values, as_dict(tol), detail)
 
 

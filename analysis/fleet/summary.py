@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 from collections.abc import Sequence
 from typing import Any
 
 from navlog.analysis.fleet.worker import LogResult
+from navlog.replay.io import json_text
 
 __all__ = [
     "HEADLINE_METRICS",
@@ -85,7 +85,7 @@ def summary_document(pipeline: str, results: Sequence[LogResult], *, version: st
 
 
 def to_json(document: dict[str, Any]) -> str:
-    return json.dumps(document, indent=2, sort_keys=True) + "\n"
+    return json_text.dumps(document, indent=2, sort_keys=True) + "\n"
 
 
 SCALARS = (

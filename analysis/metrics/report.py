@@ -12,7 +12,6 @@ error: the metric is skipped and a note says which input it needs. Same inputs -
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -26,7 +25,7 @@ from navlog.analysis.metrics import trajectory as tr
 from navlog.analysis.tables import grid, indented, render, table
 from navlog.errors import NavlogError
 from navlog.replay import messages as m
-from navlog.replay.io import open_log
+from navlog.replay.io import json_text, open_log
 
 GT_TOPIC = "/odom/ground_truth"
 EVENTS_TOPIC = "/navlog/events"
@@ -382,7 +381,7 @@ def _pcd_transform(mode, gt, est, ate, options, skipped) -> tuple[str, np.ndarra
 
 
 def to_json(metrics: dict[str, Any]) -> str:
-    return json.dumps(metrics, indent=2, allow_nan=False) + "\n"
+    return json_text.dumps(metrics, indent=2) + "\n"
 
 
 def write_json(metrics: dict[str, Any], path: str | Path) -> Path:

@@ -234,14 +234,14 @@ class McapLogReader(LogReader):
         # An open chunk is in the heap by its next message: (time, chunk offset, position, (messages, index))
         queue: list[tuple] = [(ci.message_start_time, ci.chunk_start_offset, -1, None) for ci in chunks]
         loader = _ReadAhead(lambda ci: self._chunk_messages(ci, channels), chunks, READ_AHEAD)
+        opened = iter(chunks)  # the heap opens the chunks in this order, as the loader loads them
         try:
             while queue:
                 t, chunk_offset, pos, item = heapq.heappop(queue)
                 if pos < 0:
+                    msgs = self._within_chunk_span(next(opened), loader.next())
                     msgs = [
-                        m
-                        for m in loader.next()
-                        if (start_ns is None or m[0] >= start_ns) and (end_ns is None or m[0] <= end_ns)
+                        m for m in msgs if (start_ns is None or m[0] >= start_ns) and (end_ns is None or m[0] <= end_ns)
                     ]
                     if msgs:
                         heapq.heappush(queue, (msgs[0][0], chunk_offset, msgs[0][1], (msgs, 0)))
@@ -260,6 +260,19 @@ class McapLogReader(LogReader):
                         break
         finally:
             loader.close()
+
+    def _within_chunk_span(self, ci: ChunkIndex, msgs: list[tuple[int, int, int, bytes]]) -> list:
+        """The messages whose log time lies in their chunk's span as its index states it; the others are
+        counted skips. The writer computed that span from the true times, so a time outside it is corrupt
+        (one flipped bit can put a message decades ahead, and timers would run until then)."""
+        lo, hi = ci.message_start_time, ci.message_end_time
+        if not msgs or (lo == hi == 0) or (lo <= msgs[0][0] and msgs[-1][0] <= hi):  # (sorted by time)
+            return msgs
+        kept = [m for m in msgs if lo <= m[0] <= hi]
+        self.report.note_skip(
+            "messages whose log time lies outside their chunk's time range (corrupt log time)", len(msgs) - len(kept)
+        )
+        return kept
 
     def _chunk_messages(self, ci: ChunkIndex, channels: dict) -> list[tuple[int, int, int, bytes]]:
         """(log time, position, channel id, bytes) of the wanted messages in one chunk, sorted.

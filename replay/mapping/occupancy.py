@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -71,27 +70,6 @@ class ScanStats:
     too_close: int = 0  # -inf or <= range_min: not used
     nan: int = 0  # not used
     clipped: int = 0  # beyond max_laser_range: cleared up to it, end not marked
-
-
-class ScanAngles:
-    """The beam angles of LaserScan messages (``angle_min + i * angle_increment``), computed once per
-    (angle_min, angle_increment, beam count); None for a scan whose fields cannot be used (a NaN angle
-    or range field, or an infinite angle)."""
-
-    SKIP_REASON = "NaN or infinite angle/range fields"
-
-    def __init__(self) -> None:
-        self._cache: dict[tuple[float, float, int], np.ndarray] = {}
-
-    def __call__(self, msg: Any) -> np.ndarray | None:
-        fields = (msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
-        if any(math.isnan(v) for v in fields) or not all(math.isfinite(v) for v in fields[:2]):
-            return None
-        key = (float(msg.angle_min), float(msg.angle_increment), len(msg.ranges))
-        angles = self._cache.get(key)
-        if angles is None:
-            angles = self._cache[key] = msg.angle_min + msg.angle_increment * np.arange(len(msg.ranges))
-        return angles
 
 
 class OccupancyGrid2D:

@@ -33,6 +33,7 @@ from navlog.replay.nav2.amcl import AmclParams, LikelihoodField, ParticleFilter,
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
+from navlog.replay.scan_geometry import NOT_FINITE, ScanAngles
 
 POSE_WITH_COVARIANCE_STAMPED = "geometry_msgs/msg/PoseWithCovarianceStamped"
 POSE_ARRAY = "geometry_msgs/msg/PoseArray"
@@ -80,6 +81,7 @@ class AmclNode(Node):
         self.map = occ_map
         self.filter = ParticleFilter(params, LikelihoodField(occ_map, params.laser_likelihood_max_dist), rng)
         self.tf = TFBuffer()
+        self._angles = ScanAngles()
         self.base = self.tf.name(params.base_frame_id)
         self.odom = self.tf.name(params.odom_frame_id)
         self.global_frame = params.global_frame_id
@@ -173,9 +175,9 @@ class AmclNode(Node):
 
     # ------------------------------------------------------------ the filter
     def _process(self, msg: Any, stamp: int, odom_base: np.ndarray, laser: np.ndarray) -> None:
-        fields = (msg.angle_min, msg.angle_increment, msg.range_min, msg.range_max)
-        if not all(math.isfinite(v) for v in fields):
-            self.skipped[f"{self.scan_topic}: NaN or infinite angle/range fields"] += 1
+        angles = self._angles(msg)
+        if angles is None or not (math.isfinite(msg.range_min) and math.isfinite(msg.range_max)):
+            self.skipped[f"{self.scan_topic}: {self._angles.fault or NOT_FINITE}"] += 1
             return
         pose = _planar(odom_base)
         update = self._pf_odom is None
@@ -186,10 +188,9 @@ class AmclNode(Node):
             if update:
                 self.filter.motion_update(self._pf_odom, pose)
         if update:
-            n = len(msg.ranges)
             scan = Scan(
                 np.asarray(msg.ranges, dtype=np.float64),
-                msg.angle_min + msg.angle_increment * np.arange(n),
+                angles,
                 float(msg.range_min),
                 float(msg.range_max),
             )

@@ -78,6 +78,7 @@ from navlog.replay.nav2.collision_monitor import (
 from navlog.replay.pointcloud import xyz
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import Pose, TFBuffer, TransformError, relative_pose
+from navlog.replay.scan_geometry import scan_fault
 
 RANGE = "sensor_msgs/msg/Range"
 POLYGON_STAMPED = "geometry_msgs/msg/PolygonStamped"
@@ -230,6 +231,10 @@ class CollisionMonitorNode(Node):
 
     def _on_source(self, names: list[str], msg: Any, t: int) -> None:
         for name in names:
+            fault = scan_fault(msg) if self.sources[name].type == "scan" else None
+            if fault is not None:  # the source keeps its last usable scan (until its source_timeout)
+                self.skipped[f"{name}: {fault}"] += 1
+                continue
             self.latest[name] = msg
 
     def _on_shape(self, topic: str, msg: Any, t: int) -> None:

@@ -29,6 +29,9 @@ from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.pointcloud import xyz
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError
+from navlog.replay.scan_geometry import scan_fault
+
+FLOAT32_MAX = 3.4028234663852886e38  # the largest finite float32 (a footprint's Point32 coordinates)
 
 
 class CostmapNode(Node):
@@ -123,6 +126,10 @@ class CostmapNode(Node):
             self.skipped[f"{sname}: no transform {self.params.global_frame} <- {frame}"] += 1
             return None
         if hasattr(msg, "ranges"):
+            fault = scan_fault(msg)
+            if fault is not None:
+                self.skipped[f"{sname}: {fault}"] += 1
+                return None
             pts = scan_points_inf_valid(msg) if sp.inf_is_valid else scan_points(msg)
         else:
             pts = xyz(msg)
@@ -138,11 +145,16 @@ class CostmapNode(Node):
             if not self.costmap.obstacle_layers:
                 return
         robot = self.robot_pose(t)
+        far = robot is not None and not max(abs(robot[0]), abs(robot[1])) <= FLOAT32_MAX
+        if far:  # its footprint (float32 points) cannot be written
+            self.skipped["costmap update: robot pose beyond float32's range (+-3.4e38 m) in the TF tree"] += 1
+            robot = None
         if robot is None:
             if self.costmap.params.rolling_window or self.costmap.obstacle_layers:
-                self.skipped[
-                    f"costmap update: no transform {self.params.global_frame} <- {self.params.robot_base_frame}"
-                ] += 1
+                if not far:
+                    self.skipped[
+                        f"costmap update: no transform {self.params.global_frame} <- {self.params.robot_base_frame}"
+                    ] += 1
                 if not self.costmap.static_layers:
                     return
             robot = (0.0, 0.0, 0.0) if self.robot is None else self.robot

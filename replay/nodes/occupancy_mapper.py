@@ -33,11 +33,12 @@ import numpy as np
 
 from navlog.replay import messages
 from navlog.replay.geometry import yaw_from_matrix
-from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams, ScanAngles
+from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
+from navlog.replay.scan_geometry import ScanAngles
 from navlog.replay.workers.grid import GridWorker
 
 PoseSource = Literal["ground_truth", "odom", "lidar_mapper", "tf"]
@@ -164,7 +165,7 @@ class OccupancyMapperNode(Node):
     def _insert(self, msg, stamp: int, base: np.ndarray, pose: np.ndarray) -> None:
         angles = self._angles(msg)
         if angles is None:
-            self.skipped[f"{self.p.scan_topic}: {ScanAngles.SKIP_REASON}"] += 1
+            self.skipped[f"{self.p.scan_topic}: {self._angles.fault}"] += 1
             return
         if not np.all(np.isfinite(pose)):
             self.skipped[f"{self.p.scan_topic}: pose not finite at the scan's stamp"] += 1

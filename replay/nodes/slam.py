@@ -17,7 +17,6 @@ in the map frame at every scan, from the final keyframe poses.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -26,11 +25,13 @@ import numpy as np
 
 from navlog.replay import messages
 from navlog.replay.geometry import planar_matrix, quat_from_yaw, yaw_from_matrix
+from navlog.replay.io import json_text
 from navlog.replay.io.tum import write_poses
-from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyParams, ScanAngles
+from navlog.replay.mapping.occupancy import MAX_COORDINATE, GridTooLarge, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, Slam2D, SlamParams
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
+from navlog.replay.scan_geometry import ScanAngles
 
 
 @dataclass(frozen=True)
@@ -121,10 +122,13 @@ class SlamNode(Node):
     def _process(self, msg: Any, stamp: int, odom_base: np.ndarray, mount: np.ndarray, to_traj: np.ndarray) -> None:
         angles = self._angles(msg)
         if angles is None:
-            self.skipped[f"{self.p.scan_topic}: {ScanAngles.SKIP_REASON}"] += 1
+            self.skipped[f"{self.p.scan_topic}: {self._angles.fault}"] += 1
             return
         if not np.all(np.isfinite(odom_base)):
             self.skipped[f"{self.p.scan_topic}: odometry not finite at the scan's stamp"] += 1
+            return
+        if np.abs(odom_base[:2, 3]).max() > MAX_COORDINATE:  # the matcher's window would span it: no memory holds that
+            self.skipped[f"{self.p.scan_topic}: odometry farther than {MAX_COORDINATE:g} m at the scan's stamp"] += 1
             return
         scan = LaserScan2D(
             angles, np.asarray(msg.ranges, dtype=np.float64), float(msg.range_min), float(msg.range_max), mount
@@ -237,7 +241,7 @@ def slam_artifacts(node: SlamNode, out: Path) -> dict[str, Path]:
     """trajectory.tum (the final poses at every scan) and pose_graph.json (keyframes and edges) in ``out``."""
     traj = node.trajectory
     graph = out / "pose_graph.json"
-    graph.write_text(json.dumps(node.pose_graph(), indent=1, sort_keys=True) + "\n")
+    graph.write_text(json_text.dumps(node.pose_graph(), indent=1, sort_keys=True) + "\n")
     return {
         "trajectory_tum": write_poses(out / "trajectory.tum", [t for t, _ in traj], [p for _, p in traj]),
         "pose_graph": graph,

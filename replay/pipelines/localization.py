@@ -25,7 +25,6 @@ localization.json (updates, resamples, particles, the first update's and the las
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Literal
@@ -33,6 +32,7 @@ from typing import Any, Literal
 import numpy as np
 
 from navlog.errors import ConfigError
+from navlog.replay.io import json_text
 from navlog.replay.io.map_server import load_map
 from navlog.replay.io.tum import write_poses
 from navlog.replay.nav2 import default_nav2_params, load_nav2_params
@@ -181,7 +181,7 @@ class LocalizationRun(Pipeline):
             )
         }
         path = out / "localization.json"
-        path.write_text(json.dumps(self.report(), indent=2, sort_keys=True) + "\n")
+        path.write_text(json_text.dumps(self.report(), indent=2, sort_keys=True) + "\n")
         written["localization"] = path
         return written
 

@@ -23,12 +23,12 @@ recoveries and replans; the safety filters' summary when they ran.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 from navlog.errors import ConfigError
+from navlog.replay.io import json_text
 from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import load_nav2_params
 from navlog.replay.nav2.overrides import nav2_override_items
@@ -199,7 +199,7 @@ class NavigationRun(Pipeline):
         if self.filters is not None:
             written.update(self.filters.write_artifacts(out))
         nav = out / "navigation.json"
-        nav.write_text(json.dumps(self.report(), indent=2, sort_keys=True) + "\n")
+        nav.write_text(json_text.dumps(self.report(), indent=2, sort_keys=True) + "\n")
         written["navigation"] = nav
         return written
 

@@ -17,7 +17,6 @@ global costmap on a map and plans once (what ``navlog plan`` runs); ``write_plan
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -29,6 +28,7 @@ import numpy as np
 from navlog.errors import ConfigError
 from navlog.replay import messages as m
 from navlog.replay.config import find_config, known_configs, load_yaml, suggest
+from navlog.replay.io import json_text
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import Nav2Params, default_nav2_params, load_nav2_params
@@ -195,7 +195,7 @@ class PlannerRun(Pipeline):
             for t, p in self.pl.plans
         ]
         fails = [{"time_ns": t, "error": e} for t, e in self.pl.failures]
-        path.write_text(json.dumps({"plans": rows, "failures": fails}, indent=2, sort_keys=True) + "\n")
+        path.write_text(json_text.dumps({"plans": rows, "failures": fails}, indent=2, sort_keys=True) + "\n")
         return {"plans": path}
 
     def skipped(self) -> dict[str, int]:

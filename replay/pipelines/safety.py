@@ -23,7 +23,6 @@ topic it takes (``Pipeline.commands``): the scenario publishes there and the rob
 
 from __future__ import annotations
 
-import json
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -32,6 +31,7 @@ from typing import Any, Literal
 
 from navlog.errors import ConfigError
 from navlog.replay.config import find_config, known_configs, suggest
+from navlog.replay.io import json_text
 from navlog.replay.nav2 import Nav2Params, load_nav2_params
 from navlog.replay.nav2.collision_monitor import CollisionMonitorParams, Decision
 from navlog.replay.nav2.costmap import robot_footprint
@@ -260,7 +260,7 @@ class SafetyRun(Pipeline):
 
     def write_artifacts(self, out: Path) -> dict[str, Path]:
         path = out / "safety.json"
-        path.write_text(json.dumps(self.report(), indent=2, sort_keys=True) + "\n")
+        path.write_text(json_text.dumps(self.report(), indent=2, sort_keys=True) + "\n")
         return {"safety": path}
 
     def skipped(self) -> dict[str, int]:

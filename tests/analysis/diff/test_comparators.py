@@ -109,6 +109,18 @@ def test_a_plan_that_now_fails_is_changed_whatever_the_tolerance():
     assert check.verdict is Verdict.CHANGED and check.values["success_changed"] == 1
 
 
+def test_a_nan_in_a_plan_is_a_difference_whatever_the_tolerance():
+    a = np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]])
+    b = a.copy()
+    b[1, 1] = np.nan
+    huge = PathTolerance(hausdorff_m=1e9, length_m=1e9, endpoint_m=1e9, cost_rtol=1e9)
+    for x, y in ((a, b), (b, a), (b, b.copy())):
+        check = compare_plans("/plan", x, y, huge)
+        assert check.verdict is Verdict.CHANGED and check.values["nonfinite_pairs"] == 1
+        assert "NaN or infinite" in check.detail
+    assert "nonfinite_pairs" not in compare_plans("/plan", a, a + 0.01, huge).values
+
+
 # ---------------------------------------------------------------- velocity commands
 
 

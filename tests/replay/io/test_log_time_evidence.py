@@ -1,0 +1,61 @@
+"""A log time is evidence, not an order: a message whose log time a flipped bit moved outside its chunk's
+time range is a counted skip, and the replay does not run its timers until then."""
+
+from __future__ import annotations
+
+import struct
+from pathlib import Path
+
+import pytest
+
+from navlog.replay.io.formats import open_log
+from navlog.replay.io.logwriter import McapLogWriter
+from navlog.replay.session import run_replay
+
+REASON = "messages whose log time lies outside their chunk's time range (corrupt log time)"
+FLIP = 1 << 50  # ns: 13 days later
+
+
+def _finds(data: bytearray, pattern: bytes) -> list[int]:
+    out, at = [], data.find(pattern)
+    while at >= 0:
+        out.append(at)
+        at = data.find(pattern, at + 1)
+    return out
+
+
+@pytest.fixture(scope="module")
+def flipped(teleop_log, tmp_path_factory) -> tuple[Path, int]:
+    """The teleop log uncompressed, with bit 50 of the 50th /scan's log time flipped in the file's bytes."""
+    path = tmp_path_factory.mktemp("log_times") / "flipped.mcap"
+    scans = 0
+    with McapLogWriter(path, compression="none") as w, open_log(teleop_log) as r:
+        for env in r.messages(decode=False):
+            w.write(env)
+            if env.topic == "/scan" and (scans := scans + 1) == 50:
+                t = env.time_ns
+    with open_log(path) as r:
+        (cid,) = [c for c, ch in r._summary.channels.items() if ch.topic == "/scan"]
+    data = bytearray(path.read_bytes())
+    # a Message record: channel id (u16), sequence (u32), log time, publish time (u64)
+    found = [at for at in _finds(data, struct.pack("<QQ", t, t)) if data[at - 6 : at - 4] == struct.pack("<H", cid)]
+    assert len(found) == 1
+    data[found[0] : found[0] + 8] = struct.pack("<Q", t ^ FLIP)
+    path.write_bytes(bytes(data))
+    return path, t
+
+
+def test_the_reader_skips_and_counts_a_far_future_log_time(flipped):
+    path, t = flipped
+    with open_log(path) as r:
+        times = [env.time_ns for env in r.messages(["/scan"], decode=False)]
+        assert r.report.skipped[REASON] == 1
+        assert t not in times and max(times) <= r.end_ns and len(times) == r.topics["/scan"].count - 1
+
+
+def test_a_replay_counts_it_and_ends_with_the_log(flipped, tmp_path):
+    path, _ = flipped
+    res = run_replay(path, "mapping", tmp_path / "out", overrides=["lidar_mapper=off"], progress=False)
+    assert res.manifest["skipped"][f"log: {REASON}"] == 1
+    with open_log(path) as r, open_log(res.out_dir / "replay.mcap") as out:
+        assert out.end_ns <= r.end_ns + 2_000_000_000  # the last /map at most one publish period after the log
