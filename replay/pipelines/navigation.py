@@ -32,8 +32,8 @@ from navlog.replay.io import json_text
 from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import load_nav2_params
 from navlog.replay.nav2.overrides import nav2_override_items
-from navlog.replay.pipelines import PipelineSpec, existing_file, register, safety
-from navlog.replay.pipelines.planner import load_goals, load_named_goals
+from navlog.replay.pipelines import PipelineSpec, register, safety
+from navlog.replay.pipelines.planner import OnMapToGoals, load_named_goals
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.pipeline import Pipeline
 
@@ -221,7 +221,7 @@ class NavigationRun(Pipeline):
 
 
 @register
-class Navigation(PipelineSpec):
+class Navigation(OnMapToGoals):
     """Nav2's planner, controller, behaviours and navigator on goals, then the safety filters; it drives the robot."""
 
     name = "navigation"
@@ -232,11 +232,3 @@ class Navigation(PipelineSpec):
     @classmethod
     def build(cls, params: Params, log_topics: set[str]) -> Pipeline:
         return build(params, log_topics)
-
-    @classmethod
-    def static_map(cls, params: Params) -> Path | None:
-        return existing_file(params.map)
-
-    @classmethod
-    def goal_count(cls, params: Params) -> int | None:
-        return len(load_goals(params.goals)[0]) if params.goals else None

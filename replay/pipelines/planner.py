@@ -209,8 +209,21 @@ class PlannerRun(Pipeline):
         return None if self.pl.plans or self.pl.failures else "no plan: no goal was planned for"
 
 
+class OnMapToGoals(PipelineSpec):
+    """A pipeline whose parameters name a static map (``map``) and a goals file (``goals``): the
+    planner's, and the navigation stack's."""
+
+    @classmethod
+    def static_map(cls, params: Any) -> Path | None:
+        return existing_file(params.map)
+
+    @classmethod
+    def goal_count(cls, params: Any) -> int | None:
+        return len(load_goals(params.goals)[0]) if params.goals else None
+
+
 @register
-class Planner(PipelineSpec):
+class Planner(OnMapToGoals):
     """Nav2's global costmap and planner server on the log's map or scans, TF and goals."""
 
     name = "planner"
@@ -223,14 +236,6 @@ class Planner(PipelineSpec):
     @classmethod
     def build(cls, params: Params, log_topics: set[str]) -> Pipeline:
         return build(params, log_topics)
-
-    @classmethod
-    def static_map(cls, params: Params) -> Path | None:
-        return existing_file(params.map)
-
-    @classmethod
-    def goal_count(cls, params: Params) -> int | None:
-        return len(load_goals(params.goals)[0]) if params.goals else None
 
 
 # ---------------------------------------------------------------- one plan on a map
