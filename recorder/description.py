@@ -28,7 +28,11 @@ along the package path of ``navlog.recorder.resources``) and returns the robot:
   the sensor's pose while robot_state_publisher puts the frame at the link's). A sensor frame that is
   no link is published as a child of its link.
 
-The robot's base frame is the root link, carried by the odometry: ``odom -> ROOT`` on ``/tf``. The
+The odometry is published on the plugin's topic (``odom_topic``, ``<odometry_topic>``) in its frame
+(``frame_id``, ``<odometry_frame>``). It carries the root link, ``odom -> ROOT`` on ``/tf``, unless the
+plugin's ``child_frame_id``/``<robot_base_frame>`` names a frame that is no link (gz_waffle's
+``base_footprint`` over a root ``base_link``): then ``odom -> CHILD`` (planar) and ``CHILD -> ROOT``
+(height and tilt) as navlog's own robots publish ``base_footprint``. The
 odometry is noiseless (as Gazebo's plugins compute it from the wheel joints) unless the robot YAML
 adds noise. Topics without a leading ``/`` are made absolute.
 """
@@ -800,9 +804,12 @@ def _robot(
             max_accel=(acc_v, acc_v, acc_w),
             gait=no_gait,
         )
-    if d.base_frame and d.base_frame != links[0].name:
+    names = {link.name for link in links}
+    footprint = d.base_frame if d.base_frame and d.base_frame not in names else ""
+    if d.base_frame in names and d.base_frame != links[0].name:
         log.warning(
-            "%s: the drive's base frame '%s' is not the root link '%s'; the odometry carries the root",
+            "%s: the drive's base frame '%s' is a link below the root '%s'; the odometry carries the root "
+            "(name a frame that is no link, e.g. base_footprint, or the root link in <child_frame_id>)",
             src,
             d.base_frame,
             links[0].name,
@@ -831,7 +838,7 @@ def _robot(
         body=BodyConfig(size, mass, height),
         drive=drive_cfg,
         description=f"from {src}",
-        frames=FramesConfig(odom=d.odom_frame, base_footprint="", base=links[0].name),
+        frames=FramesConfig(odom=d.odom_frame, base_footprint=footprint, base=links[0].name),
         scan=sensors.scan,
         lidar=sensors.lidar,
         imu=sensors.imu,
