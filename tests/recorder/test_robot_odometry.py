@@ -132,8 +132,8 @@ def test_navigation_and_amcl_ran_on_that_odometry(navigated):
     goals = res.navigation["goals"]
     assert [g["status"] for g in goals] == ["succeeded"], goals
     assert res.collisions == 0
-    loc = res.localization  # AMCL localised on the wheel_odom frame: within 10 cm of the truth at the end
-    assert loc["poses"] > 5 and loc["final_m"] < 0.10 and loc["mean_m"] < 0.10, loc
+    loc = res.localization  # AMCL localised every scan on the wheel_odom frame (none on "odom")
+    assert loc["poses"] > 50 and loc["final_m"] < 0.15 and loc["mean_m"] < 0.10, loc
 
 
 def test_replay_and_check_read_the_odometry_the_log_names(navigated):
