@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 from pathlib import Path
 
 import pytest
@@ -162,3 +163,46 @@ def test_replay_and_check_read_the_odometry_the_log_names(navigated):
     result = check_log(log)
     rate = next(c for c in result.checks if c.name == "rate" and c.subject.startswith("/odometry/wheels"))
     assert rate.status.name == "PASS"
+
+
+# ---------------------------------------------------------------- an omni base
+
+OMNI_PLUGINS = {
+    "planar_move": """<plugin name="planar" filename="libgazebo_ros_planar_move.so">
+      <ros><remapping>odom:=odometry/planar</remapping></ros>
+      <odometry_frame>odom</odometry_frame><robot_base_frame>base_link</robot_base_frame>
+      <publish_rate>50</publish_rate>
+    </plugin>""",
+    "velocity_control": """<plugin filename="gz-sim-velocity-control-system"
+      name="gz::sim::systems::VelocityControl"><topic>cmd_vel</topic></plugin>""",
+}
+
+
+@pytest.mark.parametrize("plugin", sorted(OMNI_PLUGINS))
+def test_an_omni_base_moves_sideways_by_the_commanded_distance(tmp_path, plugin):
+    """0.2 m/s to the left for 3 s: 0.60 m along +y within 3 cm (the carriage accelerates within a tick), no
+    more than 2 cm along x and 1 degree of yaw; the odometry says the same within 1 cm."""
+    robot = tmp_path / "omni.urdf"
+    text = ROBOT.replace("PLUGIN", OMNI_PLUGINS[plugin])
+    robot.write_text(text.replace('type="continuous"', 'type="fixed"'))  # a box on casters: the carriage drives it
+    scenario = tmp_path / "left.yaml"
+    scenario.write_text(
+        "name: left\nkind: teleop\nstart: [0.0, 0.0, 0.0]\ncommands:\n  - {duration: 3.0, cmd: [0.0, 0.2, 0.0]}\nhold: 1.0\n"
+    )
+    log = tmp_path / "omni.mcap"
+    setup = prepare("walled_room", str(robot), str(scenario))
+    assert setup.robot.drive.type == "legged" and setup.robot.drive.max_vy > 0  # the kinematic planar carriage
+    record(setup, log, progress=False, sensor_worker=False)
+    odom_topic = setup.robot.odom.topic
+    assert odom_topic == ("/odometry/planar" if plugin == "planar_move" else "/odom")
+    with open_log(log) as r:
+        truth = [e.msg.pose.pose for e in r.messages(["/odom/ground_truth"])]
+        odom = [e.msg for e in r.messages([odom_topic])]
+    end, start = truth[-1], truth[0]
+    assert end.position.y - start.position.y == pytest.approx(0.60, abs=0.03)
+    assert abs(end.position.x - start.position.x) < 0.02
+    q = end.orientation
+    assert abs(math.degrees(math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))) < 1.0
+    o = odom[-1].pose.pose.position
+    assert o.y == pytest.approx(end.position.y - start.position.y, abs=0.01) and abs(o.x) < 0.02
+    assert max(m.twist.twist.linear.y for m in odom) == pytest.approx(0.2, abs=0.01)
