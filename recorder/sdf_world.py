@@ -344,7 +344,8 @@ class _Reader:
             paths.append(np.asarray(points))
         height = _floats(lines[0].findtext("height") or "1", 1, f"{what} height")[0]
         _positive((height,), what)
-        self.add_mesh(name, *extruded_polygons(paths, height), pose)
+        vertices, faces = extruded_polygons(paths, height)
+        self.add_mesh(name, vertices, faces, pose)
 
     def add_mesh(self, name: str, vertices: np.ndarray, faces: np.ndarray, pose: np.ndarray) -> None:
         from navlog.recorder.meshes import split_components
