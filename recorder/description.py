@@ -28,7 +28,11 @@ along the package path of ``navlog.recorder.resources``) and returns the robot:
   the sensor's pose while robot_state_publisher puts the frame at the link's). A sensor frame that is
   no link is published as a child of its link.
 
-The robot's base frame is the root link, carried by the odometry: ``odom -> ROOT`` on ``/tf``. The
+The odometry is published on the plugin's topic (``odom_topic``, ``<odometry_topic>``) in its frame
+(``frame_id``, ``<odometry_frame>``). It carries the root link, ``odom -> ROOT`` on ``/tf``, unless the
+plugin's ``child_frame_id``/``<robot_base_frame>`` names a frame that is no link (gz_waffle's
+``base_footprint`` over a root ``base_link``): then ``odom -> CHILD`` (planar) and ``CHILD -> ROOT``
+(height and tilt) as navlog's own robots publish ``base_footprint``. The
 odometry is noiseless (as Gazebo's plugins compute it from the wheel joints) unless the robot YAML
 adds noise. Topics without a leading ``/`` are made absolute.
 """
@@ -328,34 +332,90 @@ def _sdf_pose(el: ET.Element, where: str) -> np.ndarray:
     return _matrix(values[:3], values[3:])
 
 
+@dataclass
+class _Flat:
+    """A robot model's links and joints with nested models and includes flattened: names scoped as gz-sim
+    scopes them within the top model (``inner::link``, ``outer::inner::link``), poses in the top model's
+    frame."""
+
+    links: dict[str, ET.Element] = field(default_factory=dict)
+    poses: dict[str, np.ndarray] = field(default_factory=dict)  # link -> pose in the top model's frame
+    frames: dict[str, np.ndarray] = field(default_factory=dict)  # link -> its own model's frame in the top's
+    files: dict[str, Path] = field(default_factory=dict)  # link -> the file that declares it
+    joints: list[tuple[ET.Element, str, str, Path]] = field(default_factory=list)  # (joint, parent, child, file)
+    plugins: list[ET.Element] = field(default_factory=list)
+
+
+def _flatten(model: ET.Element, frame: np.ndarray, prefix: str, file: Path, reader: _Reader, out: _Flat) -> None:
+    """Add ``model``'s links and joints (scoped by ``prefix``), then its nested models' and includes'."""
+    from navlog.recorder.sdf_world import model_sdf_file
+
+    own = {el.get("name", ""): el for el in model.findall("link")}
+    for name, el in own.items():
+        pose_el = el.find("pose")
+        rel = pose_el.get("relative_to", "") if pose_el is not None else ""
+        pose = _sdf_pose(el, f"{file}: link '{prefix}{name}'")
+        if rel and rel != "__model__":
+            if rel not in own:
+                raise ConfigError(f"{file}: link '{prefix}{name}': pose relative_to '{rel}', not a link of the model")
+            pose = _sdf_pose(own[rel], f"{file}: link '{prefix}{rel}'") @ pose
+        scoped = prefix + name
+        out.links[scoped], out.poses[scoped], out.frames[scoped], out.files[scoped] = el, frame @ pose, frame, file
+    for j in model.findall("joint"):
+        parent, child = _text(j, "parent", "") or "", _text(j, "child", "") or ""
+        scoped_parent = parent if parent == "world" else prefix + parent
+        out.joints.append((j, scoped_parent, prefix + child, file))
+    out.plugins += model.findall("plugin")
+    for nested in model.findall("model"):
+        name = nested.get("name", "")
+        where = f"{file}: model '{prefix}{name}'"
+        _flatten(nested, frame @ _sdf_pose(nested, where), f"{prefix}{name}::", file, reader, out)
+    for inc in model.findall("include"):
+        uri = _text(inc, "uri", "") or ""
+        try:
+            target = resolve_uri(uri, file.parent, reader.search)
+        except ConfigError as exc:
+            raise ConfigError(f"{file}: <include> {uri}: {exc}") from None
+        inc_file = model_sdf_file(target) if target.is_dir() else target
+        text = read_description(inc_file, None, reader.search)
+        try:
+            inc_root = ET.fromstring(text)
+        except ET.ParseError as exc:
+            raise ConfigError(f"{inc_file}:{exc.position[0]}: not well-formed XML: {exc}") from None
+        inc_model = inc_root.find("model") if inc_root.tag == "sdf" else inc_root
+        if inc_model is None or inc_model.tag != "model":
+            raise ConfigError(f"{inc_file}: included by {file} ({uri}) but holds no <model>")
+        name = _text(inc, "name") or inc_model.get("name") or ""
+        where = f"{file}: include {uri}"
+        pose = _sdf_pose(inc if inc.find("pose") is not None else inc_model, where)  # the include's replaces
+        _flatten(inc_model, frame @ pose, f"{prefix}{name}::", inc_file, reader, out)
+
+
 def _parse_sdf(root: ET.Element, reader: _Reader) -> _Parsed:
+    """An SDF robot: the top model's links and joints, and those of its nested models and ``<include>``d
+    models (``model://NAME`` along the resource path, or a file), named and posed as gz-sim scopes them:
+    a joint of the top model joins ``base_link`` to ``lidar::link`` of an include named ``lidar``."""
     src = reader.path
     model = root.find("model") if root.tag == "sdf" else root
     if model is None:
         raise ConfigError(f"{src}: no <model> in the SDF file")
-    in_model: dict[str, np.ndarray] = {}
-    elements = {el.get("name", ""): el for el in model.findall("link")}
-    for name, el in elements.items():
-        pose_el = el.find("pose")
-        frame = pose_el.get("relative_to", "") if pose_el is not None else ""
-        pose = _sdf_pose(el, f"{src}: link '{name}'")
-        if frame and frame != "__model__":
-            if frame not in elements:
-                raise ConfigError(f"{src}: link '{name}': pose relative_to '{frame}', not a link of the model")
-            parent_pose = _sdf_pose(elements[frame], f"{src}: link '{frame}'")
-            pose = parent_pose @ pose
-        in_model[name] = pose
+    flat = _Flat()
+    _flatten(model, np.eye(4), "", src, reader, flat)
+    elements, in_model = flat.links, flat.poses
     joints: dict[str, tuple[ET.Element, str]] = {}
-    for j in model.findall("joint"):
-        parent, child = _text(j, "parent", ""), _text(j, "child", "")
-        if not child or child not in elements or (parent not in elements and parent != "world"):
-            raise ConfigError(f"{src}: joint '{j.get('name')}' joins '{parent}' to '{child}': not links of the model")
-        joints[child] = (j, parent or "")
+    for j, parent, child, file in flat.joints:
+        if child not in elements or (parent not in elements and parent != "world"):
+            raise ConfigError(
+                f"{file}: joint '{j.get('name')}' joins '{parent}' to '{child}': not links of the model "
+                "(a nested model's link is named MODEL::LINK)"
+            )
+        joints[child] = (j, parent)
     links: dict[str, Link] = {}
     sensors: list[_Sensor] = []
     for name, el in elements.items():
-        where = f"{src}: link '{name}'"
-        sensors += [_Sensor(s, name, _sdf_pose(s, f"{src}: sensor '{s.get('name')}'")) for s in el.findall("sensor")]
+        file = flat.files[name]
+        where = f"{file}: link '{name}'"
+        sensors += [_Sensor(s, name, _sdf_pose(s, f"{file}: sensor '{s.get('name')}'")) for s in el.findall("sensor")]
         collisions = []
         for i, c in enumerate(el.findall("collision")):
             cw = f"{where} collision {c.get('name') or i}"
@@ -376,13 +436,13 @@ def _parse_sdf(root: ET.Element, reader: _Reader) -> _Parsed:
         if name in joints and joints[name][1] in elements:
             j, parent = joints[name]
             child_in_parent = rigid_inverse(in_model[parent]) @ in_model[name]
-            joint_pose = _sdf_pose(j, f"{src}: joint '{j.get('name')}'")  # in the child link's frame
+            joint_pose = _sdf_pose(j, f"{file}: joint '{j.get('name')}'")  # in the child link's frame
             axis_el = j.find("axis")
-            axis = np.array(_floats(_text(axis_el, "xyz"), 3, f"{src}: joint '{j.get('name')}' axis", (0, 0, 1)))
+            axis = np.array(_floats(_text(axis_el, "xyz"), 3, f"{file}: joint '{j.get('name')}' axis", (0, 0, 1)))
             xyz_el = axis_el.find("xyz") if axis_el is not None else None
             expressed = xyz_el.get("expressed_in", "") if xyz_el is not None else ""
             if _text(axis_el, "use_parent_model_frame", "false") in ("true", "1") or expressed == "__model__":
-                axis = in_model[name][:3, :3].T @ axis
+                axis = in_model[name][:3, :3].T @ flat.frames[name][:3, :3] @ axis  # the joint's model's frame
             elif not expressed:
                 axis = joint_pose[:3, :3] @ axis  # the joint's frame
             link = Link(
@@ -397,7 +457,7 @@ def _parse_sdf(root: ET.Element, reader: _Reader) -> _Parsed:
                 collisions,
             )
         links[name] = link
-    return _Parsed(model.get("name", src.stem), links, sensors, model.findall("plugin"))
+    return _Parsed(model.get("name", src.stem), links, sensors, flat.plugins)
 
 
 # ---------------------------------------------------------------- the tree
@@ -800,9 +860,12 @@ def _robot(
             max_accel=(acc_v, acc_v, acc_w),
             gait=no_gait,
         )
-    if d.base_frame and d.base_frame != links[0].name:
+    names = {link.name for link in links}
+    footprint = d.base_frame if d.base_frame and d.base_frame not in names else ""
+    if d.base_frame in names and d.base_frame != links[0].name:
         log.warning(
-            "%s: the drive's base frame '%s' is not the root link '%s'; the odometry carries the root",
+            "%s: the drive's base frame '%s' is a link below the root '%s'; the odometry carries the root "
+            "(name a frame that is no link, e.g. base_footprint, or the root link in <child_frame_id>)",
             src,
             d.base_frame,
             links[0].name,
@@ -831,7 +894,7 @@ def _robot(
         body=BodyConfig(size, mass, height),
         drive=drive_cfg,
         description=f"from {src}",
-        frames=FramesConfig(odom=d.odom_frame, base_footprint="", base=links[0].name),
+        frames=FramesConfig(odom=d.odom_frame, base_footprint=footprint, base=links[0].name),
         scan=sensors.scan,
         lidar=sensors.lidar,
         imu=sensors.imu,

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from navlog.recorder.robot import CMD_VEL_TOPIC
+from navlog.recorder.robot import CMD_VEL_TOPIC, DEFAULT_ODOMETRY
 from navlog.recorder.scenarios import ScenarioSpec, scenario_map
 from navlog.recorder.world import World, occupancy
 from navlog.replay.runtime.executor import Node
@@ -61,10 +61,12 @@ def navigation_pipeline(
     nav2_params: str | Path | None = None,
     overrides: Sequence[str] = (),
     command_topic: str = CMD_VEL_TOPIC,
+    odometry: tuple[str, str] | None = None,
 ) -> Pipeline:
     """The navigation pipeline of a navigate scenario (``nav2_params`` replaces the scenario's file); its
     commands go to ``command_topic``, the topic the robot drives on (a description file's drive plugin may
-    name another than /cmd_vel, e.g. under a namespace)."""
+    name another than /cmd_vel, e.g. under a namespace); it reads the robot's ``odometry`` (topic, frame:
+    ``navlog.replay.pipelines.navigation.with_odometry``), as a replay of the log does."""
     from navlog.replay.pipelines import pipeline_spec
     from navlog.replay.session import pipeline_params
 
@@ -77,11 +79,16 @@ def navigation_pipeline(
         *overrides,
     ]
     params = pipeline_params("navigation", None, overrides=sets)
+    if odometry is not None:
+        from navlog.replay.pipelines.navigation import with_odometry
+
+        params = with_odometry(params, *odometry)
     return pipeline_spec("navigation").build(params, set())
 
 
-def amcl_node(scenario: ScenarioSpec, world: World, seed: int) -> Node:
-    """Nav2's AMCL, live: the ``amcl`` block of the scenario's Nav2 file (Nav2's defaults without one), the
+def amcl_node(scenario: ScenarioSpec, world: World, seed: int, odometry: tuple[str, str] | None = None) -> Node:
+    """Nav2's AMCL, live: the ``amcl`` block of the scenario's Nav2 file (Nav2's defaults without one) on the
+    frame of the robot's ``odometry`` (when the file's ``odom_frame_id`` is Nav2's default ``odom``), the
     scenario's map file as its map (``map: FILE``; else the world's obstacles), the filter started at the scenario's start pose, its random numbers
     from the run's seed (the localization pipeline's stream: a replay with the same seed draws the same)."""
     from dataclasses import replace
@@ -97,6 +104,8 @@ def amcl_node(scenario: ScenarioSpec, world: World, seed: int) -> Node:
     params = nav2.require_valid(["amcl"]).amcl or AmclParams()
     x, y, yaw = scenario.start
     params = replace(params, set_initial_pose=True, initial_pose_x=x, initial_pose_y=y, initial_pose_yaw=yaw)
+    if odometry is not None and params.odom_frame_id == DEFAULT_ODOMETRY[1]:
+        params = replace(params, odom_frame_id=odometry[1])
     rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
     path = scenario_map(scenario)
     if path is not None:

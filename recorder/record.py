@@ -143,6 +143,8 @@ class RecordSetup:
         if self.localization != "perfect":  # the default's metadata (and so its bytes) stay as they were
             full["localization"] = self.localization
             extra["localization"] = self.localization
+        if self.robot.odometry is not None:  # where a replay's consumers read the odometry (log_odometry)
+            extra.update(odom_topic=self.robot.odometry[0], odom_frame=self.robot.odometry[1])
         return {
             "navlog_version": __version__,
             "world": self.world.name,
@@ -285,14 +287,16 @@ def _record(
             from navlog.recorder.navigation import navigation_pipeline, world_map_node
 
             if navigation is None:
-                navigation = navigation_pipeline(setup.scenario, setup.seed, command_topic=setup.robot.cmd_topic)
+                navigation = navigation_pipeline(
+                    setup.scenario, setup.seed, command_topic=setup.robot.cmd_topic, odometry=setup.robot.odometry
+                )
             map_server = world_map_node(setup.scenario, setup.world)
             nodes += [map_server] if map_server is not None else []
         amcl_error = None
         if setup.localization == "amcl":
             from navlog.recorder.navigation import AmclErrorNode, amcl_node
 
-            amcl = amcl_node(setup.scenario, setup.world, setup.seed)
+            amcl = amcl_node(setup.scenario, setup.world, setup.seed, odometry=setup.robot.odometry)
             amcl_error = AmclErrorNode(amcl, setup.robot.odom.ground_truth_topic)
             nodes += [amcl, amcl_error]
         done = navigation.done if navigation is not None else None

@@ -28,6 +28,7 @@ Vec3 = tuple[float, float, float]
 Mount = tuple[float, float, float, float, float, float]  # x, y, z, roll, pitch, yaw (rad)
 ZERO_MOUNT: Mount = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 CMD_VEL_TOPIC = "/cmd_vel"  # every robot drives on the velocity commands of this topic
+DEFAULT_ODOMETRY = ("/odom", "odom")  # (topic, frame) of the odometry unless a drive plugin names others
 
 
 @dataclass(frozen=True)
@@ -174,6 +175,15 @@ class RobotSpec:
     def frame(self, name: str) -> str:
         """A robot frame with the robot's prefix (map and world are never prefixed)."""
         return f"{self.frame_prefix}{name}" if name else ""
+
+    @property
+    def odometry(self) -> tuple[str, str] | None:
+        """(topic, frame with the robot's prefix) of the robot's odometry when it names others than /odom and
+        ``odom`` (a drive plugin's ``odom_topic`` and ``frame_id``), else None: the Nav2 files of navlog's own
+        robots name their (prefixed) frames themselves."""
+        if (self.odom.topic, self.frames.odom) == DEFAULT_ODOMETRY:
+            return None
+        return self.odom.topic, self.frame(self.frames.odom)
 
     @property
     def cmd_topic(self) -> str:

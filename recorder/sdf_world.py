@@ -4,7 +4,10 @@ Every model of the world (static or not: a dynamic model stays where the world p
 collision geometry of its links, posed through model -> nested model -> link -> collision as SDF
 composes poses (``relative_to`` a link, frame or nested model of the same model, or the world).
 Geometry: box, cylinder, sphere, capsule, ellipsoid, mesh (with ``<scale>``; one solid per connected
-piece, ``navlog.recorder.meshes``) and plane (a plane facing up is the ground: the world's floor).
+piece, ``navlog.recorder.meshes``), polyline (the geometry's ``<polyline>`` paths extruded from z = 0
+to the first one's ``<height>``, a path inside another a hole in it, as gz-sim builds them: a closed
+mesh, ``navlog.recorder.meshes.extruded_polygons``) and plane (a plane facing up is the ground: the
+world's floor). Other geometry (``<heightmap>``) is counted and named in the summary.
 ``<include>`` of ``model://NAME`` (a folder with ``model.config``, whose highest-version ``<sdf>``
 file is read) or of a path is found along the resource path (``navlog.recorder.resources``).
 
@@ -254,7 +257,10 @@ class _Reader:
             geometry = col.find("geometry")
             if geometry is None or len(geometry) == 0:
                 raise ConfigError(f"{where}: no <geometry>")
-            self.geometry(geometry[0], pose, base, where, f"{model}/{name}/{cname}")
+            if geometry[0].tag == "polyline":  # one solid of every <polyline> of the geometry
+                self.polyline(geometry.findall("polyline"), pose, f"{where} <polyline>", f"{model}/{name}/{cname}")
+            else:
+                self.geometry(geometry[0], pose, base, where, f"{model}/{name}/{cname}")
 
     def visual_mesh(self, vis: ET.Element, base: Path, file: Path, link: str) -> None:
         uri = (vis.findtext("geometry/mesh/uri") or "").strip()
@@ -322,6 +328,24 @@ class _Reader:
             self.add_mesh(name, *self.meshes[key], pose)
         else:
             self.out.ignored[f"<{g.tag}> geometry"] += 1
+
+    def polyline(self, lines: list[ET.Element], pose: np.ndarray, what: str, name: str) -> None:
+        """``<polyline>`` (SDF 1.6+): the paths of the geometry's ``<polyline>`` elements extruded from its
+        frame's z = 0 to the first one's ``<height>``, a path inside another a hole, as gz-sim builds it."""
+        from navlog.recorder.meshes import extruded_polygons
+
+        paths = []
+        for k, line in enumerate(lines):
+            points = [_floats(p.text, 2, f"{what} {k + 1} <point>") for p in line.findall("point")]
+            if len(points) < 3:
+                raise ConfigError(
+                    f"{what}: a polyline needs at least 3 <point> elements, got {len(points)}; add points"
+                )
+            paths.append(np.asarray(points))
+        height = _floats(lines[0].findtext("height") or "1", 1, f"{what} height")[0]
+        _positive((height,), what)
+        vertices, faces = extruded_polygons(paths, height)
+        self.add_mesh(name, vertices, faces, pose)
 
     def add_mesh(self, name: str, vertices: np.ndarray, faces: np.ndarray, pose: np.ndarray) -> None:
         from navlog.recorder.meshes import split_components

@@ -40,18 +40,22 @@ def parse_rates(items: Iterable[str]) -> dict[str, float]:
     return out
 
 
-def pipeline_inputs(name: str, log_topics: Iterable[str]) -> list[str]:
-    """The topics pipeline ``name`` (with its shipped parameters) must find in a log with ``log_topics``."""
+def pipeline_inputs(name: str, log_topics: Iterable[str], reader: LogReader | None = None) -> list[str]:
+    """The topics pipeline ``name`` (with its shipped parameters, settled on ``reader``'s log as a replay
+    settles them: e.g. the odometry topic a recording names) must find in a log with ``log_topics``."""
     from navlog.replay.pipelines import pipeline_spec
     from navlog.replay.session import pipeline_params
 
-    return list(pipeline_spec(name).build(pipeline_params(name), set(log_topics)).inputs)
+    spec, params = pipeline_spec(name), pipeline_params(name)
+    if reader is not None:
+        params = spec.settle(params, reader, {})
+    return list(spec.build(params, set(log_topics)).inputs)
 
 
-def read_by_pipelines(log_topics: Iterable[str]) -> set[str]:
+def read_by_pipelines(log_topics: Iterable[str], reader: LogReader | None = None) -> set[str]:
     """The topics of a log with ``log_topics`` that some replay pipeline reads (its inputs and optional
-    inputs, with its shipped parameters); a pipeline that needs more than the log to build (localization:
-    a map) adds the topics its parameters name."""
+    inputs, with its shipped parameters, settled on ``reader``'s log when given); a pipeline that needs
+    more than the log to build (localization: a map) adds the topics its parameters name."""
     from navlog.errors import NavlogError
     from navlog.replay.pipelines import pipeline_names, pipeline_spec
     from navlog.replay.session import pipeline_params
@@ -61,6 +65,8 @@ def read_by_pipelines(log_topics: Iterable[str]) -> set[str]:
     for name in pipeline_names():
         params = pipeline_params(name)
         try:
+            if reader is not None:
+                params = pipeline_spec(name).settle(params, reader, {})
             built = pipeline_spec(name).build(params, topics)
         except NavlogError:  # it needs more than the log: the topics its parameters name
             read |= {v for v in vars(params).values() if isinstance(v, str) and v.startswith("/")}
@@ -96,7 +102,7 @@ def check_log(
     reader = log
     opts = options or CheckOptions()
     rates = dict(rates or {})
-    inputs = pipeline_inputs(pipeline, reader.topics) if pipeline else []
+    inputs = pipeline_inputs(pipeline, reader.topics, reader) if pipeline else []
     needed = list(dict.fromkeys([*require, *inputs, *rates]))
     got = collect(reader)
     span = (reader.start_ns, reader.end_ns)
@@ -117,7 +123,7 @@ def check_log(
     if needed:
         relevant, why = set(needed) | ({"/tf", "/tf_static"} if frames else set()), "not a required topic"
     elif any(c.status is Status.FAIL for c in per_topic):  # (building the pipelines costs ~0.5 s: only then)
-        relevant, why = read_by_pipelines(reader.topics), "no replay pipeline reads this topic"
+        relevant, why = read_by_pipelines(reader.topics, reader), "no replay pipeline reads this topic"
     else:
         relevant, why = {c.subject.split(" ")[0] for c in per_topic}, ""
     found += [c if c.subject.split(" ")[0] in relevant else _as_warning(c, why) for c in per_topic]

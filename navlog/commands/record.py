@@ -179,7 +179,12 @@ def run(args) -> int:
         from navlog.recorder.navigation import navigation_pipeline
 
         navigation = navigation_pipeline(
-            setup.scenario, setup.seed, args.params, args.set, command_topic=setup.robot.cmd_topic
+            setup.scenario,
+            setup.seed,
+            args.params,
+            args.set,
+            command_topic=setup.robot.cmd_topic,
+            odometry=setup.robot.odometry,
         )
     elif args.params is not None or args.set:
         from navlog.errors import ConfigError

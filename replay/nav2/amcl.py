@@ -180,7 +180,7 @@ def sample_differential(
     heading = poses[:, 2] + rot1_hat
     out[:, 0] += trans_hat * np.cos(heading)
     out[:, 1] += trans_hat * np.sin(heading)
-    out[:, 2] = angle_diff(poses[:, 2] + rot1_hat + rot2_hat, 0.0)
+    out[:, 2] = poses[:, 2] + rot1_hat + rot2_hat  # not wrapped (``ParticleFilter``)
     return out
 
 
@@ -201,7 +201,7 @@ def sample_omni(
     out = poses.copy()
     out[:, 0] += trans_hat * cs + strafe_hat * sn
     out[:, 1] += trans_hat * sn - strafe_hat * cs
-    out[:, 2] = angle_diff(poses[:, 2] + rot_hat, 0.0)
+    out[:, 2] = poses[:, 2] + rot_hat  # not wrapped (``ParticleFilter``)
     return out
 
 
@@ -299,7 +299,12 @@ class PoseEstimate:
 
 
 class ParticleFilter:
-    """Nav2 AMCL's particle filter over a likelihood field (see the module docstring)."""
+    """Nav2 AMCL's particle filter over a likelihood field (see the module docstring).
+
+    The particles' yaw is continuous, never wrapped to [-pi, pi), as nav2_amcl's motion models add to it:
+    the clusters are found in bins of the yaw as it is, and a set heading near +-180 degrees wrapped into
+    bins at both ends of the range would split in two, its estimate the mean of one half (10-15 degrees
+    off in the sandbox, where the robot drives west)."""
 
     def __init__(self, params: AmclParams, field: LikelihoodField, rng: np.random.Generator) -> None:
         self.p = params
@@ -318,7 +323,6 @@ class ParticleFilter:
         cov = np.asarray(cov, dtype=np.float64)
         n = self.p.max_particles
         self.poses = self.rng.multivariate_normal(mean, cov, size=n, method="eigh")
-        self.poses[:, 2] = angle_diff(self.poses[:, 2], 0.0)
         self.weights = np.full(n, 1.0 / n)
         self.w_slow = self.w_fast = 0.0
 
@@ -334,8 +338,10 @@ class ParticleFilter:
     def sensor_update(self, scan: Scan, laser_in_base) -> float:
         """Weight the particles by the likelihood field; returns the weights' sum before normalising."""
         p = self.p
-        range_max = p.laser_max_range if p.laser_max_range > 0 else scan.range_max
-        range_min = p.laser_min_range if p.laser_min_range > 0 else scan.range_min
+        # as nav2_amcl: the parameters narrow the scan's own limits, never widen them (a 20 m laser under
+        # Nav2's default laser_max_range of 100 m keeps 20 m: beams at it are no-returns, z_rand is per 20 m)
+        range_max = min(scan.range_max, p.laser_max_range) if p.laser_max_range > 0 else scan.range_max
+        range_min = max(scan.range_min, p.laser_min_range) if p.laser_min_range > 0 else scan.range_min
         idx = self.beam_indices(len(scan.ranges))
         ranges = np.asarray(scan.ranges, dtype=np.float64)[idx]
         bearings = np.asarray(scan.bearings, dtype=np.float64)[idx]

@@ -154,3 +154,32 @@ def nav2_override_items(blocks: Mapping[str, Any]) -> list[str]:
     for name, tree in blocks.items():
         out += _items("" if name == "nav2" else name, tree)
     return out
+
+
+# the parameters through which a Nav2 node reads odometry, and those that name the odometry frame
+ODOM_TOPIC_KEYS = frozenset({"odom_topic"})
+FRAME_KEYS = frozenset({"global_frame", "local_frame", "odom_frame_id", "odom_frame", "fixed_frame"})
+DEFAULT_ODOM_TOPIC, DEFAULT_ODOM_FRAME = "/odom", "odom"
+
+
+def odometry_overrides(doc: Any, topic: str, frame: str) -> dict[str, str]:
+    """The full-path keys and values that point a Nav2 document at a robot's odometry: every
+    ``odom_topic`` becomes ``topic`` (unless it is ``/odom``), and every frame parameter naming the
+    default odometry frame ``odom`` (the local costmap's ``global_frame``, AMCL's and the collision
+    monitor's ``odom_frame_id``, the behaviours' ``local_frame``) becomes ``frame`` (unless it is ``odom``).
+    Parameters the document does not hold keep navlog's default: with ``frame`` not ``odom``, AMCL's
+    ``odom_frame_id`` is added to an ``amcl`` block that lacks it."""
+    out: dict[str, str] = {}
+    for path in _leaf_paths(doc):
+        value = _get(doc, path)
+        if isinstance(value, (dict, list)):
+            continue
+        key = ".".join(path)
+        if path[-1] in ODOM_TOPIC_KEYS and topic != DEFAULT_ODOM_TOPIC and "/" + str(value).lstrip("/") != topic:
+            out[key] = topic
+        elif path[-1] in FRAME_KEYS and value == DEFAULT_ODOM_FRAME and frame != DEFAULT_ODOM_FRAME:
+            out[key] = frame
+    amcl = doc.get("amcl", {}).get("ros__parameters") if isinstance(doc, dict) else None
+    if isinstance(amcl, dict) and "odom_frame_id" not in amcl and frame != DEFAULT_ODOM_FRAME:
+        out["amcl.ros__parameters.odom_frame_id"] = frame
+    return out

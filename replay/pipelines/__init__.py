@@ -29,6 +29,7 @@ __all__ = [
     "PIPELINES",
     "PipelineSpec",
     "existing_file",
+    "log_odometry",
     "pipeline_names",
     "pipeline_spec",
     "pipeline_specs",
@@ -38,6 +39,17 @@ __all__ = [
 # the CI facts every replay gives (``navlog.analysis.ci.facts``): the navigation events of the log and
 # the replay, and the flag that none is a collision
 COMMON_FACTS = frozenset({"events", "no_collision"})
+
+
+def log_odometry(reader: LogReader) -> tuple[str, str] | None:
+    """(topic, frame) of the robot's odometry when a recording names them (its ``navlog`` metadata's
+    ``odom_topic`` and ``odom_frame``: a robot whose drive plugin publishes elsewhere than /odom in the
+    frame ``odom``), else None."""
+    meta = reader.metadata.get("navlog", {})
+    topic, frame = meta.get("odom_topic"), meta.get("odom_frame")
+    if not topic and not frame:
+        return None
+    return topic or "/odom", frame or "odom"
 
 
 class PipelineSpec:

@@ -40,7 +40,7 @@ from navlog.replay.nav2.amcl import AmclParams
 from navlog.replay.nav2.overrides import apply_nav2_overrides, nav2_override_items
 from navlog.replay.nav2.params import parse_nav2_params
 from navlog.replay.nodes.amcl import AmclNode
-from navlog.replay.pipelines import PipelineSpec, existing_file, register
+from navlog.replay.pipelines import PipelineSpec, existing_file, log_odometry, register
 from navlog.replay.pipelines.safety import nav2_file
 from navlog.replay.runtime.pipeline import Pipeline
 
@@ -207,6 +207,14 @@ class Localization(PipelineSpec):
     name = "localization"
     params_class = Params
     params_file_key = "nav2_params"  # `navlog replay --pipeline localization --params nav2_params.yaml`
+
+    @classmethod
+    def settle(cls, params: Params, reader: Any, log_to: dict[str, str]) -> Params:
+        """AMCL's ``odom_frame_id``: the odometry frame the recording names (``log_odometry``), unless set."""
+        found = log_odometry(reader)
+        if found is None or "odom_frame_id" in params.amcl:
+            return params
+        return replace(params, amcl={**params.amcl, "odom_frame_id": found[1]})
 
     @classmethod
     def build(cls, params: Params, log_topics: set[str]) -> Pipeline:

@@ -32,7 +32,7 @@ from navlog.replay.io import json_text
 from navlog.replay.io.map_server import load_map
 from navlog.replay.nav2 import load_nav2_params
 from navlog.replay.nav2.overrides import nav2_override_items
-from navlog.replay.pipelines import PipelineSpec, register, safety
+from navlog.replay.pipelines import PipelineSpec, log_odometry, register, safety
 from navlog.replay.pipelines.planner import OnMapToGoals, load_named_goals
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.pipeline import Pipeline
@@ -90,6 +90,27 @@ def filter_switches(params: Params, nav2: Any) -> dict[str, str]:
         mode = getattr(params, name)
         out[name] = ("on" if getattr(nav2, name) is not None else "off") if mode == "auto" else mode
     return out
+
+
+def with_odometry(params: Params, topic: str, frame: str) -> Params:
+    """``params`` reading the robot's odometry on ``topic`` in ``frame``: the stack's ``odom_topic``
+    (unless set to another than /odom), and the Nav2 file's odometry topics and ``odom`` frames
+    (``navlog.replay.nav2.overrides.odometry_overrides``) as ``nav2`` overrides before the given ones."""
+    from dataclasses import replace
+
+    from navlog.replay.config import load_yaml
+    from navlog.replay.nav2.overrides import DEFAULT_ODOM_TOPIC, odometry_overrides
+
+    doc = load_yaml(safety.nav2_file(params.nav2_params))
+    nav2 = {**odometry_overrides(doc, topic, frame), **params.nav2}
+    odom_topic = topic if params.odom_topic == DEFAULT_ODOM_TOPIC else params.odom_topic
+    return replace(params, odom_topic=odom_topic, nav2=nav2)
+
+
+def settle(params: Params, reader: Any) -> Params:
+    """Before replaying: the odometry the recording names (``log_odometry``), when it is not /odom in ``odom``."""
+    found = log_odometry(reader)
+    return with_odometry(params, *found) if found is not None else params
 
 
 def build(params: Params, log_topics: set[str]) -> Pipeline:
@@ -228,6 +249,10 @@ class Navigation(OnMapToGoals):
     params_class = Params
     params_file_key = "nav2_params"  # `navlog replay/record --pipeline navigation --params nav2_params.yaml`
     facts = PipelineSpec.facts | {"goals", "min_clearance", "safety", "navigation", "all_goals_reached"}
+
+    @classmethod
+    def settle(cls, params: Params, reader: Any, log_to: dict[str, str]) -> Params:
+        return settle(params, reader)
 
     @classmethod
     def build(cls, params: Params, log_topics: set[str]) -> Pipeline:

@@ -297,3 +297,80 @@ def test_casters_slide_without_friction_so_wheels_reach_the_commanded_speeds(waf
     assert speed == pytest.approx(0.4, rel=0.02) and pitch_range < 0.5
     _, turn, _ = _drive(load_robot(str(waffle_sdf)), 0.0, 0.5)
     assert turn == pytest.approx(0.5, rel=0.03)
+
+
+# ---------------------------------------------------------------- nested models and includes
+
+LIDAR_MODEL = """<?xml version="1.0"?>
+<sdf version="1.9"><model name="mini_lidar"><pose>5 5 5 0 0 0</pose>
+  <link name="link"><pose>0 0 0.05 0 0 0</pose>
+    <collision name="c"><geometry><cylinder><radius>0.03</radius><length>0.04</length></cylinder></geometry></collision>
+    <sensor name="ray" type="gpu_lidar"><pose>0.01 0 0.02 0 0 0</pose><update_rate>10</update_rate>
+      <topic>scan</topic><lidar><scan><horizontal><samples>180</samples><min_angle>-1.5708</min_angle>
+      <max_angle>1.5708</max_angle></horizontal></scan><range><min>0.1</min><max>6</max></range></lidar></sensor>
+  </link>
+</model></sdf>
+"""
+NESTED_ROBOT = """<?xml version="1.0"?>
+<sdf version="1.9"><model name="bot">
+  <link name="base_link"><pose>0 0 0.06 0 0 0</pose>
+    <collision name="body"><geometry><box><size>0.3 0.2 0.06</size></box></geometry></collision></link>
+  <link name="wl"><pose>0 0.12 0.04 -1.5708 0 0</pose>
+    <collision name="c"><geometry><cylinder><radius>0.04</radius><length>0.02</length></cylinder></geometry></collision></link>
+  <link name="wr"><pose>0 -0.12 0.04 -1.5708 0 0</pose>
+    <collision name="c"><geometry><cylinder><radius>0.04</radius><length>0.02</length></cylinder></geometry></collision></link>
+  <joint name="wl_joint" type="revolute"><parent>base_link</parent><child>wl</child><axis><xyz>0 0 1</xyz></axis></joint>
+  <joint name="wr_joint" type="revolute"><parent>base_link</parent><child>wr</child><axis><xyz>0 0 1</xyz></axis></joint>
+  <model name="outer"><pose>-0.1 0 0 0 0 1.5707963267948966</pose>
+    <model name="inner"><pose>0.05 0 0 0 0 0</pose>
+      <link name="ball"><pose>0 0 0.02 0 0 0</pose>
+        <collision name="c"><geometry><sphere><radius>0.02</radius></sphere></geometry></collision></link>
+    </model>
+  </model>
+  <include><uri>model://mini_lidar</uri><name>lidar</name><pose>0.1 0 0.12 0 0 1.5707963267948966</pose></include>
+  <joint name="caster_joint" type="fixed"><parent>base_link</parent><child>outer::inner::ball</child></joint>
+  <joint name="lidar_joint" type="fixed"><parent>base_link</parent><child>lidar::link</child></joint>
+  <plugin filename="gz-sim-diff-drive-system" name="gz::sim::systems::DiffDrive">
+    <left_joint>wl_joint</left_joint><right_joint>wr_joint</right_joint></plugin>
+</model></sdf>
+"""
+
+
+def test_nested_models_and_includes_are_scoped_and_posed_as_gz_sim_does(tmp_path, monkeypatch):
+    """The include's pose (0.1, 0, 0.12, yaw 90 deg) replaces the model's own (5, 5, 5); its link sits 0.05 m up
+    in it, its sensor 0.01 m ahead and 0.02 m up of the link, turned with the include: the laser at (0.1, 0.01,
+    0.19) in the model, 0.13 m above base_link (at 0.06 m). outer (-0.1, 0, 0, yaw 90) > inner (0.05, 0, 0) >
+    ball (0, 0, 0.02): the ball at (-0.1, 0.05, 0.02), -0.04 m below base_link."""
+    models = tmp_path / "models"
+    (models / "mini_lidar").mkdir(parents=True)
+    (models / "mini_lidar" / "model.config").write_text('<model><sdf version="1.9">model.sdf</sdf></model>')
+    (models / "mini_lidar" / "model.sdf").write_text(LIDAR_MODEL)
+    robot_file = tmp_path / "bot.sdf"
+    robot_file.write_text(NESTED_ROBOT)
+    monkeypatch.setenv("GZ_SIM_RESOURCE_PATH", str(models))
+    robot = describe(robot_file)
+    names = [link.name for link in robot.model.links]
+    assert names[0] == "base_link" and {"outer::inner::ball", "lidar::link"} <= set(names)
+    static = {(f.parent, f.child): f.pose for f in robot.model.static_frames}
+    ball = static[("base_link", "outer::inner::ball")]
+    assert ball[:3] == pytest.approx((-0.1, 0.05, 0.02 - 0.06), abs=1e-9)
+    # the laser's frame is its link, posed where the sensor sits (module docstring of description)
+    lidar = static[("base_link", "lidar::link")]
+    assert lidar[:3] == pytest.approx((0.1, 0.01, 0.19 - 0.06), abs=1e-9)
+    assert 2 * math.atan2(lidar[5], lidar[6]) == pytest.approx(math.pi / 2, abs=1e-9)
+    scan = robot.scan
+    assert scan is not None and scan.frame == "lidar::link" and scan.samples == 180
+    assert scan.mount == pytest.approx((0.1, 0.01, 0.13, 0.0, 0.0, math.pi / 2), abs=1e-9)
+    assert robot.drive.wheel_separation == pytest.approx(0.24) and robot.drive.wheel_radius == pytest.approx(0.04)
+
+
+def test_a_joint_to_an_unscoped_nested_link_names_the_scoped_form(tmp_path, monkeypatch):
+    models = tmp_path / "models"
+    (models / "mini_lidar").mkdir(parents=True)
+    (models / "mini_lidar" / "model.config").write_text('<model><sdf version="1.9">model.sdf</sdf></model>')
+    (models / "mini_lidar" / "model.sdf").write_text(LIDAR_MODEL)
+    bad = tmp_path / "bot.sdf"
+    bad.write_text(NESTED_ROBOT.replace("<child>lidar::link</child>", "<child>link</child>"))
+    monkeypatch.setenv("GZ_SIM_RESOURCE_PATH", str(models))
+    with pytest.raises(ConfigError, match=r"bot\.sdf: joint 'lidar_joint' joins 'base_link' to 'link'.*MODEL::LINK"):
+        describe(bad)

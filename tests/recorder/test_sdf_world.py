@@ -263,3 +263,65 @@ def test_unknown_uri_scheme_in_a_mesh_is_an_error():
 
     with pytest.raises(ConfigError, match="cannot resolve https://example.com/m.dae"):
         resolve_uri("https://example.com/m.dae", Path("."), [])
+
+
+POLYLINE_WORLD = """<?xml version="1.0"?>
+<sdf version="1.9"><world name="w">
+  <model name="ground"><static>true</static><link name="l"><collision name="c"><geometry>
+    <plane><normal>0 0 1</normal><size>20 20</size></plane></geometry></collision></link></model>
+  <model name="pen"><static>true</static><pose>2 1 0 0 0 1.5707963</pose><link name="l">
+    <collision name="walls"><pose>0 0 0.1 0 0 0</pose><geometry>
+      <polyline><point>-1.5 -1</point><point>1.5 -1</point><point>1.5 1</point><point>-1.5 1</point>
+        <height>0.8</height></polyline>
+      <polyline><point>-1.2 -0.7</point><point>1.2 -0.7</point><point>1.2 0.7</point><point>-1.2 0.7</point>
+        <height>0.8</height></polyline>
+    </geometry></collision>
+    <collision name="ell"><pose>0 3 0 0 0 -1.5707963</pose><geometry>
+      <polyline><point>0 0</point><point>1 0</point><point>1 0.4</point><point>0.4 0.4</point>
+        <point>0.4 1</point><point>0 1</point><height>0.5</height></polyline>
+    </geometry></collision>
+  </link></model>
+</world></sdf>
+"""
+
+
+def test_polyline_walls_are_extruded_with_their_holes_and_poses(tmp_path):
+    """A pen: a 3 x 2 m rectangle with a 2.4 x 1.4 m hole (walls 0.3 m thick), 0.8 m high from 0.1 m, the model
+    at (2, 1) turned 90 degrees; an L of 1 m arms 0.4 m thick. The laser from the pen's centre meets the inner
+    walls 0.7 m (across) and 1.2 m (along) away; MuJoCo's rays agree; the world map has the walls and the
+    free hole."""
+    from navlog.recorder.sensors import RayCaster
+    from navlog.recorder.world import occupancy
+
+    world = load_world(str(_write(tmp_path / "pen.sdf", POLYLINE_WORLD)))
+    assert not any("polyline" in n for n in world.notes)
+    walls = [s for s in world.solids if s.name.startswith("pen/l/walls")]
+    assert len(walls) == 1 and walls[0].shape == "mesh" and walls[0].closed and not walls[0].convex
+    assert walls[0].center == pytest.approx((2.0, 1.0, 0.5), abs=1e-9)  # turned: 2 m along x, 3 m along y
+    assert walls[0].size == pytest.approx((2.0, 3.0, 0.8), abs=1e-9)
+    caster = RayCaster(world_mesh(world))
+    origin = np.array([[2.0, 1.0, 0.4]])
+    dirs = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [-1.0, 0.0, 0.0]])
+    d = caster.cast_distances(np.repeat(origin, 4, axis=0), dirs)
+    np.testing.assert_allclose(d, [0.7, 1.2, 1.2, 0.7], atol=1e-6)
+    assert caster.cast_distances(np.array([[2.0, 1.0, 0.95]]), dirs[:1])[0] > 5  # above the 0.9 m top
+    mujoco = import_mujoco()
+    model = build_spec(world).compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    geomid = np.array([-1], dtype=np.int32)
+    hit = mujoco.mj_ray(model, data, np.array([2.0, 1.0, 0.4]), np.array([1.0, 0.0, 0.0]), None, 1, -1, geomid)
+    assert hit == pytest.approx(0.7 - 0.01, abs=1e-4)  # less half a slab of the non-convex walls
+    # the L: its corner at (2, 1) + (0, 3) turned 90 degrees = (-1, 1), turned back by -90 degrees: x in
+    # [-1, 0], y in [1, 2] less the notch x in [-0.6, 0], y in [1.4, 2]
+    grid = occupancy(world, margin=0.0)
+    points = [(-0.8, 1.8), (-0.2, 1.2), (-0.3, 1.7), (2.0, 1.0), (2.85, 1.0), (1.15, 2.4)]
+    assert [grid.value_at(*p) == 100 for p in points] == [True, True, False, False, True, True]
+
+
+def test_a_polyline_with_two_points_names_the_fix(tmp_path):
+    bad = POLYLINE_WORLD.replace("<point>0.4 1</point><point>0 1</point>", "").replace(
+        "<point>1 0.4</point><point>0.4 0.4</point>", ""
+    )
+    with pytest.raises(ConfigError, match=r"pen\.sdf: link 'pen/l' collision 'ell' <polyline>: .*3 <point>.*got 2"):
+        load_world(str(_write(tmp_path / "pen.sdf", bad)))

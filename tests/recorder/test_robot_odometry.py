@@ -1,0 +1,208 @@
+"""A drive plugin's odometry topic and frames, end to end: the recorder publishes the odometry there, and
+the navigation stack, AMCL, the replay pipelines and ``navlog check`` read it from there."""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from pathlib import Path
+
+import pytest
+
+from navlog.analysis.check import check_log
+from navlog.cli import main
+from navlog.recorder.description import describe
+from navlog.recorder.record import prepare, record
+from navlog.replay.io.formats import open_log
+from navlog.replay.pipelines import pipeline_spec
+from navlog.replay.session import pipeline_params, run_replay
+
+# a 0.3 x 0.24 m base on two wheels (radius 0.05 m, 0.28 m apart) and a rear caster, a 2D laser; root
+# base_link; the plugin names its odometry topic and both frames
+ROBOT = """<?xml version="1.0"?>
+<robot name="wheely">
+  <link name="base_link">
+    <inertial><mass value="4.0"/><inertia ixx="0.03" iyy="0.04" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.07"/><geometry><box size="0.3 0.24 0.08"/></geometry></collision>
+  </link>
+  <link name="wheel_left">
+    <inertial><mass value="0.3"/><inertia ixx="0.0002" iyy="0.0002" izz="0.0004" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin rpy="1.5708 0 0"/><geometry><cylinder radius="0.05" length="0.03"/></geometry></collision>
+  </link>
+  <joint name="wheel_left_joint" type="continuous">
+    <parent link="base_link"/><child link="wheel_left"/><origin xyz="0 0.14 0.05"/><axis xyz="0 1 0"/>
+  </joint>
+  <link name="wheel_right">
+    <inertial><mass value="0.3"/><inertia ixx="0.0002" iyy="0.0002" izz="0.0004" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin rpy="1.5708 0 0"/><geometry><cylinder radius="0.05" length="0.03"/></geometry></collision>
+  </link>
+  <joint name="wheel_right_joint" type="continuous">
+    <parent link="base_link"/><child link="wheel_right"/><origin xyz="0 -0.14 0.05"/><axis xyz="0 1 0"/>
+  </joint>
+  <link name="caster">
+    <inertial><mass value="0.05"/><inertia ixx="0.00001" iyy="0.00001" izz="0.00001" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><sphere radius="0.025"/></geometry></collision>
+  </link>
+  <joint name="caster_joint" type="fixed">
+    <parent link="base_link"/><child link="caster"/><origin xyz="-0.12 0 0.025"/>
+  </joint>
+  <link name="laser"/>
+  <joint name="laser_joint" type="fixed">
+    <parent link="base_link"/><child link="laser"/><origin xyz="0 0 0.15"/>
+  </joint>
+  <gazebo reference="laser">
+    <sensor name="lidar" type="gpu_lidar">
+      <update_rate>10</update_rate><topic>scan</topic><gz_frame_id>laser</gz_frame_id>
+      <lidar><scan><horizontal><samples>360</samples><min_angle>-3.14159</min_angle>
+      <max_angle>3.12414</max_angle></horizontal></scan><range><min>0.1</min><max>8.0</max></range></lidar>
+    </sensor>
+  </gazebo>
+  <gazebo>
+    PLUGIN
+  </gazebo>
+</robot>
+"""
+GZ_PLUGIN = """<plugin filename="gz-sim-diff-drive-system" name="gz::sim::systems::DiffDrive">
+      <left_joint>wheel_left_joint</left_joint><right_joint>wheel_right_joint</right_joint>
+      <wheel_separation>0.28</wheel_separation><wheel_radius>0.05</wheel_radius>
+      <max_linear_velocity>0.5</max_linear_velocity><max_angular_velocity>1.5</max_angular_velocity>
+      <topic>cmd_vel</topic><odom_topic>odometry/wheels</odom_topic>
+      <frame_id>wheel_odom</frame_id><child_frame_id>base_footprint</child_frame_id>
+      <odom_publish_frequency>25</odom_publish_frequency>
+    </plugin>"""
+CLASSIC_PLUGIN = """<plugin name="diff_drive" filename="libgazebo_ros_diff_drive.so">
+      <left_joint>wheel_left_joint</left_joint><right_joint>wheel_right_joint</right_joint>
+      <wheel_separation>0.28</wheel_separation><wheel_diameter>0.1</wheel_diameter>
+      <odometry_topic>odometry/wheels</odometry_topic>
+      <odometry_frame>wheel_odom</odometry_frame><robot_base_frame>base_footprint</robot_base_frame>
+      <update_rate>25</update_rate>
+    </plugin>"""
+
+
+def _robot(tmp_path: Path, plugin: str = GZ_PLUGIN) -> Path:
+    path = tmp_path / "wheely.urdf"
+    path.write_text(ROBOT.replace("PLUGIN", plugin))
+    return path
+
+
+def test_both_plugin_spellings_name_the_odometry_topic_and_frames(tmp_path):
+    for plugin in (GZ_PLUGIN, CLASSIC_PLUGIN):
+        robot = describe(_robot(tmp_path, plugin))
+        assert robot.odom.topic == "/odometry/wheels" and robot.odom.rate == 25.0
+        assert robot.frames.odom == "wheel_odom" and robot.frames.base_footprint == "base_footprint"
+        assert robot.frames.base == "base_link" and robot.odometry == ("/odometry/wheels", "wheel_odom")
+        assert robot.drive.wheel_radius == pytest.approx(0.05) and robot.drive.wheel_separation == pytest.approx(0.28)
+
+
+@pytest.fixture(scope="module")
+def navigated(tmp_path_factory) -> tuple[Path, object, Path]:
+    """The robot sent 2 m ahead in walled_room by Nav2 (nav_kibot's file, which names /odom and odom) on AMCL."""
+    tmp = tmp_path_factory.mktemp("odometry")
+    (tmp / "goal.yaml").write_text("frame_id: map\ngoals:\n  - {name: ahead, x: 2.0, y: -1.0, yaw: 0.0}\n")
+    scenario = tmp / "ahead.yaml"
+    scenario.write_text(
+        "name: ahead\nkind: navigate\nworld: walled_room\nstart: [0.0, 0.0, 0.0]\nnav2_params: nav_kibot\n"
+        "goals: goal.yaml\nnavigation: waypoints\nmap: world\nmap_margin: 0.0\nhold: 0.5\nmax_duration: 40.0\n"
+    )
+    log = tmp / "nav.mcap"
+    logging.getLogger("navlog").setLevel(logging.ERROR)
+    setup = prepare(None, str(_robot(tmp)), str(scenario), localization="amcl")
+    res = record(setup, log, progress=False, sensor_worker=False)
+    return log, res, tmp
+
+
+def test_the_recording_publishes_the_odometry_where_the_plugin_says(navigated):
+    log, res, _ = navigated
+    assert "/odom" not in res.topics and res.topics["/odometry/wheels"][1] > 100
+    with open_log(log) as r:
+        assert r.metadata["navlog"]["odom_topic"] == "/odometry/wheels"
+        assert r.metadata["navlog"]["odom_frame"] == "wheel_odom"
+        odom = [e.msg for e in r.messages(["/odometry/wheels"])]
+        edges = {(t.header.frame_id, t.child_frame_id) for e in r.messages(["/tf"]) for t in e.msg.transforms}
+    assert {(o.header.frame_id, o.child_frame_id) for o in odom} == {("wheel_odom", "base_footprint")}
+    assert {("wheel_odom", "base_footprint"), ("base_footprint", "base_link")} <= edges
+    assert "odom" not in {frame for edge in edges for frame in edge}
+    # 25 Hz: 40 ms periods
+    stamps = [o.header.stamp.sec * 10**9 + o.header.stamp.nanosec for o in odom[:3]]
+    assert stamps[1] - stamps[0] == 40_000_000
+
+
+def test_navigation_and_amcl_ran_on_that_odometry(navigated):
+    _, res, _ = navigated
+    goals = res.navigation["goals"]
+    assert [g["status"] for g in goals] == ["succeeded"], goals
+    assert res.collisions == 0
+    loc = res.localization  # AMCL localised every scan on the wheel_odom frame (none on "odom")
+    assert loc["poses"] > 50 and loc["final_m"] < 0.15 and loc["mean_m"] < 0.10, loc
+
+
+def test_replay_and_check_read_the_odometry_the_log_names(navigated):
+    log, _, tmp = navigated
+    with open_log(log) as reader:
+        nav = pipeline_spec("navigation").settle(
+            pipeline_params("navigation", overrides=["nav2_params=nav_kibot"]), reader, {}
+        )
+        loc = pipeline_spec("localization").settle(pipeline_params("localization"), reader, {})
+    assert nav.odom_topic == "/odometry/wheels"
+    # nav_kibot's local costmap, behaviours and collision monitor name "odom": now "wheel_odom"
+    assert nav.nav2["local_costmap.local_costmap.ros__parameters.global_frame"] == "wheel_odom"
+    assert nav.nav2["behavior_server.ros__parameters.local_frame"] == "wheel_odom"
+    assert nav.nav2["bt_navigator.ros__parameters.odom_topic"] == "/odometry/wheels"
+    assert nav.nav2["collision_monitor.ros__parameters.odom_frame_id"] == "wheel_odom"
+    assert loc.amcl == {"odom_frame_id": "wheel_odom"}
+    built = pipeline_spec("navigation").build(nav, set())
+    assert "/odometry/wheels" in built.optional_inputs and "/odom" not in built.optional_inputs
+    # the localization replay localises on the recorded wheel_odom -> base_footprint
+    assert main(["-q", "world-map", "walled_room", "--margin", "0", "-o", str(tmp / "map.yaml")]) == 0
+    out = run_replay(log, "localization", tmp / "loc", overrides=[f"map={tmp / 'map.yaml'}"], progress=False)
+    report = json.loads((out.out_dir / "localization.json").read_text())
+    assert report["scans_localised"] > 50, report  # 10 Hz scans over ~9 s; on the frame "odom", none
+    assert out.manifest["parameters"]["amcl"] == {"odom_frame_id": "wheel_odom"}
+    # navlog check: the odometry topic is one a pipeline reads, held to its own 25 Hz
+    result = check_log(log)
+    rate = next(c for c in result.checks if c.name == "rate" and c.subject.startswith("/odometry/wheels"))
+    assert rate.status.name == "PASS"
+
+
+# ---------------------------------------------------------------- an omni base
+
+OMNI_PLUGINS = {
+    "planar_move": """<plugin name="planar" filename="libgazebo_ros_planar_move.so">
+      <ros><remapping>odom:=odometry/planar</remapping></ros>
+      <odometry_frame>odom</odometry_frame><robot_base_frame>base_link</robot_base_frame>
+      <publish_rate>50</publish_rate>
+    </plugin>""",
+    "velocity_control": """<plugin filename="gz-sim-velocity-control-system"
+      name="gz::sim::systems::VelocityControl"><topic>cmd_vel</topic></plugin>""",
+}
+
+
+@pytest.mark.parametrize("plugin", sorted(OMNI_PLUGINS))
+def test_an_omni_base_moves_sideways_by_the_commanded_distance(tmp_path, plugin):
+    """0.2 m/s to the left for 3 s: 0.60 m along +y within 3 cm (the carriage accelerates within a tick), no
+    more than 2 cm along x and 1 degree of yaw; the odometry says the same within 1 cm."""
+    robot = tmp_path / "omni.urdf"
+    text = ROBOT.replace("PLUGIN", OMNI_PLUGINS[plugin])
+    robot.write_text(text.replace('type="continuous"', 'type="fixed"'))  # a box on casters: the carriage drives it
+    scenario = tmp_path / "left.yaml"
+    scenario.write_text(
+        "name: left\nkind: teleop\nstart: [0.0, 0.0, 0.0]\ncommands:\n  - {duration: 3.0, cmd: [0.0, 0.2, 0.0]}\nhold: 1.0\n"
+    )
+    log = tmp_path / "omni.mcap"
+    setup = prepare("walled_room", str(robot), str(scenario))
+    assert setup.robot.drive.type == "legged" and setup.robot.drive.max_vy > 0  # the kinematic planar carriage
+    record(setup, log, progress=False, sensor_worker=False)
+    odom_topic = setup.robot.odom.topic
+    assert odom_topic == ("/odometry/planar" if plugin == "planar_move" else "/odom")
+    with open_log(log) as r:
+        truth = [e.msg.pose.pose for e in r.messages(["/odom/ground_truth"])]
+        odom = [e.msg for e in r.messages([odom_topic])]
+    end, start = truth[-1], truth[0]
+    assert end.position.y - start.position.y == pytest.approx(0.60, abs=0.03)
+    assert abs(end.position.x - start.position.x) < 0.02
+    q = end.orientation
+    assert abs(math.degrees(math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z)))) < 1.0
+    o = odom[-1].pose.pose.position
+    assert o.y == pytest.approx(end.position.y - start.position.y, abs=0.01) and abs(o.x) < 0.02
+    assert max(m.twist.twist.linear.y for m in odom) == pytest.approx(0.2, abs=0.01)
