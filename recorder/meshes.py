@@ -228,116 +228,30 @@ def is_closed(faces: np.ndarray) -> bool:
 # ---------------------------------------------------------------- extruded polygons (SDF <polyline>)
 
 
-def _signed_area(ring: np.ndarray) -> float:
-    x, y = ring[:, 0], ring[:, 1]
-    return float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)) / 2.0
-
-
-def _inside(point: np.ndarray, ring: np.ndarray) -> bool:
-    """Whether ``point`` lies inside the polygon ``ring`` (crossing count)."""
-    x, y = float(point[0]), float(point[1])
-    inside = False
-    for (x0, y0), (x1, y1) in zip(ring.tolist(), np.roll(ring, -1, axis=0).tolist(), strict=True):
-        if (y0 > y) != (y1 > y) and x < x0 + (y - y0) * (x1 - x0) / (y1 - y0):
-            inside = not inside
-    return inside
-
-
-def _crosses(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> bool:
-    """Whether the segments ab and cd cross at a point inside both (touching ends do not count)."""
-
-    def side(p: np.ndarray, q: np.ndarray, r: np.ndarray) -> float:
-        return float((q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0]))
-
-    d1, d2, d3, d4 = side(a, b, c), side(a, b, d), side(c, d, a), side(c, d, b)
-    return d1 * d2 < 0 and d3 * d4 < 0
-
-
-def _bridged(outer: np.ndarray, holes: list[np.ndarray]) -> np.ndarray:
-    """One ring of the outer ring (counter-clockwise) and its holes (clockwise), each hole joined to the
-    outer ring by a bridge there and back from its vertex with the largest x to the nearest outer vertex
-    the bridge reaches without crossing an edge."""
-    ring = outer
-    for hole in sorted(holes, key=lambda h: -float(h[:, 0].max())):
-        m = int(np.argmax(hole[:, 0]))
-        edges = [(r[i], r[(i + 1) % len(r)]) for r in [ring, *holes] for i in range(len(r))]
-        order = np.argsort(np.hypot(*(ring - hole[m]).T))
-        p = next((int(i) for i in order if not any(_crosses(hole[m], ring[i], a, b) for a, b in edges)), int(order[0]))
-        loop = np.roll(hole, -m, axis=0)
-        ring = np.concatenate([ring[: p + 1], loop, loop[:1], ring[p:]])
-    return ring
-
-
-def _ear_clip(ring: np.ndarray) -> list[tuple[int, int, int]]:
-    """Triangles (indices into ``ring``, counter-clockwise) of a simple counter-clockwise polygon."""
-    idx = list(range(len(ring)))
-    out: list[tuple[int, int, int]] = []
-
-    def cross(i: int, j: int, k: int) -> float:
-        a, b, c = ring[i], ring[j], ring[k]
-        return float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
-
-    def contains(i: int, j: int, k: int, p: int) -> bool:
-        if np.allclose(ring[p], ring[i]) or np.allclose(ring[p], ring[j]) or np.allclose(ring[p], ring[k]):
-            return False
-        return cross(i, j, p) >= 0 and cross(j, k, p) >= 0 and cross(k, i, p) >= 0
-
-    while len(idx) > 3:
-        n = len(idx)
-        for t in range(n):
-            i, j, k = idx[t - 1], idx[t], idx[(t + 1) % n]
-            if cross(i, j, k) > 1e-12 and not any(contains(i, j, k, p) for p in idx if p not in (i, j, k)):
-                out.append((i, j, k))
-                del idx[t]
-                break
-        else:  # no ear: a degenerate (collinear or self-touching) rest; fan it
-            out += [(idx[0], idx[t], idx[t + 1]) for t in range(1, n - 1) if abs(cross(idx[0], idx[t], idx[t + 1])) > 0]
-            return out
-    if abs(cross(*idx)) > 0:
-        out.append((idx[0], idx[1], idx[2]))
-    return out
-
-
 def extruded_polygons(paths: list[np.ndarray], height: float) -> tuple[np.ndarray, np.ndarray]:
     """The closed mesh of SDF ``<polyline>`` paths (each (n, 2), in the geometry's frame) extruded from
     z = 0 to ``height``, as gz-common extrudes them: a path inside another is a hole in it, the others
-    are polygons of their own. Vertices (n, 3) and faces (m, 3), faces outward."""
-    rings = []
-    for path in paths:
-        ring = np.asarray(path, dtype=np.float64)
-        if len(ring) > 1 and np.allclose(ring[0], ring[-1]):
-            ring = ring[:-1]  # a closed path repeats its first point
-        rings.append(ring)
-    holes_of: dict[int, list[np.ndarray]] = {i: [] for i in range(len(rings))}
+    are polygons of their own. Vertices (n, 3) and faces (m, 3), faces outward (Shapely for the
+    polygons, trimesh with earcut for the triangulation)."""
+    import shapely
+    import trimesh
+
+    rings = [shapely.Polygon(np.asarray(path, dtype=np.float64)) for path in paths]
+    holes_of: dict[int, list[shapely.Polygon]] = {i: [] for i in range(len(rings))}
     holes = set()
     for i, ring in enumerate(rings):
-        owner = next((j for j, other in enumerate(rings) if j != i and _inside(ring[0], other)), None)
+        first = shapely.Point(ring.exterior.coords[0])
+        owner = next((j for j, other in enumerate(rings) if j != i and other.contains(first)), None)
         if owner is not None:
-            holes_of[owner].append(ring if _signed_area(ring) < 0 else ring[::-1])
+            holes_of[owner].append(ring)
             holes.add(i)
-    vertices: list[np.ndarray] = []
-    faces: list[np.ndarray] = []
+    pieces = []
     for i, ring in enumerate(rings):
-        if i in holes:
-            continue
-        outer = ring if _signed_area(ring) > 0 else ring[::-1]
-        cap = _bridged(outer, holes_of[i])
-        base = sum(len(v) for v in vertices)
-        n = len(cap)
-        vertices.append(np.column_stack([np.vstack([cap, cap]), np.repeat([0.0, height], n)]))
-        tris = np.asarray(_ear_clip(cap), dtype=np.int64).reshape(-1, 3)
-        faces += [base + tris[:, ::-1], base + n + tris]  # bottom facing down, top facing up
-        # the side walls: one quad per edge of the outer ring and of each hole (bridges have none)
-        for loop in [outer, *holes_of[i]]:
-            start = sum(len(v) for v in vertices)
-            m = len(loop)
-            vertices.append(np.column_stack([np.vstack([loop, loop]), np.repeat([0.0, height], m)]))
-            k = np.arange(m)
-            nxt = (k + 1) % m
-            faces += [
-                np.column_stack([start + k, start + nxt, start + m + nxt]),
-                np.column_stack([start + k, start + m + nxt, start + m + k]),
-            ]
-    # one vertex per position, so that the caps and the walls share their edges (the mesh is closed)
-    merged, index = np.unique(np.round(np.vstack(vertices), MERGE_DECIMALS), axis=0, return_inverse=True)
-    return merged, index.reshape(-1)[np.vstack(faces)]
+        if i not in holes:
+            polygon = shapely.Polygon(ring.exterior.coords, [h.exterior.coords for h in holes_of[i]])
+            pieces.append(
+                trimesh.creation.extrude_polygon(shapely.geometry.polygon.orient(polygon), height, engine="earcut")
+            )
+    mesh: trimesh.Trimesh = trimesh.util.concatenate(pieces)  # type: ignore[assignment]
+    mesh.merge_vertices(digits_vertex=MERGE_DECIMALS)
+    return np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
