@@ -23,6 +23,7 @@ from typing import Any
 
 from navlog.analysis.ci.result import ORDER, CaseResult, CheckResult, Status, SuiteResult
 from navlog.errors import NavlogError
+from navlog.replay.io.atomic import write_file
 
 __all__ = ["format_result", "grouped", "to_json", "to_junit", "to_markdown", "write_reports"]
 
@@ -206,9 +207,11 @@ def to_markdown(result: SuiteResult) -> str:
 
 
 def _write(path: Path, text: str, *, append: bool = False) -> Path:
+    """A report file, whole or not at all (``write_file``); appended to (the CI's step summary) in place."""
+    if not append:
+        return write_file(path, text)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "a" if append else "w", encoding="utf-8") as f:
+        with open(path, "a", encoding="utf-8") as f:
             f.write(text)
     except OSError as exc:
         raise NavlogError(f"{path}: cannot write the report: {exc.strerror}") from None

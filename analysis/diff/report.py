@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from navlog.analysis.diff.result import Check, DiffReport, Verdict
-from navlog.errors import NavlogError
+from navlog.replay.io.atomic import write_file
 
 __all__ = ["format_report", "to_json", "to_markdown", "write_text"]
 
@@ -96,10 +96,4 @@ def to_markdown(report: DiffReport) -> str:
 
 def write_text(text: str, path: str | Path) -> Path:
     """Write a report file (parent folders created); errors name the file."""
-    p = Path(path)
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise NavlogError(f"{p}: cannot write the report: {exc.strerror}") from None
-    return p
+    return write_file(Path(path), text)

@@ -17,6 +17,7 @@ global costmap on a map and plans once (what ``navlog plan`` runs); ``write_plan
 
 from __future__ import annotations
 
+import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -29,6 +30,7 @@ from navlog.errors import ConfigError
 from navlog.replay import messages as m
 from navlog.replay.config import find_config, known_configs, load_yaml, param, suggest
 from navlog.replay.io import json_text
+from navlog.replay.io.atomic import write_file
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.map_server import load_map
 from navlog.replay.limits import MAX_PERIOD_S, MIN_PERIOD_S
@@ -328,4 +330,6 @@ def write_plan_png(path: str | Path, result: MapPlan) -> None:
         inside = (tx >= 0) & (tx < cm.size_x) & (ty >= 0) & (ty < cm.size_y)
         img[disc] = rgb
         img[ty[inside], tx[inside]] = rgb
-    Image.fromarray(img[::-1]).save(path)
+    png = io.BytesIO()
+    Image.fromarray(img[::-1]).save(png, format="PNG")
+    write_file(Path(path), png.getvalue())
