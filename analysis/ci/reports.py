@@ -12,7 +12,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
@@ -23,6 +22,7 @@ from typing import Any
 
 from navlog.analysis.ci.result import ORDER, CaseResult, CheckResult, Status, SuiteResult
 from navlog.errors import NavlogError
+from navlog.replay.io import json_text
 from navlog.replay.io.atomic import write_file
 
 __all__ = ["format_result", "grouped", "to_json", "to_junit", "to_markdown", "write_reports"]
@@ -49,7 +49,7 @@ def _plain(v: Any) -> Any:
 
 
 def to_json(result: SuiteResult) -> str:
-    return json.dumps(_plain(result.to_dict()), indent=2, sort_keys=True, allow_nan=False) + "\n"
+    return json_text.dumps(_plain(result.to_dict()), indent=2, sort_keys=True) + "\n"
 
 
 def _worst_first(result: SuiteResult) -> list[CaseResult]:

@@ -8,12 +8,12 @@ within tolerance, and a count of the equal ones; kept under GitHub's 65,536-char
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
 
 from navlog.analysis.diff.result import Check, DiffReport, Verdict
+from navlog.replay.io import json_text
 from navlog.replay.io.atomic import write_file
 
 __all__ = ["format_report", "to_json", "to_markdown", "write_text"]
@@ -39,7 +39,7 @@ def _canonical(v: Any) -> Any:
 
 
 def to_json(report: DiffReport) -> str:
-    return json.dumps(_canonical(report.to_dict()), indent=2, sort_keys=True, allow_nan=False) + "\n"
+    return json_text.dumps(_canonical(report.to_dict()), indent=2, sort_keys=True) + "\n"
 
 
 def _summary(report: DiffReport) -> str:

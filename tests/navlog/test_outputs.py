@@ -171,3 +171,22 @@ def test_a_read_only_folder_and_a_full_disk(tmp_path, teleop_log, capsys):
         with pytest.raises(NavlogError, match="metrics.json: cannot write: No space left on device"):
             write_json({"ate": {"rmse": 1.0, "text": "x" * 8192}}, full / "metrics.json")
         assert sorted(p.name for p in full.iterdir()) == ["filler"]
+
+
+@pytest.mark.parametrize(
+    ("address", "name"),
+    [
+        ("/logs/run.mcap", "run"),
+        ("/logs/..mcap", "_-"),
+        ("/logs/.mcap", "_mcap-"),
+        ("s3://bucket/x/..", "_.-"),
+        ("/logs/a b\x01.mcap", "a_b_-"),
+        ("/logs/" + "y" * 300 + ".mcap", "y" * 100 + "-"),
+    ],
+)
+def test_fleet_output_names_stay_inside_their_folder(address, name):
+    from navlog.analysis.fleet.inputs import _stem
+
+    stem = _stem(address)
+    assert stem == name if name == "run" else (stem.startswith(name) and len(stem) == len(name) + 8)
+    assert "/" not in stem and not stem.startswith(".") and len(stem) <= 109
