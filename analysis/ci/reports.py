@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from navlog.analysis.ci.result import ORDER, CaseResult, CheckResult, Status, SuiteResult
+from navlog.analysis.tables import figure
 from navlog.errors import NavlogError
 from navlog.replay.io import json_text
 from navlog.replay.io.atomic import write_file
@@ -36,9 +37,7 @@ def _plain(v: Any) -> Any:
     if isinstance(v, bool) or v is None or isinstance(v, str | int):
         return v
     if isinstance(v, float):
-        if not math.isfinite(v):
-            return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
-        return float(f"{v:.9g}")
+        return float(f"{v:.9g}") if math.isfinite(v) else v  # non-finite: null, named (json_text)
     if isinstance(v, Mapping):
         return {str(k): _plain(x) for k, x in v.items()}
     if isinstance(v, list | tuple):
@@ -136,7 +135,7 @@ def to_junit(result: SuiteResult) -> str:
         ET.SubElement(props, "property", name="log", value=case.source)
         ET.SubElement(props, "property", name="status", value=str(case.status))
         for key, value in sorted(case.facts.items()):
-            ET.SubElement(props, "property", name=key, value=f"{value:.9g}")
+            ET.SubElement(props, "property", name=key, value=figure(value, ".9g"))
         counts = {"tests": 0, "failures": 0, "errors": 0, "skipped": 0}
         for check in case.checks:
             test = ET.SubElement(

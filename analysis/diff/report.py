@@ -1,7 +1,8 @@
 """A ``DiffReport`` for people and machines: a text table, deterministic JSON, Markdown.
 
 JSON: sorted keys, two-space indent, floats written with 9 significant digits, NaN and infinities as
-the strings ``"nan"``, ``"inf"``, ``"-inf"``: the same report gives the same bytes. Markdown: a
+null, each named under ``non_finite_values`` (``navlog.replay.io.json_text``): the same report gives the
+same bytes. Markdown: a
 one-line verdict, then the checks that failed (REGRESSED, CHANGED), the improvements, the checks
 within tolerance, and a count of the equal ones; kept under GitHub's 65,536-character comment limit.
 """
@@ -24,11 +25,7 @@ MARKDOWN_LIMIT = 60_000  # characters, below GitHub's 65,536 per comment
 
 def _canonical(v: Any) -> Any:
     if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return float(f"{v:.9g}")
+        return float(f"{v:.9g}") if math.isfinite(v) else v  # non-finite: null, named (json_text)
     if isinstance(v, dict):
         return {str(k): _canonical(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):

@@ -22,7 +22,7 @@ import numpy as np
 from navlog.analysis.metrics import maps as map_metrics
 from navlog.analysis.metrics import navigation as nav_metrics
 from navlog.analysis.metrics import trajectory as tr
-from navlog.analysis.tables import grid, indented, render, table
+from navlog.analysis.tables import MISSING, grid, indented, render, table
 from navlog.errors import NavlogError
 from navlog.replay import messages as m
 from navlog.replay.io import json_text, open_log
@@ -390,8 +390,8 @@ def write_json(metrics: dict[str, Any], path: str | Path) -> Path:
 
 
 def _f(v: Any, unit: str = "", digits: int = 4) -> str:
-    if v is None:
-        return "n/a"
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return MISSING
     if unit == "%":
         return f"{100.0 * v:.2f} %"
     return f"{v:.{digits}f}{' ' + unit if unit else ''}"
