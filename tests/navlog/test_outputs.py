@@ -190,3 +190,17 @@ def test_fleet_output_names_stay_inside_their_folder(address, name):
     stem = _stem(address)
     assert stem == name if name == "run" else (stem.startswith(name) and len(stem) == len(name) + 8)
     assert "/" not in stem and not stem.startswith(".") and len(stem) <= 109
+
+
+def test_record_and_world_map_refuse_special_outputs_and_a_file_as_folder(tmp_path, capsys):
+    fifo = tmp_path / "run.mcap"
+    os.mkfifo(fifo)
+    assert main(["record", "--scenario", "teleop", "-o", str(fifo), "--force"]) == 2
+    assert f"{fifo}: is a FIFO (named pipe), not a file" in capsys.readouterr().err
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    (tmp_path / "file").write_text("")
+    assert main(["world-map", "indoor_room", "-o", str(tmp_path / "file" / "map.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert (
+        err.startswith(f"navlog: error: {tmp_path / 'file' / 'map.yaml'}: cannot write map: ") and err.count("\n") == 1
+    )
