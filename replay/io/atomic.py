@@ -28,6 +28,7 @@ __all__ = [
     "check_output",
     "hold_output",
     "open_new",
+    "output_failure",
     "remove_stale",
     "replace_output",
     "temp_path",
@@ -119,6 +120,20 @@ def write_error(path: Path, exc: OSError) -> NavlogError:
         return NavlogError(f"{path}: cannot write: {exc.strerror or exc} (a read-only folder?); nothing was written")
     return NavlogError(
         f"{path}: cannot write: {exc.strerror or exc} (a full disk or a file-size limit?); the partial file was removed"
+    )
+
+
+WRITE_ERRNOS = (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EACCES, errno.EPERM, errno.EROFS)
+
+
+def output_failure(out: Path, exc: BaseException) -> NavlogError | None:
+    """The one-line error for an output that a library writing it (SQLite, Rerun) failed to write, by
+    the errno of an ``OSError`` (``WRITE_ERRNOS``) or the library's own words; None when ``exc`` is no
+    write failure."""
+    if isinstance(exc, OSError):
+        return write_error(out, exc) if exc.errno in WRITE_ERRNOS else None
+    return NavlogError(
+        f"{out}: cannot write: {exc} (a read-only folder, a full disk or a file-size limit?); nothing was written"
     )
 
 

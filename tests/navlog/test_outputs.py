@@ -204,3 +204,30 @@ def test_record_and_world_map_refuse_special_outputs_and_a_file_as_folder(tmp_pa
     assert (
         err.startswith(f"navlog: error: {tmp_path / 'file' / 'map.yaml'}: cannot write map: ") and err.count("\n") == 1
     )
+
+
+def _limited() -> None:
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (["export", "LOG", "--to", "rosbag2", "-o", "OUT"], "OUT: cannot write: disk I/O error"),
+        (["export", "LOG", "--to", "rosbag2", "--storage", "mcap", "-o", "OUT"], "OUT: cannot write: File too large"),
+        (["view", "LOG", "--save", "OUT"], "OUT: cannot write: File-writer thread shut down prematurely"),
+        (["replay", "LOG", "--pipeline", "mapping", "-o", "OUT", "--no-metrics"], "cannot write: File too large"),
+    ],
+)
+def test_library_writers_under_a_file_size_limit(argv, words, tmp_path, teleop_log):
+    out = tmp_path / "out"
+    out.mkdir()
+    target = out / ("result.rrd" if argv[0] == "view" else "result")
+    cmd = [*NAVLOG, "-q", *(str(teleop_log) if a == "LOG" else str(target) if a == "OUT" else a for a in argv)]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300, preexec_fn=_limited)
+    assert proc.returncode == 2, proc.stderr
+    errors = [x for x in proc.stderr.splitlines() if x.startswith("navlog: error:")]
+    assert len(errors) == 1 and words.replace("OUT", str(target)) in errors[0], proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert list(out.iterdir()) == []
