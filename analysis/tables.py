@@ -7,6 +7,7 @@ table is made, not when this module is.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -15,7 +16,17 @@ from navlog.replay.runtime.progress import render_plain
 if TYPE_CHECKING:
     from rich.table import Table
 
-__all__ = ["grid", "indented", "render", "table"]
+__all__ = ["MISSING", "figure", "grid", "indented", "render", "table"]
+
+MISSING = "n/a (no samples)"  # what every report prints where a number is missing (None or NaN)
+
+
+def figure(value: Any, spec: str = ".6g", unit: str = "") -> str:
+    """``value`` formatted with ``spec`` (and `` unit``) for a report, or ``MISSING`` when it is None or
+    NaN: no report prints "nan" for a number it has no samples of."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return MISSING
+    return f"{value:{spec}}{' ' + unit if unit else ''}"
 
 
 def table(headers: Sequence[str], rows: Iterable[Sequence[str]], *, right: Iterable[int] = ()) -> Table:

@@ -92,6 +92,8 @@ KINDS: dict[str, int] = {
     "cli": 8,
     "cli-record": 5,
     "cli-replay": 5,
+    "params-extreme": 4,
+    "outputs-special": 3,
 }
 
 
@@ -636,6 +638,127 @@ def cli_replay(draw: Any, seeds: Seeds) -> dict[str, Any]:
     return {"argv": with_stray_flag(draw, argv)}
 
 
+# ------------------------------------------------------- extreme parameters and special outputs
+
+# Nav2 keys bounded by navlog.replay.limits: (node path in the seed Nav2 file, key)
+EXTREME_NAV2_KEYS = [
+    (("controller_server",), "controller_frequency"),
+    (("planner_server",), "expected_planner_frequency"),
+    (("local_costmap", "local_costmap"), "update_frequency"),
+    (("local_costmap", "local_costmap"), "publish_frequency"),
+    (("local_costmap", "local_costmap"), "resolution"),
+    (("local_costmap", "local_costmap"), "width"),
+    (("global_costmap", "global_costmap"), "resolution"),
+    (("amcl",), "max_particles"),
+    (("velocity_smoother",), "smoothing_frequency"),
+    (("behavior_server",), "cycle_frequency"),
+]
+EXTREME_VALUES = [0, -1, 1e-12, 1e-3, 0.05, 1000.0, 1000.0001, 1e12, 2**63, float("inf"), float("nan"), 10**8]
+EXTREME_SETS = [
+    "occupancy.publish_period",
+    "slam.map_update_interval",
+    "occupancy.grid.resolution",
+    "lidar.voxel_size",
+]
+
+
+@st.composite
+def params_extreme(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """One bounded parameter at an extreme (0, negative, tiny, at and just past a bound, huge, inf, NaN):
+    in a Nav2 file through check-config, or set on a short mapping replay of the seed log."""
+    value = draw(st.sampled_from(EXTREME_VALUES))
+    if draw(st.booleans()):
+        node, key = draw(st.sampled_from(EXTREME_NAV2_KEYS))
+        return {"target": "nav2", "node": list(node), "key": key, "value": value}
+    return {"target": "replay", "key": draw(st.sampled_from(EXTREME_SETS)), "value": value}
+
+
+def build_params_extreme(r: dict[str, Any], seeds: Seeds) -> Built:
+    if r["target"] == "replay":
+        argv = ["replay", "LOG", "--pipeline", "mapping", "-o", "out", "--set", f"{r['key']}={r['value']!r}"]
+        return Built(
+            f"replay:{r['key']}={r['value']!r}",
+            "cli",
+            {"argv": argv},
+            {},
+            {"LOG.mcap": str(seeds.folder / "seed_zstd.mcap")},
+        )
+    src = seeds.configs["nav2"][0]
+    doc = yaml.safe_load(src.read_text())
+    section = doc
+    for name in r["node"]:
+        section = section.setdefault(name, {})
+    section.setdefault("ros__parameters", {})[r["key"]] = r["value"]
+    data = yaml.safe_dump(doc, sort_keys=False).encode()
+    return Built(
+        f"{src.name}:{'.'.join(r['node'])}.{r['key']}={r['value']!r}",
+        "cli-check-config",
+        {"path": src.name},
+        {src.name: data},
+    )
+
+
+SPECIAL_OUTPUTS = ["fifo", "socket", "symlink", "in-a-file"]
+OUTPUT_COMMANDS = {
+    "plan": ["plan", "--map", "MAP", "--start=0,0,0", "--goal=0.5,0,0", "--png", "OUT"],
+    "diff-json": ["diff", "LOG", "LOG", "--json", "OUT"],
+    "diff-markdown": ["diff", "LOG", "LOG", "--markdown", "OUT"],
+    "export-tum": ["export", "LOG", "--to", "tum", "--topic", "/odom", "-o", "OUT"],
+    "world-map": ["world-map", "indoor_room", "-o", "OUT"],
+    "record": ["record", "--scenario", "TINY", "-o", "OUT"],
+    "replay": ["replay", "LOG", "--pipeline", "mapping", "-o", "OUT"],
+    "metrics": ["metrics", "LOG", "-o", "OUT"],
+}
+
+
+@st.composite
+def outputs_special(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """A command whose output path is a FIFO, a socket, a symlink to a file outside the output, or a path
+    under a file; with or without --force."""
+    return {
+        "command": draw(st.sampled_from(sorted(OUTPUT_COMMANDS))),
+        "special": draw(st.sampled_from(SPECIAL_OUTPUTS)),
+        "force": draw(st.booleans()),
+    }
+
+
+def build_outputs_special(r: dict[str, Any], seeds: Seeds) -> Built:
+    out = "EMPTY/out" if r["special"] == "in-a-file" else "OUT"
+    argv = [out if a == "OUT" else a for a in OUTPUT_COMMANDS[r["command"]]] + (["--force"] if r["force"] else [])
+    files = {"EMPTY": b"", "TINY.yaml": TINY_SCENARIO.encode(), "precious.txt": b"keep\n"}
+    args = {"argv": argv, "special": r["special"]}
+    return Built(
+        f"{r['command']}:{r['special']}", "cli-output", args, files, {"LOG.mcap": str(seeds.folder / "seed_zstd.mcap")}
+    )
+
+
+def run_special_output(a: dict[str, Any], folder: Path, seeds: Seeds) -> str:
+    """Make the special file at OUT, run the command, and check that the node is still there (a FIFO is
+    not replaced, a symlink's target not written through); an AssertionError counts as a traceback."""
+    import socket
+    import stat
+
+    out = folder / "OUT"
+    sock = None
+    if a["special"] == "fifo":
+        os.mkfifo(out)
+    elif a["special"] == "socket":
+        sock = socket.socket(socket.AF_UNIX)
+        sock.bind(str(out))
+    elif a["special"] == "symlink":
+        out.symlink_to(folder / "precious.txt")
+    before = os.lstat(out).st_mode if a["special"] != "in-a-file" else None
+    try:
+        outcome = run_cli(a["argv"], folder, seeds)
+    finally:
+        if sock is not None:
+            sock.close()
+    assert (folder / "precious.txt").read_bytes() == b"keep\n", "an output was written through a symlink"
+    if a["special"] in ("fifo", "socket"):
+        assert before is not None and stat.S_IFMT(os.lstat(out).st_mode) == stat.S_IFMT(before), "a node was replaced"
+    return outcome
+
+
 def kind_strategy(kind: str, seeds: Seeds) -> Any:
     if kind.startswith("config-"):
         return config(seeds, kind.removeprefix("config-"))
@@ -648,6 +771,8 @@ def kind_strategy(kind: str, seeds: Seeds) -> Any:
         "cli": cli,
         "cli-record": cli_record,
         "cli-replay": cli_replay,
+        "params-extreme": params_extreme,
+        "outputs-special": outputs_special,
     }
     return makers[kind](seeds)
 
@@ -1294,6 +1419,10 @@ def build(case: Case, seeds: Seeds) -> Built:
         return build_rosbag(r, seeds)
     if kind.startswith("config-"):
         return build_config(r, seeds)
+    if kind == "params-extreme":
+        return build_params_extreme(r, seeds)
+    if kind == "outputs-special":
+        return build_outputs_special(r, seeds)
     return build_cli(r, seeds, kind)
 
 
@@ -1427,6 +1556,8 @@ def call_case(built: Built, folder: Path, seeds: Seeds) -> str:
         return run_cli(argv, folder, seeds)
     if built.call == "cli":
         return run_cli(a["argv"], folder, seeds)
+    if built.call == "cli-output":
+        return run_special_output(a, folder, seeds)
     raise ValueError(f"unknown call {built.call}")
 
 

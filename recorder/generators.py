@@ -31,6 +31,7 @@ import numpy as np
 from navlog.errors import ConfigError
 from navlog.recorder.world import ObjectSpec, WallsSpec, World, WorldSpec, resolve_world
 from navlog.replay.config import from_mapping, suggest, to_mapping
+from navlog.replay.limits import check_seed
 
 OBSTACLE_HEIGHT = 1.0  # m: generated obstacles (above a 2D laser's plane, below nothing a robot passes)
 
@@ -255,8 +256,7 @@ def generate_world(kind: str, seed: int, params: dict[str, Any] | None = None, w
         raise ConfigError(
             f"{prefix}unknown world generator '{kind}'{suggest(kind, GENERATORS)}; known: {', '.join(GENERATORS)}"
         )
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise ConfigError(f"{prefix}seed must be a non-negative integer, got {seed!r}")
+    check_seed(seed, f"{prefix}seed")
     cls, fn = GENERATORS[kind]
     typed: Any = from_mapping(cls, params or {}, f"{where or kind} params")
     return fn(typed, seed)

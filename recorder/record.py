@@ -44,6 +44,7 @@ from navlog.recorder.world import World, load_world
 from navlog.replay.config import config_hash, named_config, to_mapping
 from navlog.replay.io.atomic import hold_output
 from navlog.replay.io.logwriter import McapLogWriter, check_output
+from navlog.replay.limits import check_seed
 from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Executor, Node
 from navlog.replay.runtime.pipeline import Pipeline
@@ -197,6 +198,7 @@ def prepare(
 
     ``robot_args``, ``package_paths``, ``drive``: for a robot from a description file
     (``navlog.recorder.description.load_robot``)."""
+    check_seed(seed)
     if localization not in LOCALIZATIONS:
         raise ConfigError(f"localization '{localization}' is not one of: {', '.join(LOCALIZATIONS)}")
     folder = named_config("scenarios", scenario).parent

@@ -21,8 +21,9 @@ from typing import Literal
 
 from navlog.recorder.robot_bodies import ROBOT_GROUP
 from navlog.recorder.robot_model import RobotModel
-from navlog.replay.config import load_config, named_config
+from navlog.replay.config import load_config, named_config, param
 from navlog.replay.geometry import quat_from_rpy, quat_to_wxyz
+from navlog.replay.limits import MAX_RATE_HZ, MAX_SENSOR_POINTS, budget
 
 Vec3 = tuple[float, float, float]
 Mount = tuple[float, float, float, float, float, float]  # x, y, z, roll, pitch, yaw (rad)
@@ -38,8 +39,8 @@ class LaserConfig:
     topic: str = "/scan"
     frame: str = "front_laser"
     mount: Mount = ZERO_MOUNT
-    rate: float = 10.0
-    samples: int = 720
+    rate: float = param(10.0, le=MAX_RATE_HZ)  # Hz
+    samples: int = param(720, le=MAX_SENSOR_POINTS)  # beams per scan
     angle_min: float = -math.pi
     angle_max: float = math.pi  # exclusive: increment = (max - min) / samples
     range_min: float = 0.12
@@ -58,11 +59,11 @@ class LidarConfig:
     topic: str = "/livox/lidar"
     frame: str = "livox_frame"
     mount: Mount = (0.2, 0.0, 0.08, 0.0, 0.0, 0.0)
-    rate: float = 10.0
+    rate: float = param(10.0, le=MAX_RATE_HZ)  # Hz
     pattern: Literal["velodyne", "livox_mid360"] = "velodyne"
-    lines: int = 16  # velodyne: rings
-    columns: int = 720  # velodyne: azimuth steps per revolution
-    points: int = 20000  # livox_mid360: points per frame
+    lines: int = param(16, le=MAX_SENSOR_POINTS)  # velodyne: rings
+    columns: int = param(720, le=MAX_SENSOR_POINTS)  # velodyne: azimuth steps per revolution
+    points: int = param(20000, le=MAX_SENSOR_POINTS)  # livox_mid360: points per frame
     vertical_fov: tuple[float, float] = (-15.0, 15.0)  # degrees
     range_min: float = 0.1
     range_max: float = 30.0
@@ -71,6 +72,13 @@ class LidarConfig:
     def __post_init__(self) -> None:
         if self.rate <= 0 or self.lines <= 0 or self.columns <= 0 or self.points <= 0:
             raise ValueError("lidar needs positive rate, lines, columns and points")
+        budget(
+            "columns",
+            f"lines x columns ({self.lines} x {self.columns})",
+            self.lines * self.columns,
+            MAX_SENSOR_POINTS,
+            " points",
+        )
         if self.vertical_fov[0] >= self.vertical_fov[1]:
             raise ValueError("lidar vertical_fov must be [low, high] degrees with low < high")
 
@@ -80,7 +88,7 @@ class ImuConfig:
     topic: str = "/imu/data"
     frame: str = "imu_link"
     mount: Mount = ZERO_MOUNT
-    rate: float = 200.0
+    rate: float = param(200.0, le=MAX_RATE_HZ)  # Hz
     gyro_noise: float = 0.002  # rad/s, white
     accel_noise: float = 0.02  # m/s^2, white
     gyro_bias: float = 0.001  # rad/s, constant per run, drawn from the seed
@@ -102,7 +110,7 @@ class OdomConfig:
 
     topic: str = "/odom"
     ground_truth_topic: str = "/odom/ground_truth"
-    rate: float = 50.0
+    rate: float = param(50.0, le=MAX_RATE_HZ)  # Hz
     use_ground_truth_odom: bool = False
     linear_scale_error: float = 0.03  # legged: fraction of the true body speed
     yaw_rate_bias: float = 0.004  # legged: rad/s added to the true yaw rate

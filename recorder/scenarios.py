@@ -36,8 +36,9 @@ from navlog.errors import ConfigError
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec
 from navlog.recorder.world import World, clearance, nearest_solid
 from navlog.replay import messages
-from navlog.replay.config import load_config, named_config
+from navlog.replay.config import load_config, named_config, param
 from navlog.replay.geometry import rotate_planar, wrap_angle, yaw_from_quat
+from navlog.replay.limits import MAX_RATE_HZ
 from navlog.replay.runtime.executor import Node
 
 
@@ -62,7 +63,7 @@ class ScenarioSpec:
     commands: list[TimedCommand] = field(default_factory=list)
     hold: float = 1.0
     max_duration: float = 600.0
-    rate: float = 20.0
+    rate: float = param(20.0, le=MAX_RATE_HZ)  # Hz of the scenario's commands
     expect_contact: bool = False  # the path is meant to reach an obstacle (a test of the safety filters)
     # navigate: the Nav2 parameter file and goals YAML (names in config/nav2, config/goals, or paths)
     nav2_params: str = ""

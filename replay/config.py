@@ -246,6 +246,16 @@ def key_path(path: typing.Sequence[Any]) -> str:
     return out
 
 
+class BoundError(ConfigError, ValueError):
+    """A value beyond a bound that involves more than one field (``navlog.replay.limits``), raised by a
+    parameter dataclass's ``__post_init__``: ``key`` is the field the message is reported on."""
+
+    def __init__(self, key: str, message: str) -> None:
+        super().__init__(f"{key}: {message}")
+        self.key = key
+        self.message = message
+
+
 class ParamError(ConfigError):
     """A value that does not fit its declared type (``mismatch``) or its limits, at key path ``path``."""
 
@@ -478,6 +488,9 @@ class ParamReader:
         kwargs.update(extra or {})
         try:
             return cls(**kwargs)
+        except BoundError as exc:
+            self.add(ERROR, path + (exc.key,), exc.message)
+            return cls()
         except (TypeError, ValueError) as exc:
             failure = str(exc)
         self.add(ERROR, here, failure)

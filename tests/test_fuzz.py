@@ -89,8 +89,9 @@ def test_case_i_depends_only_on_the_seed_and_i(campaign_and_seeds, shared_dir: P
 
 def test_a_recipe_applies_to_the_same_bytes_every_time(campaign_and_seeds) -> None:
     campaign, seeds, _ = campaign_and_seeds
-    drawn = collect(campaign, seeds, 100)
-    for kind in ("mcap-bytes", "mcap-chunk", "mcap-semantic", "mcap-message", "config-nav2", "cli-record"):
+    drawn = collect(campaign, seeds, 300)
+    kinds = ("mcap-bytes", "mcap-chunk", "mcap-semantic", "mcap-message", "config-nav2", "cli-record")
+    for kind in (*kinds, "params-extreme", "outputs-special"):
         case = next(c for c in drawn if c.kind == kind)
         a, b = campaign.build(case, seeds), campaign.build(case, seeds)
         assert (a.mutation, a.call, a.args, a.files) == (b.mutation, b.call, b.args, b.files)

@@ -7,10 +7,11 @@ one-line message that names the topic and suggests a fix. A log is fit to replay
 
 from __future__ import annotations
 
-import json
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
 from typing import Any
+
+from navlog.replay.io import json_text
 
 __all__ = ["Check", "LogCheck", "Status", "TopicFigures", "format_check"]
 
@@ -83,7 +84,7 @@ class LogCheck:
 
     def to_json(self) -> str:
         """``to_dict`` as JSON: the same result gives the same bytes (sorted keys, fixed rounding)."""
-        return json.dumps(self.to_dict(), indent=2, sort_keys=True, allow_nan=False) + "\n"
+        return json_text.dumps(self.to_dict(), indent=2, sort_keys=True) + "\n"
 
 
 def _plain(value: Any) -> Any:

@@ -26,6 +26,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 from navlog.analysis.ci.result import CheckResult, Status
+from navlog.analysis.tables import figure
 from navlog.errors import ConfigError
 from navlog.replay.config import suggest
 
@@ -108,7 +109,7 @@ def evaluate(inv: Invariant, facts: Mapping[str, float | bool]) -> CheckResult:
     assert inv.value is not None
     value = float(got)
     ok = not math.isnan(value) and OPS[inv.op](value, inv.value)
-    message = f"{inv.path} = {value:.6g}" + ("" if ok else f", expected {inv.op} {inv.value:g}")
+    message = f"{inv.path} = {figure(value)}" + ("" if ok else f", expected {inv.op} {inv.value:g}")
     return CheckResult(
         name, "invariant", Status.PASS if ok else Status.FAIL, message, {"value": value, "limit": inv.value}
     )

@@ -12,7 +12,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
@@ -22,7 +21,10 @@ from pathlib import Path
 from typing import Any
 
 from navlog.analysis.ci.result import ORDER, CaseResult, CheckResult, Status, SuiteResult
+from navlog.analysis.tables import figure
 from navlog.errors import NavlogError
+from navlog.replay.io import json_text
+from navlog.replay.io.atomic import write_file
 
 __all__ = ["format_result", "grouped", "to_json", "to_junit", "to_markdown", "write_reports"]
 
@@ -35,9 +37,7 @@ def _plain(v: Any) -> Any:
     if isinstance(v, bool) or v is None or isinstance(v, str | int):
         return v
     if isinstance(v, float):
-        if not math.isfinite(v):
-            return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
-        return float(f"{v:.9g}")
+        return float(f"{v:.9g}") if math.isfinite(v) else v  # non-finite: null, named (json_text)
     if isinstance(v, Mapping):
         return {str(k): _plain(x) for k, x in v.items()}
     if isinstance(v, list | tuple):
@@ -48,7 +48,7 @@ def _plain(v: Any) -> Any:
 
 
 def to_json(result: SuiteResult) -> str:
-    return json.dumps(_plain(result.to_dict()), indent=2, sort_keys=True, allow_nan=False) + "\n"
+    return json_text.dumps(_plain(result.to_dict()), indent=2, sort_keys=True) + "\n"
 
 
 def _worst_first(result: SuiteResult) -> list[CaseResult]:
@@ -135,7 +135,7 @@ def to_junit(result: SuiteResult) -> str:
         ET.SubElement(props, "property", name="log", value=case.source)
         ET.SubElement(props, "property", name="status", value=str(case.status))
         for key, value in sorted(case.facts.items()):
-            ET.SubElement(props, "property", name=key, value=f"{value:.9g}")
+            ET.SubElement(props, "property", name=key, value=figure(value, ".9g"))
         counts = {"tests": 0, "failures": 0, "errors": 0, "skipped": 0}
         for check in case.checks:
             test = ET.SubElement(
@@ -206,9 +206,11 @@ def to_markdown(result: SuiteResult) -> str:
 
 
 def _write(path: Path, text: str, *, append: bool = False) -> Path:
+    """A report file, whole or not at all (``write_file``); appended to (the CI's step summary) in place."""
+    if not append:
+        return write_file(path, text)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path, "a" if append else "w", encoding="utf-8") as f:
+        with open(path, "a", encoding="utf-8") as f:
             f.write(text)
     except OSError as exc:
         raise NavlogError(f"{path}: cannot write the report: {exc.strerror}") from None

@@ -17,6 +17,7 @@ from typing import Any, Literal
 
 from navlog.analysis.diff.result import Check, Verdict
 from navlog.analysis.diff.tolerances import MetricTolerance, as_dict
+from navlog.analysis.tables import figure
 
 __all__ = ["compare_metric_values", "direction", "flatten"]
 
@@ -82,7 +83,8 @@ def compare_metric_values(name: str, a: Mapping[str, Any], b: Mapping[str, Any],
         d = direction(key)
         values: dict[str, Any] = {"a": va, "b": vb, "direction": d}
         if na is None or nb is None or math.isnan(na) or math.isnan(nb):
-            checks.append(Check(f"{name}:{key}", "metric", Verdict.CHANGED, values, td, f"{va!r} -> {vb!r}"))
+            shown = [figure(n) if n is not None else repr(v) for n, v in ((na, va), (nb, vb))]
+            checks.append(Check(f"{name}:{key}", "metric", Verdict.CHANGED, values, td, " -> ".join(shown)))
             continue
         delta = nb - na
         values["delta"] = delta

@@ -1,20 +1,21 @@
 """A ``DiffReport`` for people and machines: a text table, deterministic JSON, Markdown.
 
 JSON: sorted keys, two-space indent, floats written with 9 significant digits, NaN and infinities as
-the strings ``"nan"``, ``"inf"``, ``"-inf"``: the same report gives the same bytes. Markdown: a
+null, each named under ``non_finite_values`` (``navlog.replay.io.json_text``): the same report gives the
+same bytes. Markdown: a
 one-line verdict, then the checks that failed (REGRESSED, CHANGED), the improvements, the checks
 within tolerance, and a count of the equal ones; kept under GitHub's 65,536-character comment limit.
 """
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
 
 from navlog.analysis.diff.result import Check, DiffReport, Verdict
-from navlog.errors import NavlogError
+from navlog.replay.io import json_text
+from navlog.replay.io.atomic import write_file
 
 __all__ = ["format_report", "to_json", "to_markdown", "write_text"]
 
@@ -24,11 +25,7 @@ MARKDOWN_LIMIT = 60_000  # characters, below GitHub's 65,536 per comment
 
 def _canonical(v: Any) -> Any:
     if isinstance(v, float):
-        if math.isnan(v):
-            return "nan"
-        if math.isinf(v):
-            return "inf" if v > 0 else "-inf"
-        return float(f"{v:.9g}")
+        return float(f"{v:.9g}") if math.isfinite(v) else v  # non-finite: null, named (json_text)
     if isinstance(v, dict):
         return {str(k): _canonical(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
@@ -39,7 +36,7 @@ def _canonical(v: Any) -> Any:
 
 
 def to_json(report: DiffReport) -> str:
-    return json.dumps(_canonical(report.to_dict()), indent=2, sort_keys=True, allow_nan=False) + "\n"
+    return json_text.dumps(_canonical(report.to_dict()), indent=2, sort_keys=True) + "\n"
 
 
 def _summary(report: DiffReport) -> str:
@@ -96,10 +93,4 @@ def to_markdown(report: DiffReport) -> str:
 
 def write_text(text: str, path: str | Path) -> Path:
     """Write a report file (parent folders created); errors name the file."""
-    p = Path(path)
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise NavlogError(f"{p}: cannot write the report: {exc.strerror}") from None
-    return p
+    return write_file(Path(path), text)

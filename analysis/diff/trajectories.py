@@ -21,6 +21,7 @@ from navlog.analysis.metrics.trajectory import (
     associate,
     relative_pose_error,
 )
+from navlog.analysis.tables import figure
 
 __all__ = ["compare_trajectories"]
 
@@ -57,5 +58,5 @@ def compare_trajectories(name: str, a: Trajectory, b: Trajectory, tol: Trajector
         # every pose must have its partner
         covered = ate.pairs == len(a) == len(b)
         verdict = Verdict.WITHIN if within(ate.translation.rmse, tol.ate_m) and rpe_ok and covered else Verdict.CHANGED
-    detail = f"{len(a)} -> {len(b)} poses, {ate.pairs} matched, ATE {ate.translation.rmse:.6g} m"
+    detail = f"{len(a)} -> {len(b)} poses, {ate.pairs} matched, ATE {figure(ate.translation.rmse, unit='m')}"
     return Check(name, "trajectory", verdict, values, as_dict(tol), detail)

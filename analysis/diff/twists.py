@@ -13,6 +13,7 @@ import numpy as np
 
 from navlog.analysis.diff.result import Check, Verdict
 from navlog.analysis.diff.tolerances import TwistTolerance, as_dict
+from navlog.analysis.tables import figure
 
 __all__ = ["AXES", "compare_twists", "twist_row"]
 
@@ -47,5 +48,7 @@ def compare_twists(name: str, a: Any, b: Any, tol: TwistTolerance) -> Check:
     else:
         verdict = Verdict.WITHIN
     worst = AXES[int(np.argmax(mx))] if n else AXES[0]
-    detail = f"{len(va)} -> {len(vb)} commands, {beyond} beyond {tol.max_abs:g}; max {values['max_abs']:.6g} on {worst}"
+    detail = (
+        f"{len(va)} -> {len(vb)} commands, {beyond} beyond {tol.max_abs:g}; max {figure(values['max_abs'])} on {worst}"
+    )
     return Check(name, "twist", verdict, values, as_dict(tol), detail)

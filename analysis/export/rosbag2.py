@@ -20,6 +20,7 @@ from __future__ import annotations
 import itertools
 import logging
 import shutil
+import sqlite3
 from collections import Counter
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -30,7 +31,7 @@ from navlog.errors import NavlogError
 from navlog.replay import messages
 from navlog.replay.config import suggest
 from navlog.replay.io import LogReader
-from navlog.replay.io.atomic import replace_output, temp_path
+from navlog.replay.io.atomic import output_failure, replace_output, temp_path
 from navlog.version import __version__
 
 __all__ = ["DISTRO_VERSIONS", "STORAGES", "BagOptions", "ExportSummary", "export_rosbag2"]
@@ -250,6 +251,11 @@ def export_rosbag2(
         _fix_metadata_distro(bag / "metadata.yaml", opt.distro)
         summary.start_ns, summary.end_ns = first or 0, last or 0
         replace_output(bag, out)
+    except (OSError, sqlite3.Error) as exc:  # a read-only folder, a full disk, a file-size limit
+        failure = output_failure(out, exc)
+        if failure is None:
+            raise
+        raise failure from None
     finally:
         shutil.rmtree(tmpdir, ignore_errors=True)
     return summary

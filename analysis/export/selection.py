@@ -48,7 +48,11 @@ def select_topics(reader: LogReader, patterns: Iterable[str]) -> list[str]:
 
 
 def check_output(out: Path, force: bool) -> None:
-    """Refuse an existing output without ``force``, and an output in a folder that does not exist."""
+    """Refuse an existing output without ``force``, an output in a folder that does not exist, and a device,
+    FIFO or socket at the output (``navlog.replay.io.atomic.check_output``)."""
+    from navlog.replay.io.atomic import check_output as refuse_special
+
+    refuse_special(out)
     if out.exists() and not force:
         raise NavlogError(f"{out}: already exists; choose another name or pass --force to overwrite it")
     if not out.parent.is_dir():

@@ -9,7 +9,6 @@ them with ``navlog.replay.io.tum``'s formatting under a temporary name, renamed 
 from __future__ import annotations
 
 import logging
-import os
 from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -24,7 +23,7 @@ from navlog.replay import messages
 from navlog.replay.config import suggest
 from navlog.replay.geometry import matrix_to_quat
 from navlog.replay.io import LogReader
-from navlog.replay.io.atomic import temp_path
+from navlog.replay.io.atomic import write_file
 from navlog.replay.io.tum import format_rows
 
 __all__ = ["TUM_TYPES", "TumSummary", "export_tum", "trajectory_from_rows"]
@@ -191,10 +190,5 @@ def export_tum(
     if dropped:
         skipped["repeated timestamp"] += dropped
         log.warning("%s: dropped %d poses with a repeated timestamp", source, dropped)
-    tmp = temp_path(out)  # what killed runs left beside ``out`` is removed first
-    try:
-        tmp.write_text(format_rows(traj.times_ns, traj.positions, traj.quaternions), encoding="utf-8")
-        os.replace(tmp, out)
-    finally:
-        tmp.unlink(missing_ok=True)
+    write_file(out, format_rows(traj.times_ns, traj.positions, traj.quaternions))
     return TumSummary(out, source, len(traj.times_ns), skipped)

@@ -18,6 +18,7 @@ from __future__ import annotations
 import glob
 import hashlib
 import os
+import re
 from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -60,12 +61,28 @@ def collect_logs(sources: Sequence[str | Path], *, lists: Sequence[str | Path] =
     ]
 
 
+MAX_NAME = 100  # characters of an output folder name taken from a log's name
+
+
 def _stem(address: str) -> str:
     name = PurePosixPath(address.rstrip("/").split("://", 1)[-1]).name
     for suffix in LOG_SUFFIXES:
         if name.endswith(suffix) and len(name) > len(suffix):
-            return name[: -len(suffix)]
-    return name
+            name = name[: -len(suffix)]
+            break
+    return safe_name(name, address)
+
+
+def safe_name(name: str, address: str) -> str:
+    """``name`` as the name of one folder inside the fleet's output: characters other than letters, digits,
+    ``._+-`` become ``_``, a leading dot too (no ``.``, ``..`` or hidden name, which the output's own
+    temporaries use), an empty name becomes ``log``; a name changed or cut to ``MAX_NAME`` characters gets
+    ``-`` and 8 hex digits of ``address``'s sha1, so that two logs never share it."""
+    clean = re.sub(r"[^A-Za-z0-9._+-]", "_", name)
+    clean = re.sub(r"^\.", "_", clean) or "log"
+    if clean == name and len(name) <= MAX_NAME:
+        return name
+    return f"{clean[:MAX_NAME]}-{hashlib.sha1(address.encode()).hexdigest()[:8]}"
 
 
 def _read_list(listing: str) -> list[str]:

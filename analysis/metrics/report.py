@@ -22,10 +22,11 @@ import numpy as np
 from navlog.analysis.metrics import maps as map_metrics
 from navlog.analysis.metrics import navigation as nav_metrics
 from navlog.analysis.metrics import trajectory as tr
-from navlog.analysis.tables import grid, indented, render, table
+from navlog.analysis.tables import MISSING, grid, indented, render, table
 from navlog.errors import NavlogError
 from navlog.replay import messages as m
 from navlog.replay.io import json_text, open_log
+from navlog.replay.io.atomic import write_file
 
 GT_TOPIC = "/odom/ground_truth"
 EVENTS_TOPIC = "/navlog/events"
@@ -385,18 +386,12 @@ def to_json(metrics: dict[str, Any]) -> str:
 
 
 def write_json(metrics: dict[str, Any], path: str | Path) -> Path:
-    p = Path(path)
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(to_json(metrics), encoding="utf-8")
-    except OSError as exc:
-        raise NavlogError(f"{p}: cannot write metrics: {exc.strerror}") from None
-    return p
+    return write_file(Path(path), to_json(metrics))
 
 
 def _f(v: Any, unit: str = "", digits: int = 4) -> str:
-    if v is None:
-        return "n/a"
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return MISSING
     if unit == "%":
         return f"{100.0 * v:.2f} %"
     return f"{v:.{digits}f}{' ' + unit if unit else ''}"

@@ -42,7 +42,7 @@ from navlog.analysis.view.trajectories import Trajectories
 from navlog.errors import LogError, NavlogError
 from navlog.replay import messages
 from navlog.replay.io import LogReader, open_log
-from navlog.replay.io.atomic import temp_path
+from navlog.replay.io.atomic import output_failure, temp_path
 
 log = logging.getLogger("navlog")
 
@@ -248,8 +248,12 @@ def save_view(
             rec = new_recording(reader)
             rec.save(str(tmp))
             summary = build_view(reader, rec, replay_dir=Path(replay_dir) if replay_dir else None, options=options)
-        rec.flush()
-        rec.disconnect()
+        try:
+            rec.flush()
+            rec.disconnect()
+        except RuntimeError as exc:  # Rerun's file writer stopped: a read-only folder, a full disk, a size limit
+            failure = output_failure(out, exc)
+            raise (failure or exc) from None
         rec = None
         if not tmp.is_file() or tmp.stat().st_size == 0:
             raise NavlogError(f"{out}: Rerun wrote nothing")

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 from pathlib import Path
 from typing import Any
 
@@ -48,11 +47,14 @@ def report_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def write_reports(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any]) -> list[Path]:
+    from navlog.replay.io import json_text
     from navlog.replay.io.atomic import write_file
 
     clean = report_rows(rows)
     files = {
-        "campaign.json": (json.dumps({"summary": summary, "rows": clean}, indent=1, sort_keys=True) + "\n").encode(),
+        "campaign.json": (
+            json_text.dumps({"summary": summary, "rows": clean}, indent=1, sort_keys=True) + "\n"
+        ).encode(),
         "campaign.csv": _csv(clean).encode(),
         "campaign.md": markdown(summary).encode(),
         "campaign.png": plot_png(clean, summary),

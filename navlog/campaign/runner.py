@@ -120,10 +120,10 @@ def _cached_row(path: Path, key: str) -> dict[str, Any] | None:
 
 
 def _write_row(path: Path, row: dict[str, Any]) -> None:
+    from navlog.replay.io import json_text
     from navlog.replay.io.atomic import write_file
 
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_file(path, (json.dumps(row, indent=1, sort_keys=True) + "\n").encode())
+    write_file(path, (json_text.dumps(row, indent=1, sort_keys=True) + "\n").encode())
 
 
 class _wall_limit:

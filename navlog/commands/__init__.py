@@ -22,9 +22,14 @@ def add_force(parser: argparse.ArgumentParser, help: str = FORCE_HELP) -> None:
 
 def refuse_existing(force: bool, *paths: str | Path | None) -> None:
     """Raise ``NavlogError`` naming the first of ``paths`` that exists, unless ``force``; before anything
-    is computed, so that a refused command has written nothing."""
+    is computed, so that a refused command has written nothing. A device node, FIFO or socket is refused
+    with or without ``force`` (``navlog.replay.io.atomic.check_output``)."""
     from navlog.errors import NavlogError
+    from navlog.replay.io.atomic import check_output
 
+    for path in paths:  # a device, FIFO or socket is refused even with --force
+        if path is not None and str(path):
+            check_output(Path(path))
     if force:
         return
     for path in paths:

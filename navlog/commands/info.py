@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -20,9 +18,9 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from navlog.analysis.info import format_info, summarize
-    from navlog.replay.io import open_log
+    from navlog.replay.io import json_text, open_log
 
     with open_log(args.log, recover=args.recover) as reader:
         info = summarize(reader)
-    print(json.dumps(info, indent=2) if args.json else format_info(info))
+    print(json_text.dumps(info, indent=2) if args.json else format_info(info))
     return 0

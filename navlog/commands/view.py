@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import logging
 import sys
 import time
@@ -82,7 +81,9 @@ def run(args) -> int:
         where = "the viewer" if args.spawn else args.connect
     dt = time.perf_counter() - t0
     if args.json:
-        print(json.dumps(summary.as_dict(), indent=2))
+        from navlog.replay.io import json_text
+
+        print(json_text.dumps(summary.as_dict(), indent=2))
         return 0
     for w in summary.warnings:
         log.warning("%s", w)

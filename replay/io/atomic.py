@@ -11,10 +11,12 @@ refused, naming the lock and the process that holds it, instead of mixing its fi
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import os
 import re
 import shutil
+import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -22,7 +24,39 @@ from typing import BinaryIO
 
 from navlog.errors import NavlogError
 
-__all__ = ["hold_output", "open_new", "remove_stale", "replace_output", "temp_path", "write_error", "write_file"]
+__all__ = [
+    "check_output",
+    "hold_output",
+    "open_new",
+    "output_failure",
+    "remove_stale",
+    "replace_output",
+    "temp_path",
+    "write_error",
+    "write_file",
+]
+
+# what a path that is neither a file, a folder nor a symlink is, for the error that refuses it as an output
+_SPECIAL = (
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def check_output(out: Path) -> None:
+    """NavlogError when ``out`` is a device node, a FIFO or a socket (``/dev/null`` among them): navlog
+    writes a new file beside an output and renames it into place, which would replace the node, so
+    such an output is refused. A missing path, a file, a folder or a symlink (replaced, never written
+    through) passes."""
+    try:
+        mode = os.lstat(out).st_mode
+    except OSError:
+        return
+    for test, what in _SPECIAL:
+        if test(mode):
+            raise NavlogError(f"{out}: is {what}, not a file; navlog does not write to it: choose a file path")
 
 
 def open_new(path: Path) -> BinaryIO:
@@ -69,6 +103,7 @@ def remove_stale(out: Path) -> list[Path]:
 def temp_path(out: Path, suffix: str = ".part") -> Path:
     """The temporary name this process writes ``out`` under (``.NAME.PID.part`` beside it), after clearing
     what killed runs left there (``remove_stale``) and anything at that name (a killed run of the same PID)."""
+    check_output(out)
     remove_stale(out)
     tmp = out.with_name(f".{out.name}.{os.getpid()}{suffix}")
     if tmp.is_dir() and not tmp.is_symlink():
@@ -79,15 +114,33 @@ def temp_path(out: Path, suffix: str = ".part") -> Path:
 
 
 def write_error(path: Path, exc: OSError) -> NavlogError:
-    """A write that failed (a full disk, a file-size limit), as one message naming the output."""
+    """A write that failed (a read-only folder, a full disk, a file-size limit), as one message naming the
+    output."""
+    if exc.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return NavlogError(f"{path}: cannot write: {exc.strerror or exc} (a read-only folder?); nothing was written")
     return NavlogError(
         f"{path}: cannot write: {exc.strerror or exc} (a full disk or a file-size limit?); the partial file was removed"
+    )
+
+
+WRITE_ERRNOS = (errno.ENOSPC, errno.EFBIG, errno.EDQUOT, errno.EACCES, errno.EPERM, errno.EROFS)
+
+
+def output_failure(out: Path, exc: BaseException) -> NavlogError | None:
+    """The one-line error for an output that a library writing it (SQLite, Rerun) failed to write, by
+    the errno of an ``OSError`` (``WRITE_ERRNOS``) or the library's own words; None when ``exc`` is no
+    write failure."""
+    if isinstance(exc, OSError):
+        return write_error(out, exc) if exc.errno in WRITE_ERRNOS else None
+    return NavlogError(
+        f"{out}: cannot write: {exc} (a read-only folder, a full disk or a file-size limit?); nothing was written"
     )
 
 
 def replace_output(tmp: Path, out: Path) -> None:
     """Move a finished output (a file or a folder) into place; an old one is moved aside first and removed
     only afterwards, so the final name holds either the old output whole or the new one whole."""
+    check_output(out)
     if out.is_symlink():
         out.unlink()  # the link itself, never what it points to
     if not out.exists() or (tmp.is_file() and out.is_file()):
@@ -99,15 +152,27 @@ def replace_output(tmp: Path, out: Path) -> None:
     shutil.rmtree(old) if old.is_dir() else old.unlink()
 
 
-def write_file(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file and a rename (a symlink at ``path`` is replaced)."""
-    tmp = temp_path(path)
+def write_file(path: Path, data: bytes | str) -> Path:
+    """Write ``data`` (text as UTF-8) to ``path`` through a temporary file and a rename, its folder created:
+    a symlink at ``path`` is replaced, a device, FIFO or socket refused (``check_output``); a write that
+    fails (a read-only folder, a full disk, a file-size limit) is one NavlogError naming ``path``, and
+    leaves neither a partial file nor a temporary."""
+    path = Path(path)
+    payload = data.encode() if isinstance(data, str) else data
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = temp_path(path)
+    except OSError as exc:
+        raise write_error(path, exc) from None
     try:
         with open_new(tmp) as f:
-            f.write(data)
+            f.write(payload)
         os.replace(tmp, path)
+    except OSError as exc:
+        raise write_error(path, exc) from None
     finally:
         tmp.unlink(missing_ok=True)
+    return path
 
 
 @contextmanager

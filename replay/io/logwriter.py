@@ -38,13 +38,16 @@ from mcap.writer import CompressionType, Writer
 
 from navlog.errors import NavlogError
 from navlog.replay import messages
+from navlog.replay.io.atomic import check_output as atomic_check_output
 from navlog.replay.io.atomic import open_new, write_error
 from navlog.replay.runtime.executor import Envelope
 from navlog.version import __version__
 
 
 def check_output(path: Path, force: bool) -> None:
-    """Refuse to overwrite an existing output unless forced, and never put a file where a folder is."""
+    """Refuse to overwrite an existing output unless forced, and never put a file where a folder, a device,
+    a FIFO or a socket is (``atomic.check_output``)."""
+    atomic_check_output(path)
     if path.is_dir():
         raise NavlogError(f"{path}: is a folder; give the output a file name, e.g. {path / 'out.mcap'}")
     if path.exists() and not force:

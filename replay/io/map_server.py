@@ -167,8 +167,8 @@ def save_map(occ_map: OccupancyMap, yaml_path: str | Path) -> tuple[Path, Path]:
         f"occupied_thresh: {SAVE_OCCUPIED_THRESH}\n"
         f"free_thresh: {SAVE_FREE_THRESH}\n"
     )
-    path.parent.mkdir(parents=True, exist_ok=True)
     try:  # the image first: a YAML that appears names a whole image
+        path.parent.mkdir(parents=True, exist_ok=True)
         write_file(image_path, header.encode("ascii") + np.ascontiguousarray(pixels).tobytes())
         write_file(path, doc.encode())
     except OSError as exc:

@@ -21,6 +21,7 @@ import numpy as np
 
 from navlog.errors import NavlogError
 from navlog.replay.geometry import matrices_to_canonical_quats
+from navlog.replay.io.atomic import write_file
 
 __all__ = [
     "HEADER",
@@ -74,13 +75,7 @@ def write_tum(
     path: str | Path, times_ns: Iterable[int], positions: np.ndarray, quaternions: np.ndarray, *, header: bool = True
 ) -> Path:
     """Write a TUM file (parent folders created)."""
-    p = Path(path)
-    try:
-        p.parent.mkdir(parents=True, exist_ok=True)
-        p.write_text(format_rows(times_ns, positions, quaternions, header=header), encoding="utf-8")
-    except OSError as exc:
-        raise NavlogError(f"{p}: cannot write trajectory: {exc.strerror}") from None
-    return p
+    return write_file(Path(path), format_rows(times_ns, positions, quaternions, header=header))
 
 
 def write_poses(path: str | Path, times_ns: Iterable[int], poses: Iterable[np.ndarray]) -> Path:

@@ -38,6 +38,7 @@ from typing import ClassVar
 import numpy as np
 
 from navlog.replay.geometry import angle_diff
+from navlog.replay.limits import MAX_PARTICLES
 from navlog.replay.nav2.schema import ERROR, SectionReader, param
 from navlog.replay.occupancy_map import OccupancyMap
 
@@ -77,8 +78,8 @@ class AmclParams:
     laser_min_range: float = -1.0  # <= 0: the scan's range_min
     laser_model_type: str = param("likelihood_field", choices=("likelihood_field", "beam", "likelihood_field_prob"))
     max_beams: int = param(60, ge=2)
-    max_particles: int = param(2000, ge=1)
-    min_particles: int = param(500, ge=1)
+    max_particles: int = param(2000, ge=1, le=MAX_PARTICLES)
+    min_particles: int = param(500, ge=1, le=MAX_PARTICLES)
     pf_err: float = param(0.05, gt=0.0)
     pf_z: float = param(0.99, gt=0.0)
     recovery_alpha_fast: float = param(0.0, ge=0.0, le=1.0)

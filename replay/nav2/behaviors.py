@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from typing import ClassVar, Protocol
 
 from navlog.replay.config import suggest
+from navlog.replay.limits import MAX_RATE_HZ
 from navlog.replay.nav2.costmap.cost_values import LETHAL
 from navlog.replay.nav2.costmap.footprint import footprint_cost, transform_footprint
 from navlog.replay.nav2.plugins import normalize_plugin
@@ -64,7 +65,7 @@ RUN_BY_NAVLOG = ("nav2_behaviors::Spin", "nav2_behaviors::BackUp", "nav2_behavio
 class BehaviorServerParams:
     """``behavior_server`` node parameters (Jazzy names; Humble's ``global_frame`` was the local frame)."""
 
-    cycle_frequency: float = param(10.0, gt=0.0)
+    cycle_frequency: float = param(10.0, gt=0.0, le=MAX_RATE_HZ)
     local_frame: str = "odom"
     global_frame: str = "map"
     robot_base_frame: str = "base_link"

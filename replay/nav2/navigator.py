@@ -45,6 +45,7 @@ from typing import Any, ClassVar, Protocol
 import numpy as np
 
 from navlog.replay.config import suggest
+from navlog.replay.limits import MAX_RATE_HZ
 from navlog.replay.nav2.plugins import normalize_plugin
 from navlog.replay.nav2.schema import NOTE, WARNING, SectionReader, param
 
@@ -125,7 +126,7 @@ def read_bt_navigator(r: SectionReader, params: dict, path: tuple) -> BtNavigato
 class WaypointFollowerParams:
     """``waypoint_follower`` parameters with its ``WaitAtWaypoint`` task executor's."""
 
-    loop_rate: int = param(20, gt=0)
+    loop_rate: int = param(20, gt=0, le=MAX_RATE_HZ)
     stop_on_failure: bool = True
     waypoint_task_executor_plugin: str = "wait_at_waypoint"
     action_server_result_timeout: float = param(900.0, ge=0.0)

@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 from navlog.errors import ConfigError
+from navlog.replay.limits import MAX_RATE_HZ
 from navlog.replay.nav2.schema import ERROR, SectionReader, param
 
 AXES = ("vx", "vy", "wz")
@@ -49,7 +50,7 @@ _LIMITS = ("max_velocity", "min_velocity", "max_accel", "max_decel", "deadband_v
 class VelocitySmootherParams:
     """``velocity_smoother`` node parameters (velocity vectors: vx, vy, wz or 6 axes)."""
 
-    smoothing_frequency: float = param(20.0, gt=0.0)
+    smoothing_frequency: float = param(20.0, gt=0.0, le=MAX_RATE_HZ)
     feedback: str = param("OPEN_LOOP", choices=("OPEN_LOOP", "CLOSED_LOOP"))
     scale_velocities: bool = False
     max_velocity: tuple[float, ...] = (0.5, 0.0, 2.5)

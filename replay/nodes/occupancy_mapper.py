@@ -32,7 +32,9 @@ from typing import Any, Literal
 import numpy as np
 
 from navlog.replay import messages
+from navlog.replay.config import param
 from navlog.replay.geometry import yaw_from_matrix
+from navlog.replay.limits import MAX_PERIOD_S, MIN_MAP_PERIOD_S
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.cpus import usable_cpus
@@ -54,7 +56,9 @@ class OccupancyMapperParams:
     tf_fixed_frame: str = ""  # for pose_source tf: "" = map if the tree has it, else odom
     base_frame: str = "base_link"  # for pose_source tf: the robot frame whose path is the trajectory
     frame_prefix: str = ""  # stripped from every frame name (e.g. "simple_robot/")
-    publish_period: float = 2.0  # s between /map messages (and one at the end)
+    publish_period: float = param(
+        2.0, ge=MIN_MAP_PERIOD_S, le=MAX_PERIOD_S
+    )  # s between /map messages (and one at the end)
     transform_timeout: float = 1.0  # s a scan waits for its pose (poses may arrive after the scan)
     minimum_travel_distance: float = 0.1
     minimum_travel_heading: float = 0.1

@@ -17,6 +17,7 @@ global costmap on a map and plans once (what ``navlog plan`` runs); ``write_plan
 
 from __future__ import annotations
 
+import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -27,10 +28,12 @@ import numpy as np
 
 from navlog.errors import ConfigError
 from navlog.replay import messages as m
-from navlog.replay.config import find_config, known_configs, load_yaml, suggest
+from navlog.replay.config import find_config, known_configs, load_yaml, param, suggest
 from navlog.replay.io import json_text
+from navlog.replay.io.atomic import write_file
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.map_server import load_map
+from navlog.replay.limits import MAX_PERIOD_S, MIN_PERIOD_S
 from navlog.replay.nav2 import Nav2Params, default_nav2_params, load_nav2_params
 from navlog.replay.nav2.costmap import Costmap2D, default_costmap_params
 from navlog.replay.nav2.costmap.grid import DEFAULT_LAYER_PLUGINS
@@ -55,7 +58,7 @@ class Params:
     goals: str = ""  # a goals YAML (name in config/goals/ or a path); empty: /goal_pose from the log
     goal_frame: str = "map"
     start: tuple[float, float, float] = (0.0, 0.0, 0.0)  # first leg's start when there is no robot pose
-    replan_period_s: float = 1.0
+    replan_period_s: float = param(1.0, ge=MIN_PERIOD_S, le=MAX_PERIOD_S)  # s between two plans of one leg
     goal_tolerance: float = 0.25  # the goal counts as reached within this distance (SimpleGoalChecker)
     # Nav2 overrides, as nested mappings under the node names (filled by --set NODE.a.b=value)
     global_costmap: dict[str, Any] = field(default_factory=dict)  # --set global_costmap.KEY=VALUE (KEY full or short)
@@ -327,4 +330,6 @@ def write_plan_png(path: str | Path, result: MapPlan) -> None:
         inside = (tx >= 0) & (tx < cm.size_x) & (ty >= 0) & (ty < cm.size_y)
         img[disc] = rgb
         img[ty[inside], tx[inside]] = rgb
-    Image.fromarray(img[::-1]).save(path)
+    png = io.BytesIO()
+    Image.fromarray(img[::-1]).save(png, format="PNG")
+    write_file(Path(path), png.getvalue())

@@ -12,6 +12,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from navlog.replay.config import param
+from navlog.replay.limits import MAX_PERIOD_S, MIN_MAP_PERIOD_S
+
 
 @dataclass(frozen=True)
 class SlamParams:
@@ -42,7 +45,7 @@ class SlamParams:
     # navlog's: after optimising, a loop edge whose squared Mahalanobis error exceeds this is taken back
     # (the rest of the graph disagrees with it; 16.3 is chi-square's 99.9 % for three degrees of freedom)
     loop_match_maximum_chi2: float = 16.3
-    map_update_interval: float = 5.0  # between /map messages
+    map_update_interval: float = param(5.0, ge=MIN_MAP_PERIOD_S, le=MAX_PERIOD_S)  # s between /map messages
     # noise of the pose-graph edges (x, y, yaw standard deviations), navlog's
     # a sequential scan match in a room that pins it (a direction the scan leaves free gets more: the
     # match's covariance, ScanMatcher.covariance); the match is weighted against the odometry by them

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 from navlog.replay.config import suggest
+from navlog.replay.limits import MAX_SIM_TIME_S, MAX_SIMULATION_STEPS, budget
 from navlog.replay.nav2.costmap.footprint import parse_footprint
 from navlog.replay.nav2.schema import ERROR, NOTE, WARNING, SectionReader, param
 
@@ -73,7 +74,7 @@ class CollisionPolygonParams:
     slowdown_ratio: float = param(0.5, ge=0.0, le=1.0)
     linear_limit: float = param(0.5, ge=0.0)
     angular_limit: float = param(0.5, ge=0.0)
-    time_before_collision: float = param(2.0, gt=0.0)
+    time_before_collision: float = param(2.0, gt=0.0, le=MAX_SIM_TIME_S)
     simulation_time_step: float = param(0.1, gt=0.0)
     visualize: bool = False
     polygon_pub_topic: str = ""
@@ -85,6 +86,11 @@ class CollisionPolygonParams:
     velocity_polygon_params: dict[str, VelocitySubPolygonParams] = field(default_factory=dict)
     # max_points is read by read_collision_monitor (as min_points + 1); listed so that --set knows it
     READ_ONLY: ClassVar[tuple[str, ...]] = ("polygon_sub_topic", "max_points")
+
+    def __post_init__(self) -> None:
+        steps = self.time_before_collision / self.simulation_time_step
+        what = f"time_before_collision / simulation_time_step ({self.time_before_collision} s / {self.simulation_time_step} s)"
+        budget("simulation_time_step", what, steps, MAX_SIMULATION_STEPS, " steps")
 
     def point_list(self) -> list[tuple[float, float]]:
         """The polygon's points ([] when it has none); ValueError when malformed or under 4 vertices."""

@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import ClassVar
 
+from navlog.replay.limits import MAX_RATE_HZ
 from navlog.replay.nav2.controllers.checkers import GoalCheckerParams, ProgressCheckerParams
 from navlog.replay.nav2.controllers.registry import CONTROLLERS, GOAL_CHECKERS, PROGRESS_CHECKERS, ControllerParams
 from navlog.replay.nav2.plugins import read_plugin_list
@@ -20,7 +21,7 @@ from navlog.replay.nav2.schema import NOTE, WARNING, SectionReader, param
 class ControllerServerParams:
     """``controller_server`` node parameters with its controllers' and checkers', by name."""
 
-    controller_frequency: float = param(20.0, gt=0.0)
+    controller_frequency: float = param(20.0, gt=0.0, le=MAX_RATE_HZ)
     costmap_update_timeout: float = param(0.3, ge=0.0)
     min_x_velocity_threshold: float = param(0.0001, ge=0.0)
     min_y_velocity_threshold: float = param(0.0001, ge=0.0)

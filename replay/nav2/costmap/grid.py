@@ -13,6 +13,7 @@ from typing import ClassVar, Protocol
 import numpy as np
 
 from navlog.replay.geometry import cell_to_world, world_to_cell
+from navlog.replay.limits import MAX_COSTMAP_CELLS, MAX_RATE_HZ, budget
 from navlog.replay.nav2.costmap.cost_values import FREE_SPACE, NO_INFORMATION
 from navlog.replay.nav2.costmap.footprint import footprint_radii, parse_footprint, robot_footprint
 from navlog.replay.nav2.schema import param
@@ -62,8 +63,8 @@ class CostmapParams:
     global_frame: str = "map"
     robot_base_frame: str = "base_link"
     transform_tolerance: float = param(0.3, ge=0.0)
-    update_frequency: float = param(5.0, gt=0.0)
-    publish_frequency: float = param(1.0, ge=0.0)
+    update_frequency: float = param(5.0, gt=0.0, le=MAX_RATE_HZ)
+    publish_frequency: float = param(1.0, ge=0.0, le=MAX_RATE_HZ)
     width: int = param(5, gt=0)
     height: int = param(5, gt=0)
     resolution: float = param(0.1, gt=0.0)
@@ -97,6 +98,13 @@ class CostmapParams:
         "service_introspection_mode",
         "map_subscribe_transient_local",
     )
+
+    def __post_init__(self) -> None:
+        cells = (self.width / self.resolution) * (self.height / self.resolution)
+        size = f"width {self.width} m, height {self.height} m, resolution {self.resolution} m"
+        budget(
+            "resolution", f"(width / resolution) x (height / resolution) for {size}", cells, MAX_COSTMAP_CELLS, " cells"
+        )
 
     def footprint_points(self) -> list[tuple[float, float]]:
         """The footprint polygon (unpadded); empty when robot_radius is used."""

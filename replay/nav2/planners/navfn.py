@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from navlog.errors import NavlogError
+from navlog.replay.limits import MAX_GOAL_TOLERANCE_M
 from navlog.replay.nav2.planners.base import (
     PlanningCostmap,
     PlanningError,
@@ -59,7 +60,7 @@ class NavfnParams(PluginParams):
     """``nav2_navfn_planner::NavfnPlanner`` parameters."""
 
     plugin: str = "nav2_navfn_planner::NavfnPlanner"
-    tolerance: float = param(0.5, ge=0.0)
+    tolerance: float = param(0.5, ge=0.0, le=MAX_GOAL_TOLERANCE_M)
     use_astar: bool = False
     allow_unknown: bool = True
     use_final_approach_orientation: bool = False

@@ -15,6 +15,7 @@ from typing import ClassVar, cast
 
 from navlog.errors import ConfigError
 from navlog.replay.config import suggest
+from navlog.replay.limits import MAX_RATE_HZ
 from navlog.replay.nav2.costmap.cost_values import INSCRIBED, LETHAL
 from navlog.replay.nav2.planners.base import Planner, PlanningCostmap, PlanningError, PlanResult, Pose2D
 from navlog.replay.nav2.planners.registry import PLANNER_NAMES, PLANNERS, PlannerParams
@@ -26,7 +27,7 @@ from navlog.replay.nav2.schema import WARNING, SectionReader, param
 class PlannerServerParams:
     """``planner_server`` node parameters with each listed planner's, by name."""
 
-    expected_planner_frequency: float = param(1.0, ge=0.0)
+    expected_planner_frequency: float = param(1.0, ge=0.0, le=MAX_RATE_HZ)
     planner_plugins: tuple[str, ...] = ("GridBased",)
     costmap_update_timeout: float = param(1.0, ge=0.0)
     use_sim_time: bool = False

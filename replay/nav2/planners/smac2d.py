@@ -21,6 +21,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from navlog.replay.limits import MAX_GOAL_TOLERANCE_M
 from navlog.replay.nav2.planners.base import (
     PlanningCostmap,
     PlanningError,
@@ -39,7 +40,7 @@ class Smac2DParams(PluginParams):
     """``nav2_smac_planner::SmacPlanner2D`` parameters (those Smac 2D adds beyond the search are read only)."""
 
     plugin: str = "nav2_smac_planner::SmacPlanner2D"
-    tolerance: float = param(0.125, ge=0.0)
+    tolerance: float = param(0.125, ge=0.0, le=MAX_GOAL_TOLERANCE_M)
     downsample_costmap: bool = False
     downsampling_factor: int = param(1, ge=1)
     allow_unknown: bool = True

@@ -162,14 +162,20 @@ def test_bad_input_is_one_line_naming_the_path(replays, teleop_log, tmp_path, ca
     assert "did you mean 'grid.hausdorff_m'" in capsys.readouterr().err
 
 
-def test_json_writes_nan_and_infinity_as_text():
+def test_json_writes_nan_and_infinity_as_null_and_names_them():
     from navlog.analysis.diff import Check, DiffReport
 
     report = DiffReport(
         "a", "b", "file", (Check("x", "grid", Verdict.CHANGED, {"h": float("inf"), "i": float("nan")}),)
     )
     text = to_json(report)
-    assert '"h": "inf"' in text and '"i": "nan"' in text and to_markdown(report).startswith("### navlog diff: FAIL")
+    doc = json.loads(text)
+    assert doc["checks"][0]["values"] == {"h": None, "i": None}, doc
+    assert doc["non_finite_values"] == {
+        "checks[0].values.h": "+inf, written as null",
+        "checks[0].values.i": "NaN, written as null",
+    }
+    assert ": NaN" not in text and "Infinity" not in text and to_markdown(report).startswith("### navlog diff: FAIL")
 
 
 def test_another_planner_moves_the_plans_but_not_the_costmap(teleop_log, tmp_path):

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from navlog.replay.config import suggest
+from navlog.replay.limits import MAX_DWB_SAMPLES, MAX_SIM_TIME_S, MIN_GRANULARITY, budget
 from navlog.replay.nav2.plugins import PluginParams
 from navlog.replay.nav2.schema import ERROR, WARNING, SectionReader, param
 
@@ -174,15 +175,15 @@ class DWBParams(PluginParams):
     decel_lim_y: float = param(0.0, le=0.0)
     decel_lim_theta: float = param(0.0, le=0.0)
     # the velocity samples (xy_theta_iterator.cpp)
-    vx_samples: int = 20
+    vx_samples: int = 20  # below 2: 2 (OneDVelocityIterator)
     vy_samples: int = 5
     vtheta_samples: int = 20
     # the trajectory generator (standard_traj_generator.cpp, limited_accel_generator.cpp)
-    sim_time: float = param(1.7, gt=0.0)
+    sim_time: float = param(1.7, gt=0.0, le=MAX_SIM_TIME_S)
     discretize_by_time: bool = False
-    time_granularity: float = param(0.5, gt=0.0)
-    linear_granularity: float = param(0.5, gt=0.0)
-    angular_granularity: float = param(0.025, gt=0.0)
+    time_granularity: float = param(0.5, ge=MIN_GRANULARITY)
+    linear_granularity: float = param(0.5, ge=MIN_GRANULARITY)
+    angular_granularity: float = param(0.025, ge=MIN_GRANULARITY)
     include_last_point: bool = True
     limit_vel_cmd_in_traj: bool = False
     sim_period: float = param(0.0, ge=0.0)  # LimitedAccelGenerator; 0: 1 / controller_frequency
@@ -202,6 +203,13 @@ class DWBParams(PluginParams):
         "publish_cost_grid_pc",
         "marker_lifetime",
     )
+
+    def __post_init__(self) -> None:
+        samples = max(2, self.vx_samples) * max(2, self.vy_samples) * max(2, self.vtheta_samples)
+        what = (
+            f"vx_samples x vy_samples x vtheta_samples ({self.vx_samples} x {self.vy_samples} x {self.vtheta_samples})"
+        )
+        budget("vx_samples", what, samples, MAX_DWB_SAMPLES, " trajectories")
 
     @classmethod
     def read_loaded(cls, r: SectionReader, section: Any, path: tuple, plugin: str) -> DWBParams:

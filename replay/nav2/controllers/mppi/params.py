@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from navlog.replay.config import suggest
+from navlog.replay.limits import MAX_MPPI_ITERATIONS, MAX_MPPI_SAMPLES, budget
 from navlog.replay.nav2.controllers.mppi.critics import CRITICS, CostCriticParams, CriticParams, critic_entry
 from navlog.replay.nav2.plugins import PluginParams
 from navlog.replay.nav2.schema import ERROR, NOTE, WARNING, SectionReader, param
@@ -49,7 +50,7 @@ class MPPIParams(PluginParams):
     vx_min: float = param(-0.35, le=0.0)
     vy_max: float = param(0.5, ge=0.0)
     wz_max: float = param(1.9, ge=0.0)
-    iteration_count: int = param(1, ge=1)
+    iteration_count: int = param(1, ge=1, le=MAX_MPPI_ITERATIONS)
     prune_distance: float = param(1.5, gt=0.0)
     max_robot_pose_search_dist: float = 0.0
     transform_tolerance: float = param(0.1, ge=0.0)
@@ -77,6 +78,10 @@ class MPPIParams(PluginParams):
         "model_delay_vy",
         "model_delay_wz",
     )
+
+    def __post_init__(self) -> None:
+        what = f"batch_size x time_steps ({self.batch_size} x {self.time_steps})"
+        budget("batch_size", what, self.batch_size * self.time_steps, MAX_MPPI_SAMPLES, " samples")
 
     @classmethod
     def read_loaded(cls, r: SectionReader, section: Any, path: tuple, plugin: str) -> MPPIParams:
