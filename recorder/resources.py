@@ -88,11 +88,29 @@ def find_package(name: str, folders: Sequence[Path]) -> Path | None:
             return root / name
         if (root / "package.xml").is_file() and _package_name(root) == name:
             return root
-        for depth in range(1, PACKAGE_SEARCH_DEPTH + 1):
-            for xml in sorted(root.glob("/".join(["*"] * depth) + "/package.xml")):
-                if _package_name(xml.parent) == name:
-                    return xml.parent
+        for folder in _folders_below(root, PACKAGE_SEARCH_DEPTH):
+            if (folder / "package.xml").is_file() and _package_name(folder) == name:
+                return folder
     return None
+
+
+def _folders_below(root: Path, depth: int) -> list[Path]:
+    """The folders 1 to ``depth`` levels below ``root``, level by level, each level sorted; hidden folders
+    (``.git``, ``.venv``) are not entered, as ROS's package crawlers skip them, and a folder that cannot be
+    read or vanishes while it is listed is passed over."""
+    out: list[Path] = []
+    level = [root]
+    for _ in range(depth):
+        below = []
+        for folder in level:
+            try:
+                with os.scandir(folder) as entries:
+                    below += [Path(e.path) for e in entries if not e.name.startswith(".") and e.is_dir()]
+            except OSError:
+                continue
+        level = sorted(below)
+        out += level
+    return out
 
 
 def find_model(name: str, folders: Sequence[Path]) -> Path | None:

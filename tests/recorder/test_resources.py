@@ -49,3 +49,19 @@ def test_missing_model_names_every_folder(tmp_path, monkeypatch):
     for folder in ("given", "a"):
         assert str(tmp_path / folder) in msg
     assert resolve_uri("file://" + str(tmp_path), Path("/")) == tmp_path
+
+
+def test_packages_are_found_up_to_three_levels_down_but_not_in_hidden_folders(tmp_path):
+    from navlog.recorder.resources import find_package
+
+    def package(folder: Path, name: str) -> Path:
+        folder.mkdir(parents=True)
+        (folder / "package.xml").write_text(f"<package><name>{name}</name></package>")
+        return folder
+
+    deep = package(tmp_path / "src" / "group" / "robot_pkg", "robot_pkg")
+    package(tmp_path / ".venv" / "lib" / "hidden_pkg", "hidden_pkg")
+    package(tmp_path / "a" / "b" / "c" / "too_deep", "too_deep")
+    assert find_package("robot_pkg", [tmp_path]) == deep
+    assert find_package("hidden_pkg", [tmp_path]) is None
+    assert find_package("too_deep", [tmp_path]) is None
