@@ -41,31 +41,82 @@ F32 = np.float32  # the batch's arrays are float32, as Nav2's
 SAVITZKY_GOLAY = np.array([-21.0, 14.0, 39.0, 54.0, 59.0, 54.0, 39.0, 14.0, -21.0]) / 231.0
 
 
+def _clamp_row(cv, state, a, i, up, down):
+    """One rollout's axis ``a`` clamped from column 0 of ``state`` on (see ``clamp_rollouts``)."""
+    last = float(state[a, i, 0])
+    for j in range(1, cv.shape[2]):
+        if a == 2 or last > 0:
+            lo, hi = last + down, last + up
+        else:
+            lo, hi = last - up, last - down
+        cv[a, i, j - 1] = min(max(float(cv[a, i, j - 1]), lo), hi)
+        last = float(cv[a, i, j - 1])
+        state[a, i, j] = cv[a, i, j - 1]
+
+
+def _integrate_row(state, traj, i, start, dt, holonomic):
+    """One rollout's poses from its velocities (see ``integrate_rollouts``), in float32 as NumPy's
+    cumulative sums: ``start`` is (x, y, yaw, cos yaw, sin yaw) of the robot, float32."""
+    x0, y0, yaw0 = start[0], start[1], start[2]
+    c, s = start[3], start[4]
+    sx = sy = syaw = start[0] - start[0]  # float32 zero
+    for j in range(state.shape[2]):
+        vx, vy = state[0, i, j], state[1, i, j]
+        dx, dy = vx * c, vx * s
+        if holonomic:
+            dx, dy = dx - vy * s, dy + vy * c
+        sx += dx * dt
+        sy += dy * dt
+        syaw += state[2, i, j] * dt
+        traj[0, i, j] = x0 + sx
+        traj[1, i, j] = y0 + sy
+        yaw = yaw0 + syaw
+        traj[2, i, j] = yaw
+        c, s = np.float32(math.cos(yaw)), np.float32(math.sin(yaw))
+
+
 def clamp_rollouts(cv, state, axes, ups, downs):
     """``Optimizer.predict``'s clamp, to be compiled: per axis in ``axes`` and per rollout, each control
     clamped to [last + down, last + up] (reverse: [last - up, last - down]; axis 2, wz, always the
     former) from the one before, the bounds in float64 and the control stored as float32; ``state``
     takes the clamped controls one step later."""
-    nb, nt = cv.shape[1], cv.shape[2]
     for k in range(axes.shape[0]):
         a = axes[k]
-        up, down = ups[a], downs[a]
-        for i in range(nb):
-            last = float(state[a, i, 0])
-            for j in range(1, nt):
-                if a == 2 or last > 0:
-                    lo, hi = last + down, last + up
-                else:
-                    lo, hi = last - up, last - down
-                cv[a, i, j - 1] = min(max(float(cv[a, i, j - 1]), lo), hi)
-                last = float(cv[a, i, j - 1])
-                state[a, i, j] = cv[a, i, j - 1]
+        for i in range(cv.shape[1]):
+            _clamp_row(cv, state, a, i, ups[a], downs[a])
+
+
+def integrate_rollouts(state, traj, start, dt, holonomic):
+    """``Optimizer.integrate``, to be compiled: per rollout the poses (x, y, yaw) into ``traj``; step j
+    moves along the yaw of step j-1 (step 0 along the robot's), each a float32 running sum."""
+    for i in range(state.shape[1]):
+        _integrate_row(state, traj, i, start, dt, holonomic)
+
+
+def noised_rollouts(u, noises, speed, axes, ups, downs, start, dt, holonomic, cv, state, traj):
+    """One optimizer round's batch, to be compiled, one rollout at a time: the noised controls
+    ``cv = u + noises``, clamped by the motion model from ``speed`` (``state``: column 0 the speed, then
+    the clamped controls; an axis not clamped stays 0), and the rollout's poses ``traj``."""
+    nb, nt = noises.shape[1], noises.shape[2]
+    for i in range(nb):
+        for a in range(3):
+            for j in range(nt):
+                cv[a, i, j] = u[a, j] + noises[a, i, j]
+                state[a, i, j] = 0.0
+            state[a, i, 0] = speed[a]
+        for k in range(axes.shape[0]):
+            a = axes[k]
+            _clamp_row(cv, state, a, i, ups[a], downs[a])
+        _integrate_row(state, traj, i, start, dt, holonomic)
 
 
 @functools.cache
-def compiled_clamp_rollouts() -> Callable[..., None]:
-    """``clamp_rollouts`` compiled by numba (on first use; cached on disk)."""
-    return compile_together(globals(), (clamp_rollouts,))["clamp_rollouts"]
+def compiled_rollouts() -> dict[str, Callable[..., None]]:
+    """``clamp_rollouts``, ``integrate_rollouts`` and ``noised_rollouts`` compiled by numba (on first use;
+    cached on disk); the three share one arithmetic path per rollout."""
+    return compile_together(
+        globals(), (_clamp_row, _integrate_row, clamp_rollouts, integrate_rollouts, noised_rollouts)
+    )
 
 
 class Optimizer:
@@ -183,8 +234,7 @@ class Optimizer:
         data = None
         self.costs = np.zeros(self.p.batch_size, dtype=F32)
         for _ in range(self.p.iteration_count):
-            cv, state = self._noised_controls(speed)
-            self.trajectories = self.integrate(pose, state)
+            cv, state, self.trajectories = self._noised_controls(pose, speed)
             data = CriticData(
                 pose=pose,
                 goal=goal,
@@ -211,46 +261,63 @@ class Optimizer:
         assert data is not None
         return data
 
-    def _noised_controls(self, speed: Twist2D) -> tuple[np.ndarray, np.ndarray]:
-        """(cv, state): noised controls clamped by ``predict``, and state velocities (column 0 = speed)."""
-        cv = self.u[:, None, :] + self.noises
+    def _noised_controls(self, pose: Pose2D, speed: Twist2D) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(cv, state, trajectories): the noised controls clamped by ``predict``, the state velocities
+        (column 0 = speed) and the poses they integrate to, in one compiled pass (``noised_rollouts``)."""
+        cv = np.empty_like(self.noises)
+        state = np.empty_like(self.noises)
+        traj = np.empty_like(self.noises)
+        axes, ups, downs = self._clamp_limits()
+        compiled_rollouts()["noised_rollouts"](
+            self.u,
+            self.noises,
+            self._speed(speed),
+            axes,
+            ups,
+            downs,
+            self._start(pose),
+            F32(self.p.model_dt),
+            self.holonomic,
+            cv,
+            state,
+            traj,
+        )
         if self.p.regenerate_noises and self._injected is None:
             self._generate_noises()
-        state = self.predict(cv, speed)
-        return cv, state
+        return cv, state, traj
+
+    def _speed(self, speed: Twist2D) -> np.ndarray:
+        return np.array([speed[0], speed[1] if self.holonomic else 0.0, speed[2]], dtype=F32)
+
+    def _start(self, pose: Pose2D) -> np.ndarray:
+        """The robot's (x, y, yaw, cos yaw, sin yaw) in float32, where the rollouts start."""
+        return np.array([pose[0], pose[1], pose[2], math.cos(pose[2]), math.sin(pose[2])], dtype=F32)
+
+    def _clamp_limits(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(axes, ups, downs): the clamped axes and each axis's velocity change a step allows (float64)."""
+        p, dt = self.p, self.p.model_dt
+        limits: list[tuple[int, float, float]] = [(0, p.ax_max, p.ax_min), (2, p.az_max, -p.az_max)]
+        if self.holonomic:
+            limits.insert(1, (1, p.ay_max, p.ay_min))
+        ups, downs = np.zeros(3), np.zeros(3)
+        for a, amax, amin in limits:
+            ups[a], downs[a] = amax * dt, amin * dt
+        return np.array([a for a, _, _ in limits], dtype=np.int64), ups, downs
 
     def predict(self, cv: np.ndarray, speed: Twist2D) -> np.ndarray:
         """Nav2's ``MotionModel::predict``: each control clamped to the acceleration limits from the one
         before, starting from ``speed``; ``cv`` (3, B, T) is clamped in place, the state (3, B, T) returned.
         """
-        p, dt = self.p, self.p.model_dt
         state = np.zeros_like(cv)
-        state[0, :, 0], state[1, :, 0], state[2, :, 0] = speed[0], speed[1] if self.holonomic else 0.0, speed[2]
-        axes: list[tuple[int, float, float]] = [(0, p.ax_max, p.ax_min), (2, p.az_max, -p.az_max)]
-        if self.holonomic:
-            axes.insert(1, (1, p.ay_max, p.ay_min))
-        ups, downs = np.zeros(3), np.zeros(3)
-        for a, amax, amin in axes:
-            ups[a], downs[a] = amax * dt, amin * dt
-        compiled_clamp_rollouts()(cv, state, np.array([a for a, _, _ in axes], dtype=np.int64), ups, downs)
+        state[:, :, 0] = self._speed(speed)[:, None]
+        compiled_rollouts()["clamp_rollouts"](cv, state, *self._clamp_limits())
         return state
 
     def integrate(self, pose: Pose2D, state: np.ndarray) -> np.ndarray:
         """Nav2's ``integrateStateVelocities``: (x, y, yaw) (3, B, T); step j moves along the yaw of step j-1."""
-        dt = self.p.model_dt
-        vx, vy, wz = state
-        yaw = pose[2] + np.cumsum(wz * dt, axis=-1)
-        c = np.empty_like(yaw)
-        s = np.empty_like(yaw)
-        c[..., 0], s[..., 0] = math.cos(pose[2]), math.sin(pose[2])
-        np.cos(yaw[..., :-1], out=c[..., 1:])
-        np.sin(yaw[..., :-1], out=s[..., 1:])
-        dx, dy = vx * c, vx * s
-        if self.holonomic:
-            dx, dy = dx - vy * s, dy + vy * c
-        x = pose[0] + np.cumsum(dx * dt, axis=-1)
-        y = pose[1] + np.cumsum(dy * dt, axis=-1)
-        return np.stack([x, y, yaw])
+        traj = np.empty_like(state)
+        compiled_rollouts()["integrate_rollouts"](state, traj, self._start(pose), F32(self.p.model_dt), self.holonomic)
+        return traj
 
     def _update_control_sequence(self, cv: np.ndarray) -> None:
         """Nav2's ``updateControlSequence``: control cost, softmax over the batch, weighted mean, constraints."""
