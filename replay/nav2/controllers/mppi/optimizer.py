@@ -146,6 +146,8 @@ class Optimizer:
         self.set_speed_limit(0.0, True)
         self._fail_count = 0
         self._injected: np.ndarray | None = None
+        self._background = setup.background
+        self._next_noises: tuple[Callable[[], None], np.ndarray] | None = None  # (wait, noise) being drawn
         self._path_facts: tuple[int | None, np.ndarray | None] = (None, None)
         self.last_cmd: Twist2D = (0.0, 0.0, 0.0)
         self.reset()
@@ -160,19 +162,38 @@ class Optimizer:
         if self.p.open_loop:
             self.last_cmd = (0.0, 0.0, 0.0)
         if self._injected is None:
+            self._await_noises()
             self.noises = np.zeros((3, b, t), dtype=F32)
-            self._generate_noises()
+            self._draw_noises(self.noises)
         self.trajectories = np.zeros((3, b, t), dtype=F32)
 
-    def _generate_noises(self) -> None:
-        b, t = self.p.batch_size, self.p.time_steps
+    def _draw_noises(self, out: np.ndarray) -> None:
+        """Fill ``out`` (3, batch, time_steps) with the next draws: vx then wz (then vy, Omni) times their std."""
         for axis, std in ((0, self.p.vx_std), (2, self.p.wz_std)) + (((1, self.p.vy_std),) if self.holonomic else ()):
-            self.noises[axis] = self.rng.standard_normal((b, t), dtype=F32)
-            self.noises[axis] *= F32(std)
+            self.rng.standard_normal(out=out[axis], dtype=F32)
+            out[axis] *= F32(std)
+
+    def _regenerate_noises(self) -> None:
+        """The next noise, drawn now or (with ``setup.background``) beside the caller until it is used."""
+        fresh = np.zeros_like(self.noises)
+        if self._background is None:
+            self._draw_noises(fresh)
+            self.noises = fresh
+        else:
+            self._next_noises = (self._background(lambda: self._draw_noises(fresh)), fresh)
+
+    def _await_noises(self) -> None:
+        """Wait for the noise being drawn, if any, and use it (before the generator draws again)."""
+        if self._next_noises is not None:
+            wait, fresh = self._next_noises
+            self._next_noises = None
+            wait()
+            self.noises = fresh
 
     def set_noises(self, vx: np.ndarray, vy: np.ndarray, wz: np.ndarray) -> None:
         """Use this noise (each (batch, time_steps)) from now on, instead of drawn noise."""
         shape = (self.p.batch_size, self.p.time_steps)
+        self._await_noises()
         self._injected = np.stack([np.broadcast_to(np.asarray(a, dtype=F32), shape) for a in (vx, vy, wz)])
         self.noises = self._injected
 
@@ -264,6 +285,7 @@ class Optimizer:
     def _noised_controls(self, pose: Pose2D, speed: Twist2D) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(cv, state, trajectories): the noised controls clamped by ``predict``, the state velocities
         (column 0 = speed) and the poses they integrate to, in one compiled pass (``noised_rollouts``)."""
+        self._await_noises()
         cv = np.empty_like(self.noises)
         state = np.empty_like(self.noises)
         traj = np.empty_like(self.noises)
@@ -283,7 +305,7 @@ class Optimizer:
             traj,
         )
         if self.p.regenerate_noises and self._injected is None:
-            self._generate_noises()
+            self._regenerate_noises()
         return cv, state, traj
 
     def _speed(self, speed: Twist2D) -> np.ndarray:

@@ -29,7 +29,8 @@ def goal_distances(x, y, gx, gy, out):
     for i in range(x.shape[0]):
         total = 0.0
         for j in range(x.shape[1]):
-            total += math.hypot(float(x[i, j]) - gx, float(y[i, j]) - gy)
+            dx, dy = float(x[i, j]) - gx, float(y[i, j]) - gy
+            total += math.sqrt(dx * dx + dy * dy)
         out[i] = total / x.shape[1]
 
 

@@ -38,7 +38,8 @@ def aligned_distances(x, y, yaw, step, path, along, valid, use_orientations, out
         length = x[i, 0] - x[i, 0]  # float32 zero
         nearest, upper, samples, total = 0, 0, 0, 0.0
         for k in range(step, x.shape[1], step):
-            length += np.float32(math.hypot(x[i, k] - x[i, k - step], y[i, k] - y[i, k - step]))
+            sx, sy = x[i, k] - x[i, k - step], y[i, k] - y[i, k - step]  # float32
+            length += np.float32(math.sqrt(sx * sx + sy * sy))
             t = float(length)
             while upper <= last and along[upper] <= t:  # the first path length beyond t
                 upper += 1
