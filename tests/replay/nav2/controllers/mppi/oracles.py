@@ -1,8 +1,26 @@
-"""NumPy forms of the MPPI kernels: slow, plainly vectorised, the oracles the compiled kernels must equal bit for bit."""
+"""NumPy forms of the MPPI kernels, each with its kernel's arguments: slow, plainly vectorised, the oracles
+the compiled kernels are compared with (bit for bit where the arithmetic is the same; see test_kernels).
+
+``oracle_factories()`` lists (module, factory name, replacement): set each to run a cycle on the oracles.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from types import ModuleType
+from typing import Any
+
 import numpy as np
+
+import navlog.replay.nav2.controllers.mppi.critic_data as critic_data
+import navlog.replay.nav2.controllers.mppi.critics.constraint as constraint
+import navlog.replay.nav2.controllers.mppi.critics.cost as cost
+import navlog.replay.nav2.controllers.mppi.critics.goal as goal
+import navlog.replay.nav2.controllers.mppi.critics.path_align as path_align
+import navlog.replay.nav2.controllers.mppi.critics.prefer_forward as prefer_forward
+import navlog.replay.nav2.controllers.mppi.critics.twirling as twirling
+import navlog.replay.nav2.controllers.mppi.critics.velocity_deadband as velocity_deadband
+import navlog.replay.nav2.controllers.mppi.optimizer as optimizer
 
 
 def numpy_clamp_rollouts(cv, state, axes, ups, downs):
@@ -30,31 +48,35 @@ def numpy_clamp_rollouts(cv, state, axes, ups, downs):
         state[a, :, 1:] = cv[a, :, :-1]
 
 
-def numpy_rollouts(opt, pose, speed):
-    """``Optimizer._noised_controls`` with NumPy: (cv, state, trajectories) of the optimizer's noise, the
-    clamp by ``numpy_clamp_rollouts`` and the poses by float32 cumulative sums (NumPy's cos and sin)."""
-    cv = opt.u[:, None, :] + opt.noises
-    state = np.zeros_like(cv)
-    state[:, :, 0] = opt._speed(speed)[:, None]
-    numpy_clamp_rollouts(cv, state, *opt._clamp_limits())
-    dt = np.float32(opt.p.model_dt)
+def numpy_noised_rollouts(u, noises, speed, axes, ups, downs, start, dt, holonomic, cv, state, traj):
+    """``optimizer.noised_rollouts`` with NumPy: the clamp by ``numpy_clamp_rollouts``, the poses by float32
+    cumulative sums with NumPy's cos and sin (the kernel's differ from them in the last bits)."""
+    cv[:] = u[:, None, :] + noises
+    state[:] = 0.0
+    state[:, :, 0] = speed[:, None]
+    numpy_clamp_rollouts(cv, state, axes, ups, downs)
+    numpy_integrate_rollouts(state, traj, start, dt, holonomic)
+
+
+def numpy_integrate_rollouts(state, traj, start, dt, holonomic):
+    """``optimizer.integrate_rollouts`` with NumPy: float32 cumulative sums, NumPy's cos and sin."""
     vx, vy, wz = state
-    yaw = np.float32(pose[2]) + np.cumsum(wz * dt, axis=-1)
+    yaw = start[2] + np.cumsum(wz * dt, axis=-1)
     c, s = np.empty_like(yaw), np.empty_like(yaw)
-    c[..., 0], s[..., 0] = np.float32(np.cos(pose[2])), np.float32(np.sin(pose[2]))
+    c[..., 0], s[..., 0] = start[3], start[4]
     np.cos(yaw[..., :-1], out=c[..., 1:])
     np.sin(yaw[..., :-1], out=s[..., 1:])
     dx, dy = vx * c, vx * s
-    if opt.holonomic:
+    if holonomic:
         dx, dy = dx - vy * s, dy + vy * c
-    x = np.float32(pose[0]) + np.cumsum(dx * dt, axis=-1)
-    y = np.float32(pose[1]) + np.cumsum(dy * dt, axis=-1)
-    return cv, state, np.stack([x, y, yaw])
+    traj[0] = start[0] + np.cumsum(dx * dt, axis=-1)
+    traj[1] = start[1] + np.cumsum(dy * dt, axis=-1)
+    traj[2] = yaw
 
 
-def numpy_furthest_reached(path, x_end, y_end):
-    """``furthest_reached_index`` with NumPy: a suffix minimum per trajectory, the rows composed pairwise."""
-    d = (path[None, :, 0] - x_end[:, None]) ** 2 + (path[None, :, 1] - y_end[:, None]) ** 2
+def numpy_furthest_reached_index(px, py, end_x, end_y):
+    """``critic_data.furthest_reached_index`` with NumPy: a suffix minimum per trajectory, the rows composed pairwise."""
+    d = (px[None, :] - end_x[:, None]) ** 2 + (py[None, :] - end_y[:, None]) ** 2
     n = d.shape[1]
     suffix_min = np.minimum.accumulate(d[:, ::-1], axis=1)[:, ::-1]
     holds = np.where(d == suffix_min, np.arange(n), n)
@@ -66,33 +88,34 @@ def numpy_furthest_reached(path, x_end, y_end):
     return int(nearest[0, 0])
 
 
-def numpy_cost_critic(critic, data):
-    """``CostCritic``'s per-trajectory cost (before its weight) and fail flag with NumPy, centre check only."""
-    cm, p = data.costmap, critic.p
-    step = p.trajectory_point_step
-    n = data.x.shape[1] // step
-    tx, ty = data.x[:, : n * step : step], data.y[:, : n * step : step]
-    fx, fy = (tx - cm.origin_x) / cm.resolution, (ty - cm.origin_y) / cm.resolution
-    inside = (fx >= 0) & (fy >= 0) & (fx < cm.size_x) & (fy < cm.size_y)
-    cost = np.where(inside, cm.costs[np.where(inside, fy, 0).astype(int), np.where(inside, fx, 0).astype(int)], 255)
-    tracking = bool(cm.params.track_unknown_space)
-    collide = ((cost == 254) | (cost == 253) | ((cost == 255) & (not tracking))) & (cost >= 1)
-    add = np.where(
-        cost >= p.near_collision_cost, p.critical_cost, 0.0 if data.robot_near_goal(p.near_goal_distance) else cost
-    )
+def numpy_cells_along(x, y, step, n, grid, origin_x, origin_y, resolution, out):
+    """``cost.cells_along`` with NumPy (float32 ``worldToMap``)."""
+    tx, ty = x[:, : n * step : step], y[:, : n * step : step]
+    fx, fy = (tx - origin_x) / resolution, (ty - origin_y) / resolution
+    inside = (fx >= 0) & (fy >= 0) & (fx < grid.shape[1]) & (fy < grid.shape[0])
+    mx, my = np.where(inside, fx, 0).astype(np.int64), np.where(inside, fy, 0).astype(np.int64)
+    out[:] = np.where(inside, grid[my, mx], 255)
+
+
+def numpy_trajectory_costs(
+    cost, checked, inscribed_collides, tracking, near_goal, near_collision, critical, collision, out
+):
+    """``cost.trajectory_costs`` with NumPy."""
+    collide = (checked == 254) | ((checked == 255) & (not tracking))
+    if inscribed_collides:
+        collide |= checked == 253
+    collide &= cost >= 1
+    add = np.where(cost >= near_collision, critical, 0.0 if near_goal else cost)
     any_collide = collide.any(axis=1)
-    return np.where(any_collide, p.collision_cost, add.sum(axis=1)) / n, bool(any_collide.all())
+    out[:] = np.where(any_collide, collision, add.sum(axis=1))
+    return bool(any_collide.all())
 
 
-def numpy_path_align(critic, data):
-    """``PathAlignCritic``'s per-trajectory mean distance with NumPy (searchsorted, running maximum)."""
-    p = critic.p
-    count, valid = data.furthest_reached(), data.path_points_valid()
-    path = data.path[:count]
-    along = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(path[:, 0]), np.diff(path[:, 1])))])
-    step = p.trajectory_point_step
-    tx, ty, tyaw = data.x[:, ::step], data.y[:, ::step], data.yaw[:, ::step]
-    traj_len = np.cumsum(np.hypot(np.diff(tx, axis=1), np.diff(ty, axis=1)), axis=1)
+def numpy_aligned_distances(x, y, yaw, step, path, along, valid, use_orientations, out):
+    """``path_align.aligned_distances`` with NumPy (searchsorted, a running maximum, float32 lengths)."""
+    tx, ty, tyaw = x[:, ::step], y[:, ::step], yaw[:, ::step]
+    dx, dy = np.diff(tx, axis=1), np.diff(ty, axis=1)
+    traj_len = np.cumsum(np.sqrt(dx * dx + dy * dy), axis=1)
     i = np.searchsorted(along, traj_len, side="right")
     last = len(along) - 1
     ic = np.minimum(i, last)
@@ -100,36 +123,67 @@ def numpy_path_align(critic, data):
     nearest = np.where(i > last, last, np.where(traj_len - prev < along[ic] - traj_len, ic - 1, ic))
     nearest = np.maximum.accumulate(nearest, axis=1)
     ok = valid[nearest]
-    dx, dy = path[nearest, 0] - tx[:, 1:], path[nearest, 1] - ty[:, 1:]
-    d2 = dx * dx + dy * dy
-    if p.use_path_orientations:
+    ex, ey = path[nearest, 0] - tx[:, 1:], path[nearest, 1] - ty[:, 1:]
+    d2 = ex * ex + ey * ey
+    if use_orientations:
         t = np.fmod(tyaw[:, 1:] - path[nearest, 2] + np.pi, 2.0 * np.pi)
         d2 = d2 + np.where(t < 0.0, t + np.pi, t - np.pi) ** 2
     samples = ok.sum(axis=1)
-    return np.where(samples > 0, np.where(ok, np.sqrt(d2), 0.0).sum(axis=1) / np.maximum(samples, 1), 0.0)
+    out[:] = np.where(samples > 0, np.where(ok, np.sqrt(d2), 0.0).sum(axis=1) / np.maximum(samples, 1), 0.0)
 
 
-def numpy_per_trajectory(name, critic, data):
-    """The other batch critics' per-trajectory cost (before weight and power) with NumPy, by name."""
-    dt = data.model_dt
-    if name == "GoalCritic":
-        return np.hypot(data.x - data.goal[0], data.y - data.goal[1]).mean(axis=1)
-    if name == "PreferForwardCritic":
-        return (np.maximum(-data.vx, 0.0) * dt).sum(axis=1)
-    if name == "TwirlingCritic":
-        return np.abs(data.wz).mean(axis=1)
-    if name == "VelocityDeadbandCritic":
-        db = [abs(v) for v in (tuple(critic.p.deadband_velocities) + (0.0, 0.0, 0.0))[:3]]
-        out = np.maximum(db[0] - np.abs(data.vx), 0.0) + np.maximum(db[2] - np.abs(data.wz), 0.0)
-        if data.holonomic:
-            out = out + np.maximum(db[1] - np.abs(data.vy), 0.0)
-        return (out * dt).sum(axis=1)
-    if name == "ConstraintCritic":
-        omni = critic.model == "Omni"
-        v = np.where(data.vx > 0.0, 1.0, -1.0) * np.hypot(data.vx, data.vy) if omni else data.vx
-        out = np.maximum(v - critic.max_vel, 0.0) + np.maximum(critic.min_vel - v, 0.0)
-        if critic.model == "Ackermann":
-            with np.errstate(divide="ignore", invalid="ignore"):
-                out = out + np.maximum(critic.min_turning_r - np.abs(data.vx) / np.abs(data.wz), 0.0)
-        return (out * dt).sum(axis=1)
-    raise KeyError(name)
+def numpy_goal_distances(x, y, gx, gy, out):
+    """``goal.goal_distances`` with NumPy."""
+    dx, dy = x - np.float64(gx), y - np.float64(gy)
+    out[:] = np.sqrt(dx * dx + dy * dy).mean(axis=1)
+
+
+def numpy_reverse_speeds(vx, dt, out):
+    """``prefer_forward.reverse_speeds`` with NumPy."""
+    out[:] = (np.maximum(-vx.astype(np.float64), 0.0) * dt).sum(axis=1)
+
+
+def numpy_mean_turn_rates(wz, out):
+    """``twirling.mean_turn_rates`` with NumPy."""
+    out[:] = np.abs(wz.astype(np.float64)).mean(axis=1)
+
+
+def numpy_deadband_speeds(vx, vy, wz, deadband, holonomic, dt, out):
+    """``velocity_deadband.deadband_speeds`` with NumPy."""
+    inside = np.maximum(deadband[0] - np.abs(vx.astype(np.float64)), 0.0) + np.maximum(deadband[2] - np.abs(wz), 0.0)
+    if holonomic:
+        inside = inside + np.maximum(deadband[1] - np.abs(vy.astype(np.float64)), 0.0)
+    out[:] = (inside * dt).sum(axis=1)
+
+
+def numpy_limit_excess(vx, vy, wz, max_vel, min_vel, model, min_turning_r, dt, out):
+    """``constraint.limit_excess`` with NumPy."""
+    v = vx.astype(np.float64)
+    if model == 1:
+        v = np.where(v > 0.0, 1.0, -1.0) * np.hypot(v, vy)
+    excess = np.maximum(v - max_vel, 0.0) + np.maximum(min_vel - v, 0.0)
+    if model == 2:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            excess = excess + np.maximum(min_turning_r - np.abs(vx.astype(np.float64)) / np.abs(wz), 0.0)
+    out[:] = (excess * dt).sum(axis=1)
+
+
+def oracle_factories() -> list[tuple[ModuleType, str, Callable[[], Any]]]:
+    """Every compiled kernel's factory with one that gives the NumPy oracle instead."""
+    rollouts = {
+        "clamp_rollouts": numpy_clamp_rollouts,
+        "integrate_rollouts": numpy_integrate_rollouts,
+        "noised_rollouts": numpy_noised_rollouts,
+    }
+    cost_kernels = {"cells_along": numpy_cells_along, "trajectory_costs": numpy_trajectory_costs}
+    return [
+        (optimizer, "compiled_rollouts", lambda: rollouts),
+        (critic_data, "compiled_furthest_reached_index", lambda: numpy_furthest_reached_index),
+        (cost, "compiled_cost_kernels", lambda: cost_kernels),
+        (path_align, "compiled_aligned_distances", lambda: numpy_aligned_distances),
+        (goal, "compiled_goal_distances", lambda: numpy_goal_distances),
+        (prefer_forward, "compiled_reverse_speeds", lambda: numpy_reverse_speeds),
+        (twirling, "compiled_mean_turn_rates", lambda: numpy_mean_turn_rates),
+        (velocity_deadband, "compiled_deadband_speeds", lambda: numpy_deadband_speeds),
+        (constraint, "compiled_limit_excess", lambda: numpy_limit_excess),
+    ]
