@@ -54,25 +54,29 @@ def _clamp_row(cv, state, a, i, up, down):
         state[a, i, j] = cv[a, i, j - 1]
 
 
-def _integrate_row(state, traj, i, start, dt, holonomic):
-    """One rollout's poses from its velocities (see ``integrate_rollouts``), in float32 as NumPy's
-    cumulative sums: ``start`` is (x, y, yaw, cos yaw, sin yaw) of the robot, float32."""
-    x0, y0, yaw0 = start[0], start[1], start[2]
-    c, s = start[3], start[4]
-    sx = sy = syaw = start[0] - start[0]  # float32 zero
+def _heading_row(state, traj, i, yaw0, dt):
+    """One rollout's yaw (``traj[2]``): ``yaw0`` plus the float32 running sum of ``wz * dt``, as NumPy's cumsum."""
+    total = yaw0 - yaw0  # float32 zero
     for j in range(state.shape[2]):
-        vx, vy = state[0, i, j], state[1, i, j]
-        dx, dy = vx * c, vx * s
-        if holonomic:
-            dx, dy = dx - vy * s, dy + vy * c
-        sx += dx * dt
-        sy += dy * dt
-        syaw += state[2, i, j] * dt
-        traj[0, i, j] = x0 + sx
-        traj[1, i, j] = y0 + sy
-        yaw = yaw0 + syaw
-        traj[2, i, j] = yaw
-        c, s = np.float32(math.cos(yaw)), np.float32(math.sin(yaw))
+        total += state[2, i, j] * dt
+        traj[2, i, j] = yaw0 + total
+
+
+def positions(state, cos, sin, traj, x0, y0, dt, holonomic):
+    """Every rollout's x, y (``traj[0]``, ``traj[1]``), to be compiled: float32 running sums of the velocities
+    turned by ``cos``/``sin`` (column j: of the yaw of step j-1, column 0: of the robot's)."""
+    for i in range(state.shape[1]):
+        sx = sy = x0 - x0  # float32 zero
+        for j in range(state.shape[2]):
+            vx, c, s = state[0, i, j], cos[i, j], sin[i, j]
+            dx, dy = vx * c, vx * s
+            if holonomic:
+                vy = state[1, i, j]
+                dx, dy = dx - vy * s, dy + vy * c
+            sx += dx * dt
+            sy += dy * dt
+            traj[0, i, j] = x0 + sx
+            traj[1, i, j] = y0 + sy
 
 
 def clamp_rollouts(cv, state, axes, ups, downs):
@@ -86,17 +90,16 @@ def clamp_rollouts(cv, state, axes, ups, downs):
             _clamp_row(cv, state, a, i, ups[a], downs[a])
 
 
-def integrate_rollouts(state, traj, start, dt, holonomic):
-    """``Optimizer.integrate``, to be compiled: per rollout the poses (x, y, yaw) into ``traj``; step j
-    moves along the yaw of step j-1 (step 0 along the robot's), each a float32 running sum."""
+def headings(state, traj, yaw0, dt):
+    """Every rollout's yaw (``traj[2]``), to be compiled (see ``_heading_row``)."""
     for i in range(state.shape[1]):
-        _integrate_row(state, traj, i, start, dt, holonomic)
+        _heading_row(state, traj, i, yaw0, dt)
 
 
-def noised_rollouts(u, noises, speed, axes, ups, downs, start, dt, holonomic, cv, state, traj):
+def noised_rollouts(u, noises, speed, axes, ups, downs, yaw0, dt, cv, state, traj):
     """One optimizer round's batch, to be compiled, one rollout at a time: the noised controls
     ``cv = u + noises``, clamped by the motion model from ``speed`` (``state``: column 0 the speed, then
-    the clamped controls; an axis not clamped stays 0), and the rollout's poses ``traj``."""
+    the clamped controls; an axis not clamped stays 0), and the rollout's yaw ``traj[2]``."""
     nb, nt = noises.shape[1], noises.shape[2]
     for i in range(nb):
         for a in range(3):
@@ -107,16 +110,14 @@ def noised_rollouts(u, noises, speed, axes, ups, downs, start, dt, holonomic, cv
         for k in range(axes.shape[0]):
             a = axes[k]
             _clamp_row(cv, state, a, i, ups[a], downs[a])
-        _integrate_row(state, traj, i, start, dt, holonomic)
+        _heading_row(state, traj, i, yaw0, dt)
 
 
 @functools.cache
 def compiled_rollouts() -> dict[str, Callable[..., None]]:
-    """``clamp_rollouts``, ``integrate_rollouts`` and ``noised_rollouts`` compiled by numba (on first use;
-    cached on disk); the three share one arithmetic path per rollout."""
-    return compile_together(
-        globals(), (_clamp_row, _integrate_row, clamp_rollouts, integrate_rollouts, noised_rollouts)
-    )
+    """``clamp_rollouts``, ``headings``, ``positions`` and ``noised_rollouts`` compiled by numba (on first
+    use; cached on disk); one arithmetic path per rollout."""
+    return compile_together(globals(), (_clamp_row, _heading_row, clamp_rollouts, headings, positions, noised_rollouts))
 
 
 class Optimizer:
@@ -290,20 +291,11 @@ class Optimizer:
         state = np.empty_like(self.noises)
         traj = np.empty_like(self.noises)
         axes, ups, downs = self._clamp_limits()
+        dt = F32(self.p.model_dt)
         compiled_rollouts()["noised_rollouts"](
-            self.u,
-            self.noises,
-            self._speed(speed),
-            axes,
-            ups,
-            downs,
-            self._start(pose),
-            F32(self.p.model_dt),
-            self.holonomic,
-            cv,
-            state,
-            traj,
+            self.u, self.noises, self._speed(speed), axes, ups, downs, F32(pose[2]), dt, cv, state, traj
         )
+        self._positions(pose, state, traj)
         if self.p.regenerate_noises and self._injected is None:
             self._regenerate_noises()
         return cv, state, traj
@@ -311,9 +303,15 @@ class Optimizer:
     def _speed(self, speed: Twist2D) -> np.ndarray:
         return np.array([speed[0], speed[1] if self.holonomic else 0.0, speed[2]], dtype=F32)
 
-    def _start(self, pose: Pose2D) -> np.ndarray:
-        """The robot's (x, y, yaw, cos yaw, sin yaw) in float32, where the rollouts start."""
-        return np.array([pose[0], pose[1], pose[2], math.cos(pose[2]), math.sin(pose[2])], dtype=F32)
+    def _positions(self, pose: Pose2D, state: np.ndarray, traj: np.ndarray) -> None:
+        """x, y of the rollouts (``traj[0:2]``) from their velocities and yaw (``traj[2]``): step j moves along
+        the yaw of step j-1 (step 0 along the robot's), the cos and sin by NumPy (vectorised), float32."""
+        cos, sin = np.empty_like(traj[2]), np.empty_like(traj[2])
+        cos[:, 0], sin[:, 0] = math.cos(pose[2]), math.sin(pose[2])
+        np.cos(traj[2, :, :-1], out=cos[:, 1:])
+        np.sin(traj[2, :, :-1], out=sin[:, 1:])
+        x0, y0, dt = F32(pose[0]), F32(pose[1]), F32(self.p.model_dt)
+        compiled_rollouts()["positions"](state, cos, sin, traj, x0, y0, dt, self.holonomic)
 
     def _clamp_limits(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(axes, ups, downs): the clamped axes and each axis's velocity change a step allows (float64)."""
@@ -338,7 +336,8 @@ class Optimizer:
     def integrate(self, pose: Pose2D, state: np.ndarray) -> np.ndarray:
         """Nav2's ``integrateStateVelocities``: (x, y, yaw) (3, B, T); step j moves along the yaw of step j-1."""
         traj = np.empty_like(state)
-        compiled_rollouts()["integrate_rollouts"](state, traj, self._start(pose), F32(self.p.model_dt), self.holonomic)
+        compiled_rollouts()["headings"](state, traj, F32(pose[2]), F32(self.p.model_dt))
+        self._positions(pose, state, traj)
         return traj
 
     def _update_control_sequence(self, cv: np.ndarray) -> None:

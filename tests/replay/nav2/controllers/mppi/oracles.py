@@ -48,30 +48,28 @@ def numpy_clamp_rollouts(cv, state, axes, ups, downs):
         state[a, :, 1:] = cv[a, :, :-1]
 
 
-def numpy_noised_rollouts(u, noises, speed, axes, ups, downs, start, dt, holonomic, cv, state, traj):
-    """``optimizer.noised_rollouts`` with NumPy: the clamp by ``numpy_clamp_rollouts``, the poses by float32
-    cumulative sums with NumPy's cos and sin (the kernel's differ from them in the last bits)."""
+def numpy_noised_rollouts(u, noises, speed, axes, ups, downs, yaw0, dt, cv, state, traj):
+    """``optimizer.noised_rollouts`` with NumPy: the clamp by ``numpy_clamp_rollouts``, the yaw by ``numpy_headings``."""
     cv[:] = u[:, None, :] + noises
     state[:] = 0.0
     state[:, :, 0] = speed[:, None]
     numpy_clamp_rollouts(cv, state, axes, ups, downs)
-    numpy_integrate_rollouts(state, traj, start, dt, holonomic)
+    numpy_headings(state, traj, yaw0, dt)
 
 
-def numpy_integrate_rollouts(state, traj, start, dt, holonomic):
-    """``optimizer.integrate_rollouts`` with NumPy: float32 cumulative sums, NumPy's cos and sin."""
-    vx, vy, wz = state
-    yaw = start[2] + np.cumsum(wz * dt, axis=-1)
-    c, s = np.empty_like(yaw), np.empty_like(yaw)
-    c[..., 0], s[..., 0] = start[3], start[4]
-    np.cos(yaw[..., :-1], out=c[..., 1:])
-    np.sin(yaw[..., :-1], out=s[..., 1:])
-    dx, dy = vx * c, vx * s
+def numpy_headings(state, traj, yaw0, dt):
+    """``optimizer.headings`` with NumPy: a float32 cumulative sum."""
+    traj[2] = yaw0 + np.cumsum(state[2] * dt, axis=-1)
+
+
+def numpy_positions(state, cos, sin, traj, x0, y0, dt, holonomic):
+    """``optimizer.positions`` with NumPy: float32 cumulative sums."""
+    vx, vy = state[0], state[1]
+    dx, dy = vx * cos, vx * sin
     if holonomic:
-        dx, dy = dx - vy * s, dy + vy * c
-    traj[0] = start[0] + np.cumsum(dx * dt, axis=-1)
-    traj[1] = start[1] + np.cumsum(dy * dt, axis=-1)
-    traj[2] = yaw
+        dx, dy = dx - vy * sin, dy + vy * cos
+    traj[0] = x0 + np.cumsum(dx * dt, axis=-1)
+    traj[1] = y0 + np.cumsum(dy * dt, axis=-1)
 
 
 def numpy_furthest_reached_index(px, py, end_x, end_y):
@@ -172,7 +170,8 @@ def oracle_factories() -> list[tuple[ModuleType, str, Callable[[], Any]]]:
     """Every compiled kernel's factory with one that gives the NumPy oracle instead."""
     rollouts = {
         "clamp_rollouts": numpy_clamp_rollouts,
-        "integrate_rollouts": numpy_integrate_rollouts,
+        "headings": numpy_headings,
+        "positions": numpy_positions,
         "noised_rollouts": numpy_noised_rollouts,
     }
     cost_kernels = {"cells_along": numpy_cells_along, "trajectory_costs": numpy_trajectory_costs}
