@@ -148,7 +148,8 @@ class Optimizer:
         self._fail_count = 0
         self._injected: np.ndarray | None = None
         self._background = setup.background
-        self._next_noises: tuple[Callable[[], None], np.ndarray] | None = None  # (wait, noise) being drawn
+        self._next_noises: Callable[[], None] | None = None  # the wait of the noise being drawn
+        self._buffers: dict[str, np.ndarray] = {}
         self._path_facts: tuple[int | None, np.ndarray | None] = (None, None)
         self.last_cmd: Twist2D = (0.0, 0.0, 0.0)
         self.reset()
@@ -176,20 +177,17 @@ class Optimizer:
 
     def _regenerate_noises(self) -> None:
         """The next noise, drawn now or (with ``setup.background``) beside the caller until it is used."""
-        fresh = np.zeros_like(self.noises)
+        noises = self.noises  # drawn in place: the cycle has used it, the next waits for the draw
         if self._background is None:
-            self._draw_noises(fresh)
-            self.noises = fresh
+            self._draw_noises(noises)
         else:
-            self._next_noises = (self._background(lambda: self._draw_noises(fresh)), fresh)
+            self._next_noises = self._background(lambda: self._draw_noises(noises))
 
     def _await_noises(self) -> None:
-        """Wait for the noise being drawn, if any, and use it (before the generator draws again)."""
+        """Wait for the noise being drawn, if any (before it is used or the generator draws again)."""
         if self._next_noises is not None:
-            wait, fresh = self._next_noises
-            self._next_noises = None
+            wait, self._next_noises = self._next_noises, None
             wait()
-            self.noises = fresh
 
     def set_noises(self, vx: np.ndarray, vy: np.ndarray, wz: np.ndarray) -> None:
         """Use this noise (each (batch, time_steps)) from now on, instead of drawn noise."""
@@ -287,9 +285,7 @@ class Optimizer:
         """(cv, state, trajectories): the noised controls clamped by ``predict``, the state velocities
         (column 0 = speed) and the poses they integrate to, in one compiled pass (``noised_rollouts``)."""
         self._await_noises()
-        cv = np.empty_like(self.noises)
-        state = np.empty_like(self.noises)
-        traj = np.empty_like(self.noises)
+        cv, state, traj = (self._buffer(name, self.noises.shape) for name in ("cv", "state", "traj"))
         axes, ups, downs = self._clamp_limits()
         dt = F32(self.p.model_dt)
         compiled_rollouts()["noised_rollouts"](
@@ -300,13 +296,20 @@ class Optimizer:
             self._regenerate_noises()
         return cv, state, traj
 
+    def _buffer(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        """A float32 array kept from cycle to cycle (its contents overwritten by each): no fresh pages a cycle."""
+        buf = self._buffers.get(name)
+        if buf is None or buf.shape != shape:
+            buf = self._buffers[name] = np.empty(shape, dtype=F32)
+        return buf
+
     def _speed(self, speed: Twist2D) -> np.ndarray:
         return np.array([speed[0], speed[1] if self.holonomic else 0.0, speed[2]], dtype=F32)
 
     def _positions(self, pose: Pose2D, state: np.ndarray, traj: np.ndarray) -> None:
         """x, y of the rollouts (``traj[0:2]``) from their velocities and yaw (``traj[2]``): step j moves along
         the yaw of step j-1 (step 0 along the robot's), the cos and sin by NumPy (vectorised), float32."""
-        cos, sin = np.empty_like(traj[2]), np.empty_like(traj[2])
+        cos, sin = self._buffer("cos", traj[2].shape), self._buffer("sin", traj[2].shape)
         cos[:, 0], sin[:, 0] = math.cos(pose[2]), math.sin(pose[2])
         np.cos(traj[2, :, :-1], out=cos[:, 1:])
         np.sin(traj[2, :, :-1], out=sin[:, 1:])

@@ -73,8 +73,8 @@ def _data(o: Optimizer, pose=POSE) -> CriticData:
 @pytest.mark.parametrize("model", ["DiffDrive", "Omni"])
 def test_rollout_kernel_against_the_numpy_oracle(model, monkeypatch):
     o = _optimizer(model)
-    noises = o.noises
-    cv, state, traj = o._noised_controls(POSE, SPEED)
+    noises = o.noises.copy()  # regenerated in place by the call
+    cv, state, traj = (a.copy() for a in o._noised_controls(POSE, SPEED))  # the optimizer reuses its buffers
     _use_oracles(monkeypatch)
     o.noises = noises
     oracle_cv, oracle_state, oracle_traj = o._noised_controls(POSE, SPEED)
