@@ -12,7 +12,7 @@ from navlog.errors import ConfigError
 from navlog.replay.nav2 import load_nav2_params
 from navlog.replay.nav2.controllers.base import ControllerSetup
 from navlog.replay.nav2.controllers.mppi.optimizer import Optimizer
-from navlog.replay.workers.background import in_thread
+from navlog.replay.workers.background import SerialThread
 from tests.replay.nav2.controllers.mppi.oracles import numpy_clamp_rollouts
 from tests.replay.nav2.controllers.mppi.unit_setup import JAZZY_ARTICLE, make_optimizer, nav2_test_costmap
 
@@ -141,7 +141,7 @@ def test_noise_drawn_beside_the_cycle_gives_the_same_commands():
     )
     path = np.column_stack([np.arange(0.0, 2.0, 0.05), np.zeros(40), np.zeros(40)])
     runs = []
-    for background in (None, in_thread):
+    for background in (None, SerialThread()):
         o = Optimizer(params, ControllerSetup(controller_frequency=30.0, seed=9, background=background), [])
         cmds = [o.eval_control((0.0, 0.0, 0.0), (0.2, 0.0, 0.1), path, (2.0, 0.0), nav2_test_costmap())]
         o.reset()  # a reset draws again, after the noise being drawn
