@@ -16,11 +16,13 @@ import navlog.replay.nav2.controllers.mppi.critic_data as critic_data
 import navlog.replay.nav2.controllers.mppi.critics.constraint as constraint
 import navlog.replay.nav2.controllers.mppi.critics.cost as cost
 import navlog.replay.nav2.controllers.mppi.critics.goal as goal
+import navlog.replay.nav2.controllers.mppi.critics.goal_angle as goal_angle
 import navlog.replay.nav2.controllers.mppi.critics.path_align as path_align
 import navlog.replay.nav2.controllers.mppi.critics.prefer_forward as prefer_forward
 import navlog.replay.nav2.controllers.mppi.critics.twirling as twirling
 import navlog.replay.nav2.controllers.mppi.critics.velocity_deadband as velocity_deadband
 import navlog.replay.nav2.controllers.mppi.optimizer as optimizer
+from navlog.replay.geometry import shortest_angular_distances
 
 
 def numpy_clamp_rollouts(cv, state, axes, ups, downs):
@@ -136,6 +138,14 @@ def numpy_goal_distances(x, y, gx, gy, out):
     out[:] = np.sqrt(dx * dx + dy * dy).mean(axis=1)
 
 
+def numpy_heading_errors(yaw, goal_yaw, flipped, symmetric, out):
+    """``goal_angle.heading_errors`` with NumPy (``geometry.shortest_angular_distances``)."""
+    d = np.abs(shortest_angular_distances(yaw, goal_yaw))
+    if symmetric:
+        d = np.minimum(d, np.abs(shortest_angular_distances(yaw, flipped)))
+    out[:] = d.mean(axis=1)
+
+
 def numpy_reverse_speeds(vx, dt, out):
     """``prefer_forward.reverse_speeds`` with NumPy."""
     out[:] = (np.maximum(-vx.astype(np.float64), 0.0) * dt).sum(axis=1)
@@ -181,6 +191,7 @@ def oracle_factories() -> list[tuple[ModuleType, str, Callable[[], Any]]]:
         (cost, "compiled_cost_kernels", lambda: cost_kernels),
         (path_align, "compiled_aligned_distances", lambda: numpy_aligned_distances),
         (goal, "compiled_goal_distances", lambda: numpy_goal_distances),
+        (goal_angle, "compiled_heading_errors", lambda: numpy_heading_errors),
         (prefer_forward, "compiled_reverse_speeds", lambda: numpy_reverse_speeds),
         (twirling, "compiled_mean_turn_rates", lambda: numpy_mean_turn_rates),
         (velocity_deadband, "compiled_deadband_speeds", lambda: numpy_deadband_speeds),

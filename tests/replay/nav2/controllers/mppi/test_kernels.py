@@ -105,6 +105,8 @@ CASES = [
     ("PathAlignCritic", "DiffDrive", {"offset_from_furthest": 2}, POSE),
     ("PathAlignCritic", "DiffDrive", {"offset_from_furthest": 2, "use_path_orientations": True}, POSE),
     ("GoalCritic", "DiffDrive", {}, (2.0, 0.5, 0.0)),
+    ("GoalAngleCritic", "DiffDrive", {}, (2.1, 0.5, 0.0)),
+    ("GoalAngleCritic", "DiffDrive", {"symmetric_yaw_tolerance": True}, (2.1, 0.5, 0.0)),
     ("PreferForwardCritic", "DiffDrive", {}, POSE),
     ("TwirlingCritic", "DiffDrive", {}, POSE),
     ("VelocityDeadbandCritic", "Omni", {"deadband_velocities": (0.05, 0.05, 0.07)}, POSE),
