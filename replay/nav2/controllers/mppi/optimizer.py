@@ -15,9 +15,12 @@
    command.
 
 Noise comes from ``np.random.default_rng(setup.seed)`` only: the same seed, plan, poses and costmaps
-give the same commands bit for bit. The batch's arrays are float32 as Nav2's, shaped (batch,
-time_steps), and NumPy vectorised over the batch; the sequential clamp of ``predict`` runs as a
-numba kernel (``clamp_rollouts``, compiled on first use and cached on disk).
+give the same commands bit for bit. With ``setup.background`` (a runner of the execution layer) the
+next cycle's noise is drawn beside the caller once a cycle has used the last: the same draws in the
+same order, waited for before use. The batch's arrays are float32 as Nav2's, shaped (batch,
+time_steps), kept from cycle to cycle. One round's rollouts run as numba kernels (compiled on first
+use, cached on disk): ``noised_rollouts`` (noised controls, ``predict``'s clamp, the yaws), then the
+cos and sin of the yaws by NumPy and ``positions``; ``predict`` and ``integrate`` run the same kernels.
 """
 
 from __future__ import annotations
@@ -38,20 +41,30 @@ from navlog.replay.nav2.controllers.mppi.params import MPPIParams
 from navlog.replay.nav2.costmap.grid import CostmapGrid
 
 F32 = np.float32  # the batch's arrays are float32, as Nav2's
+LANES = 16  # rollouts clamped side by side (``_clamp_rows``)
 SAVITZKY_GOLAY = np.array([-21.0, 14.0, 39.0, 54.0, 59.0, 54.0, 39.0, 14.0, -21.0]) / 231.0
 
 
-def _clamp_row(cv, state, a, i, up, down):
-    """One rollout's axis ``a`` clamped from column 0 of ``state`` on (see ``clamp_rollouts``)."""
-    last = float(state[a, i, 0])
-    for j in range(1, cv.shape[2]):
-        if a == 2 or last > 0:
-            lo, hi = last + down, last + up
-        else:
-            lo, hi = last - up, last - down
-        cv[a, i, j - 1] = min(max(float(cv[a, i, j - 1]), lo), hi)
-        last = float(cv[a, i, j - 1])
-        state[a, i, j] = cv[a, i, j - 1]
+def _clamp_rows(cv, state, a, up, down):
+    """Axis ``a`` of every rollout clamped from column 0 of ``state`` on (see ``clamp_rollouts``), ``LANES``
+    rollouts side by side so that their step-after-step chains overlap in the CPU (3x faster than one
+    rollout after the other; the same operations on each value)."""
+    nb, nt = cv.shape[1], cv.shape[2]
+    last = np.empty(LANES)
+    for i0 in range(0, nb, LANES):
+        n = min(LANES, nb - i0)
+        for k in range(n):
+            last[k] = float(state[a, i0 + k, 0])
+        for j in range(1, nt):
+            for k in range(n):
+                i, before = i0 + k, last[k]
+                if a == 2 or before > 0:
+                    lo, hi = before + down, before + up
+                else:
+                    lo, hi = before - up, before - down
+                cv[a, i, j - 1] = min(max(float(cv[a, i, j - 1]), lo), hi)
+                state[a, i, j] = cv[a, i, j - 1]
+                last[k] = float(cv[a, i, j - 1])
 
 
 def _heading_row(state, traj, i, yaw0, dt):
@@ -86,8 +99,7 @@ def clamp_rollouts(cv, state, axes, ups, downs):
     takes the clamped controls one step later."""
     for k in range(axes.shape[0]):
         a = axes[k]
-        for i in range(cv.shape[1]):
-            _clamp_row(cv, state, a, i, ups[a], downs[a])
+        _clamp_rows(cv, state, a, ups[a], downs[a])
 
 
 def headings(state, traj, yaw0, dt):
@@ -97,27 +109,27 @@ def headings(state, traj, yaw0, dt):
 
 
 def noised_rollouts(u, noises, speed, axes, ups, downs, yaw0, dt, cv, state, traj):
-    """One optimizer round's batch, to be compiled, one rollout at a time: the noised controls
-    ``cv = u + noises``, clamped by the motion model from ``speed`` (``state``: column 0 the speed, then
-    the clamped controls; an axis not clamped stays 0), and the rollout's yaw ``traj[2]``."""
+    """One optimizer round's batch, to be compiled: the noised controls ``cv = u + noises``, clamped by
+    the motion model from ``speed`` (``state``: column 0 the speed, then the clamped controls; an axis not
+    clamped stays 0), and the rollouts' yaw ``traj[2]``."""
     nb, nt = noises.shape[1], noises.shape[2]
-    for i in range(nb):
-        for a in range(3):
+    for a in range(3):
+        for i in range(nb):
             for j in range(nt):
                 cv[a, i, j] = u[a, j] + noises[a, i, j]
                 state[a, i, j] = 0.0
             state[a, i, 0] = speed[a]
-        for k in range(axes.shape[0]):
-            a = axes[k]
-            _clamp_row(cv, state, a, i, ups[a], downs[a])
-        _heading_row(state, traj, i, yaw0, dt)
+    clamp_rollouts(cv, state, axes, ups, downs)
+    headings(state, traj, yaw0, dt)
 
 
 @functools.cache
 def compiled_rollouts() -> dict[str, Callable[..., None]]:
     """``clamp_rollouts``, ``headings``, ``positions`` and ``noised_rollouts`` compiled by numba (on first
     use; cached on disk); one arithmetic path per rollout."""
-    return compile_together(globals(), (_clamp_row, _heading_row, clamp_rollouts, headings, positions, noised_rollouts))
+    return compile_together(
+        globals(), (_clamp_rows, _heading_row, clamp_rollouts, headings, positions, noised_rollouts)
+    )
 
 
 class Optimizer:
