@@ -2,14 +2,15 @@
 
 Runs the Jazzy bringup's MPPI (its critics and weights; ``batch_size`` set per run) on a 3 x 3 m
 local costmap at 0.05 m with an inflated box beside a straight plan, robot and plan fixed, and
-prints per configuration the median cycle time of N cycles (after 3 warm-up cycles), its ratio to
-the 50 ms period, the cycle's share per stage (noise + predict + integrate, critics, update), and
-the load average, and the same with ``predict``'s clamp in NumPy (the tests' oracle,
-``tests/replay/nav2/controllers/mppi/oracles.py``) instead of its numba kernel (the ratio of the
-two, measured in the same run). One process, one thread each (set OMP/BLAS threads to 1 before NumPy loads);
-nothing is asserted.
+prints per configuration the median cycle CPU time of N cycles (after 3 warm-up cycles), its ratio to
+the 50 ms period, the cycle's share per stage (noise, rollouts: noised controls + predict + integrate,
+critics, update), and the load average, alternately with the numba kernels and with their NumPy
+forms (the tests' oracles, ``tests/replay/nav2/controllers/mppi/oracles.py``: the arithmetic of the
+code before the kernels), ``--rounds`` times, and the ratio of the medians. One process, one thread
+each (set OMP/BLAS threads to 1 before NumPy loads); the noise is drawn in the cycle (no background
+runner); nothing is asserted.
 
-    .venv/bin/python benchmarks/bench_mppi.py [--batch 1000 2000] [--cycles 40] [--shared DIR]
+    .venv/bin/python benchmarks/bench_mppi.py [--batch 1000 2000] [--cycles 40] [--rounds 2] [--shared DIR]
 
 The bringup file is read from the external data folder (``--shared``; default ``$NAVLOG_SHARED_DIR``,
 else ``shared`` beside the repository), else the copy of the article's file under tests/.
@@ -32,7 +33,6 @@ from pathlib import Path
 
 import numpy as np
 
-import navlog.replay.nav2.controllers.mppi.optimizer as optimizer_module
 from navlog.replay.nav2 import load_nav2_params
 from navlog.replay.nav2.controllers.base import ControlContext, ControllerSetup
 from navlog.replay.nav2.controllers.mppi import MPPIController, MPPIParams
@@ -40,7 +40,7 @@ from navlog.replay.nav2.costmap.grid import CostmapGrid, CostmapParams
 from navlog.replay.nav2.costmap.inflation_layer import inflation_costs
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data, the oracle
-from tests.replay.nav2.controllers.mppi.oracles import numpy_clamp_rollouts
+from tests.replay.nav2.controllers.mppi.oracles import oracle_factories
 from tests.shared_data import REPO, default_shared_dir
 
 BRINGUP = Path("external-data") / "params" / "nav2_bringup_jazzy_nav2_params.yaml"  # inside the shared folder
@@ -76,22 +76,21 @@ def measure(base: MPPIParams, batch: int, cycles: int) -> tuple[float, dict[str,
     ctl.set_plan(np.column_stack([np.arange(-1.0, 1.5, 0.05), np.zeros(50), np.zeros(50)]))
     ctx = ControlContext(0, _costmap(), np.eye(3), _Tolerance())
     opt = ctl.optimizer
-    stages = {"rollouts": 0.0, "critics": 0.0, "update": 0.0}
-    real_noised, real_update = opt._noised_controls, opt._update_control_sequence
+    stages = {"noise": 0.0, "rollouts": 0.0, "critics": 0.0, "update": 0.0}
+    real_noised, real_update, real_draw = opt._noised_controls, opt._update_control_sequence, opt._draw_noises
     critic_scores = [c.score for c in ctl.critics]
 
     def timed(fn, stage):
         def run(*a):
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             out = fn(*a)
-            stages[stage] += time.perf_counter() - t0
+            stages[stage] += time.process_time() - t0
             return out
 
         return run
 
+    opt._draw_noises = timed(real_draw, "noise")  # type: ignore[method-assign]
     opt._noised_controls = timed(real_noised, "rollouts")  # type: ignore[method-assign]
-    real_integrate = opt.integrate
-    opt.integrate = timed(real_integrate, "rollouts")  # type: ignore[method-assign]
     opt._update_control_sequence = timed(real_update, "update")  # type: ignore[method-assign]
     for c, score in zip(ctl.critics, critic_scores, strict=True):
         c.score = timed(score, "critics")  # type: ignore[method-assign]
@@ -99,36 +98,55 @@ def measure(base: MPPIParams, batch: int, cycles: int) -> tuple[float, dict[str,
     for i in range(cycles + 3):
         if i == 3:
             stages = dict.fromkeys(stages, 0.0)
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         ctl.compute_velocity_commands((0.0, 0.0, 0.0), (0.2, 0.0, 0.0), ctx)
         if i >= 3:
-            times.append(time.perf_counter() - t0)
+            times.append(time.process_time() - t0)
     total = sum(times)
+    stages["rollouts"] -= stages["noise"]  # the noise is drawn inside the rollouts' call
     return statistics.median(times), {k: v / total for k, v in stages.items()}
+
+
+def with_oracles(run):
+    """``run()`` with every MPPI kernel's factory giving its NumPy oracle instead."""
+    saved = [(module, name, getattr(module, name)) for module, name, _ in oracle_factories()]
+    for module, name, factory in oracle_factories():
+        setattr(module, name, factory)
+    try:
+        return run()
+    finally:
+        for module, name, original in saved:
+            setattr(module, name, original)
 
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--batch", type=int, nargs="+", default=[1000, 2000])
     ap.add_argument("--cycles", type=int, default=40)
+    ap.add_argument("--rounds", type=int, default=2, help="alternations of kernels and NumPy")
     ap.add_argument("--shared", type=Path, default=default_shared_dir(), help="the external data folder")
     args = ap.parse_args()
     base = _params(args.shared)
     print(f"MPPI cycle, time_steps 56, model_dt 0.05, bringup critics  (load average {os.getloadavg()[0]:.2f})")
-    compiled = optimizer_module.compiled_clamp_rollouts
     for batch in args.batch:
-        median, share = measure(base, batch, args.cycles)
-        parts = ", ".join(f"{k} {v:.0%}" for k, v in share.items())
-        print(
-            f"batch {batch:5d} x 56: median {median * 1000:6.1f} ms of {args.cycles} cycles, "
-            f"{median / BUDGET:.2f} of the 50 ms budget ({parts})  (load average {os.getloadavg()[0]:.2f})"
-        )
-        optimizer_module.compiled_clamp_rollouts = lambda: numpy_clamp_rollouts  # the same cycle, the clamp in NumPy
-        try:
-            plain, _ = measure(base, batch, args.cycles)
-        finally:
-            optimizer_module.compiled_clamp_rollouts = compiled
-        print(f"      NumPy predict: median {plain * 1000:6.1f} ms; numba kernel / NumPy = {median / plain:.2f}")
+        kernels, plain = [], []
+        for _ in range(args.rounds):
+            median, share = measure(base, batch, args.cycles)
+            kernels.append(median)
+            parts = ", ".join(f"{k} {v:.0%}" for k, v in share.items())
+            print(
+                f"batch {batch:5d} x 56, numba: median {median * 1000:6.1f} ms of {args.cycles} cycles, "
+                f"{median / BUDGET:.2f} of the 50 ms budget ({parts})  (load average {os.getloadavg()[0]:.2f})"
+            )
+            median, share = with_oracles(lambda: measure(base, batch, args.cycles))
+            plain.append(median)
+            parts = ", ".join(f"{k} {v:.0%}" for k, v in share.items())
+            print(
+                f"batch {batch:5d} x 56, NumPy: median {median * 1000:6.1f} ms ({parts})  "
+                f"(load average {os.getloadavg()[0]:.2f})"
+            )
+        k, p = statistics.median(kernels), statistics.median(plain)
+        print(f"batch {batch:5d} x 56: numba {k * 1000:.1f} ms, NumPy {p * 1000:.1f} ms, NumPy / numba = {p / k:.2f}")
     return 0
 
 

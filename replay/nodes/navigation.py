@@ -62,6 +62,7 @@ from navlog.replay.nodes.planner import path_msg
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TransformError
+from navlog.replay.workers.background import SerialThread
 
 __all__ = ["GoalResult", "NavGoal", "NavigationNode", "NavigationStack"]
 
@@ -142,6 +143,7 @@ class NavigationNode(Node):
             seed=seed,
             footprint=np.asarray(lcm.footprint, dtype=float).reshape(-1, 2),
             robot_radius=local_node.params.robot_radius,
+            background=SerialThread(),  # MPPI draws the next cycle's noise beside the node
         )
         self.server = ControllerServer(self.cparams, setup, controller_id=CONTROLLER_ID)
         self.has_goal_list = bool(goals)

@@ -13,7 +13,8 @@ child process or a thread and gives back the same bits in the same order:
 - ``grid``: ``GridWorker``, the occupancy grid's scan updates in a child process;
 - ``odometry``: ``OdometryFrames``, the 3D odometry's frames completed here or ahead in a child process
   (``OdometryWorker``, the child's side);
-- ``background``: ``in_thread``, pure work (the 3D global map's batches) in a thread beside the caller.
+- ``background``: ``in_thread``, pure work (the 3D global map's batches) in a thread beside the caller;
+  ``SerialThread``, calls given often (MPPI's next noise) run in order in one thread.
 
 Every worker has the same shape: made to run offloaded (or, where it can, in this process: one CPU,
 no child could start), its calls return at once where no answer is needed, the calls that need one
@@ -29,13 +30,13 @@ from typing import TYPE_CHECKING
 from navlog.replay import lazy_exports
 
 if TYPE_CHECKING:
-    from navlog.replay.workers.background import in_thread
+    from navlog.replay.workers.background import SerialThread, in_thread
     from navlog.replay.workers.child import ChildProcess
     from navlog.replay.workers.grid import GridWorker
     from navlog.replay.workers.odometry import OdometryFrames, OdometryWorker
     from navlog.replay.workers.ring import RingProcess
 
-__all__ = ["ChildProcess", "GridWorker", "OdometryFrames", "OdometryWorker", "RingProcess", "in_thread"]
+__all__ = ["ChildProcess", "GridWorker", "OdometryFrames", "OdometryWorker", "RingProcess", "SerialThread", "in_thread"]
 
 _MODULES = {
     "ChildProcess": "child",
@@ -43,6 +44,7 @@ _MODULES = {
     "OdometryFrames": "odometry",
     "OdometryWorker": "odometry",
     "RingProcess": "ring",
+    "SerialThread": "background",
     "in_thread": "background",
 }
 __getattr__, __dir__ = lazy_exports(__name__, _MODULES)

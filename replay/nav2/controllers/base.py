@@ -20,6 +20,7 @@ after the server's ``min_*_velocity_threshold``. All of it is pure computation o
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -65,6 +66,9 @@ class ControllerSetup:
     seed: int = 0  # the run's seed: a controller that samples noise draws it from here
     footprint: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))  # (K, 2) robot frame; empty: circular
     robot_radius: float = 0.1  # used when ``footprint`` is empty
+    # where a controller may run work beside its cycle (a ``navlog.replay.mapping.background.Background``:
+    # takes a call, returns its wait); None: at once, in the caller
+    background: Callable[[Callable[[], None]], Callable[[], None]] | None = None
 
 
 @dataclass

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from navlog.replay.compiled import compile_together
 from navlog.replay.nav2.controllers.base import Pose2D
 from navlog.replay.nav2.costmap.cost_values import INSCRIBED, LETHAL, NO_INFORMATION
 from navlog.replay.nav2.costmap.grid import CostmapGrid
@@ -19,6 +22,27 @@ def costs_at(cm: CostmapGrid, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray,
     mx = np.where(inside, fx, 0).astype(np.int64)
     my = np.where(inside, fy, 0).astype(np.int64)
     return np.where(inside, cm.costs[my, mx], NO_INFORMATION), inside
+
+
+def furthest_reached_index(px, py, end_x, end_y):
+    """Nav2's ``findPathFurthestReachedPoint``, to be compiled: per trajectory in order, the first path
+    index nearest its end point (squared distance in float64) searched from the previous answer."""
+    r = 0
+    for i in range(end_x.shape[0]):
+        ex, ey = float(end_x[i]), float(end_y[i])
+        best, at = np.inf, r
+        for j in range(r, px.shape[0]):
+            d = (px[j] - ex) ** 2 + (py[j] - ey) ** 2
+            if d < best:
+                best, at = d, j
+        r = at
+    return r
+
+
+@functools.cache
+def compiled_furthest_reached_index() -> Callable[..., int]:
+    """``furthest_reached_index`` compiled by numba (on first use; cached on disk)."""
+    return compile_together(globals(), (furthest_reached_index,))["furthest_reached_index"]
 
 
 @dataclass
@@ -61,18 +85,8 @@ class CriticData:
         """Nav2's ``findPathFurthestReachedPoint``: per trajectory (in order), the path index nearest its
         last point searched from the running maximum; the maximum over the batch."""
         if self.furthest is None:
-            d = (self.path[None, :, 0] - self.x[:, -1:]) ** 2 + (self.path[None, :, 1] - self.y[:, -1:]) ** 2
-            n = d.shape[1]
-            # nearest[i, r]: first index of the minimum of d[i, r:] (a suffix minimum and the next index holding it)
-            suffix_min = np.minimum.accumulate(d[:, ::-1], axis=1)[:, ::-1]
-            holds = np.where(d == suffix_min, np.arange(n), n)
-            nearest = np.minimum.accumulate(holds[:, ::-1], axis=1)[:, ::-1]
-            # r_i = nearest[i, r_(i-1)] from r = 0: compose the rows pairwise (the earlier row applied first)
-            while len(nearest) > 1:
-                if len(nearest) % 2:
-                    nearest = np.vstack([nearest, np.arange(n)])
-                nearest = np.take_along_axis(nearest[1::2], nearest[0::2], axis=1)
-            self.furthest = int(nearest[0, 0])
+            path = np.ascontiguousarray(self.path[:, :2], dtype=np.float64).T
+            self.furthest = int(compiled_furthest_reached_index()(path[0], path[1], self.x[:, -1], self.y[:, -1]))
         return self.furthest
 
     def path_points_valid(self) -> np.ndarray:

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from navlog.replay.geometry import shortest_angular_distances
+from navlog.replay.compiled import compile_together
 from navlog.replay.nav2.controllers.mppi.critics.base import Critic, CriticParams
 from navlog.replay.nav2.schema import param
 
@@ -23,6 +25,31 @@ class GoalAngleCriticParams(CriticParams):
     symmetric_yaw_tolerance: bool = False
 
 
+def _wrapped(d):
+    """``d`` wrapped to [-pi, pi) as Nav2's MPPI does it (``fmod(d + pi, 2 pi)`` shifted by pi)."""
+    t = np.fmod(d + math.pi, 2.0 * math.pi)
+    return t + math.pi if t < 0.0 else t - math.pi
+
+
+def heading_errors(yaw, goal_yaw, flipped, symmetric, out):
+    """Each trajectory's mean |heading error| to ``goal_yaw`` (``out``, float64), to be compiled; with
+    ``symmetric`` the smaller of it and the error to ``flipped`` (the goal's yaw turned by pi)."""
+    for i in range(yaw.shape[0]):
+        total = 0.0
+        for j in range(yaw.shape[1]):
+            e = abs(_wrapped(goal_yaw - float(yaw[i, j])))
+            if symmetric:
+                e = min(e, abs(_wrapped(flipped - float(yaw[i, j]))))
+            total += e
+        out[i] = total / yaw.shape[1]
+
+
+@functools.cache
+def compiled_heading_errors() -> Callable[..., None]:
+    """``heading_errors`` compiled by numba (on first use; cached on disk)."""
+    return compile_together(globals(), (_wrapped, heading_errors))["heading_errors"]
+
+
 class GoalAngleCritic(Critic[GoalAngleCriticParams]):
     """Mean heading error to the path's last yaw, once the robot is within threshold_to_consider."""
 
@@ -31,8 +58,7 @@ class GoalAngleCritic(Critic[GoalAngleCriticParams]):
         if not data.robot_near_goal(p.threshold_to_consider):
             return
         goal_yaw = float(data.path[-1, 2])
-        d = np.abs(shortest_angular_distances(data.yaw, goal_yaw))
-        if p.symmetric_yaw_tolerance:
-            flipped = math.remainder(goal_yaw + math.pi, 2 * math.pi)
-            d = np.minimum(d, np.abs(shortest_angular_distances(data.yaw, flipped)))
-        self.add(data, d.mean(axis=1))
+        flipped = math.remainder(goal_yaw + math.pi, 2 * math.pi)
+        out = np.empty(data.yaw.shape[0])
+        compiled_heading_errors()(data.yaw, goal_yaw, flipped, p.symmetric_yaw_tolerance, out)
+        self.add(data, out)

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import functools
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from navlog.replay.geometry import shortest_angular_distances
+from navlog.replay.compiled import compile_together
 from navlog.replay.nav2.controllers.mppi.critics.base import Critic, CriticParams
 from navlog.replay.nav2.schema import param
 
@@ -23,6 +26,46 @@ class PathAlignCriticParams(CriticParams):
     trajectory_point_step: int = param(4, ge=1)
     threshold_to_consider: float = param(0.5, ge=0.0)
     use_path_orientations: bool = False
+
+
+def aligned_distances(x, y, yaw, step, path, along, valid, use_orientations, out):
+    """Each trajectory's mean distance to the path (``out``, float64), to be compiled. Every ``step``-th
+    pose after the first is matched to the path point nearest its integrated length (float32 running
+    sum, as Nav2) among ``along`` (the path's, float64), searched on from the previous match (Nav2's
+    ``findClosestPathPt``); points matched to an invalid path point are left out; no point left: 0."""
+    last = along.shape[0] - 1
+    for i in range(x.shape[0]):
+        length = x[i, 0] - x[i, 0]  # float32 zero
+        nearest, upper, samples, total = 0, 0, 0, 0.0
+        for k in range(step, x.shape[1], step):
+            sx, sy = x[i, k] - x[i, k - step], y[i, k] - y[i, k - step]  # float32
+            length += np.float32(math.sqrt(sx * sx + sy * sy))
+            t = float(length)
+            while upper <= last and along[upper] <= t:  # the first path length beyond t
+                upper += 1
+            if upper > last:
+                here = last
+            else:
+                before = along[max(upper - 1, 0)]
+                here = upper - 1 if t - before < along[upper] - t else upper
+            nearest = max(nearest, here)
+            if not valid[nearest]:
+                continue
+            dx, dy = path[nearest, 0] - float(x[i, k]), path[nearest, 1] - float(y[i, k])
+            d2 = dx * dx + dy * dy
+            if use_orientations:
+                turn = np.fmod(float(yaw[i, k]) - path[nearest, 2] + math.pi, 2.0 * math.pi)
+                turn = turn + math.pi if turn < 0.0 else turn - math.pi
+                d2 += turn * turn
+            samples += 1
+            total += math.sqrt(d2)
+        out[i] = total / samples if samples > 0 else 0.0
+
+
+@functools.cache
+def compiled_aligned_distances() -> Callable[..., None]:
+    """``aligned_distances`` compiled by numba (on first use; cached on disk)."""
+    return compile_together(globals(), (aligned_distances,))["aligned_distances"]
 
 
 class PathAlignCritic(Critic[PathAlignCriticParams]):
@@ -43,23 +86,8 @@ class PathAlignCritic(Critic[PathAlignCriticParams]):
         path = data.path[:count]
         seg = np.hypot(np.diff(path[:, 0]), np.diff(path[:, 1]))
         along = np.concatenate([[0.0], np.cumsum(seg)])
-        step = p.trajectory_point_step
-        tx, ty, tyaw = data.x[:, ::step], data.y[:, ::step], data.yaw[:, ::step]
-        traj_len = np.cumsum(np.hypot(np.diff(tx, axis=1), np.diff(ty, axis=1)), axis=1)
-        # Nav2's findClosestPathPt, searched from the previous answer: the running maximum of the global one
-        i = np.searchsorted(along, traj_len, side="right")
-        last = len(along) - 1
-        ic = np.minimum(i, last)
-        prev = along[np.maximum(ic - 1, 0)]
-        nearest = np.where(i > last, last, np.where(traj_len - prev < along[ic] - traj_len, ic - 1, ic))
-        nearest = np.maximum.accumulate(nearest, axis=1)
-        ok = valid[nearest]
-        dx, dy = path[nearest, 0] - tx[:, 1:], path[nearest, 1] - ty[:, 1:]
-        if p.use_path_orientations:
-            dyaw = shortest_angular_distances(path[nearest, 2], tyaw[:, 1:])
-            dist = np.sqrt(dx * dx + dy * dy + dyaw * dyaw)
-        else:
-            dist = np.sqrt(dx * dx + dy * dy)
-        samples = ok.sum(axis=1)
-        total = np.where(ok, dist, 0.0).sum(axis=1)
-        self.add(data, np.where(samples > 0, total / np.maximum(samples, 1), 0.0))
+        out = np.empty(data.x.shape[0])
+        compiled_aligned_distances()(
+            data.x, data.y, data.yaw, p.trajectory_point_step, path, along, valid, p.use_path_orientations, out
+        )
+        self.add(data, out)

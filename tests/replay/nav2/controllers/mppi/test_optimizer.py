@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-import navlog.replay.nav2.controllers.mppi.optimizer as optimizer_module
 from navlog.errors import ConfigError
 from navlog.replay.nav2 import load_nav2_params
 from navlog.replay.nav2.controllers.base import ControllerSetup
 from navlog.replay.nav2.controllers.mppi.optimizer import Optimizer
+from navlog.replay.workers.background import SerialThread
 from tests.replay.nav2.controllers.mppi.oracles import numpy_clamp_rollouts
 from tests.replay.nav2.controllers.mppi.unit_setup import JAZZY_ARTICLE, make_optimizer, nav2_test_costmap
 
@@ -72,7 +72,7 @@ def test_predict_clamps_to_the_acceleration_limits():
 
 
 @pytest.mark.parametrize("model", ["DiffDrive", "Omni"])
-def test_predict_kernel_gives_the_numpy_oracle_bits(model, monkeypatch):
+def test_predict_kernel_gives_the_numpy_oracle_bits(model):
     # the noised controls of real cycles: the seed-001 file's optimizer after two cycles on a straight plan
     params = dataclasses.replace(
         load_nav2_params(JAZZY_ARTICLE).controller_server.controllers["FollowPath"],
@@ -89,8 +89,9 @@ def test_predict_kernel_gives_the_numpy_oracle_bits(model, monkeypatch):
     compiled_cv = noised.copy()
     compiled_state = o.predict(compiled_cv, speed)
     oracle_cv = noised.copy()
-    monkeypatch.setattr(optimizer_module, "compiled_clamp_rollouts", lambda: numpy_clamp_rollouts)
-    oracle_state = o.predict(oracle_cv, speed)
+    oracle_state = np.zeros_like(oracle_cv)
+    oracle_state[:, :, 0] = np.float32([speed[0], speed[1] if model == "Omni" else 0.0, speed[2]])[:, None]
+    numpy_clamp_rollouts(oracle_cv, oracle_state, *o._clamp_limits())
     assert compiled_cv.tobytes() == oracle_cv.tobytes() and compiled_state.tobytes() == oracle_state.tobytes()
     assert not np.array_equal(compiled_cv, noised)  # the clamp bit
     dt = params.model_dt
@@ -128,3 +129,26 @@ def test_controller_frequency_rule():
     assert not make_optimizer(freq=30.0).shift  # period below model_dt: no shift
     with pytest.raises(ConfigError, match="controller_frequency to 20 Hz"):
         make_optimizer(freq=10.0)
+
+
+def test_noise_drawn_beside_the_cycle_gives_the_same_commands():
+    # regenerate_noises: the next cycle's noise drawn in a thread (the navigation node's runner) or at once
+    params = dataclasses.replace(
+        load_nav2_params(JAZZY_ARTICLE).controller_server.controllers["FollowPath"],
+        batch_size=200,
+        regenerate_noises=True,
+        retry_attempt_limit=1,
+    )
+    path = np.column_stack([np.arange(0.0, 2.0, 0.05), np.zeros(40), np.zeros(40)])
+    runs = []
+    for background in (None, SerialThread()):
+        o = Optimizer(params, ControllerSetup(controller_frequency=30.0, seed=9, background=background), [])
+        cmds = [o.eval_control((0.0, 0.0, 0.0), (0.2, 0.0, 0.1), path, (2.0, 0.0), nav2_test_costmap())]
+        o.reset()  # a reset draws again, after the noise being drawn
+        cmds += [
+            o.eval_control((0.1, 0.0, 0.0), (0.2, 0.0, 0.0), path, (2.0, 0.0), nav2_test_costmap()) for _ in range(3)
+        ]
+        o._await_noises()  # the last draw ended: the generators stand at the same place
+        runs.append((cmds, o.u.tobytes(), o.noises.tobytes(), o.rng.bit_generator.state["state"]["state"]))
+    assert runs[0] == runs[1]
+    assert len(set(runs[0][0])) == 4  # the commands move
