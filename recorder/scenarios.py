@@ -134,6 +134,7 @@ def resolve_files(scenario: ScenarioSpec, folder: Path | None, search_paths: Seq
     def find(value: str) -> str:
         return scenario_file(value, folder, search_paths) if value and value not in MAP_KINDS else value
 
+    search_paths = [Path(p).absolute() for p in search_paths]  # relative to the working folder, not the scenario
     s = scenario
     return replace(
         s,

@@ -43,6 +43,9 @@ def test_scenario_files_found_along_the_package_path(data, monkeypatch):
     assert found.goals == "tb3_sandbox_pillars"  # a name in config/goals stays a name
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(data))
     assert resolve_files(s, None) == found
+    monkeypatch.delenv("ROS_PACKAGE_PATH")
+    monkeypatch.chdir(data.parent)  # a relative --package-path is the working folder's, not the scenario's
+    assert resolve_files(s, None, [data.name]) == found
 
 
 def test_find_package_names_every_folder_searched(tmp_path):
