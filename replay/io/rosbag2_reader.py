@@ -75,9 +75,8 @@ class RosbagLogReader(LogReader):
             return
         store = self.typestore
         try:
-            for conn, t, raw in self._reader.messages(
-                connections=conns, start=start_ns, stop=None if end_ns is None else end_ns + 1
-            ):
+            stream = self._reader.messages(connections=conns, start=start_ns, stop=None if end_ns is None else end_ns + 1)
+            for conn, t, raw in self._in_sequence(stream, _time_of):
                 self.report.read += 1
                 if not decode:
                     yield Envelope(conn.topic, conn.msgtype, t, bytes(raw))
@@ -93,6 +92,10 @@ class RosbagLogReader(LogReader):
 
     def close(self) -> None:
         self._reader.close()
+
+
+def _time_of(item: tuple) -> int:
+    return int(item[1])
 
 
 def bag_files(path: Path) -> list[Path]:
