@@ -16,7 +16,7 @@ the reason, naming the type.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from rosbags.typesys import get_types_from_msg
@@ -107,17 +107,9 @@ class LogTypestore:
         """
         if typename in self.store.types:
             return True
-        if typename in self.refused:
-            return False
-        why = self._too_large(text)
-        if why:
-            self.refused[typename] = f"schema of {typename} refused: {why}"
-            return False
         try:
-            types = types_from_schema(typename, text)
-            cycle = type_cycle(types, typename)
-            if cycle:
-                self.refused[typename] = f"schema of {typename} refused: recursive type ({' holds '.join(cycle)})"
+            types = self.vetted(typename, text, lambda body, name: types_from_schema(name, body))
+            if types is None:
                 return False
             if not self.own:
                 self.store = messages.new_typestore()
@@ -126,6 +118,21 @@ class LogTypestore:
             return typename in self.store.types
         except Exception:
             return False
+
+    def vetted(self, typename: str, text: str, parse: Callable[[str, str], dict[str, Any]]) -> dict[str, Any] | None:
+        """The types ``parse(text, typename)`` defines, or None when the schema is refused (too large, or a
+        type in it contains itself; ``refused`` says why). Parse errors propagate."""
+        if typename in self.refused:
+            return None
+        why = self._too_large(text)
+        types = {} if why else parse(text, typename)
+        cycle = type_cycle(types, typename)
+        if cycle:
+            why = f"recursive type ({' holds '.join(cycle)})"
+        if why:
+            self.refused[typename] = f"schema of {typename} refused: {why}"
+            return None
+        return types
 
     def _too_large(self, text: str) -> str:
         """Why a schema's text is too large to parse (the module docstring), or ''."""
