@@ -18,7 +18,6 @@ from navlog.errors import LogError
 from navlog.replay.io.typestore import LogTypestore
 from navlog.replay.runtime.executor import Envelope
 
-
 # A log time is evidence, not an order: in a stream in log-time order, a message more than this after the
 # one before it is a counted skip (one flipped bit moves a time days ahead, and the replay's timers would
 # run until then). Robot logs do not pause for an hour inside one file; a stream first trusts a run of

@@ -87,7 +87,9 @@ class RosbagLogReader(LogReader):
             return
         store = self.typestore
         try:
-            stream = self._reader.messages(connections=conns, start=start_ns, stop=None if end_ns is None else end_ns + 1)
+            stream = self._reader.messages(
+                connections=conns, start=start_ns, stop=None if end_ns is None else end_ns + 1
+            )
             for conn, t, raw in self._in_sequence(stream, _time_of):
                 self.report.read += 1
                 if not decode:

@@ -70,7 +70,10 @@ def per_chunk(path: Path, i: int) -> list[bytes]:
     with open(path, "rb") as f:
         ci = make_reader(f).get_summary().chunk_indexes[i]
     with open_log(path) as r:
-        return [env.msg for env in r.messages(["/a"], decode=False, start_ns=ci.message_start_time, end_ns=ci.message_end_time)]
+        return [
+            env.msg
+            for env in r.messages(["/a"], decode=False, start_ns=ci.message_start_time, end_ns=ci.message_end_time)
+        ]
 
 
 @pytest.mark.parametrize("compression", [CompressionType.NONE, CompressionType.ZSTD, CompressionType.LZ4])

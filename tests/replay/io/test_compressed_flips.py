@@ -8,7 +8,6 @@ one chunk's compressed bytes (or its frame header); each is replayed in its own 
 from __future__ import annotations
 
 import random
-import resource
 import struct
 import subprocess
 import sys

@@ -28,7 +28,10 @@ STRING_HASH = "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f
 
 @pytest.mark.parametrize(
     ("text", "chain"),
-    [(SELF, "x_msgs/msg/Top holds x_msgs/msg/Top"), (THROUGH, "x_msgs/msg/Top holds x_msgs/msg/Rec holds x_msgs/msg/Top")],
+    [
+        (SELF, "x_msgs/msg/Top holds x_msgs/msg/Top"),
+        (THROUGH, "x_msgs/msg/Top holds x_msgs/msg/Rec holds x_msgs/msg/Top"),
+    ],
 )
 def test_a_type_that_contains_itself_is_refused_naming_the_chain(text, chain):
     types = LogTypestore()
@@ -68,7 +71,9 @@ def crafted_mcap(path: Path, text: str) -> Path:
     with open(path, "wb") as f:
         w = Writer(f)
         w.start(profile="ros2", library="test")
-        good = w.register_channel("/chatter", "cdr", w.register_schema("std_msgs/msg/String", "ros2msg", STRING.encode()))
+        good = w.register_channel(
+            "/chatter", "cdr", w.register_schema("std_msgs/msg/String", "ros2msg", STRING.encode())
+        )
         bad = w.register_channel("/crafted", "cdr", w.register_schema("x_msgs/msg/Top", "ros2msg", text.encode()))
         for k in range(10):
             w.add_message(good, k * 100_000_000, b"\x00\x01\x00\x00\x03\x00\x00\x00hi\x00", k * 100_000_000)
