@@ -67,7 +67,7 @@ class LogReader:
         self.topics: dict[str, TopicInfo] = {}
         self.metadata: dict[str, dict[str, str]] = {}
         self.report = ReadReport()
-        self._types = LogTypestore()
+        self._types: LogTypestore = LogTypestore()
 
     @property
     def typestore(self) -> Any:
