@@ -93,13 +93,13 @@ KINDS: dict[str, int] = {
     "cli-record": 5,
     "cli-replay": 5,
     # log times, chunk claims and CRCs, compressed bit flips, crafted schemas, YAML bombs, two writers
-    "mcap-times": 4,
-    "mcap-claims": 4,
+    "mcap-times": 6,
+    "mcap-claims": 6,
     "mcap-crc": 3,
     "mcap-compressed": 4,
-    "schema-crafted": 4,
+    "schema-crafted": 6,
     "yaml-bomb": 3,
-    "two-writers": 2,
+    "two-writers": 3,
 }
 
 
@@ -654,7 +654,7 @@ def cli_replay(draw: Any, seeds: Seeds) -> dict[str, Any]:
 # in ``MORE_KINDS`` and ``BUILDERS``; a new kind adds its pair there and its weight in ``KINDS``.
 
 LOG_CALLS = ["read", "read", "read-recover", "check", "cli-info", "replay-mapping", "cli-view", "cli-export"]
-TIME_FORMS = ["far-future-one", "far-past-one", "jump-run", "flip-in-file", "flip-in-file-fixed-crc"]
+LOG_TIME_FORMS = ["far-future-one", "far-past-one", "jump-run", "flip-in-file", "flip-in-file-fixed-crc"]
 
 
 @st.composite
@@ -662,7 +662,7 @@ def mcap_times(draw: Any, seeds: Seeds) -> dict[str, Any]:
     """Log times far in the future or the past for one message, a jump for all after one, a log-time bit
     flipped in the file's bytes (its chunk's CRC left stale or recomputed, as a writer that saw it would)."""
     return {
-        "form": draw(st.sampled_from(TIME_FORMS)),
+        "form": draw(st.sampled_from(LOG_TIME_FORMS)),
         "message": draw(INDEX),
         "bit": draw(st.integers(30, 63)),
         "call": draw(st.sampled_from(LOG_CALLS)),

@@ -29,14 +29,15 @@ class RosbagLogReader(LogReader):
         self.format = "rosbag2"
         files = [p for p in path.iterdir() if p.is_file()] if path.is_dir() else [path]
         self.size_bytes = sum(p.stat().st_size for p in files)
+        vetting = LogTypestore()  # the bag's definitions vetted; rosbags builds the store
         try:
             self._reader = AnyReader([path], default_typestore=messages.typestore())
-            with bounded_definitions(self._types):
+            with bounded_definitions(vetting):
                 self._reader.open()
         except Exception as exc:
-            if self._types.refused:  # the bag's type hashes name a type whose definition was refused
+            if vetting.refused:  # the bag's type hashes name a type whose definition was refused
                 raise LogError(
-                    f"{path}: cannot open as a ROS 2 bag: {'; '.join(sorted(self._types.refused.values()))}, and "
+                    f"{path}: cannot open as a ROS 2 bag: {'; '.join(sorted(vetting.refused.values()))}, and "
                     "the bag's type hashes need every definition; re-record it without that type"
                 ) from None
             raise LogError(f"{path}: cannot open as a ROS 2 bag: {exc}") from None
@@ -47,7 +48,7 @@ class RosbagLogReader(LogReader):
         self.compression = self.metadata.get("rosbag2", {}).get("compression_format") or "none"
         try:
             self.start_ns, self.end_ns = self._reader.start_time, self._reader.end_time
-            refused = self._types.refused
+            refused = vetting.refused
             self._types = LogTypestore(self._reader.typestore)
             self._types.refused = refused
             types = self.typestore.types
