@@ -23,6 +23,7 @@ from navlog.replay.io.mcap_chunks import (
     reason,
 )
 from navlog.replay.io.reader import EARLY, LATE
+from navlog.replay.io.recovery import recover_mcap
 
 from .test_mcap_reader import write_mcap
 
@@ -187,3 +188,17 @@ def test_a_short_log_keeps_its_longest_run(tmp_path):
     times = [0, 10, 20, 5 * HOUR, 5 * HOUR + 10]  # never 16 in a row: the longer run is kept
     got, skipped = read(write_mcap(tmp_path / "x.mcap", messages(times)))
     assert skipped == {LATE: 2} and len(got) == 3
+
+
+def test_recover_leaves_a_damaged_chunk_out_instead_of_giving_it_a_valid_crc(tmp_path):
+    path = write_mcap(tmp_path / "x.mcap", messages(), chunk_size=400)
+    lost = per_chunk(path, 3)
+    body, _ = chunk_at(path, 3)
+    data = bytearray(path.read_bytes())
+    data[body + 24] ^= 0x01
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(bytes(data[: len(data) * 4 // 5]))  # and cut: a recording killed later on
+    res = recover_mcap(cut, tmp_path / "fixed.mcap")
+    assert res.chunks_skipped == {CRC_MISMATCH: 1}
+    got, skipped = read(tmp_path / "fixed.mcap")
+    assert skipped == {} and len(got) == res.messages and not set(lost) & set(got)
