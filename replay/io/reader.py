@@ -87,6 +87,15 @@ class LogReader:
         """topic -> type name, for topics whose messages cannot be decoded."""
         return {t.name: t.typename for t in self.topics.values() if not t.known}
 
+    @property
+    def unknown_listed(self) -> str:
+        """The topics of unknown type as "topic (type)", or "topic (why)" for a refused schema, for a message."""
+        return ", ".join(
+            f"{t.name} ({t.why or t.typename})"
+            for t in sorted(self.topics.values(), key=lambda t: t.name)
+            if not t.known
+        )
+
     def require(self, needed: Iterable[str], remap_hint: str = "") -> None:
         """Fail with what is needed, what the log has, and how to remap, if a topic is missing."""
         missing = [t for t in needed if t not in self.topics]
