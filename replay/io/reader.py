@@ -25,7 +25,7 @@ from navlog.replay.runtime.executor import Envelope
 # skipped too.
 MAX_LOG_TIME_JUMP_NS = 3600 * 10**9
 TRUST_AFTER = 16
-HELD_AT_MOST = 256  # messages held while no run is trusted yet; then the longest run so far is trusted
+HELD_AT_MOST = 64  # messages held while no run is trusted yet (then the longest so far is): bounded memory
 LATE = "messages whose log time jumps more than an hour past the message before (corrupt log time)"
 EARLY = "messages whose log time lies more than an hour before the messages after (corrupt log time)"
 

@@ -202,3 +202,9 @@ def test_recover_leaves_a_damaged_chunk_out_instead_of_giving_it_a_valid_crc(tmp
     assert res.chunks_skipped == {CRC_MISMATCH: 1}
     got, skipped = read(tmp_path / "fixed.mcap")
     assert skipped == {} and len(got) == res.messages and not set(lost) & set(got)
+
+
+def test_times_that_jump_everywhere_hold_a_bounded_number_of_messages(tmp_path):
+    times = [k * 2 * HOUR for k in range(100)]  # no run of 16: after HELD_AT_MOST, the earliest one is trusted
+    got, skipped = read(write_mcap(tmp_path / "x.mcap", messages(times)))
+    assert skipped == {LATE: 99} and got == [messages(times)[0][2]]
