@@ -23,7 +23,7 @@ from __future__ import annotations
 import io
 import os
 import zlib
-from typing import Any
+from typing import IO, Any, cast
 
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
@@ -193,6 +193,11 @@ class BoundedFile:
         left = max(0, self._size - self._f.tell())
         data: bytes = self._f.read(left if n is None or n < 0 else min(n, left))
         return data
+
+
+def bounded(f: Any) -> IO[bytes]:
+    """``f`` read through a ``BoundedFile``, typed as the file the ``mcap`` library's readers take."""
+    return cast(IO[bytes], BoundedFile(f))
 
 
 def reason(exc: BaseException) -> str:

@@ -36,8 +36,8 @@ from navlog.replay.io import cdr_decode
 from navlog.replay.io.mcap_chunks import (
     NOT_A_CHUNK,
     UNREADABLE,
-    BoundedFile,
     ChunkSkip,
+    bounded,
     chunk_records,
     chunk_skip_reasons,
     claim_error,
@@ -95,7 +95,7 @@ class McapLogReader(LogReader):
         from mcap.reader import make_reader
 
         try:
-            reader = make_reader(BoundedFile(self._file))
+            reader = make_reader(bounded(self._file))
             header = reader.get_header()
             summary = reader.get_summary()
         except Exception as exc:
@@ -164,7 +164,7 @@ class McapLogReader(LogReader):
 
         self._file.seek(0)
         try:
-            stream = StreamReader(BoundedFile(self._file), emit_chunks=True, record_size_limit=self.size_bytes)
+            stream = StreamReader(bounded(self._file), emit_chunks=True, record_size_limit=self.size_bytes)
             for rec in stream.records:
                 if isinstance(rec, Chunk):
                     try:

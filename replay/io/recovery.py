@@ -28,7 +28,7 @@ from mcap.writer import CompressionType, Writer
 from navlog.errors import LogError
 from navlog.replay.io.atomic import open_new, write_error
 from navlog.replay.io.logwriter import check_output
-from navlog.replay.io.mcap_chunks import BoundedFile, ChunkSkip, chunk_records
+from navlog.replay.io.mcap_chunks import ChunkSkip, bounded, chunk_records
 from navlog.replay.io.mcap_reader import MCAP_MAGIC
 
 
@@ -110,7 +110,7 @@ def _copy_complete_records(
         channel_ids: dict[int, int] = {}
         try:
             size = os.fstat(f.fileno()).st_size
-            for rec in _unchunked(StreamReader(BoundedFile(f), emit_chunks=True, record_size_limit=size), skipped):
+            for rec in _unchunked(StreamReader(bounded(f), emit_chunks=True, record_size_limit=size), skipped):
                 # the summary section repeats the schemas and channels: each is registered once, by id
                 if isinstance(rec, Schema) and rec.id not in schema_ids:
                     schema_ids[rec.id] = w.register_schema(rec.name, rec.encoding, rec.data)
