@@ -8,8 +8,9 @@ own definition, and opening a log changes nothing for the next one.
 
 A schema is evidence, not an order: its text is bounded before it is parsed (``MAX_SCHEMA_BYTES``,
 ``MAX_SCHEMA_FIELDS``, and ``MAX_LOG_SCHEMA_FIELDS`` for all the schemas of one log: the parser's time
-grows faster than the number of fields, and a crafted 300,000-field schema would take minutes), and a
-type that contains itself, directly or through others, is refused (decoding it would never end). A
+grows faster than the number of fields, and a crafted 300,000-field schema would take minutes), a
+type that contains itself, directly or through others, is refused (decoding it would never end), and so
+are types nested deeper than ``MAX_TYPE_DEPTH`` (the code that hashes and decodes them recurses per level). A
 refused schema leaves its type unknown, so its topics are counted skips; ``LogTypestore.refused`` holds
 the reason, naming the type.
 """
@@ -31,6 +32,9 @@ _SECTION = "=" * 80 + "\n"
 MAX_SCHEMA_BYTES = 1 << 20
 MAX_SCHEMA_FIELDS = 4096
 MAX_LOG_SCHEMA_FIELDS = 16384  # all the schemas one log's reader parses
+# ROS 2 messages nest a handful of types deep (nav_msgs/Odometry -> PoseWithCovariance -> Pose -> Point);
+# rosbags' hashing, definition and (de)serialization code recurses once or more per level.
+MAX_TYPE_DEPTH = 64
 
 
 def types_from_schema(typename: str, text: str) -> dict[str, Any]:
@@ -87,6 +91,23 @@ def type_cycle(types: dict[str, Any], first: str = "") -> list[str]:
     return []
 
 
+def type_depth(types: dict[str, Any], root: str) -> int:
+    """How many message types deep ``root`` nests (1: only built-in fields), through the types of ``types``
+    (acyclic: ``type_cycle`` found none)."""
+    edges = {name: [n for _, ft in fields for n in _names(ft) if n in types] for name, (_, fields) in types.items()}
+    depth: dict[str, int] = {}
+    stack = [root] if root in edges else []
+    while stack:  # depth first without recursion: a type's depth once all it holds have theirs
+        name = stack[-1]
+        todo = [n for n in edges[name] if n not in depth]
+        if todo:
+            stack.extend(todo)
+        else:
+            stack.pop()
+            depth[name] = 1 + max((depth[n] for n in edges[name]), default=0)
+    return depth.get(root, 1)
+
+
 class LogTypestore:
     """The type store of one reader: the shared base store until a schema brings a type it lacks.
 
@@ -129,6 +150,8 @@ class LogTypestore:
         cycle = type_cycle(types, typename)
         if cycle:
             why = f"recursive type ({' holds '.join(cycle)})"
+        elif types and (depth := type_depth(types, typename)) > MAX_TYPE_DEPTH:
+            why = f"types nested {depth} deep, more than {MAX_TYPE_DEPTH}"
         if why:
             self.refused[typename] = f"schema of {typename} refused: {why}"
             return None

@@ -16,7 +16,13 @@ from rosbags.rosbag2 import Writer as BagWriter
 from navlog.analysis.info import format_info, summarize
 from navlog.errors import LogError
 from navlog.replay.io import LogTypestore, open_log, typestore
-from navlog.replay.io.typestore import MAX_LOG_SCHEMA_FIELDS, MAX_SCHEMA_FIELDS, type_cycle, types_from_schema
+from navlog.replay.io.typestore import (
+    MAX_LOG_SCHEMA_FIELDS,
+    MAX_SCHEMA_FIELDS,
+    type_cycle,
+    type_depth,
+    types_from_schema,
+)
 
 SEP = "=" * 80 + "\n"
 SELF = "int32 a\nx_msgs/Top[] again\n"  # holds itself directly
@@ -177,3 +183,13 @@ def test_every_command_answers_a_log_with_a_huge_and_a_recursive_schema(teleop_l
         if name != "check":  # (check lists the topics of unknown type)
             assert "x_msgs/msg/Big refused" in text and "x_msgs/msg/Top refused: recursive type" in text, (name, text)
     assert (tmp_path / "r" / "manifest.json").is_file() and (tmp_path / "v.rrd").is_file()
+
+
+def test_types_nested_too_deep_are_refused_and_a_real_depth_is_not():
+    chain = "x_msgs/D0 next\n" + "".join(
+        f"{SEP}MSG: x_msgs/D{j}\nint8 v\n" + (f"x_msgs/D{j + 1} next\n" if j + 1 < 1000 else "") for j in range(1000)
+    )
+    types = LogTypestore()
+    assert types.add_schema("x_msgs/msg/Deep", chain) is False
+    assert types.refused["x_msgs/msg/Deep"] == "schema of x_msgs/msg/Deep refused: types nested 1001 deep, more than 64"
+    assert type_depth(types_from_schema("x_msgs/msg/Top", DIAMOND), "x_msgs/msg/Top") == 2
