@@ -36,6 +36,8 @@ def summarize(reader: LogReader) -> dict[str, Any]:
         "truncated": reader.report.truncated,
         "topics": topics,
         "unknown_types": reader.unknown_types,
+        "refused_schemas": {t.name: t.why for t in reader.topics.values() if t.why},
+        "skipped": dict(sorted(reader.report.skipped.items())),  # what opening the log found unusable
         "metadata": reader.metadata,
     }
 
@@ -78,6 +80,11 @@ def format_info(info: dict[str, Any]) -> str:
         right=(2, 3),
     )
     items: list[Any] = [grid(head), "Topic information:", indented(topics)]
+    for topic, why in info.get("refused_schemas", {}).items():
+        items.append(f"  {topic}: {why}; its messages are skipped")
+    if info.get("skipped"):
+        items.append("Skipped (counted):")
+        items.append(indented(grid((f"{n}", reason) for reason, n in info["skipped"].items())))
     for name, data in info["metadata"].items():
         items.append(f"Metadata {name}:")
         items.append(indented(grid((f"{k}:", str(v)) for k, v in data.items())))

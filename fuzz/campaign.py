@@ -94,6 +94,14 @@ KINDS: dict[str, int] = {
     "cli-replay": 5,
     "params-extreme": 4,
     "outputs-special": 3,
+    # log times, chunk claims and CRCs, compressed bit flips, crafted schemas, YAML bombs, two writers
+    "mcap-times": 6,
+    "mcap-claims": 6,
+    "mcap-crc": 3,
+    "mcap-compressed": 4,
+    "schema-crafted": 6,
+    "yaml-bomb": 3,
+    "two-writers": 3,
 }
 
 
@@ -138,15 +146,16 @@ class Seeds:
 
 
 def build_seed_log(folder: Path) -> Path:
-    """Record the tiny drive and rewrite it small: one 3D cloud, 16 KiB chunks (many records to cut)."""
+    """Record the tiny drive and rewrite it small: one 3D cloud, 16 KiB chunks (many records to cut), zstd,
+    uncompressed and lz4."""
     from mcap.reader import make_reader
     from mcap.writer import CompressionType, Writer
 
     from navlog.cli import main
 
     folder.mkdir(parents=True, exist_ok=True)
-    small = folder / "seed_zstd.mcap"
-    if small.exists() and (folder / "seed_none.mcap").exists() and (folder / "map.yaml").exists():
+    names = ("seed_zstd.mcap", "seed_none.mcap", "seed_lz4.mcap", "map.yaml")
+    if all((folder / name).exists() for name in names):
         return folder
     scenario = folder / "fuzz_seed.yaml"
     scenario.write_text(TINY_SCENARIO)
@@ -154,7 +163,12 @@ def build_seed_log(folder: Path) -> Path:
     with contextlib.redirect_stdout(io.StringIO()):
         main(["-q", "record", "--scenario", str(scenario), "-o", str(raw), "--force"])
         main(["-q", "world-map", "indoor_room", "-o", str(folder / "map.yaml"), "--force"])
-    for name, comp in (("seed_zstd.mcap", CompressionType.ZSTD), ("seed_none.mcap", CompressionType.NONE)):
+    seeds = (
+        ("seed_zstd.mcap", CompressionType.ZSTD),
+        ("seed_none.mcap", CompressionType.NONE),
+        ("seed_lz4.mcap", CompressionType.LZ4),
+    )
+    for name, comp in seeds:
         with open(raw, "rb") as f, open(folder / name, "wb") as out:
             reader = make_reader(f)
             writer = Writer(out, compression=comp, chunk_size=16 << 10)
@@ -759,10 +773,142 @@ def run_special_output(a: dict[str, Any], folder: Path, seeds: Seeds) -> str:
     return outcome
 
 
+# Each kind below is one strategy (drawing its recipe) and one builder (applying it, further down), registered
+# in ``MORE_KINDS`` and ``BUILDERS``; a new kind adds its pair there and its weight in ``KINDS``.
+
+LOG_CALLS = ["read", "read", "read-recover", "check", "cli-info", "replay-mapping", "cli-view", "cli-export"]
+LOG_TIME_FORMS = ["far-future-one", "far-past-one", "jump-run", "flip-in-file", "flip-in-file-fixed-crc"]
+
+
+@st.composite
+def mcap_times(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """Log times far in the future or the past for one message, a jump for all after one, a log-time bit
+    flipped in the file's bytes (its chunk's CRC left stale or recomputed, as a writer that saw it would)."""
+    return {
+        "form": draw(st.sampled_from(LOG_TIME_FORMS)),
+        "message": draw(INDEX),
+        "bit": draw(st.integers(30, 63)),
+        "call": draw(st.sampled_from(LOG_CALLS)),
+    }
+
+
+CLAIM_FIELDS = [
+    "chunk-uncompressed-size",
+    "chunk-records-length",
+    "index-chunk-length",
+    "index-message-index-length",
+    "index-compressed-size",
+    "index-uncompressed-size",
+    "record-length",
+]
+CLAIM_VALUES = [2**31, 2**31 + 1, 2**36, 2**40, 2**63 - 1, 2**64 - 1]
+
+
+@st.composite
+def mcap_claims(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """Sizes a chunk, its index entry or a record claim, set to gigabytes or more (or a drawn value)."""
+    log = draw(st.sampled_from(["seed_zstd", "seed_none", "seed_lz4"]))
+    return {
+        "log": log,
+        "chunk": draw(st.integers(0, len(chunks_of(seeds.records[log])) - 1)),
+        "field": draw(st.sampled_from(CLAIM_FIELDS)),
+        "value": draw(st.one_of(st.sampled_from(CLAIM_VALUES), st.integers(0, 2**64 - 1))),
+        "call": draw(st.sampled_from(["read", "read-recover", "check", "cli-info", "recover", "replay-mapping"])),
+    }
+
+
+@st.composite
+def mcap_crc(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """A chunk's CRC flipped, or a bit of its records flipped with the CRC left as written."""
+    log = draw(st.sampled_from(["seed_zstd", "seed_none", "seed_lz4"]))
+    return {
+        "log": log,
+        "chunk": draw(st.integers(0, len(chunks_of(seeds.records[log])) - 1)),
+        "where": draw(st.sampled_from(["crc", "records"])),
+        "flips": draw(st.lists(st.tuples(AT, st.integers(0, 7)), min_size=1, max_size=4)),
+        "call": draw(st.sampled_from(LOG_CALLS + ["recover"])),
+    }
+
+
+@st.composite
+def mcap_compressed(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """Bit flips inside the compressed bytes of zstd and lz4 chunks: the frame header (sizes, flags) or
+    anywhere in the frame."""
+    log = draw(st.sampled_from(["seed_zstd", "seed_zstd", "seed_lz4"]))
+    return {
+        "log": log,
+        "chunk": draw(st.integers(0, len(chunks_of(seeds.records[log])) - 1)),
+        "header": draw(st.booleans()),
+        "flips": draw(st.lists(st.tuples(AT, st.integers(0, 7)), min_size=1, max_size=8)),
+        "call": draw(st.sampled_from(LOG_CALLS)),
+    }
+
+
+SCHEMA_FORMS = ["self", "self-array", "through", "huge", "deep-chain", "many-sections"]
+
+
+@st.composite
+def schema_crafted(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """A topic whose schema is crafted: a type that contains itself (directly or through a chain of
+    others), a huge one (up to 300,000 fields), a deep chain of nested types, many sections."""
+    _, channels, _ = seeds.parsed["seed_none"]
+    return {
+        "channel": draw(st.integers(0, len(channels) - 1)),
+        "form": draw(st.sampled_from(SCHEMA_FORMS)),
+        "size": draw(st.sampled_from([2, 10, 1000, 5000, 20000, 300_000])),
+        "compression": draw(st.sampled_from(["zstd", "none"])),
+        "call": draw(st.sampled_from(LOG_CALLS)),
+    }
+
+
+BOMB_FORMS = ["laughs", "deep-flow-list", "deep-flow-map", "deep-block", "self-alias", "wide-alias"]
+
+
+@st.composite
+def yaml_bomb(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """YAML alias bombs (billion laughs) and deep nesting, in place of a config file of any kind."""
+    kind = draw(st.sampled_from(["pipelines", "nav2", "scenarios", "worlds", "robots", "suites"]))
+    return {
+        "config": kind,
+        "file": draw(st.sampled_from([str(p) for p in seeds.configs[kind]])),
+        "form": draw(st.sampled_from(BOMB_FORMS)),
+        "size": draw(st.sampled_from([9, 50, 101, 1000, 20000])),
+        "cli": kind == "nav2" and draw(st.booleans()),
+    }
+
+
+@st.composite
+def two_writers(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """A second run writing an output another run holds (its lock taken in the worker first): the runs
+    that hold their output (``atomic.hold_output``) must refuse."""
+    return {"argv": draw(st.sampled_from(HOLDING_RUNS))}
+
+
+HOLDING_RUNS = [
+    ["replay", "LOG", "--pipeline", "mapping", "--set", "lidar_mapper=off", "-o", "out"],
+    ["replay", "LOG", "--pipeline", "safety", "--remap", "/cmd_vel_nav=/cmd_vel", "-o", "out"],
+    ["record", "--scenario", "TINY", "-o", "out.mcap"],
+]
+
+
+MORE_KINDS: dict[str, Callable[[Seeds], Any]] = {
+    "mcap-times": mcap_times,
+    "mcap-claims": mcap_claims,
+    "mcap-crc": mcap_crc,
+    "mcap-compressed": mcap_compressed,
+    "schema-crafted": schema_crafted,
+    "yaml-bomb": yaml_bomb,
+    "two-writers": two_writers,
+    "params-extreme": params_extreme,
+    "outputs-special": outputs_special,
+}
+
+
 def kind_strategy(kind: str, seeds: Seeds) -> Any:
     if kind.startswith("config-"):
         return config(seeds, kind.removeprefix("config-"))
     makers: dict[str, Callable[[Seeds], Any]] = {
+        **MORE_KINDS,
         "mcap-bytes": mcap_bytes,
         "mcap-chunk": mcap_chunk,
         "mcap-semantic": mcap_semantic,
@@ -771,8 +917,6 @@ def kind_strategy(kind: str, seeds: Seeds) -> Any:
         "cli": cli,
         "cli-record": cli_record,
         "cli-replay": cli_replay,
-        "params-extreme": params_extreme,
-        "outputs-special": outputs_special,
     }
     return makers[kind](seeds)
 
@@ -1400,9 +1544,199 @@ def build_cli(r: dict[str, Any], seeds: Seeds, kind: str) -> Built:
     return Built(mutation, "cli", {"argv": r["argv"]}, files, links)
 
 
+def log_built(name: str, mutation: str, call: str, data: bytes) -> Built:
+    return Built(f"{name}:{mutation}", call, {"log": "log.mcap"}, {"log.mcap": data})
+
+
+def chunk_layout(data: bytes, off: int) -> dict[str, int]:
+    """Offsets of a chunk record's fields (``off``: the record's opcode) and of its records' bytes."""
+    body = off + 9
+    (clen,) = struct.unpack_from("<I", data, body + 28)
+    (rlen,) = struct.unpack_from("<Q", data, body + 32 + clen)
+    return {
+        "body": body,
+        "size": body + 16,
+        "crc": body + 24,
+        "rlen": body + 32 + clen,
+        "records": body + 40 + clen,
+        "records_end": body + 40 + clen + rlen,
+    }
+
+
+def put(data: bytes, at: int, fmt: str, value: int) -> bytes:
+    buf = bytearray(data)
+    struct.pack_into(fmt, buf, at, value % 2 ** (8 * struct.calcsize(fmt)))
+    return bytes(buf)
+
+
+def build_times(r: dict[str, Any], seeds: Seeds) -> Built:
+    schemas, channels, msgs = parts_of(seeds.parsed["seed_none"])
+    i, jump, form = r["message"] % len(msgs), 1 << r["bit"], r["form"]
+    if form.startswith("flip-in-file"):  # a Message record's log time in the uncompressed seed's bytes
+        data = seeds.logs["seed_none"]
+        m = msgs[i]
+        at = data.find(struct.pack("<HIQQ", m[0], i % 2**32, m[1], m[2]))
+        if at < 0:
+            at = data.find(struct.pack("<QQ", m[1], m[2])) - 6
+        buf = bytearray(put(data, at + 6, "<Q", m[1] ^ jump))
+        if form.endswith("fixed-crc"):
+            off = max(o for o, code, _ in seeds.records["seed_none"] if code == 0x06 and o < at)
+            lay = chunk_layout(bytes(buf), off)
+            struct.pack_into("<I", buf, lay["crc"], zlib.crc32(buf[lay["records"] : lay["records_end"]]))
+        return log_built("seed_none", f"times-{form}", r["call"], bytes(buf))
+    if form == "far-future-one":
+        msgs[i][1] += jump
+    elif form == "far-past-one":
+        for m in msgs:
+            m[1] += 1 << 45  # a month in: room for a time far before the rest
+        msgs[i][1] -= min(msgs[i][1], jump)
+    else:
+        for m in msgs[i:]:
+            m[1] += jump
+    data = write_log([tuple(x) for x in schemas], [tuple(c) for c in channels], [tuple(m) for m in msgs])  # type: ignore[misc]
+    return log_built("seed_none", f"times-{form}", r["call"], data)
+
+
+def build_claims(r: dict[str, Any], seeds: Seeds) -> Built:
+    data, records = seeds.logs[r["log"]], seeds.records[r["log"]]
+    off, _, length = chunks_of(records)[r["chunk"]]
+    field, value = r["field"], r["value"]
+    if field.startswith("chunk-"):
+        lay = chunk_layout(data, off)
+        at = lay["size"] if field == "chunk-uncompressed-size" else lay["rlen"]
+        return log_built(r["log"], f"claim-{field}", r["call"], put(data, at, "<Q", value))
+    if field == "record-length":
+        return log_built(r["log"], f"claim-{field}", r["call"], put(data, off + 1, "<Q", value))
+    index = [o for o, code, _ in records if code == 0x08]  # chunk indexes, in the chunks' order
+    if not index:
+        return log_built(r["log"], "claim-no-index", r["call"], data)
+    body = index[r["chunk"] % len(index)] + 9
+    (map_len,) = struct.unpack_from("<I", data, body + 32)
+    after_map = body + 36 + map_len
+    (clen,) = struct.unpack_from("<I", data, after_map + 8)
+    at = {
+        "index-chunk-length": body + 24,
+        "index-message-index-length": after_map,
+        "index-compressed-size": after_map + 12 + clen,
+        "index-uncompressed-size": after_map + 20 + clen,
+    }[field]
+    return log_built(r["log"], f"claim-{field}", r["call"], put(data, at, "<Q", value))
+
+
+def build_crc(r: dict[str, Any], seeds: Seeds) -> Built:
+    data = seeds.logs[r["log"]]
+    off, _, _ = chunks_of(seeds.records[r["log"]])[r["chunk"]]
+    lay = chunk_layout(data, off)
+    lo, hi = (lay["crc"], lay["crc"] + 4) if r["where"] == "crc" else (lay["records"], lay["records_end"])
+    part = flip_bits(data[lo:hi], r["flips"])
+    return log_built(r["log"], f"crc-{r['where']}", r["call"], data[:lo] + part + data[hi:])
+
+
+def build_compressed(r: dict[str, Any], seeds: Seeds) -> Built:
+    data = seeds.logs[r["log"]]
+    off, _, _ = chunks_of(seeds.records[r["log"]])[r["chunk"]]
+    lay = chunk_layout(data, off)
+    lo = lay["records"]
+    hi = min(lo + 16, lay["records_end"]) if r["header"] else lay["records_end"]
+    part = flip_bits(data[lo:hi], r["flips"])
+    where = "header" if r["header"] else "frame"
+    return log_built(r["log"], f"compressed-{where}", r["call"], data[:lo] + part + data[hi:])
+
+
+def crafted_schema(form: str, n: int) -> str:
+    sep = "=" * 80 + "\n"
+    if form == "self":
+        return "int32 a\nfuzz_msgs/Crafted child\n"
+    if form == "self-array":
+        return "int32 a\nfuzz_msgs/Crafted[] children\n"
+    if form == "through":
+        k = min(n, 200)
+        return "fuzz_msgs/T0 next\n" + "".join(
+            f"{sep}MSG: fuzz_msgs/T{j}\nint8 v\n{'fuzz_msgs/T' + str(j + 1) if j + 1 < k else 'fuzz_msgs/Crafted'} next\n"
+            for j in range(k)
+        )
+    if form == "huge":
+        return "\n".join(f"float64 f{j}" for j in range(n))
+    if form == "deep-chain":
+        k = min(n, 5000)
+        return "fuzz_msgs/D0 next\n" + "".join(
+            f"{sep}MSG: fuzz_msgs/D{j}\nint8 v\n" + (f"fuzz_msgs/D{j + 1} next\n" if j + 1 < k else "")
+            for j in range(k)
+        )
+    return "".join(f"fuzz_msgs/S{j} s{j}\n" for j in range(min(n, 5000))) + "".join(
+        f"{sep}MSG: fuzz_msgs/S{j}\nint8 v\n" for j in range(min(n, 5000))
+    )
+
+
+def build_schema(r: dict[str, Any], seeds: Seeds) -> Built:
+    """The chosen channel's schema renamed (a type no store has, so it is parsed) and replaced."""
+    schemas, channels, msgs = parts_of(seeds.parsed["seed_none"])
+    target = channels[r["channel"]]
+    sid = max(s[0] for s in schemas) + 1
+    schemas.append([sid, "fuzz_msgs/msg/Crafted", "ros2msg", crafted_schema(r["form"], r["size"]).encode()])
+    target[3] = sid
+    data = write_log(
+        [tuple(x) for x in schemas],  # type: ignore[misc]
+        [tuple(c) for c in channels],  # type: ignore[misc]
+        [tuple(m) for m in msgs],  # type: ignore[misc]
+        compression=r["compression"],
+    )
+    return log_built("seed_none", f"schema-{r['form']}-{r['size']}", r["call"], data)
+
+
+def yaml_bomb_text(form: str, n: int) -> str:
+    if form == "laughs":
+        lines = ['a0: &a0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
+        lines += [f"a{k}: &a{k} [{', '.join([f'*a{k - 1}'] * 9)}]" for k in range(1, min(n, 12))]
+        return "\n".join(lines) + "\n"
+    if form == "deep-flow-list":
+        return "a: " + "[" * n + "]" * n + "\n"
+    if form == "deep-flow-map":
+        return "a: " + "{a: " * n + "1" + "}" * n + "\n"
+    if form == "deep-block":
+        return "".join("  " * k + f"k{k}:\n" for k in range(min(n, 5000))) + "  " * min(n, 5000) + "v: 1\n"
+    if form == "self-alias":
+        return "a: &a [*a]\nb: *a\n"
+    return (
+        "x: &x "
+        + "{"
+        + ", ".join(f"k{k}: 1" for k in range(min(n, 2000)))
+        + "}\n"
+        + "".join(f"y{k}: *x\n" for k in range(min(n, 2000)))
+    )
+
+
+def build_bomb(r: dict[str, Any], seeds: Seeds) -> Built:
+    src = Path(r["file"])
+    args: dict[str, Any] = {"path": src.name, "name": src.stem, "overrides": []}
+    call = "cli-check-config" if r["cli"] else CONFIG_CALLS[r["config"]]
+    text = yaml_bomb_text(r["form"], r["size"]).encode()
+    return Built(f"{src.name}:bomb-{r['form']}-{r['size']}", call, args, {src.name: text})
+
+
+def build_two_writers(r: dict[str, Any], seeds: Seeds) -> Built:
+    built = build_cli({"argv": r["argv"]}, seeds, "two-writers")
+    return Built(f"two-writers:{r['argv'][0]}", "two-writers", {"argv": r["argv"]}, built.files, built.links)
+
+
+BUILDERS: dict[str, Callable[[dict[str, Any], Seeds], Built]] = {
+    "mcap-times": build_times,
+    "mcap-claims": build_claims,
+    "mcap-crc": build_crc,
+    "mcap-compressed": build_compressed,
+    "schema-crafted": build_schema,
+    "yaml-bomb": build_bomb,
+    "two-writers": build_two_writers,
+    "params-extreme": build_params_extreme,
+    "outputs-special": build_outputs_special,
+}
+
+
 def build(case: Case, seeds: Seeds) -> Built:
     """Apply a recipe to the seeds."""
     r, kind = case.recipe, case.kind
+    if kind in BUILDERS:
+        return BUILDERS[kind](r, seeds)
     if kind == "mcap-bytes":
         mutation, data = mutate_bytes(r, seeds.logs[r["log"]], seeds.records[r["log"]])
         return Built(f"{r['log']}:{mutation}", r["call"], {"log": "log.mcap"}, {"log.mcap": data})
@@ -1419,10 +1753,6 @@ def build(case: Case, seeds: Seeds) -> Built:
         return build_rosbag(r, seeds)
     if kind.startswith("config-"):
         return build_config(r, seeds)
-    if kind == "params-extreme":
-        return build_params_extreme(r, seeds)
-    if kind == "outputs-special":
-        return build_outputs_special(r, seeds)
     return build_cli(r, seeds, kind)
 
 
@@ -1558,6 +1888,17 @@ def call_case(built: Built, folder: Path, seeds: Seeds) -> str:
         return run_cli(a["argv"], folder, seeds)
     if built.call == "cli-output":
         return run_special_output(a, folder, seeds)
+    if built.call == "cli-view":
+        return run_cli(["view", a["log"], "--save", "view.rrd"], folder, seeds)
+    if built.call == "cli-export":
+        return run_cli(["export", a["log"], "--to", "rosbag2", "-o", "exported"], folder, seeds)
+    if built.call == "two-writers":  # the output is held, as by a run in another process
+        from navlog.replay.io.atomic import hold_output
+
+        out = a["argv"][a["argv"].index("-o") + 1]
+        with hold_output(folder / out):
+            outcome = run_cli(a["argv"], folder, seeds)
+        return "TWO-WRITERS-" + outcome if outcome == "OK" else outcome
     raise ValueError(f"unknown call {built.call}")
 
 
@@ -1581,6 +1922,8 @@ def run_case(case: Case, seeds: Seeds, timeout: float) -> tuple[str, str, Built 
                 outcome = call_case(built, folder, seeds)
             if outcome.startswith("EXIT"):
                 return "TRACEBACK", f"unexpected exit status {outcome[4:]}\n{sink.getvalue()}", built
+            if outcome.startswith("TWO-WRITERS"):
+                return "TRACEBACK", f"a second run wrote an output another run holds\n{sink.getvalue()}", built
             if "Traceback (most recent call last)" in sink.getvalue():
                 return "TRACEBACK", sink.getvalue(), built
             return outcome, "", built

@@ -171,9 +171,7 @@ def run_replay(
             wanted = [to_log.get(t, t) for t in pipe.inputs + pipe.optional_inputs if to_log.get(t, t) in reader.topics]
             if reader.unknown_types:
                 logger.warning(
-                    "%s: skipping topics of types without a definition: %s",
-                    reader.path,
-                    ", ".join(f"{t} ({ty})" for t, ty in sorted(reader.unknown_types.items())),
+                    "%s: skipping topics of types without a definition: %s", reader.path, reader.unknown_listed
                 )
             remove_stale(out_dir)  # an old output a killed run had moved aside comes back
             tmp = out_dir.parent / f".{out_dir.name}.partial"

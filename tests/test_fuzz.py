@@ -44,7 +44,7 @@ def campaign_and_seeds(tmp_path_factory, shared_dir):
 @pytest.mark.slow
 def test_seeded_subset_has_no_traceback_and_no_hang(campaign_and_seeds, shared_dir: Path) -> None:
     campaign, _, folder = campaign_and_seeds
-    result = campaign.run_campaign(200, 7, folder, shared=shared_dir, workers=2, timeout=20.0)
+    result = campaign.run_campaign(200, 1, folder, shared=shared_dir, workers=2, timeout=20.0)
     totals = result.totals
     assert totals["TRACEBACK"] == 0 and totals["HANG"] == 0, result.failures
     assert sum(totals.values()) == result.cases == 200
@@ -89,9 +89,8 @@ def test_case_i_depends_only_on_the_seed_and_i(campaign_and_seeds, shared_dir: P
 
 def test_a_recipe_applies_to_the_same_bytes_every_time(campaign_and_seeds) -> None:
     campaign, seeds, _ = campaign_and_seeds
-    drawn = collect(campaign, seeds, 300)
-    kinds = ("mcap-bytes", "mcap-chunk", "mcap-semantic", "mcap-message", "config-nav2", "cli-record")
-    for kind in (*kinds, "params-extreme", "outputs-special"):
+    drawn = collect(campaign, seeds, 200)  # (seed 1: every kind among them)
+    for kind in campaign.KINDS:
         case = next(c for c in drawn if c.kind == kind)
         a, b = campaign.build(case, seeds), campaign.build(case, seeds)
         assert (a.mutation, a.call, a.args, a.files) == (b.mutation, b.call, b.args, b.files)

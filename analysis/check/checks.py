@@ -92,6 +92,19 @@ def integrity(reader: LogReader, got: Collected) -> Check:
             "try `navlog recover` or re-record",
             numbers,
         )
+    chunks = {r: n for r, n in reader.report.skipped.items() if r.startswith("chunks skipped")}
+    if chunks:
+        lost = sum(n for r, n in reader.report.skipped.items() if r.startswith("messages in skipped chunks"))
+        numbers["chunks_skipped"], numbers["messages_in_skipped_chunks"] = sum(chunks.values()), lost
+        why = "; ".join(f"{n} {r}" for r, n in sorted(chunks.items()))
+        return Check(
+            "integrity",
+            path,
+            Status.FAIL,
+            f"{path}: damaged: {why}, {lost} message(s) of the checked topics in them; the rest spans {span}; "
+            "every command skips them and counts them; re-record or re-export the log",
+            numbers,
+        )
     short = [(n, reader.topics[n].count, c) for n, c in sorted(read_counts.items()) if c != reader.topics[n].count]
     if short:
         n, want, have = short[0]

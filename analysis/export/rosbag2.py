@@ -176,7 +176,7 @@ def export_rosbag2(
     out = Path(out)
     check_output(out, force)
     topics = select_topics(reader, opt.topics)
-    unknown = {t: reader.topics[t].typename for t in topics if not reader.topics[t].known}
+    unknown = {t: reader.topics[t].why or reader.topics[t].typename for t in topics if not reader.topics[t].known}
     stores = {}
     for t in topics:
         if t in unknown:
@@ -201,7 +201,8 @@ def export_rosbag2(
 
     summary = ExportSummary(out)
     for t, ty in unknown.items():
-        summary.skipped[f"unknown type {ty} on {t}"] += reader.topics[t].count
+        why = reader.topics[t].why or f"unknown type {ty}"  # (a refused schema says why)
+        summary.skipped[f"{why} on {t}"] += reader.topics[t].count
     tmpdir = _temp_dir_beside(out)
     bag = tmpdir / out.name
     plugin = StoragePlugin.MCAP if opt.storage == "mcap" else StoragePlugin.SQLITE3

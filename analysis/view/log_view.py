@@ -129,11 +129,7 @@ class ViewBuilder:
         for name, typename in sorted(reader.unknown_types.items()):
             summary.unknown_types[(prefix + name) if prefix else name] = typename
         if reader.unknown_types:
-            log.warning(
-                "%s: skipping topics of unknown types: %s",
-                reader.path,
-                ", ".join(f"{t} ({ty})" for t, ty in sorted(reader.unknown_types.items())),
-            )
+            log.warning("%s: skipping topics of unknown types: %s", reader.path, reader.unknown_listed)
         handlers = self.handlers
         wanted = []
         for t in sorted(reader.topics.values(), key=lambda t: t.name):

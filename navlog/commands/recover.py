@@ -28,6 +28,8 @@ def run(args) -> int:
         f"wrote {args.output}: kept {res.messages} messages, {res.seconds:.2f} s of log "
         f"({state}; read {res.bytes_read / 1e6:.1f} of {res.bytes_total / 1e6:.1f} MB)"
     )
+    for why, count in sorted(res.chunks_skipped.items()):
+        print(f"left out {count} damaged chunk(s): {why}")
     if res.metadata_lost:
         print(
             "metadata lost: navlog writes its metadata record (world, robot, scenario, seed) when it finishes a "

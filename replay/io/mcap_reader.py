@@ -2,9 +2,11 @@
 folder with MCAP storage merged by time (``SplitMcapLogReader``).
 
 The library reads every record: the summary (``make_reader``), and while streaming each chunk
-(``Chunk``), its message indexes (``MessageIndex``) and the messages they point at (``Message``),
-decompressed by the library (``get_chunk_data_stream``); a truncated file is read through by its
-``StreamReader``. navlog's part is choosing what to read and the order: only the chunks holding a
+(``Chunk``), its message indexes (``MessageIndex``) and the messages they point at (``Message``); a
+truncated file is read through by its ``StreamReader``. The sizes, offsets and CRCs a chunk and its
+index claim are checked before anything is allocated, and the chunk is decompressed by ``mcap_chunks``
+(zstd and lz4 by their libraries): a chunk that fails is a counted skip, never a traceback, never
+silently wrong data. navlog's part is choosing what to read and the order: only the chunks holding a
 wanted topic in the wanted time window are read, and of those only the wanted channels' messages are
 parsed (a 2D replay never parses a LiDAR cloud), merged across chunks in the library's order (log
 time, chunk offset, position in the chunk) with only the chunks whose time has come held open.
@@ -28,10 +30,22 @@ from typing import IO, Any, cast
 from mcap.data_stream import ReadDataStream
 from mcap.opcode import Opcode
 from mcap.records import Chunk, ChunkIndex, Message, MessageIndex
-from mcap.stream_reader import breakup_chunk, get_chunk_data_stream
 
 from navlog.errors import LogError, TruncatedLogError
 from navlog.replay.io import cdr_decode
+from navlog.replay.io.mcap_chunks import (
+    NOT_A_CHUNK,
+    UNREADABLE,
+    ChunkSkip,
+    bounded,
+    chunk_records,
+    chunk_skip_reasons,
+    claim_error,
+    decompress,
+    reason,
+    records_of,
+    span_error,
+)
 from navlog.replay.io.reader import LogReader, TopicInfo
 from navlog.replay.io.typestore import LogTypestore
 from navlog.replay.runtime.executor import Envelope
@@ -81,15 +95,16 @@ class McapLogReader(LogReader):
         from mcap.reader import make_reader
 
         try:
-            reader = make_reader(self._file)
+            reader = make_reader(bounded(self._file))
             header = reader.get_header()
             summary = reader.get_summary()
         except Exception as exc:
-            raise LogError(f"{self.path}: corrupt MCAP ({exc}); try `navlog recover`") from None
+            raise LogError(f"{self.path}: corrupt MCAP ({reason(exc)}); try `navlog recover`") from None
         if summary is None:
             raise LogError(f"{self.path}: MCAP has no summary section; try `navlog recover`")
         self.profile = header.profile
         self._summary = summary
+        summary.chunk_indexes = [ci for ci in summary.chunk_indexes if self._plausible_index(ci)]
         self._typenames = {sid: sc.name for sid, sc in summary.schemas.items()}
         stats = summary.statistics
         counts = stats.channel_message_counts if stats else {}
@@ -112,22 +127,52 @@ class McapLogReader(LogReader):
         except Exception:
             pass
 
+    def _plausible_index(self, ci: ChunkIndex) -> bool:
+        """Whether a chunk's index entry claims a place in the file and a size its bytes can hold; an entry
+        that does not is a counted skip (``mcap_chunks``)."""
+        end = ci.chunk_start_offset + ci.chunk_length
+        why = (
+            span_error(ci.chunk_start_offset, ci.chunk_length + ci.message_index_length, self.size_bytes)
+            or span_error(min(ci.message_index_offsets.values(), default=end), 0, self.size_bytes)
+            or span_error(max(ci.message_index_offsets.values(), default=end), 0, self.size_bytes)
+            or claim_error(ci.compression, ci.compressed_size, ci.uncompressed_size)
+        )
+        if why:
+            self.note_chunk_skip(ChunkSkip(why))
+        return not why
+
+    def note_chunk_skip(self, skip: ChunkSkip) -> None:
+        chunks, messages = chunk_skip_reasons(skip.why)
+        self.report.note_skip(chunks)
+        if skip.messages:
+            self.report.note_skip(messages, skip.messages)
+
     def _add_topic(self, ch: Any, typename: str, count: int, known: bool) -> None:
         """A channel's topic; a topic on several channels (a recorder restarted, a file rewritten) counts the
         messages of all of them, which are read together."""
         prev = self.topics.get(ch.topic)
         count += prev.count if prev is not None else 0
-        self.topics[ch.topic] = TopicInfo(ch.topic, typename, count, known, ch.metadata.get("offered_qos_profiles", ""))
+        qos = ch.metadata.get("offered_qos_profiles", "")
+        why = self._types.refused.get(typename, "") if not known else ""
+        self.topics[ch.topic] = TopicInfo(ch.topic, typename, count, known, qos, why)
 
-    def _records(self) -> Iterator[Any]:
-        """Records of a truncated file up to the first incomplete one."""
+    def _records(self, note: bool = False) -> Iterator[Any]:
+        """Records of a truncated file up to the first incomplete one; a chunk that fails its checks
+        (``mcap_chunks``) is left out, and counted when ``note``."""
         from mcap.records import Channel, Message, Metadata, Schema
         from mcap.stream_reader import StreamReader
 
         self._file.seek(0)
         try:
-            for rec in StreamReader(self._file).records:
-                if isinstance(rec, (Schema, Channel, Message, Metadata)):
+            stream = StreamReader(bounded(self._file), emit_chunks=True, record_size_limit=self.size_bytes)
+            for rec in stream.records:
+                if isinstance(rec, Chunk):
+                    try:
+                        yield from chunk_records(rec)
+                    except ChunkSkip as skip:
+                        if note:
+                            self.note_chunk_skip(skip)
+                elif isinstance(rec, (Schema, Channel, Message, Metadata)):
                     yield rec
         except Exception:
             return
@@ -171,7 +216,7 @@ class McapLogReader(LogReader):
         report, types = self.report, self._types
         fast_of: dict[str, tuple[str, Any, Any]] = {}  # topic -> (type name, store, its fast decoder or None)
         try:
-            for topic, typename, t, data in self._indexed(wanted, start_ns, end_ns):
+            for topic, typename, t, data in self._in_sequence(self._indexed(wanted, start_ns, end_ns), _time_of):
                 if not decode:
                     report.read += 1
                     yield Envelope(topic, typename, t, data)
@@ -195,7 +240,7 @@ class McapLogReader(LogReader):
             raise
         except Exception as exc:
             raise LogError(
-                f"{self.path}: corrupt data after {self.report.read} messages ({exc}); try --recover"
+                f"{self.path}: corrupt data after {self.report.read} messages ({reason(exc)}); try --recover"
             ) from None
 
     def _indexed(
@@ -239,7 +284,13 @@ class McapLogReader(LogReader):
             while queue:
                 t, chunk_offset, pos, item = heapq.heappop(queue)
                 if pos < 0:
-                    msgs = self._within_chunk_span(next(opened), loader.next())
+                    ci = next(opened)
+                    try:
+                        loaded = loader.next()
+                    except ChunkSkip as skip:
+                        self.note_chunk_skip(skip)
+                        loaded = []
+                    msgs = self._within_chunk_span(ci, loaded)
                     msgs = [
                         m for m in msgs if (start_ns is None or m[0] >= start_ns) and (end_ns is None or m[0] <= end_ns)
                     ]
@@ -278,48 +329,29 @@ class McapLogReader(LogReader):
         """(log time, position, channel id, bytes) of the wanted messages in one chunk, sorted.
 
         The chunk, its message indexes and its messages are the ``mcap`` library's records, read
-        with its parsers and decompressed by it; the file is read with ``os.pread`` (no shared
-        file position), so this may run in another thread.
+        with its parsers; the chunk is checked and decompressed by ``mcap_chunks`` (a chunk that fails
+        raises ``ChunkSkip`` with the number of wanted messages its indexes list). The file is read
+        with ``os.pread`` (no shared file position), so this may run in another thread.
         """
         fd = self._file.fileno()
-        stream = ReadDataStream(cast(IO[bytes], _PreadFile(fd, ci.chunk_start_offset, self.size_bytes)))
-        if stream.read1() != Opcode.CHUNK:
-            raise LogError(
-                f"{self.path}: no chunk at offset {ci.chunk_start_offset} (corrupt chunk index); try --recover"
-            )
-        stream.read8()
-        chunk = Chunk.read(stream)
+        indexes = self._index_entries(fd, ci, channels)
+        try:
+            data = self._chunk_data(fd, ci)
+        except ChunkSkip as skip:  # counted with the wanted messages its indexes list
+            raise ChunkSkip(skip.why, sum(len(e) for e in indexes.values())) from None
+        size = len(data)
         if not ci.message_index_offsets:  # no indexes: every record of the chunk is parsed
             return sorted(
                 (rec.log_time, pos, rec.channel_id, rec.data)
-                for pos, rec in enumerate(breakup_chunk(chunk))
+                for pos, rec in enumerate(records_of(data))
                 if isinstance(rec, Message) and rec.channel_id in channels
             )  # by time, then position (unique: the bytes are never compared)
-        records, size = get_chunk_data_stream(chunk)
-        if size != chunk.uncompressed_size:
-            raise LogError(
-                f"{self.path}: chunk at offset {ci.chunk_start_offset} does not decompress to its size; try --recover"
-            )
-        data = io.BytesIO(records.read(size))  # the decompressed bytes themselves (BytesIO does not copy them)
-        records = ReadDataStream(data)
-        first = min(ci.message_index_offsets.values())
-        index_bytes = io.BytesIO(
-            os.pread(fd, ci.chunk_start_offset + ci.chunk_length + ci.message_index_length - first, first)
-        )
-        index = ReadDataStream(index_bytes)
+        view = io.BytesIO(data)  # the decompressed bytes themselves (BytesIO does not copy them)
+        records = ReadDataStream(view)
         out = []
-        for cid, offset in ci.message_index_offsets.items():
-            if cid not in channels:
-                continue
-            index_bytes.seek(offset - first)
-            if index.read1() != Opcode.MESSAGE_INDEX:
-                raise LogError(f"{self.path}: bad message index for channel {cid} at offset {offset}; try --recover")
-            index.read8()
-            entries = MessageIndex.read(index)
-            if entries.channel_id != cid:
-                raise LogError(f"{self.path}: bad message index for channel {cid} at offset {offset}; try --recover")
-            for _, pos in entries.records:
-                data.seek(pos)
+        for cid, entries in indexes.items():
+            for _, pos in entries:
+                view.seek(pos)
                 if pos + 9 > size or records.read1() != Opcode.MESSAGE:
                     raise _not_a_message(self.path, cid)
                 length = records.read8()
@@ -332,6 +364,43 @@ class McapLogReader(LogReader):
         out.sort()  # by time, then position (unique: the bytes are never compared)
         return out
 
+    def _chunk_data(self, fd: int, ci: ChunkIndex) -> bytes:
+        """The decompressed, checked records of the chunk ``ci`` points at; raises ``ChunkSkip``."""
+        stream = ReadDataStream(cast(IO[bytes], _PreadFile(fd, ci.chunk_start_offset, self.size_bytes)))
+        try:
+            if stream.read1() != Opcode.CHUNK:
+                raise ChunkSkip(NOT_A_CHUNK)
+            stream.read8()
+            chunk = Chunk.read(stream)
+        except ChunkSkip:
+            raise
+        except Exception:
+            raise ChunkSkip(UNREADABLE) from None
+        return decompress(chunk)
+
+    def _index_entries(self, fd: int, ci: ChunkIndex, channels: dict) -> dict[int, list[tuple[int, int]]]:
+        """The wanted channels' message index entries (log time, position in the chunk) of one chunk."""
+        if not ci.message_index_offsets:
+            return {}
+        first = min(ci.message_index_offsets.values())
+        index_bytes = io.BytesIO(
+            os.pread(fd, ci.chunk_start_offset + ci.chunk_length + ci.message_index_length - first, first)
+        )
+        index = ReadDataStream(index_bytes)
+        out: dict[int, list[tuple[int, int]]] = {}
+        for cid, offset in ci.message_index_offsets.items():
+            if cid not in channels:
+                continue
+            index_bytes.seek(offset - first)
+            if index.read1() != Opcode.MESSAGE_INDEX:
+                raise LogError(f"{self.path}: bad message index for channel {cid} at offset {offset}; try --recover")
+            index.read8()
+            entries = MessageIndex.read(index)
+            if entries.channel_id != cid:
+                raise LogError(f"{self.path}: bad message index for channel {cid} at offset {offset}; try --recover")
+            out[cid] = entries.records
+        return out
+
     def _messages_truncated(self, wanted, decode, light, start_ns, end_ns) -> Iterator[Envelope]:
         from mcap.records import Channel, Message, Schema
 
@@ -339,7 +408,7 @@ class McapLogReader(LogReader):
         chans: dict[int, tuple[str, int]] = {}
         batch: list[tuple[int, int, str, str, bytes]] = []
         seq = 0
-        for rec in self._records():
+        for rec in self._records(note=True):
             if isinstance(rec, Schema):
                 schemas[rec.id] = rec.name
             elif isinstance(rec, Channel):
@@ -354,7 +423,7 @@ class McapLogReader(LogReader):
                     seq += 1
                     batch.append((rec.log_time, seq, topic, schemas.get(sid, ""), rec.data))
         # a truncated file has no index: order what could be read by log time (file order breaks ties)
-        for t, _, topic, typename, data in sorted(batch, key=lambda b: (b[0], b[1])):
+        for t, _, topic, typename, data in self._in_sequence(sorted(batch, key=lambda b: (b[0], b[1])), _first):
             env = self._envelope(topic, typename, t, data, decode, topic in light)
             if env is not None:
                 yield env
@@ -409,15 +478,23 @@ class SplitMcapLogReader(LogReader):
             for name, info in part.topics.items():
                 prev = self.topics.get(name)
                 count = info.count + (prev.count if prev else 0)
-                self.topics[name] = TopicInfo(name, info.typename, count, info.known, info.qos)
+                self.topics[name] = TopicInfo(name, info.typename, count, info.known, info.qos, info.why)
         self.report.truncated = any(p.report.truncated for p in self.parts)
+        for p in self.parts:  # chunk index entries the parts refused
+            self.report.skipped.update(p.report.skipped)
+            p.report.skipped.clear()
 
     def messages(self, topics=None, *, decode=True, light=(), start_ns=None, end_ns=None) -> Iterator[Envelope]:
         wanted = self._wanted(topics)
         streams = [p.messages(wanted, decode=decode, light=light, start_ns=start_ns, end_ns=end_ns) for p in self.parts]
-        for env in heapq.merge(*streams, key=lambda e: e.time_ns):
-            self.report.read += 1
-            yield env
+        try:
+            for env in heapq.merge(*streams, key=lambda e: e.time_ns):
+                self.report.read += 1
+                yield env
+        finally:  # what the parts skipped is the log's
+            for p in self.parts:
+                self.report.skipped.update(p.report.skipped)
+                p.report.skipped.clear()
 
     def close(self) -> None:
         for p in self.parts:
@@ -472,6 +549,14 @@ class _PreadFile:
         data = os.pread(self._fd, max(0, min(n, self._size - self._at)), self._at)
         self._at += len(data)
         return data
+
+
+def _time_of(item: tuple) -> int:
+    return int(item[2])
+
+
+def _first(item: tuple) -> int:
+    return int(item[0])
 
 
 def _not_a_message(path: Path, cid: int) -> LogError:

@@ -9,21 +9,26 @@ seed, config hash) first, before any message, so they are copied with the rest; 
 before them (or written by an older navlog, which wrote them at its end) has lost them, and
 ``RecoveryResult.metadata_lost`` says so. They are not rebuilt: the messages do not hold the seed or
 the configuration, and a guessed record would pass for the real one.
+
+A chunk that fails its checks (``mcap_chunks``: its CRC, the sizes it claims) is left out and counted
+(``RecoveryResult.chunks_skipped``): copying it would give its corrupt bytes a new, valid CRC.
 """
 
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass
+from collections.abc import Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from mcap.records import Channel, Header, Message, Metadata, Schema
+from mcap.records import Channel, Chunk, Header, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 from navlog.errors import LogError
 from navlog.replay.io.atomic import open_new, write_error
 from navlog.replay.io.logwriter import check_output
+from navlog.replay.io.mcap_chunks import ChunkSkip, bounded, chunk_records
 from navlog.replay.io.mcap_reader import MCAP_MAGIC
 
 
@@ -37,6 +42,7 @@ class RecoveryResult:
     complete: bool  # the input was not truncated after all
     metadata: tuple[str, ...] = ()  # the names of the metadata records kept
     library: str = ""  # the writer the input's header names ("navlog X.Y" for navlog's files)
+    chunks_skipped: dict[str, int] = field(default_factory=dict)  # why -> chunks left out (mcap_chunks)
 
     @property
     def metadata_lost(self) -> bool:
@@ -66,7 +72,7 @@ def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) ->
             raise LogError(f"{src}: not an MCAP file (bad magic bytes)")
     tmp = dst.with_name(dst.name + ".part")
     try:
-        n, first, last, read, ok, names, library = _copy_complete_records(src, tmp)
+        n, first, last, read, ok, names, library, skipped = _copy_complete_records(src, tmp)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
         raise write_error(dst, exc) from exc
@@ -84,14 +90,17 @@ def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) ->
             "A recording killed this early has no data to salvage: record it again."
         )
     os.replace(tmp, dst)
-    return RecoveryResult(n, first, last, min(read, total), total, ok, names, library)
+    return RecoveryResult(n, first, last, min(read, total), total, ok, names, library, skipped)
 
 
-def _copy_complete_records(src: Path, tmp: Path) -> tuple[int, int | None, int | None, int, bool, tuple[str, ...], str]:
+def _copy_complete_records(
+    src: Path, tmp: Path
+) -> tuple[int, int | None, int | None, int, bool, tuple[str, ...], str, dict[str, int]]:
     """Copy every record of ``src`` up to the first incomplete one into a finished MCAP file ``tmp``:
     (messages, first and last log time, bytes read, whether ``src`` was read to its end, the names
-    of the metadata records copied, the writer library its header names)."""
+    of the metadata records copied, the writer library its header names, the chunks left out by why)."""
     n, first, last, ok = 0, None, None, True
+    skipped: dict[str, int] = {}
     names: list[str] = []
     library = ""
     with open(src, "rb") as f, open_new(tmp) as o:
@@ -100,7 +109,8 @@ def _copy_complete_records(src: Path, tmp: Path) -> tuple[int, int | None, int |
         schema_ids: dict[int, int] = {}
         channel_ids: dict[int, int] = {}
         try:
-            for rec in StreamReader(f).records:
+            size = os.fstat(f.fileno()).st_size
+            for rec in _unchunked(StreamReader(bounded(f), emit_chunks=True, record_size_limit=size), skipped):
                 # the summary section repeats the schemas and channels: each is registered once, by id
                 if isinstance(rec, Schema) and rec.id not in schema_ids:
                     schema_ids[rec.id] = w.register_schema(rec.name, rec.encoding, rec.data)
@@ -134,4 +144,17 @@ def _copy_complete_records(src: Path, tmp: Path) -> tuple[int, int | None, int |
         w.finish()
         o.flush()
         os.fsync(o.fileno())
-    return n, first, last, read, ok, tuple(names), library
+    return n, first, last, read, ok, tuple(names), library, skipped
+
+
+def _unchunked(stream: StreamReader, skipped: dict[str, int]) -> Iterator[object]:
+    """The stream's records, each chunk's opened in its place; a chunk that fails its checks is left out
+    and counted in ``skipped`` by why."""
+    for rec in stream.records:
+        if isinstance(rec, Chunk):
+            try:
+                yield from chunk_records(rec)
+            except ChunkSkip as skip:
+                skipped[skip.why] = skipped.get(skip.why, 0) + 1
+        else:
+            yield rec

@@ -7,7 +7,9 @@ only fills in for a bag that has none); it is the reader's ``typestore``.
 from __future__ import annotations
 
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 from navlog.errors import LogError
 from navlog.replay import messages
@@ -27,10 +29,17 @@ class RosbagLogReader(LogReader):
         self.format = "rosbag2"
         files = [p for p in path.iterdir() if p.is_file()] if path.is_dir() else [path]
         self.size_bytes = sum(p.stat().st_size for p in files)
+        vetting = LogTypestore()  # the bag's definitions vetted; rosbags builds the store
         try:
             self._reader = AnyReader([path], default_typestore=messages.typestore())
-            self._reader.open()
+            with bounded_definitions(vetting):
+                self._reader.open()
         except Exception as exc:
+            if vetting.refused:  # the bag's type hashes name a type whose definition was refused
+                raise LogError(
+                    f"{path}: cannot open as a ROS 2 bag: {'; '.join(sorted(vetting.refused.values()))}, and "
+                    "the bag's type hashes need every definition; re-record it without that type"
+                ) from None
             raise LogError(f"{path}: cannot open as a ROS 2 bag: {exc}") from None
         self.storage = (
             ",".join(sorted({p.suffix.lstrip(".") for p in files if p.suffix in (".db3", ".mcap")})) or "unknown"
@@ -39,7 +48,9 @@ class RosbagLogReader(LogReader):
         self.compression = self.metadata.get("rosbag2", {}).get("compression_format") or "none"
         try:
             self.start_ns, self.end_ns = self._reader.start_time, self._reader.end_time
+            refused = vetting.refused
             self._types = LogTypestore(self._reader.typestore)
+            self._types.refused = refused
             types = self.typestore.types
             for conn in sorted(self._reader.connections, key=lambda c: c.id):
                 if not (isinstance(conn.topic, str) and isinstance(conn.msgtype, str)):
@@ -52,7 +63,9 @@ class RosbagLogReader(LogReader):
                     profiles = getattr(ext, "offered_qos_profiles", "") or ""
                     # rosbags parses them into Qos tuples: keep rosbag2's own YAML form
                     qos = dump_qos_v8(profiles) if isinstance(profiles, list) else str(profiles)
-                self.topics[conn.topic] = TopicInfo(conn.topic, conn.msgtype, count, conn.msgtype in types, qos)
+                known = conn.msgtype in types
+                why = "" if known else refused.get(conn.msgtype, "")
+                self.topics[conn.topic] = TopicInfo(conn.topic, conn.msgtype, count, known, qos, why)
         except (TypeError, ValueError, AttributeError) as exc:  # topics, counts or times of the wrong kind
             raise LogError(
                 f"{path}: malformed rosbag2 metadata ({exc}); repair metadata.yaml, or open a .db3/.mcap inside"
@@ -75,9 +88,10 @@ class RosbagLogReader(LogReader):
             return
         store = self.typestore
         try:
-            for conn, t, raw in self._reader.messages(
+            stream = self._reader.messages(
                 connections=conns, start=start_ns, stop=None if end_ns is None else end_ns + 1
-            ):
+            )
+            for conn, t, raw in self._in_sequence(stream, _time_of):
                 self.report.read += 1
                 if not decode:
                     yield Envelope(conn.topic, conn.msgtype, t, bytes(raw))
@@ -93,6 +107,31 @@ class RosbagLogReader(LogReader):
 
     def close(self) -> None:
         self._reader.close()
+
+
+@contextmanager
+def bounded_definitions(types: LogTypestore) -> Iterator[None]:
+    """While ``AnyReader`` opens a bag, the message definitions it parses are vetted first by ``types``
+    (``LogTypestore.vetted``: size bounds, recursive types): a refused one defines nothing, so its
+    topics are of an unknown type (counted skips) and the others still work. ``AnyReader`` parses them
+    inside ``open`` with no hook, so its module's parser is swapped for the call (readers run in one
+    thread; the original is always put back)."""
+    from rosbags.highlevel import anyreader
+
+    parse = anyreader.get_types_from_msg
+
+    def vetted(text: str, name: str) -> dict[str, Any]:
+        return types.vetted(name, text, parse) or {}
+
+    anyreader.get_types_from_msg = vetted
+    try:
+        yield
+    finally:
+        anyreader.get_types_from_msg = parse
+
+
+def _time_of(item: tuple) -> int:
+    return int(item[1])
 
 
 def bag_files(path: Path) -> list[Path]:

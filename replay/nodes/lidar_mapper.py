@@ -517,7 +517,7 @@ def choose_lidar_topic(params: LidarMapperParams, topics: dict[str, str], choose
 def first_cloud_and_statics(reader: Any, cloud_topic: str, tf_static_topic: str) -> tuple[str | None, list[Any]]:
     """The frame of the first cloud on ``cloud_topic`` (log names) and the /tf_static messages
     before it; reads only up to that cloud and leaves the reader's counts as they were."""
-    read = reader.report.read
+    read, skipped = reader.report.read, reader.report.skipped.copy()
     frame: str | None = None
     statics: list[Any] = []
     try:
@@ -531,8 +531,8 @@ def first_cloud_and_statics(reader: Any, cloud_topic: str, tf_static_topic: str)
             else:
                 frame = msg.header.frame_id
                 break
-    finally:
-        reader.report.read = read
+    finally:  # the replay reads these messages again, and counts what it skips then
+        reader.report.read, reader.report.skipped = read, skipped
     return frame, statics
 
 

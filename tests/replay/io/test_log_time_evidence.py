@@ -1,9 +1,11 @@
 """A log time is evidence, not an order: a message whose log time a flipped bit moved outside its chunk's
-time range is a counted skip, and the replay does not run its timers until then."""
+time range is a counted skip, and the replay does not run its timers until then. (With the chunk's CRC
+left as the writer computed it, the whole chunk is a counted skip: ``test_chunk_evidence``.)"""
 
 from __future__ import annotations
 
 import struct
+import zlib
 from pathlib import Path
 
 import pytest
@@ -14,6 +16,22 @@ from navlog.replay.session import run_replay
 
 REASON = "messages whose log time lies outside their chunk's time range (corrupt log time)"
 FLIP = 1 << 50  # ns: 13 days later
+
+
+def fix_chunk_crc(data: bytearray, at: int) -> None:
+    """Recompute the CRC of the uncompressed chunk holding byte ``at`` (as a writer that saw the bad time
+    would have): the chunk's records are then intact, only the time is absurd."""
+    pos = 8
+    while pos < len(data):
+        (length,) = struct.unpack_from("<Q", data, pos + 1)
+        if data[pos] == 0x06 and pos < at < pos + 9 + length:
+            body = pos + 9
+            (clen,) = struct.unpack_from("<I", data, body + 28)
+            records = body + 32 + clen + 8
+            struct.pack_into("<I", data, body + 24, zlib.crc32(data[records : pos + 9 + length]))
+            return
+        pos += 9 + length
+    raise AssertionError("no chunk holds the message")
 
 
 def _finds(data: bytearray, pattern: bytes) -> list[int]:
@@ -41,6 +59,7 @@ def flipped(teleop_log, tmp_path_factory) -> tuple[Path, int]:
     found = [at for at in _finds(data, struct.pack("<QQ", t, t)) if data[at - 6 : at - 4] == struct.pack("<H", cid)]
     assert len(found) == 1
     data[found[0] : found[0] + 8] = struct.pack("<Q", t ^ FLIP)
+    fix_chunk_crc(data, found[0])
     path.write_bytes(bytes(data))
     return path, t
 
