@@ -41,10 +41,13 @@ def campaign_and_seeds(tmp_path_factory, shared_dir):
     return campaign, campaign.load_seeds(folder / "seeds", shared_dir), folder
 
 
+EVERY_KIND_SEED = 85  # its first 200 cases draw every kind of ``KINDS`` (seed 1's no longer do)
+
+
 @pytest.mark.slow
 def test_seeded_subset_has_no_traceback_and_no_hang(campaign_and_seeds, shared_dir: Path) -> None:
     campaign, _, folder = campaign_and_seeds
-    result = campaign.run_campaign(200, 1, folder, shared=shared_dir, workers=2, timeout=20.0)
+    result = campaign.run_campaign(200, EVERY_KIND_SEED, folder, shared=shared_dir, workers=2, timeout=20.0)
     totals = result.totals
     assert totals["TRACEBACK"] == 0 and totals["HANG"] == 0, result.failures
     assert sum(totals.values()) == result.cases == 200
@@ -89,7 +92,7 @@ def test_case_i_depends_only_on_the_seed_and_i(campaign_and_seeds, shared_dir: P
 
 def test_a_recipe_applies_to_the_same_bytes_every_time(campaign_and_seeds) -> None:
     campaign, seeds, _ = campaign_and_seeds
-    drawn = collect(campaign, seeds, 200)  # (seed 1: every kind among them)
+    drawn = collect(campaign, seeds, 200)  # every kind among them
     for kind in campaign.KINDS:
         case = next(c for c in drawn if c.kind == kind)
         a, b = campaign.build(case, seeds), campaign.build(case, seeds)
@@ -98,7 +101,7 @@ def test_a_recipe_applies_to_the_same_bytes_every_time(campaign_and_seeds) -> No
 
 def collect(campaign, seeds, count: int) -> list:
     drawn: list = []
-    campaign.generate(1, count, seeds, drawn.append)
+    campaign.generate(EVERY_KIND_SEED, count, seeds, drawn.append)
     return drawn
 
 

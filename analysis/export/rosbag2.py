@@ -31,7 +31,7 @@ from navlog.errors import NavlogError
 from navlog.replay import messages
 from navlog.replay.config import suggest
 from navlog.replay.io import LogReader
-from navlog.replay.io.atomic import output_failure, replace_output, temp_path
+from navlog.replay.io.atomic import hold_output, output_failure, replace_output, temp_path
 from navlog.version import __version__
 
 __all__ = ["DISTRO_VERSIONS", "STORAGES", "BagOptions", "ExportSummary", "export_rosbag2"]
@@ -169,11 +169,19 @@ def _temp_dir_beside(out: Path) -> Path:
 def export_rosbag2(
     reader: LogReader, out: Path | str, options: BagOptions | None = None, *, force: bool = False
 ) -> ExportSummary:
-    """Write the selected messages of a log as a rosbag2 folder; message bytes are copied unchanged."""
+    """Write the selected messages of a log as a rosbag2 folder; message bytes are copied unchanged. One
+    run writes ``out`` at a time (``hold_output``)."""
+    out = Path(out)
+    if out.parent.is_dir():
+        with hold_output(out):
+            return _export_rosbag2(reader, out, options, force)
+    return _export_rosbag2(reader, out, options, force)
+
+
+def _export_rosbag2(reader: LogReader, out: Path, options: BagOptions | None, force: bool) -> ExportSummary:
     from rosbags.rosbag2 import StoragePlugin, Writer
 
     opt = (options or BagOptions()).validate()
-    out = Path(out)
     check_output(out, force)
     topics = select_topics(reader, opt.topics)
     unknown = {t: reader.topics[t].why or reader.topics[t].typename for t in topics if not reader.topics[t].known}

@@ -14,7 +14,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Sequence
-from contextlib import closing
+from contextlib import closing, nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -34,6 +34,7 @@ from navlog.analysis.fleet.summary import (
 )
 from navlog.analysis.fleet.worker import LogJob, LogResult, replay_log
 from navlog.errors import ConfigError
+from navlog.replay.io.atomic import hold_output
 from navlog.version import __version__
 
 __all__ = ["FleetResult", "format_fleet", "make_executor", "replay_fleet"]
@@ -134,7 +135,10 @@ def replay_fleet(
     if not is_url(out_root):
         Path(out_root).mkdir(parents=True, exist_ok=True)
     try:
-        return _run(executor, sources, pipeline, params, out_root, remap, recover, force, metrics, retries, progress)
+        with nullcontext() if is_url(out_root) else hold_output(Path(out_root)):  # one fleet writes a folder at a time
+            return _run(
+                executor, sources, pipeline, params, out_root, remap, recover, force, metrics, retries, progress
+            )
     except BaseException:  # Ctrl-C (or a defect): the logs done stay; a folder this call made and left empty goes
         if created:
             _remove_if_empty(Path(out_root))

@@ -42,7 +42,7 @@ from navlog.analysis.view.trajectories import Trajectories
 from navlog.errors import LogError, NavlogError
 from navlog.replay import messages
 from navlog.replay.io import LogReader, open_log
-from navlog.replay.io.atomic import output_failure, temp_path
+from navlog.replay.io.atomic import hold_output, output_failure, temp_path
 
 log = logging.getLogger("navlog")
 
@@ -229,8 +229,23 @@ def save_view(
     force: bool = False,
     recover: bool = False,
 ) -> ViewSummary:
-    """Convert a log to an .rrd file; the file appears under its name only when complete."""
+    """Convert a log to an .rrd file; the file appears under its name only when complete, and one run
+    writes it at a time (``hold_output``)."""
     out = Path(out)
+    if out.parent.is_dir():
+        with hold_output(out):
+            return _save_view(log_path, out, replay_dir, options, force, recover)
+    return _save_view(log_path, out, replay_dir, options, force, recover)
+
+
+def _save_view(
+    log_path: Path | str,
+    out: Path,
+    replay_dir: Path | str | None,
+    options: ViewOptions | None,
+    force: bool,
+    recover: bool,
+) -> ViewSummary:
     if out.suffix != ".rrd":
         raise NavlogError(f"{out}: the output must end in .rrd")
     if out.exists() and not force:

@@ -31,6 +31,7 @@ from typing import Any, Literal
 
 from navlog.campaign.spec import CampaignSpec, load_campaign
 from navlog.errors import ConfigError, NavlogError
+from navlog.replay.io.atomic import hold_output
 
 KeepLogs = Literal["none", "all", "failed"]
 RESULTS = ("succeeded", "collision", "timeout", "aborted", "failed", "infeasible")
@@ -462,32 +463,34 @@ def run_campaign(
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a folder; choose another output folder")
-    out.mkdir(parents=True, exist_ok=True)
-    plan = plan_campaign(spec, folder, out, keep_logs)
-    jobs = [j for j in plan.jobs if not only or j.variant in only]
-    if not jobs:
-        raise ConfigError(
-            f"campaign '{spec.name}' has 0 runs to do"
-            + (f" ({len(plan.infeasible)} route(s) infeasible)" if plan.infeasible else "")
-            + "; add worlds, seeds or routes"
-        )
-    start = time.perf_counter()
-    ex = executor if executor is not None else make_executor(workers, ray)
-    with closing(FleetProgress(len(jobs), enabled=progress)) as bar:
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with hold_output(out):  # one run writes a campaign folder at a time
+        out.mkdir(exist_ok=True)
+        plan = plan_campaign(spec, folder, out, keep_logs)
+        jobs = [j for j in plan.jobs if not only or j.variant in only]
+        if not jobs:
+            raise ConfigError(
+                f"campaign '{spec.name}' has 0 runs to do"
+                + (f" ({len(plan.infeasible)} route(s) infeasible)" if plan.infeasible else "")
+                + "; add worlds, seeds or routes"
+            )
+        start = time.perf_counter()
+        ex = executor if executor is not None else make_executor(workers, ray)
+        with closing(FleetProgress(len(jobs), enabled=progress)) as bar:
 
-        def done(i: int, result: Any, attempts: int) -> None:
-            row = _lost_row(jobs[i], result) if isinstance(result, Lost) else result
-            bar.done(jobs[i].run_id, row["result"] != "failed", row.get("message", ""))
-            if on_row is not None:
-                on_row(row)
+            def done(i: int, result: Any, attempts: int) -> None:
+                row = _lost_row(jobs[i], result) if isinstance(result, Lost) else result
+                bar.done(jobs[i].run_id, row["result"] != "failed", row.get("message", ""))
+                if on_row is not None:
+                    on_row(row)
 
-        results = run_jobs(ex, run_job, jobs, on_done=done)
-    rows = [_lost_row(j, r) if isinstance(r, Lost) else r for j, (r, _) in zip(jobs, results)]
-    cached = sum(bool(r.pop("cached", False)) for r in rows)
-    rows = sorted(rows + plan.infeasible, key=lambda r: r["run_id"])
-    summary = summarize(rows, spec, plan.worlds)
-    files = write_reports(out, rows, summary)
-    return CampaignResult(spec, out, rows, summary, files, time.perf_counter() - start, cached)
+            results = run_jobs(ex, run_job, jobs, on_done=done)
+        rows = [_lost_row(j, r) if isinstance(r, Lost) else r for j, (r, _) in zip(jobs, results)]
+        cached = sum(bool(r.pop("cached", False)) for r in rows)
+        rows = sorted(rows + plan.infeasible, key=lambda r: r["run_id"])
+        summary = summarize(rows, spec, plan.worlds)
+        files = write_reports(out, rows, summary)
+        return CampaignResult(spec, out, rows, summary, files, time.perf_counter() - start, cached)
 
 
 def _lost_row(job: RunJob, lost: Any) -> dict[str, Any]:

@@ -26,7 +26,7 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 from navlog.errors import LogError
-from navlog.replay.io.atomic import open_new, write_error
+from navlog.replay.io.atomic import hold_output, open_new, temp_path, write_error
 from navlog.replay.io.logwriter import check_output
 from navlog.replay.io.mcap_chunks import ChunkSkip, bounded, chunk_records
 from navlog.replay.io.mcap_reader import MCAP_MAGIC
@@ -70,27 +70,28 @@ def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) ->
     with open(src, "rb") as f:
         if f.read(8) != MCAP_MAGIC:
             raise LogError(f"{src}: not an MCAP file (bad magic bytes)")
-    tmp = dst.with_name(dst.name + ".part")
-    try:
-        n, first, last, read, ok, names, library, skipped = _copy_complete_records(src, tmp)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise write_error(dst, exc) from exc
-    if n == 0:
-        tmp.unlink(missing_ok=True)
-        why = (
-            "the file holds no message"
-            if ok
-            else f"it was cut after {read} bytes, before the end of its first chunk"
-            if read > 8
-            else "it was cut right after its magic bytes"
-        )
-        raise LogError(
-            f"{src}: nothing to recover: no complete chunk holds a message ({why}); nothing was written to {dst}. "
-            "A recording killed this early has no data to salvage: record it again."
-        )
-    os.replace(tmp, dst)
-    return RecoveryResult(n, first, last, min(read, total), total, ok, names, library, skipped)
+    with hold_output(dst):  # one run writes ``dst`` at a time
+        tmp = temp_path(dst)  # .NAME.PID.part: another process's temporary is never this one's
+        try:
+            n, first, last, read, ok, names, library, skipped = _copy_complete_records(src, tmp)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise write_error(dst, exc) from exc
+        if n == 0:
+            tmp.unlink(missing_ok=True)
+            why = (
+                "the file holds no message"
+                if ok
+                else f"it was cut after {read} bytes, before the end of its first chunk"
+                if read > 8
+                else "it was cut right after its magic bytes"
+            )
+            raise LogError(
+                f"{src}: nothing to recover: no complete chunk holds a message ({why}); nothing was written to {dst}. "
+                "A recording killed this early has no data to salvage: record it again."
+            )
+        os.replace(tmp, dst)
+        return RecoveryResult(n, first, last, min(read, total), total, ok, names, library, skipped)
 
 
 def _copy_complete_records(

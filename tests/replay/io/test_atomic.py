@@ -145,3 +145,28 @@ def test_the_commands_refuse_an_output_another_run_writes(tmp_path: Path, teleop
         )
         assert res.returncode == 2 and "is writing this output" in res.stderr, res.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_export_view_recover_fleet_and_campaign_refuse_an_output_another_run_writes(
+    tmp_path: Path, teleop_log: Path, capsys
+) -> None:
+    """Every command that writes a whole output holds it: given the output of a run in progress, each exits 2
+    naming the lock, and writes nothing."""
+    from navlog.cli import main
+    from navlog.replay.io.atomic import hold_output
+
+    campaign = Path(__file__).parents[3] / "examples" / "campaigns" / "small.yaml"
+    commands = {
+        "bag": ["export", str(teleop_log), "--to", "rosbag2", "-o"],
+        "view.rrd": ["view", str(teleop_log), "--save"],
+        "fixed.mcap": ["recover", str(teleop_log), "-o"],
+        "fleet": ["replay", str(teleop_log), str(teleop_log), "--pipeline", "mapping", "--workers", "1", "-o"],
+        "campaign": ["campaign", "run", str(campaign), "-o"],
+    }
+    for name, argv in commands.items():
+        out = tmp_path / name
+        with hold_output(out):
+            assert main(["-q", *argv, str(out)]) == 2, name
+        assert "is writing this output" in capsys.readouterr().err, name
+        assert not out.exists(), name
+    assert list(tmp_path.iterdir()) == []
