@@ -888,6 +888,9 @@ HOLDING_RUNS = [
     ["replay", "LOG", "--pipeline", "mapping", "--set", "lidar_mapper=off", "-o", "out"],
     ["replay", "LOG", "--pipeline", "safety", "--remap", "/cmd_vel_nav=/cmd_vel", "-o", "out"],
     ["record", "--scenario", "TINY", "-o", "out.mcap"],
+    ["export", "LOG", "--to", "rosbag2", "-o", "out"],
+    ["view", "LOG", "--save", "out.rrd"],
+    ["recover", "LOG", "-o", "out.mcap"],
 ]
 
 
