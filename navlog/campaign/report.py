@@ -1,8 +1,12 @@
 """A campaign's reports: ``campaign.json`` (summary and rows), ``campaign.csv`` (one row per run),
-``campaign.md`` (the summary as tables) and ``campaign.png`` (success by difficulty, time per variant).
+``campaign.md`` (the summary as tables), ``campaign.png`` (success by difficulty, time per variant),
+``campaign_failures.png`` (the contact sheet: a top-down view of each run that did not succeed) and
+``campaign_timing.csv`` / ``campaign_timing.md`` (the machine's figures: wall time per run and the
+controller's cycle time, mean and 95th percentile in ms).
 
-Every file is written whole (a temporary file renamed into place). Rows leave out the wall time (it
-varies run to run), so the same campaign gives the same bytes whichever executor ran it.
+Every file is written whole (a temporary file renamed into place). The deterministic reports leave
+out the machine's figures (``MACHINE``: wall times vary run to run and machine to machine), so the
+same campaign gives the same ``campaign.json``/``.csv``/``.md`` bytes whichever executor ran it.
 """
 
 from __future__ import annotations
@@ -40,7 +44,10 @@ CSV_FIELDS = [
     "sim_s",
     "message",
 ]
-VOLATILE = ("wall_s", "key", "log", "cached")  # not part of a row's report: they vary run to run
+MACHINE = ("wall_s", "cycle_ms_mean", "cycle_ms_p95")  # wall-clock figures: campaign_timing.*, never the rows
+VOLATILE = (*MACHINE, "key", "log", "cached", "track")  # not part of a row's report (the track: runs/RUN.json)
+TIMING_FIELDS = ["run_id", "variant", "result", "cycles", "cycle_ms_mean", "cycle_ms_p95", "wall_s"]
+SHEET_MAX = 24  # panels on the contact sheet (the first by run id)
 
 
 def report_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -56,6 +63,9 @@ def write_reports(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any]
         "campaign.csv": _csv(clean).encode(),
         "campaign.md": markdown(summary).encode(),
         "campaign.png": plot_png(clean, summary),
+        "campaign_failures.png": contact_sheet_png(rows, summary),
+        "campaign_timing.csv": _csv([r for r in rows if r["result"] != "infeasible"], TIMING_FIELDS).encode(),
+        "campaign_timing.md": timing_markdown(rows, summary).encode(),
     }
     paths = []
     for name, data in files.items():
@@ -64,13 +74,59 @@ def write_reports(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any]
     return paths
 
 
-def _csv(rows: list[dict[str, Any]]) -> str:
+def _csv(rows: list[dict[str, Any]], fields: list[str] = CSV_FIELDS) -> str:
     buf = io.StringIO()
-    w = csv.DictWriter(buf, CSV_FIELDS, extrasaction="ignore", lineterminator="\n")
+    w = csv.DictWriter(buf, fields, extrasaction="ignore", lineterminator="\n")
     w.writeheader()
     for r in rows:
-        w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in CSV_FIELDS})
+        w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in fields})
     return buf.getvalue()
+
+
+def timing_summary(rows: list[dict[str, Any]], variants: list[str]) -> dict[str, dict[str, Any]]:
+    """Per variant: runs timed, cycles, the mean of the runs' mean cycle times and of their 95th
+    percentiles, the largest 95th percentile (ms), and the mean wall time of a run (s)."""
+    import numpy as np
+
+    out: dict[str, dict[str, Any]] = {}
+    for v in variants:
+        timed = [r for r in rows if r["variant"] == v and r.get("cycle_ms_mean") is not None]
+        if not timed:
+            continue
+        means = np.array([r["cycle_ms_mean"] for r in timed], dtype=float)
+        p95 = np.array([r["cycle_ms_p95"] for r in timed], dtype=float)
+        out[v] = {
+            "runs": len(timed),
+            "cycles": int(sum(r.get("cycles", 0) for r in timed)),
+            "cycle_ms_mean": round(float(means.mean()), 3),
+            "cycle_ms_p95": round(float(p95.mean()), 3),
+            "cycle_ms_p95_max": round(float(p95.max()), 3),
+            "wall_s": round(float(np.mean([r.get("wall_s", 0.0) for r in timed])), 2),
+        }
+    return out
+
+
+def timing_markdown(rows: list[dict[str, Any]], summary: dict[str, Any]) -> str:
+    """The machine's figures per variant (``timing_summary``) as a table, with this machine's load."""
+    import os
+
+    load = ", ".join(f"{x:.2f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "-"
+    lines = [
+        f"# Campaign `{summary['campaign']}`: controller cycle time (wall clock, this machine)",
+        "",
+        "Each run times every controller-server cycle (goal and progress checks and the controller's "
+        "computeVelocityCommands) in wall-clock time: figures of the machine and its load, not of the "
+        f"stack alone, so they are kept out of campaign.json. Load average when written: {load}.",
+        "",
+        "| variant | runs | cycles | cycle ms mean | cycle ms p95 (mean of runs) | p95 max | wall s per run |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for name, t in timing_summary(rows, list(summary["variants"])).items():
+        lines.append(
+            f"| {name} | {t['runs']} | {t['cycles']} | {t['cycle_ms_mean']:.2f} | {t['cycle_ms_p95']:.2f} | "
+            f"{t['cycle_ms_p95_max']:.2f} | {t['wall_s']:.1f} |"
+        )
+    return "\n".join(lines) + "\n"
 
 
 def _ci(stat: dict[str, Any] | None, digits: int = 2) -> str:
@@ -161,3 +217,68 @@ def plot_png(rows: list[dict[str, Any]], summary: dict[str, Any]) -> bytes:
     fig.savefig(buf, format="png", metadata={"Software": None})
     plt.close(fig)
     return buf.getvalue()
+
+
+def contact_sheet_png(rows: list[dict[str, Any]], summary: dict[str, Any]) -> bytes:
+    """A grid of top-down views of the runs that did not succeed (the first ``SHEET_MAX`` by run id): the
+    world's obstacles, the optimal path (NavFn on the true grid, as planned), the trajectory driven
+    (ground truth every 0.25 s), start and goal; the title names world, seed, route, variant and result."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    bad = [r for r in rows if r["result"] not in ("succeeded", "infeasible")]
+    shown = bad[:SHEET_MAX]
+    cols = min(4, max(1, len(shown)))
+    nrows = max(1, -(-len(shown) // cols))
+    fig, axes = plt.subplots(nrows, cols, figsize=(3.4 * cols, 3.6 * nrows), dpi=90, squeeze=False)
+    grids: dict[str, Any] = {}
+    for ax, row in zip(axes.flat, shown):
+        _draw_run(ax, row, summary["worlds"].get(row["world"], {}), grids)
+    for ax in axes.flat[len(shown) :]:
+        ax.axis("off")
+    if not shown:
+        axes[0, 0].text(0.5, 0.5, "every run succeeded", ha="center", va="center")
+    more = f" (the first {SHEET_MAX})" if len(bad) > SHEET_MAX else ""
+    fig.suptitle(f"campaign {summary['campaign']}: {len(bad)} run(s) that did not succeed{more}", fontsize=11)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None})
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def _draw_run(ax: Any, row: dict[str, Any], world: dict[str, Any], grids: dict[str, Any]) -> None:
+    import numpy as np
+
+    from navlog.recorder.description import load_robot
+    from navlog.recorder.routes import optimal_path, true_grid
+    from navlog.recorder.world import load_world
+
+    path = world.get("path")
+    if path and path not in grids:
+        grids[path] = true_grid(load_world(path))
+    grid = grids.get(path) if path else None
+    if grid is not None:
+        ny, nx = grid.occupied.shape
+        x0, y0 = grid.origin
+        extent = (x0, x0 + nx * grid.resolution, y0, y0 + ny * grid.resolution)
+        ax.imshow(grid.occupied, origin="lower", extent=extent, cmap="Greys", vmin=0, vmax=1.4, interpolation="none")
+        best = optimal_path(grid, tuple(row["start"]), tuple(row["goal"]), load_robot(row["robot"]).radius)
+        if best is not None:
+            ax.plot(best.poses[:, 0], best.poses[:, 1], "--", color="tab:green", lw=1.2, label="optimal")
+    track = np.asarray(row.get("track") or np.zeros((0, 2)), dtype=float).reshape(-1, 2)
+    if len(track):
+        ax.plot(track[:, 0], track[:, 1], "-", color="tab:red", lw=1.4, label="driven")
+        ax.plot(track[-1, 0], track[-1, 1], "x", color="tab:red", ms=7)
+    ax.plot(*row["start"][:2], "o", color="tab:blue", ms=6, label="start")
+    ax.plot(*row["goal"][:2], "*", color="gold", mec="k", ms=11, label="goal")
+    t = row.get("time_s")
+    when = f" at {t:g} s" if t is not None else ""
+    ax.set_title(
+        f"{row['world']} seed {row['seed']} route {row['route']}\n{row['variant']}: {row['result']}{when}", fontsize=8
+    )
+    ax.set_aspect("equal")
+    ax.tick_params(labelsize=6)
+    ax.legend(fontsize=5, loc="lower right")
