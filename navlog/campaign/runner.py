@@ -520,6 +520,12 @@ def run_campaign(
     return CampaignResult(spec, out, rows, summary, files, time.perf_counter() - start, cached)
 
 
+def run_campaign_case(campaign: Path, out: Path) -> dict[str, Any]:
+    """The summary of ``campaign`` run into ``out`` in this process: a ``navlog ci run`` case of kind
+    campaign (``navlog.analysis.ci.campaign_case``; a rerun reuses every finished run)."""
+    return run_campaign(campaign, out, workers=1, progress=False).summary
+
+
 def _lost_row(job: RunJob, lost: Any) -> dict[str, Any]:
     row = _base_row(job) | {"result": "failed", "message": f"crashed: {lost.reason}"}
     _write_row(Path(job.out) / "runs" / f"{job.run_id}.json", row)  # failed: redone by the next run (no key match)
@@ -539,5 +545,6 @@ __all__ = [
     "cycle_time_ms",
     "plan_campaign",
     "run_campaign",
+    "run_campaign_case",
     "run_job",
 ]
