@@ -489,6 +489,15 @@ def run_campaign(
         spec, folder = campaign, Path.cwd()
     else:
         spec, folder = load_campaign(campaign), Path(campaign).parent
+    names = [v.name for v in spec.variants]
+    for name in only:
+        if name not in names:
+            from navlog.replay.config import suggest
+
+            raise ConfigError(
+                f"--variant '{name}' is not a variant of '{spec.name}'{suggest(name, names)}; variants: "
+                + ", ".join(names)
+            )
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a folder; choose another output folder")
