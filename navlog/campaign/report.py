@@ -14,6 +14,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import textwrap
 from pathlib import Path
 from typing import Any
 
@@ -192,24 +193,30 @@ def plot_png(rows: list[dict[str, Any]], summary: dict[str, Any]) -> bytes:
     edges = np.unique(np.quantile(d, [0, 0.25, 0.5, 0.75, 1.0])) if len(d) else np.array([0.0, 1.0])
     if len(edges) < 2:
         edges = np.array([edges[0] - 0.05, edges[0] + 0.05])
-    centres = (edges[:-1] + edges[1:]) / 2
-    width = (edges[1:] - edges[:-1]) / (len(variants) + 1)
+    bins = len(edges) - 1
+    width = 0.8 / max(1, len(variants))
+    counts = np.zeros(bins, dtype=int)
+    labels = []
     for i, v in enumerate(variants):
         rs = [r for r in runs if r["variant"] == v]
         dv = np.array([r["difficulty"] for r in rs], dtype=float)
         ok = np.array([r["result"] == "succeeded" for r in rs])
-        idx = np.clip(np.searchsorted(edges, dv, side="right") - 1, 0, len(centres) - 1)
-        rate = [ok[idx == b].mean() if (idx == b).any() else np.nan for b in range(len(centres))]
-        ax1.bar(edges[:-1] + width * (i + 0.5), rate, width, align="edge", label=v)
+        idx = np.clip(np.searchsorted(edges, dv, side="right") - 1, 0, bins - 1)
+        counts = np.maximum(counts, np.bincount(idx, minlength=bins))
+        rate = [ok[idx == b].mean() if (idx == b).any() else np.nan for b in range(bins)]
+        ax1.bar(np.arange(bins) - 0.4 + width * (i + 0.5), rate, width, label=v)
         times = [r["time_s"] for r in rs if r["result"] == "succeeded"]
+        labels.append(f"{v}\n({len(times)} succeeded)")
         if times:
             ax2.boxplot([times], positions=[i], widths=0.5)
-    ax1.set_xlabel("difficulty (mean robot radius / clearance along the optimal path)")
+    ax1.set_xticks(range(bins), [f"{edges[b]:.2f}-{edges[b + 1]:.2f}\n{counts[b]} runs" for b in range(bins)])
+    ax1.tick_params(axis="x", labelsize=8)
+    ax1.set_xlabel("difficulty quartile (mean robot radius / clearance along the optimal path)")
     ax1.set_ylabel("success rate")
     ax1.set_ylim(0, 1.05)
     ax1.legend(fontsize=8)
     ax1.set_title("success by difficulty")
-    ax2.set_xticks(range(len(variants)), variants)
+    ax2.set_xticks(range(len(variants)), labels)
     ax2.set_ylabel("time to goal (s), succeeded runs")
     ax2.set_title("time per variant")
     fig.tight_layout()
@@ -241,8 +248,9 @@ def contact_sheet_png(rows: list[dict[str, Any]], summary: dict[str, Any]) -> by
     if not shown:
         axes[0, 0].text(0.5, 0.5, "every run succeeded", ha="center", va="center")
     more = f" (the first {SHEET_MAX})" if len(bad) > SHEET_MAX else ""
-    fig.suptitle(f"campaign {summary['campaign']}: {len(bad)} run(s) that did not succeed{more}", fontsize=11)
-    fig.tight_layout()
+    title = textwrap.wrap(f"campaign {summary['campaign']}: {len(bad)} run(s) that did not succeed{more}", 32 * cols)
+    fig.suptitle("\n".join(title), fontsize=11)
+    fig.tight_layout(rect=(0.0, 0.0, 1.0, 1.0 - 0.2 * (len(title) + 1) / fig.get_figheight()))  # room for the title
     buf = io.BytesIO()
     fig.savefig(buf, format="png", metadata={"Software": None})
     plt.close(fig)
