@@ -64,7 +64,7 @@ def write_reports(out: Path, rows: list[dict[str, Any]], summary: dict[str, Any]
         "campaign.csv": _csv(clean).encode(),
         "campaign.md": markdown(summary).encode(),
         "campaign.png": plot_png(clean, summary),
-        "campaign_failures.png": contact_sheet_png(rows, summary),
+        "campaign_failures.png": contact_sheet_png(rows, summary, out),
         "campaign_timing.csv": _csv([r for r in rows if r["result"] != "infeasible"], TIMING_FIELDS).encode(),
         "campaign_timing.md": timing_markdown(rows, summary).encode(),
     }
@@ -226,10 +226,11 @@ def plot_png(rows: list[dict[str, Any]], summary: dict[str, Any]) -> bytes:
     return buf.getvalue()
 
 
-def contact_sheet_png(rows: list[dict[str, Any]], summary: dict[str, Any]) -> bytes:
+def contact_sheet_png(rows: list[dict[str, Any]], summary: dict[str, Any], out: Path | None = None) -> bytes:
     """A grid of top-down views of the runs that did not succeed (the first ``SHEET_MAX`` by run id): the
     world's obstacles, the optimal path (NavFn on the true grid, as planned), the trajectory driven
-    (ground truth every 0.25 s), start and goal; the title names world, seed, route, variant and result."""
+    (ground truth every 0.25 s), start and goal; the title names world, seed, route, variant and result.
+    ``out``: the campaign's folder, where the summary's relative world paths (generated worlds) start."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -242,7 +243,7 @@ def contact_sheet_png(rows: list[dict[str, Any]], summary: dict[str, Any]) -> by
     fig, axes = plt.subplots(nrows, cols, figsize=(3.4 * cols, 3.6 * nrows), dpi=90, squeeze=False)
     grids: dict[str, Any] = {}
     for ax, row in zip(axes.flat, shown):
-        _draw_run(ax, row, summary["worlds"].get(row["world"], {}), grids)
+        _draw_run(ax, row, summary["worlds"].get(row["world"], {}), grids, out)
     for ax in axes.flat[len(shown) :]:
         ax.axis("off")
     if not shown:
@@ -257,7 +258,7 @@ def contact_sheet_png(rows: list[dict[str, Any]], summary: dict[str, Any]) -> by
     return buf.getvalue()
 
 
-def _draw_run(ax: Any, row: dict[str, Any], world: dict[str, Any], grids: dict[str, Any]) -> None:
+def _draw_run(ax: Any, row: dict[str, Any], world: dict[str, Any], grids: dict[str, Any], out: Path | None) -> None:
     import numpy as np
 
     from navlog.recorder.description import load_robot
@@ -265,6 +266,8 @@ def _draw_run(ax: Any, row: dict[str, Any], world: dict[str, Any], grids: dict[s
     from navlog.recorder.world import load_world
 
     path = world.get("path")
+    if path and out is not None and not Path(path).is_absolute():
+        path = str(out / path)
     if path and path not in grids:
         grids[path] = true_grid(load_world(path))
     grid = grids.get(path) if path else None

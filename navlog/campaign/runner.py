@@ -382,7 +382,12 @@ def plan_campaign(spec: CampaignSpec, folder: Path, out: Path, keep_logs: KeepLo
     for wname, wpath, winfo in worlds:
         world = load_world(wpath)
         grid = true_grid(world)
-        info[wname] = {"path": wpath, **winfo}
+        # a generated world by its place in OUT (the reports' bytes must not depend on where OUT is)
+        inside = Path(wpath).resolve().is_relative_to(out.resolve())
+        info[wname] = {
+            "path": Path(wpath).resolve().relative_to(out.resolve()).as_posix() if inside else wpath,
+            **winfo,
+        }
         world_sha = _sha256(Path(wpath))
         for rname, robot in robots.items():
             for seed in spec.seeds:

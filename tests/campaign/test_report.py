@@ -84,3 +84,23 @@ def test_the_contact_sheet_draws_each_run_that_did_not_succeed(tmp_path):
 def test_the_contact_sheet_is_capped(tmp_path):
     rows = [_row(i, "a", 2.0, 10.0, result="timeout") for i in range(30)]
     assert _png_size(contact_sheet_png(rows, _summary(tmp_path, rows))) == (6 * 324, 4 * 306)  # 24 of 30
+
+
+def test_generated_worlds_are_named_by_their_place_in_the_output_folder(tmp_path):
+    """The reports' bytes must not depend on where OUT is: two folders, the same world entries."""
+    from navlog.campaign.runner import plan_campaign
+    from navlog.campaign.spec import load_campaign
+
+    path = tmp_path / "c.yaml"
+    path.write_text(
+        "name: t\nworlds:\n  - {generate: corridor, count: 2, params: {doors: 0, length: 6.0}}\nrobots: [go2]\n"
+        "variants:\n  - {name: a, nav2_params: nav_go2}\nroutes: {kind: fixed, start: [-2, 0, 0], goal: [2, 0, 0]}\n"
+    )
+    spec = load_campaign(path)
+    one, two = (plan_campaign(spec, tmp_path, tmp_path / name).worlds for name in ("one", "deeper/two"))
+    assert one == two
+    assert one["corridor_1"]["path"] == "worlds/corridor_1.yaml"
+    row = _row(0, "a", 2.0, 10.0, [(-2.0, 0.0), (-1.0, 0.0)], result="timeout") | {"world": "corridor_1"}
+    summary = {"campaign": "t", "worlds": one}
+    drawn = contact_sheet_png([row], summary, tmp_path / "one")  # the world found in OUT
+    assert drawn != contact_sheet_png([row], {"campaign": "t", "worlds": {}})  # no world: no obstacles, no path
