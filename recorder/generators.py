@@ -15,7 +15,10 @@ reads back into the same solids).
   Its difficulty is that of the optimal path across (``navlog.recorder.routes.path_difficulty``).
 - ``room``: a walled room with ``obstacles`` random boxes and cylinders (clutter);
 - ``corridor``: a corridor of ``length`` x ``width`` with ``doors`` cross walls, each with a doorway
-  of ``door_width`` at a random place.
+  of ``door_width`` at a random place;
+- ``office``: a floor of ``rooms`` rooms on each side of a central corridor, each room opening onto the
+  corridor through one doorway of ``door_width`` at a random place along its wall, with up to
+  ``furniture`` random boxes (desks, cabinets) inside, clear of its doorway.
 """
 
 from __future__ import annotations
@@ -89,6 +92,25 @@ class CorridorParams:
             raise ValueError("length must be 2..500 m, width 0.5..50 m, doors 0..100")
         if not (0.1 <= self.door_width <= self.width and 0.02 <= self.wall_thickness <= 1):
             raise ValueError("door_width must be 0.1 m..width, wall_thickness 0.02..1 m")
+
+
+@dataclass(frozen=True)
+class OfficeParams:
+    rooms: int = 4  # rooms on each side of the corridor
+    room_width: float = 3.0  # m, along the corridor (x)
+    room_depth: float = 3.0  # m, away from the corridor (y)
+    corridor_width: float = 1.6  # m
+    door_width: float = 0.9  # m
+    furniture: int = 2  # boxes placed at random in each room (0..furniture)
+    wall_thickness: float = 0.1  # m
+
+    def __post_init__(self) -> None:
+        if not (1 <= self.rooms <= 50 and 1.5 <= self.room_width <= 50 and 1.5 <= self.room_depth <= 50):
+            raise ValueError("rooms must be 1..50, room_width and room_depth 1.5..50 m")
+        if not (0.5 <= self.corridor_width <= 20 and 0.3 <= self.door_width <= self.room_width - 0.4):
+            raise ValueError("corridor_width must be 0.5..20 m and door_width 0.3 m..room_width - 0.4 m")
+        if not (0 <= self.furniture <= 20 and 0.02 <= self.wall_thickness <= 1):
+            raise ValueError("furniture must be 0..20 and wall_thickness 0.02..1 m")
 
 
 @dataclass
@@ -241,10 +263,57 @@ def corridor(params: CorridorParams, seed: int) -> GeneratedWorld:
     return GeneratedWorld(spec, world, {"generator": "corridor", "seed": seed, "params": to_mapping(p)})
 
 
+def office(params: OfficeParams, seed: int) -> GeneratedWorld:
+    """Rooms on both sides of a corridor, each with a doorway and furniture (module docstring)."""
+    p = params
+    rng = np.random.default_rng(np.random.SeedSequence([seed, 0x6F666663]))  # "offc"
+    length, t = p.rooms * p.room_width, p.wall_thickness
+    hy = p.corridor_width / 2 + p.room_depth
+    objects: list[ObjectSpec] = []
+
+    def box(name: str, x0: float, x1: float, y0: float, y1: float) -> None:
+        if x1 - x0 > 0.01 and y1 - y0 > 0.01:
+            pose = (round((x0 + x1) / 2, 4), round((y0 + y1) / 2, 4), 0.0)
+            objects.append(
+                ObjectSpec(name, pose, shape="box", size=(round(x1 - x0, 4), round(y1 - y0, 4), OBSTACLE_HEIGHT))
+            )
+
+    for side, sign in (("s", -1.0), ("n", 1.0)):
+        wall_y = sign * p.corridor_width / 2  # the corridor wall of this side's rooms
+        far = sign * hy
+        for k in range(p.rooms):
+            x0 = -length / 2 + k * p.room_width
+            x1 = x0 + p.room_width
+            if k > 0:  # the wall between room k - 1 and room k
+                ya, yb = sorted((wall_y, far))
+                box(f"{side}{k}_side", x0 - t / 2, x0 + t / 2, ya, yb)
+            door = float(rng.uniform(x0 + 0.2, x1 - 0.2 - p.door_width))
+            ya, yb = sorted((wall_y, wall_y + sign * t))
+            box(f"{side}{k}_wall_a", x0, door, ya, yb)
+            box(f"{side}{k}_wall_b", door + p.door_width, x1, ya, yb)
+            # furniture along the far half of the room, clear of the doorway's approach
+            for j in range(int(rng.integers(0, p.furniture + 1))):
+                w, d = rng.uniform(0.4, 1.2), rng.uniform(0.4, 0.8)
+                cx = float(rng.uniform(x0 + t + w / 2, x1 - t - w / 2))
+                depth = p.room_depth - t
+                cy = sign * (p.corridor_width / 2 + t + depth / 2 + float(rng.uniform(0, depth / 2 - d / 2)))
+                box(f"{side}{k}_desk_{j}", cx - w / 2, cx + w / 2, cy - d / 2, cy + d / 2)
+    spec = WorldSpec(
+        f"office_{seed}",
+        description=f"office: {p.rooms} + {p.rooms} rooms of {p.room_width:g} x {p.room_depth:g} m on a "
+        f"{p.corridor_width:g} m corridor, doorways {p.door_width:g} m, seed {seed}",
+        walls=WallsSpec((round(length, 6), round(2 * hy, 6)), thickness=0.2, height=OBSTACLE_HEIGHT),
+        objects=objects,
+    )
+    world = resolve_world(spec, Path(f"<office seed {seed}>"))
+    return GeneratedWorld(spec, world, {"generator": "office", "seed": seed, "params": to_mapping(p)})
+
+
 GENERATORS: dict[str, tuple[type, Callable[[Any, int], GeneratedWorld]]] = {
     "barn": (BarnParams, barn_field),
     "room": (RoomParams, cluttered_room),
     "corridor": (CorridorParams, corridor),
+    "office": (OfficeParams, office),
 }
 
 

@@ -37,6 +37,7 @@ from navlog.analysis.ci.cache import (
     default_cache_dir,
     log_layout_sha256,
 )
+from navlog.analysis.ci.campaign_case import CampaignRunner, campaign_facts, evaluate_campaign
 from navlog.analysis.ci.facts import case_facts, numbers
 from navlog.analysis.ci.invariants import evaluate
 from navlog.analysis.ci.result import CaseResult, CheckResult, Status, SuiteResult
@@ -72,6 +73,7 @@ class CaseJob:
     log: Path | None = None  # the recorded log of a recipe
     log_error: str = ""  # why the recipe could not be recorded
     timings: dict[str, float] = field(default_factory=dict)
+    campaign_runner: CampaignRunner | None = None  # runs a campaign case's file (module-level: picklable)
 
 
 def _map(
@@ -114,8 +116,9 @@ def applicable_overrides(
     from navlog.replay.config import to_mapping
     from navlog.replay.session import pipeline_params
 
-    trees = {p: to_mapping(pipeline_params(p)) for p in sorted({c.pipeline for c in suite.cases})}
     out: dict[str, list[str]] = {c.name: [] for c in suite.cases}
+    suite = replace(suite, cases=tuple(c for c in suite.cases if c.kind == "replay"))  # a campaign takes no --set
+    trees = {p: to_mapping(pipeline_params(p)) for p in sorted({c.pipeline for c in suite.cases})}
     for item in overrides:
         key, sep, _ = item.partition("=")
         if not sep or not key.strip():
@@ -176,13 +179,15 @@ def run_suite(
     baseline_dir: Path | str | None = None,
     cases: Sequence[str] = (),
     executor: Callable[[int, int], Executor] = default_executor,
+    campaign_runner: CampaignRunner | None = None,
 ) -> SuiteResult:
     """Run every case of the suite file (or only those named in ``cases``); see the module docstring. A
     bad suite or ``--set`` raises ``ConfigError`` before anything runs; a bad case is an ERROR in the result.
 
     ``executor(workers, jobs)`` gives where the recordings, then the cases, run (``default_executor``: this
     process or a ``ProcessPool``); a case whose worker process dies is an ERROR naming it, and the
-    other cases still run."""
+    other cases still run. ``campaign_runner`` runs the cases of kind campaign (``navlog ci run`` gives
+    ``navlog.campaign.run_campaign_case``); without it such a case is an ERROR saying so."""
     suite = load_suite(suite_path)
     if cases:
         suite = replace(suite, cases=tuple(suite.case(n) for n in cases))
@@ -198,7 +203,17 @@ def run_suite(
         log, error, seconds = recorded[c.recipe] if c.recipe is not None else (c.log, "", 0.0)
         jobs.append(
             CaseJob(
-                c, extra[c.name], folder / c.name, cache, update, update_new, determinism, log, error, {"log": seconds}
+                c,
+                extra[c.name],
+                folder / c.name,
+                cache,
+                update,
+                update_new,
+                determinism,
+                log,
+                error,
+                {"log": seconds},
+                campaign_runner,
             )
         )
     results = _map(run_case, jobs, executor(workers, len(jobs)), _case_lost)
@@ -239,6 +254,8 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
     from navlog.replay.session import pipeline_params
 
     case = job.case
+    if case.kind == "campaign":
+        return _run_campaign_case(job, timings)
     if job.log_error:
         raise NavlogError(job.log_error)
     log = job.log
@@ -314,6 +331,26 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
         timings,
         cached,
     )
+
+
+def _run_campaign_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
+    """A case of kind campaign: the campaign run into the cache (a rerun reuses its finished runs), each
+    threshold judged on its summary; the facts are every variant's figures."""
+    case = job.case
+    assert case.campaign is not None
+    if job.campaign_runner is None:
+        raise NavlogError(
+            f"case '{case.name}': a campaign case needs the campaign runner: run it with `navlog ci run`, or pass "
+            "campaign_runner=navlog.campaign.run_campaign_case to run_suite"
+        )
+    start = time.perf_counter()
+    out = job.cache / "campaigns" / f"{job.baseline.parent.name}-{case.name}"
+    summary = job.campaign_runner(case.campaign, out)
+    timings["campaign"] = time.perf_counter() - start
+    checks = tuple(evaluate_campaign(c, summary) for c in case.campaign_checks)
+    facts = campaign_facts(summary)
+    notes = (f"campaign '{summary['campaign']}': {summary['runs']} rows, reports in {out}",)
+    return CaseResult(case.name, case.pipeline, case.source, checks, facts, notes, timings=timings)
 
 
 def _input_check(log: Path, pipeline: str, params: Any, remap: dict[str, str]) -> CheckResult:

@@ -17,6 +17,10 @@ cases:
       - min_clearance >= 0.3
 ```
 
+A case of ``kind: campaign`` runs a campaign file instead and judges its summary
+(``navlog.analysis.ci.campaign_case``): ``{name, kind: campaign, campaign: FILE, checks: [success_rate >= 0.9,
+collisions == 0, not REGRESSED vs baseline]}``.
+
 Every path is relative to the suite file (the baselines folder's default too). Errors name the suite file, the case and the key.
 ``checks`` omitted means one diff against the baseline with the default tolerances.
 """
@@ -29,6 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from navlog.analysis.ci.campaign_case import CampaignCheck, parse_campaign_check
 from navlog.analysis.ci.invariants import Invariant, parse_invariant
 from navlog.analysis.diff.tolerances import DEFAULT_TOLERANCES, DiffTolerances, parse_tolerances
 from navlog.errors import ConfigError
@@ -37,7 +42,21 @@ from navlog.replay.config import load_yaml, suggest
 __all__ = ["Case", "DiffCheck", "Recipe", "Suite", "WorldMap", "load_suite", "suite_name"]
 
 SUITE_KEYS = ("name", "baselines", "cases")
-CASE_KEYS = ("name", "log", "recipe", "pipeline", "params", "overrides", "remap", "world_map", "checks")
+CASE_KEYS = (
+    "name",
+    "kind",
+    "log",
+    "recipe",
+    "pipeline",
+    "params",
+    "overrides",
+    "remap",
+    "world_map",
+    "checks",
+    "campaign",
+)
+CASE_KINDS = ("replay", "campaign")
+CAMPAIGN_KEYS = ("name", "kind", "campaign", "checks")
 RECIPE_KEYS = ("world", "robot", "scenario", "seed", "noise")
 WORLD_MAP_KEYS = ("world", "margin", "resolution")
 DIFF_KEYS = ("tolerances", "ignore")
@@ -96,10 +115,15 @@ class Case:
     world_map: WorldMap | None = None
     diff: DiffCheck | None = field(default_factory=DiffCheck)
     invariants: tuple[Invariant, ...] = ()
+    kind: str = "replay"  # replay: a log through a pipeline; campaign: a campaign file run and judged
+    campaign: Path | None = None  # the campaign file of a campaign case
+    campaign_checks: tuple[CampaignCheck, ...] = ()  # its thresholds
 
     @property
     def source(self) -> str:
         """The log as people read it: the path, or the recipe."""
+        if self.campaign is not None:
+            return f"campaign {self.campaign.name}"
         if self.recipe is not None:
             r = self.recipe
             return f"recipe {r.world}/{r.robot}/{r.scenario} seed {r.seed}" + ("" if r.noise else " no noise")
@@ -201,6 +225,13 @@ def load_suite(path: Path | str) -> Suite:
 
 def _case(data: Any, at: _Where, base: Path, pipelines: Sequence[str]) -> Case:
     data = at.keys(data, CASE_KEYS, "")
+    kind = data.get("kind", "replay")
+    if kind not in CASE_KINDS:
+        raise at.error(
+            "kind", f"unknown case kind {kind!r}{suggest(str(kind), CASE_KINDS)}; known: {', '.join(CASE_KINDS)}"
+        )
+    if kind == "campaign":
+        return _campaign_case(data, at, base)
     for key in ("name", "pipeline"):
         if key not in data:
             raise at.error(key, "required key is missing")
@@ -230,6 +261,30 @@ def _case(data: Any, at: _Where, base: Path, pipelines: Sequence[str]) -> Case:
     world_map = _world_map(data["world_map"], at, recipe) if data.get("world_map") is not None else None
     diff, invariants = _checks(data.get("checks"), at, pipeline)
     return Case(name, pipeline, log, recipe, params, overrides, remap, world_map, diff, invariants)
+
+
+def _campaign_case(data: Mapping[str, Any], at: _Where, base: Path) -> Case:
+    """A case of kind campaign: its campaign file and thresholds (``navlog.analysis.ci.campaign_case``)."""
+    data = at.keys(data, CAMPAIGN_KEYS, "")
+    for key in ("name", "campaign"):
+        if key not in data:
+            raise at.error(key, "required key is missing")
+    name = at.text(data["name"], "name")
+    if not CASE_NAME.match(name):
+        raise at.error("name", f"'{name}' must be letters, digits, '_', '-' or '.' (it names the output folder)")
+    campaign = base / at.text(data["campaign"], "campaign")
+    if not campaign.is_file():
+        raise at.error("campaign", f"{campaign}: no such campaign file")
+    items = data.get("checks")
+    if not isinstance(items, list) or not items or not all(isinstance(i, str) for i in items):
+        raise at.error("checks", f"expected a non-empty list of thresholds (e.g. 'success_rate >= 0.9'), got {items!r}")
+    checks = []
+    for i, text in enumerate(items):
+        try:
+            checks.append(parse_campaign_check(text))
+        except ConfigError as exc:
+            raise at.error(f"checks[{i}]", str(exc)) from None
+    return Case(name, "campaign", diff=None, kind="campaign", campaign=campaign, campaign_checks=tuple(checks))
 
 
 def _recipe(data: Any, at: _Where) -> Recipe:

@@ -4,7 +4,8 @@
   (``navlog.campaign.spec``), runs each as an isolated, resumable job on the fleet executors
   (``navlog.campaign.runner``), and writes the statistics (``navlog.campaign.stats``) and reports
   (``navlog.campaign.report``);
-- ``load_campaign``: the typed, checked campaign file.
+- ``load_campaign``: the typed, checked campaign file;
+- ``run_campaign_case``: a campaign run for a ``navlog ci run`` case of kind campaign (its summary).
 
 The campaign sits above the recorder (which runs a navigation) and the analysis (the executors and
 the metrics). Names are imported on first use.
@@ -17,14 +18,15 @@ from typing import TYPE_CHECKING
 from navlog.replay import lazy_exports
 
 if TYPE_CHECKING:
-    from navlog.campaign.runner import CampaignResult, run_campaign
+    from navlog.campaign.runner import CampaignResult, run_campaign, run_campaign_case
     from navlog.campaign.spec import CampaignSpec, load_campaign
 
-__all__ = ["CampaignResult", "CampaignSpec", "load_campaign", "run_campaign"]
+__all__ = ["CampaignResult", "CampaignSpec", "load_campaign", "run_campaign", "run_campaign_case"]
 
 _MODULES = {
     "CampaignResult": "runner",
     "run_campaign": "runner",
+    "run_campaign_case": "runner",
     "CampaignSpec": "spec",
     "load_campaign": "spec",
 }

@@ -35,7 +35,7 @@ from navlog.replay.io.atomic import hold_output
 
 KeepLogs = Literal["none", "all", "failed"]
 RESULTS = ("succeeded", "collision", "timeout", "aborted", "failed", "infeasible")
-ROW_VERSION = 1  # bumped when a row's fields or their meaning change (old rows are then redone)
+ROW_VERSION = 2  # bumped when a row's fields or their meaning change (old rows are then redone)
 
 
 @dataclass(frozen=True)
@@ -171,9 +171,11 @@ def _base_row(job: RunJob) -> dict[str, Any]:
 
 def _run(job: RunJob, log: Path, tmp: Path) -> dict[str, Any]:
     from navlog.recorder.description import load_robot
+    from navlog.recorder.navigation import navigation_pipeline
     from navlog.recorder.record import RecordSetup, record
     from navlog.recorder.scenarios import ScenarioSpec, check_scenario
     from navlog.recorder.world import load_world, occupancy
+    from navlog.replay.nodes.navigation import NavigationNode
 
     goals = tmp / "goals.yaml"
     x, y, yaw = job.goal
@@ -192,9 +194,13 @@ def _run(job: RunJob, log: Path, tmp: Path) -> dict[str, Any]:
     robot = load_robot(job.robot)
     check_scenario(scenario, robot, world)
     setup = RecordSetup(world, robot, scenario, job.seed, job.noise, job.localization)
-    res = record(setup, log, progress=False, sensor_worker=False)
-    row = _base_row(job) | {"sim_s": round(res.sim_s, 3)}
-    nav = _log_metrics(log, robot.cmd_topic, occupancy(world, margin=0.0))
+    navigation = navigation_pipeline(scenario, job.seed, command_topic=robot.cmd_topic)
+    timer = next(n for n in navigation.nodes if isinstance(n, NavigationNode))
+    timer.cycle_wall_s = []
+    res = record(setup, log, progress=False, sensor_worker=False, navigation=navigation)
+    row = _base_row(job) | {"sim_s": round(res.sim_s, 3), "cycles": len(timer.cycle_wall_s)}
+    row |= cycle_time_ms(timer.cycle_wall_s)
+    nav, track = _log_metrics(log, robot.cmd_topic, occupancy(world, margin=0.0))
     goal = (nav or {}).get("goals", [{}])[0] if nav else {}
     status = goal.get("status", "unfinished")
     if res.collisions:
@@ -222,7 +228,19 @@ def _run(job: RunJob, log: Path, tmp: Path) -> dict[str, Any]:
         row[f"{name}_mean"] = _round(stats.get("mean"))
         row[f"{name}_max"] = _round(stats.get("max"))
     row["barn_metric"] = round(barn_metric(row["result"] == "succeeded", t, job.optimal_time_s), 6)
+    row["track"] = track
     return row
+
+
+def cycle_time_ms(seconds: Sequence[float]) -> dict[str, float | None]:
+    """Mean and 95th percentile (linear interpolation) of the controller's cycle wall times, in ms: figures
+    of the machine that ran the run, kept out of the deterministic rows (``report.MACHINE``)."""
+    if not len(seconds):
+        return {"cycle_ms_mean": None, "cycle_ms_p95": None}
+    import numpy as np
+
+    ms = np.asarray(seconds, dtype=float) * 1e3
+    return {"cycle_ms_mean": round(float(ms.mean()), 3), "cycle_ms_p95": round(float(np.percentile(ms, 95)), 3)}
 
 
 def _round(v: Any, digits: int = 4) -> float | None:
@@ -236,14 +254,26 @@ def barn_metric(success: bool, time_s: float, optimal_time_s: float) -> float:
     return optimal_time_s / min(max(time_s, 4 * optimal_time_s), 8 * optimal_time_s)
 
 
-def _log_metrics(log: Path, cmd_topic: str, reference: Any) -> dict[str, Any] | None:
+TRACK_PERIOD_NS = 250_000_000  # the driven trajectory kept in a row: one ground-truth x, y every 0.25 s
+
+
+def _log_metrics(log: Path, cmd_topic: str, reference: Any) -> tuple[dict[str, Any] | None, list[list[float]]]:
+    """The run's navigation metrics and its driven trajectory (x, y in m every 0.25 s, for the contact sheet)."""
+    import numpy as np
+
     from navlog.analysis.metrics.navigation import navigation_metrics
     from navlog.analysis.metrics.report import ground_truth_trajectory, read_commands, read_events
     from navlog.replay.io import open_log
 
     with open_log(log) as reader:
         gt, _ = ground_truth_trajectory(reader)
-        return navigation_metrics(read_events(reader), gt, read_commands(reader, cmd_topic), reference)
+        nav = navigation_metrics(read_events(reader), gt, read_commands(reader, cmd_topic), reference)
+    t = np.asarray(gt.times_ns, dtype=np.int64)
+    keep = np.flatnonzero(np.diff(t // TRACK_PERIOD_NS, prepend=-1) != 0) if len(t) else np.zeros(0, dtype=int)
+    if len(t) and keep[-1] != len(t) - 1:
+        keep = np.append(keep, len(t) - 1)
+    track = [[round(float(x), 3), round(float(y), 3)] for x, y in gt.positions[keep, :2]]
+    return nav, track
 
 
 # ---------------------------------------------------------------- planning
@@ -353,7 +383,12 @@ def plan_campaign(spec: CampaignSpec, folder: Path, out: Path, keep_logs: KeepLo
     for wname, wpath, winfo in worlds:
         world = load_world(wpath)
         grid = true_grid(world)
-        info[wname] = {"path": wpath, **winfo}
+        # a generated world by its place in OUT (the reports' bytes must not depend on where OUT is)
+        inside = Path(wpath).resolve().is_relative_to(out.resolve())
+        info[wname] = {
+            "path": Path(wpath).resolve().relative_to(out.resolve()).as_posix() if inside else wpath,
+            **winfo,
+        }
         world_sha = _sha256(Path(wpath))
         for rname, robot in robots.items():
             for seed in spec.seeds:
@@ -460,6 +495,15 @@ def run_campaign(
         spec, folder = campaign, Path.cwd()
     else:
         spec, folder = load_campaign(campaign), Path(campaign).parent
+    names = [v.name for v in spec.variants]
+    for name in only:
+        if name not in names:
+            from navlog.replay.config import suggest
+
+            raise ConfigError(
+                f"--variant '{name}' is not a variant of '{spec.name}'{suggest(name, names)}; variants: "
+                + ", ".join(names)
+            )
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a folder; choose another output folder")
@@ -493,6 +537,12 @@ def run_campaign(
         return CampaignResult(spec, out, rows, summary, files, time.perf_counter() - start, cached)
 
 
+def run_campaign_case(campaign: Path, out: Path) -> dict[str, Any]:
+    """The summary of ``campaign`` run into ``out`` in this process: a ``navlog ci run`` case of kind
+    campaign (``navlog.analysis.ci.campaign_case``; a rerun reuses every finished run)."""
+    return run_campaign(campaign, out, workers=1, progress=False).summary
+
+
 def _lost_row(job: RunJob, lost: Any) -> dict[str, Any]:
     row = _base_row(job) | {"result": "failed", "message": f"crashed: {lost.reason}"}
     _write_row(Path(job.out) / "runs" / f"{job.run_id}.json", row)  # failed: redone by the next run (no key match)
@@ -504,4 +554,14 @@ def rows_of(out: Path | str) -> list[dict[str, Any]]:
     return [json.loads(p.read_text()) for p in sorted(Path(out, "runs").glob("*.json"))]
 
 
-__all__ = ["CampaignPlan", "CampaignResult", "RunJob", "barn_metric", "plan_campaign", "run_campaign", "run_job"]
+__all__ = [
+    "CampaignPlan",
+    "CampaignResult",
+    "RunJob",
+    "barn_metric",
+    "cycle_time_ms",
+    "plan_campaign",
+    "run_campaign",
+    "run_campaign_case",
+    "run_job",
+]

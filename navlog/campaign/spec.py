@@ -32,7 +32,7 @@ from navlog.replay.config import from_mapping, load_yaml
 class WorldSource:
     file: str = ""  # a world: a name in config/worlds, a world YAML, an SDF world or a map_server map YAML
     glob: str = ""  # world files matching a glob pattern (relative to the campaign file)
-    generate: str = ""  # a world generator: barn, room or corridor (`navlog world-gen`)
+    generate: str = ""  # a world generator: barn, room, corridor or office (`navlog world-gen`)
     count: int = 1  # generated worlds (seeds seed, seed + 1, ...)
     seed: int = 0  # the first generated world's seed
     params: dict[str, Any] = field(default_factory=dict)  # the generator's parameters

@@ -12,7 +12,9 @@ def register(sub) -> None:
         description="Run every world x robot x seed x route x variant of a campaign file as an isolated recording, "
         "on this machine's cores or Ray, and report per variant the success rate (Wilson interval), the BARN "
         "metric, times and paths (bootstrap intervals), and each variant against the baseline (exact McNemar, "
-        "Wilcoxon) with a verdict. A rerun into the same folder reuses every finished run.",
+        "Wilcoxon) with a verdict; the controller's cycle time per run (wall clock, apart from the deterministic "
+        "reports) and a contact sheet of the runs that did not succeed. A rerun into the same folder reuses every "
+        "finished run.",
         epilog="example:\n  navlog campaign run campaign.yaml -o out/ --workers 2\n"
         "  navlog campaign run campaign.yaml -o out/ --keep-logs failed",
     )
@@ -56,6 +58,8 @@ def run(args) -> int:
         only=args.variant,
     )
     print((args.output / "campaign.md").read_text(), end="")
+    timing = (args.output / "campaign_timing.md").read_text().split("\n\n", 1)[1]  # without its title
+    print("\n## Controller cycle time (wall clock, this machine)\n\n" + timing, end="")
     runs = sum(r["result"] != "infeasible" for r in res.rows)
     print(f"\n{runs} runs ({res.cached} reused) in {res.wall_s:.1f} s; wrote " + ", ".join(str(f) for f in res.files))
     failed = sum(r["result"] == "failed" for r in res.rows)

@@ -68,6 +68,7 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     from navlog.analysis.ci.reports import format_result, write_reports
     from navlog.analysis.ci.runner import run_suite
+    from navlog.campaign import run_campaign_case
     from navlog.errors import ConfigError
 
     if args.workers < 1:
@@ -83,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         cache_dir=args.cache,
         baseline_dir=args.baselines,
         cases=args.case,
+        campaign_runner=run_campaign_case,
     )
     print(format_result(result))
     for path in write_reports(result, json_path=args.json, junit_path=args.junit, markdown_path=args.markdown):

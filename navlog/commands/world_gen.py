@@ -1,4 +1,4 @@
-"""navlog world-gen: a generated world (BARN-style field, cluttered room, corridor) as a world YAML."""
+"""navlog world-gen: a generated world (BARN-style field, cluttered room, corridor, office) as a world YAML."""
 
 from __future__ import annotations
 
@@ -8,14 +8,14 @@ from pathlib import Path
 def register(sub) -> None:
     p = sub.add_parser(
         "world-gen",
-        help="write a generated world (BARN-style obstacle field, cluttered room, corridor) as a world YAML",
+        help="write a generated world (BARN-style obstacle field, cluttered room, corridor, office) as a world YAML",
         description="Generate a world from a seed, deterministically: barn (a cellular-automaton obstacle field, "
-        "Perille et al. 2020), room (a walled room with random boxes and cylinders) or corridor (cross walls "
-        "with doorways). The YAML is a world every navlog command reads (--world w.yaml).",
+        "Perille et al. 2020), room (a walled room with random boxes and cylinders), corridor (cross walls "
+        "with doorways) or office (rooms with doorways and furniture on both sides of a corridor). The YAML is a world every navlog command reads (--world w.yaml).",
         epilog="example:\n  navlog world-gen barn --seed 7 --param fill=0.3 --param smoothing=4 -o barn_7.yaml\n"
         "  navlog world-gen corridor --seed 1 --param doors=4 -o corridor.yaml",
     )
-    p.add_argument("kind", help="generator: barn, room or corridor")
+    p.add_argument("kind", help="generator: barn, room, corridor or office")
     p.add_argument("--seed", type=int, default=0, help="the seed (default 0)")
     p.add_argument(
         "--param", action="append", default=[], metavar="KEY=VALUE", help="a generator parameter (repeatable)"

@@ -31,6 +31,7 @@ navigation events on ``/navlog/events`` (``goal_accepted``, ``goal_succeeded``, 
 from __future__ import annotations
 
 import dataclasses
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -146,6 +147,9 @@ class NavigationNode(Node):
             background=SerialThread(),  # MPPI draws the next cycle's noise beside the node
         )
         self.server = ControllerServer(self.cparams, setup, controller_id=CONTROLLER_ID)
+        # a list to collect each controller cycle's wall time in s (``navlog.campaign``); None: not timed.
+        # Wall time depends on the machine: it never reaches an output.
+        self.cycle_wall_s: list[float] | None = None
         self.has_goal_list = bool(goals)
         self.navigator = Navigator(
             self,
@@ -320,7 +324,12 @@ class NavigationNode(Node):
         ctx = ControlContext(
             now_ns=t, costmap=self.lnode.costmap, global_to_local=g2l, goal_checker=self.server.goal_checker
         )  # type: ignore[arg-type]
-        out = self.server.cycle(t, pose, self.odom_twist, ctx)
+        if self.cycle_wall_s is None:
+            out = self.server.cycle(t, pose, self.odom_twist, ctx)
+        else:
+            start = time.perf_counter()
+            out = self.server.cycle(t, pose, self.odom_twist, ctx)
+            self.cycle_wall_s.append(time.perf_counter() - start)
         self._publish_cmd(out.cmd, t)
         if out.result is not None and len(out.result.local_plan):
             poses = out.result.local_plan

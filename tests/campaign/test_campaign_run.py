@@ -28,6 +28,11 @@ def test_half_speed_is_regressed_on_time_and_a_rerun_reuses_every_run(tmp_path):
     for r in res.rows:  # each run's path is the optimal path's length give or take the goal tolerance
         assert 0.8 * r["optimal_path_m"] < r["path_length_m"] < 1.5 * r["optimal_path_m"]
         assert r["min_clearance_m"] > 0.22 and r["collisions"] == 0
+        # the controller cycles at 20 Hz until the goal: one cycle per 50 ms of the run's time to the goal
+        assert r["cycles"] == pytest.approx(r["time_s"] * 20, abs=25)
+        assert 0 < r["cycle_ms_mean"] <= r["cycle_ms_p95"] < 1000
+    assert "cycle_ms" not in (out / "campaign.json").read_text()  # the machine's figures: campaign_timing.*
+    assert (out / "campaign_timing.csv").read_text().count("\n") == 13
     report = (out / "campaign.json").read_bytes()
     assert (out / "campaign.csv").read_text().count("\n") == 13
     assert (out / "campaign.png").read_bytes()[:4] == b"\x89PNG"

@@ -13,7 +13,7 @@ from navlog.recorder.routes import optimal_path, sample_routes, true_grid
 from navlog.recorder.world import load_world
 
 
-@pytest.mark.parametrize("kind", ["barn", "room", "corridor"])
+@pytest.mark.parametrize("kind", ["barn", "room", "corridor", "office"])
 def test_generated_world_is_deterministic_and_loads_back(kind, tmp_path):
     a, b, c = generate_world(kind, 4), generate_world(kind, 4), generate_world(kind, 5)
     assert world_yaml(a) == world_yaml(b)
@@ -97,3 +97,18 @@ def test_sample_routes_free_apart_connected_and_seeded():
         assert optimal_path(grid, start, goal, 0.3) is not None
     with pytest.raises(ConfigError, match="lower min_distance"):
         sample_routes(world, 0.3, 1, seed=0, min_distance=50.0, grid=grid, tries=20)
+
+
+def test_office_rooms_open_onto_the_corridor_through_their_doorways():
+    gen = generate_world("office", 3, {"rooms": 3, "furniture": 0})
+    assert gen.spec.walls.size == (9.0, 7.6)  # 3 rooms of 3 m; 1.6 m corridor + 2 x 3 m rooms
+    grid = true_grid(gen.world)
+    corridor = (0.0, 0.0, 0.0)
+    rooms = [(x, sign * 2.3, 0.0) for x in (-3.0, 0.0, 3.0) for sign in (-1, 1)]  # each room's middle
+    paths = [optimal_path(grid, corridor, room, 0.33) for room in rooms]
+    assert all(p is not None for p in paths)
+    # from the corridor's middle into a room's middle: at least the 1.5 m straight across, through a doorway
+    assert all(1.5 < p.length_m < 6.0 for p in paths)
+    narrow = true_grid(generate_world("office", 3, {"rooms": 3, "furniture": 0, "door_width": 0.5}).world)
+    assert all(optimal_path(narrow, corridor, room, 0.33) is None for room in rooms)  # 0.5 m < 0.66 m wide
+    assert optimal_path(narrow, corridor, (4.0, 0.0, 0.0), 0.33) is not None  # the corridor itself is open
