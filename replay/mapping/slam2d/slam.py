@@ -201,7 +201,8 @@ class Slam2D:
             odometry_cov = np.diag(np.square(self._odometry_sigmas()))  # in the previous keyframe's frame
             recovered = None
             if match is None or match.response < self.p.loop_match_minimum_response_fine:
-                recovered = self._recover(points, pose, _xyt(prev))
+                weak = 0.0 if match is None else match.response
+                recovered = self._recover(points, pose, _xyt(prev), (1.0 + weak) / 2)
                 # found inside the sequential window: no jump, the sequential match's verdict stands
                 if recovered is not None and np.max(np.abs(recovered.pose[:2] - pose[:2])) <= self._link.linear / 2:
                     recovered = None
@@ -235,19 +236,24 @@ class Slam2D:
         self.counts.keyframes += 1
         return pose
 
-    def _recover(self, points: np.ndarray, prediction: np.ndarray, previous: np.ndarray) -> MatchResult | None:
-        """After a failed sequential match: the scan matched against the running buffer in the loop search's
-        window (``loop_search_space_dimension``) around the odometry's prediction, then around the previous
-        keyframe's position (odometry that jumped while the robot stood still), accepted on the loop's
-        terms (``loop_match_minimum_response_fine``, ``loop_match_maximum_variance_coarse``); None when
-        neither places it (the scans do not overlap what came before: the robot was carried off)."""
+    def _recover(
+        self, points: np.ndarray, prediction: np.ndarray, previous: np.ndarray, min_response: float
+    ) -> MatchResult | None:
+        """After a failed or weak sequential match: the scan matched against the running buffer in the loop
+        search's window (``loop_search_space_dimension``) around the odometry's prediction, then around the
+        previous keyframe's position (odometry that jumped while the robot stood still), accepted on the
+        loop's terms (``loop_match_minimum_response_fine``, ``loop_match_maximum_variance_coarse``) and with
+        at least ``min_response`` (the caller's: halfway from the weak match's response to 1, so that a
+        slightly better fit elsewhere in a large hall does not move the robot); None when neither places
+        it (the scans do not overlap what came before: the robot was carried off)."""
         window = SearchWindow(
             self.p.loop_search_space_dimension, self.p.coarse_search_angle_offset, self.p.coarse_angle_resolution
         )
         centres = [prediction, np.array([previous[0], previous[1], prediction[2]])]
         reference = self._buffer_points(_pose2(previous))
         for centre in centres:
-            found = self.matcher.match(reference, points, centre, window, self.p.loop_match_minimum_response_fine)
+            least = max(self.p.loop_match_minimum_response_fine, min_response)
+            found = self.matcher.match(reference, points, centre, window, least)
             if found is None:
                 continue
             cov = self.matcher.covariance(found, self.p.loop_sigmas[0], 0.5 * np.asarray(self.p.loop_sigmas))
