@@ -33,6 +33,8 @@ from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
 from navlog.replay.scan_geometry import ScanAngles
 
+UNPLACED_LISTED = 5  # stretches placed by odometry alone named one by one in the skipped inputs
+
 
 @dataclass(frozen=True)
 class SlamNodeParams:
@@ -192,7 +194,12 @@ class SlamNode(Node):
                 "loops_ambiguous": c.loops_ambiguous,
                 "loops_inconsistent": c.loops_inconsistent,
                 "optimizations": self.slam.graph.optimizations,
+                "odometry_jumps": len(c.odometry_jumps),
             },
+            "odometry_jumps": [{"stamp_ns": t, "distance": d, "response": r} for t, d, r in c.odometry_jumps],
+            "unplaced": [
+                {"first": a, "last": b, "first_stamp_ns": ta, "last_stamp_ns": tb} for a, b, ta, tb in c.unplaced
+            ],
             "nodes": [
                 {"id": k.index, "stamp_ns": k.stamp, "x": p[0], "y": p[1], "yaw": p[2]}
                 for k, p in zip(self.slam.keyframes, poses.tolist(), strict=True)
@@ -217,6 +224,24 @@ class SlamNode(Node):
         from_log = self._log_odom_parents - self.tf_published  # its own come back to it on /tf
         if from_log > 0:
             out[f"/tf: transforms into '{self.odom}' from the log (ignored: SLAM publishes its own)"] = from_log
+        c = self.slam.counts
+        if c.odometry_jumps:
+            far = max(d for _, d, _ in c.odometry_jumps)
+            out[
+                f"{self.p.scan_topic}: odometry jumped (scan matched up to {far:.2f} m from its prediction by the wider"
+                " search; see pose_graph.json odometry_jumps)"
+            ] = len(c.odometry_jumps)
+        for a, b, ta, tb in c.unplaced[:UNPLACED_LISTED]:
+            out[
+                f"{self.p.scan_topic}: keyframes {a}-{b} (stamps {ta / 1e9:.3f}-{tb / 1e9:.3f} s) placed by odometry"
+                " alone: their scans matched nothing before them"
+            ] = b - a + 1
+        rest = c.unplaced[UNPLACED_LISTED:]
+        if rest:
+            out[
+                f"{self.p.scan_topic}: keyframes placed by odometry alone in {len(rest)} more stretches"
+                " (see pose_graph.json unplaced)"
+            ] = sum(b - a + 1 for a, b, _, _ in rest)
         if self.slam.counts.empty_scans:
             out[f"{self.p.scan_topic}: scans with no valid reading (not used)"] = self.slam.counts.empty_scans
         return out

@@ -102,6 +102,12 @@ class SlamCounts:
     loops_ambiguous: int = 0  # loop matches refused: the submap leaves a direction unpinned
     loops_inconsistent: int = 0  # loop edges taken back: the optimised graph disagreed with them
     empty_scans: int = 0  # scans with no valid reading (not keyframes)
+    # (stamp ns, metres between the odometry's prediction and the pose found, response) of every keyframe
+    # whose sequential match failed and that the wider search placed: the odometry jumped
+    odometry_jumps: list[tuple[int, float, float]] = field(default_factory=list)
+    # stretches of consecutive keyframes placed by odometry alone (no match, even by the wider search):
+    # (first keyframe, last keyframe, first stamp ns, last stamp ns)
+    unplaced: list[tuple[int, int, int, int]] = field(default_factory=list)
     responses: list[float] = field(default_factory=list)  # of accepted loop closures
 
 
@@ -193,7 +199,22 @@ class Slam2D:
             prev = self._pose(i - 1)
             rot = _rotation(prev.theta())
             odometry_cov = np.diag(np.square(self._odometry_sigmas()))  # in the previous keyframe's frame
-            if match is not None:
+            recovered = None
+            if match is None or match.response < self.p.loop_match_minimum_response_fine:
+                weak = 0.0 if match is None else match.response
+                recovered = self._recover(points, pose, _xyt(prev), (1.0 + weak) / 2)
+                # found inside the sequential window: no jump, the sequential match's verdict stands
+                if recovered is not None and np.max(np.abs(recovered.pose[:2] - pose[:2])) <= self._link.linear / 2:
+                    recovered = None
+            if recovered is not None:  # the odometry jumped: the scans say where the robot is
+                self.counts.odometry_jumps.append(
+                    (stamp, float(np.linalg.norm(recovered.pose[:2] - pose[:2])), float(recovered.response))
+                )
+                pose = recovered.pose
+                self.counts.matched += 1
+                cov = self.matcher.covariance(recovered, self.p.match_sigmas[0], 0.5 * np.asarray(self.p.match_sigmas))
+                noise, kind, response = rot.T @ cov @ rot, "match", recovered.response
+            elif match is not None:
                 if float(np.linalg.eigvalsh(match.hessian[:2, :2])[0]) > 0.1:  # a match that pins x and y
                     innovation = rot.T @ (match.pose - pose)
                     innovation[2] = math.remainder(float(innovation[2]), 2 * math.pi)
@@ -203,6 +224,7 @@ class Slam2D:
                 noise, kind, response = rot.T @ cov @ rot, "match", match.response
             else:
                 self.counts.odometry_only += 1
+                self._unplaced(i, stamp)
                 noise, kind, response = odometry_cov, "odometry", 0.0
             self.graph.add_node(pose)
             rel = prev.between(_pose2(pose))
@@ -213,6 +235,40 @@ class Slam2D:
         self.keyframes.append(Keyframe(i, stamp, odom, points, scan, surface))
         self.counts.keyframes += 1
         return pose
+
+    def _recover(
+        self, points: np.ndarray, prediction: np.ndarray, previous: np.ndarray, min_response: float
+    ) -> MatchResult | None:
+        """After a failed or weak sequential match: the scan matched against the running buffer in the loop
+        search's window (``loop_search_space_dimension``) around the odometry's prediction, then around the
+        previous keyframe's position (odometry that jumped while the robot stood still), accepted on the
+        loop's terms (``loop_match_minimum_response_fine``, ``loop_match_maximum_variance_coarse``) and with
+        at least ``min_response`` (the caller's: halfway from the weak match's response to 1, so that a
+        slightly better fit elsewhere in a large hall does not move the robot); None when neither places
+        it (the scans do not overlap what came before: the robot was carried off)."""
+        window = SearchWindow(
+            self.p.loop_search_space_dimension, self.p.coarse_search_angle_offset, self.p.coarse_angle_resolution
+        )
+        centres = [prediction, np.array([previous[0], previous[1], prediction[2]])]
+        reference = self._buffer_points(_pose2(previous))
+        for centre in centres:
+            least = max(self.p.loop_match_minimum_response_fine, min_response)
+            found = self.matcher.match(reference, points, centre, window, least)
+            if found is None:
+                continue
+            cov = self.matcher.covariance(found, self.p.loop_sigmas[0], 0.5 * np.asarray(self.p.loop_sigmas))
+            if float(np.linalg.eigvalsh(cov[:2, :2])[-1]) <= self.p.loop_match_maximum_variance_coarse:
+                return found
+        return None
+
+    def _unplaced(self, i: int, stamp: int) -> None:
+        """Keyframe ``i`` is placed by odometry alone: it extends the current stretch or starts one."""
+        stretches = self.counts.unplaced
+        if stretches and stretches[-1][1] == i - 1:
+            first, _, start, _ = stretches[-1]
+            stretches[-1] = (first, i, start, stamp)
+        else:
+            stretches.append((i, i, stamp, stamp))
 
     def _odometry_sigmas(self) -> np.ndarray:
         """The odometry's noise between keyframes: ``odometry_sigmas`` until ``ODOMETRY_WINDOW`` matches

@@ -230,3 +230,33 @@ def test_a_loop_the_graph_disagrees_with_is_measured_and_taken_back():
     assert np.allclose(graph.pose(5), (5.0, 0.0, 0.0))
     graph.optimize()
     assert np.allclose(graph.pose(5), (5.0, 0.0, 0.0), atol=1e-6)
+
+
+def test_odometry_that_jumps_is_found_by_the_wider_search_and_counted(scene):
+    # the wheels report a 2.5 m jump sideways at scan 40 while the robot drives on: the sequential match in
+    # its 0.5 m window fails, the loop-sized search around the prediction and the previous keyframe places it
+    truth = rectangle_path(0.1)[:80]
+    odom = truth.copy()
+    odom[40:, 1] += 2.5
+    slam = run_slam(scene, truth, odom, SlamParams(do_loop_closing=False))
+    assert len(slam.counts.odometry_jumps) == 1 and slam.counts.unplaced == []
+    stamp, distance, response = slam.counts.odometry_jumps[0]
+    assert stamp == 40 * 100_000_000 and abs(distance - 2.5) < 0.05 and response > 0.45
+    _, poses = slam.trajectory()
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.03
+
+
+def test_scans_that_overlap_nothing_before_them_are_a_named_stretch(scene):
+    # the robot is carried out of the room: its scans there see nothing of it; the keyframe where the
+    # chain breaks is placed by odometry alone and reported as a stretch with its stamps
+    truth = rectangle_path(0.1)[:40]
+    slam = Slam2D(SlamParams(do_loop_closing=False))
+    for i, t in enumerate(truth):
+        slam.add_scan(i * 100_000_000, t, scan_of(cast(scene, t)))
+    far = scan_of(np.where(np.arange(N_BEAMS) % 2 == 0, 7.0, np.inf))  # an arc of points 7 m away, nothing else
+    for k in range(4):
+        slam.add_scan((40 + k) * 100_000_000, (truth[-1, 0] + 0.6 * (k + 1), truth[-1, 1], 0.0), far)
+    # the first scan out there matches nothing: the break; the next ones match it (the stretch hangs on it)
+    assert slam.counts.odometry_only == 1
+    first = len(slam.keyframes) - 4
+    assert slam.counts.unplaced == [(first, first, 40 * 100_000_000, 40 * 100_000_000)]

@@ -80,3 +80,31 @@ def test_a_logged_map_to_odom_is_ignored_and_counted(teleop_log, tmp_path):
     )
     assert res.manifest["skipped"][ODOM_PARENTS_FROM_LOG] > 100
     assert compute_metrics(teleop_log, tmp_path / "out")["trajectory"]["ate"]["translation_m"]["rmse"] < 0.03
+
+
+def test_odometry_jumps_and_unplaced_stretches_are_named_in_the_skipped_inputs():
+    from navlog.replay.nodes.slam import SlamNode, SlamNodeParams
+
+    node = SlamNode(SlamNodeParams())
+    c = node.slam.counts
+    c.odometry_jumps.append((5_000_000_000, 3.99, 0.96))
+    c.unplaced.extend([(8, 10, 12_500_000_000, 14_000_000_000)] + [(20 + 2 * k, 20 + 2 * k, 0, 0) for k in range(6)])
+    skipped = node.skipped_counts()
+    assert (
+        skipped[
+            "/scan: odometry jumped (scan matched up to 3.99 m from its prediction by the wider search; see pose_graph.json odometry_jumps)"
+        ]
+        == 1
+    )
+    key = "/scan: keyframes 8-10 (stamps 12.500-14.000 s) placed by odometry alone: their scans matched nothing before them"
+    assert skipped[key] == 3
+    # five stretches are named, the rest summed
+    assert skipped["/scan: keyframes placed by odometry alone in 2 more stretches (see pose_graph.json unplaced)"] == 2
+    graph = node.pose_graph()
+    assert graph["counts"]["odometry_jumps"] == 1 and len(graph["unplaced"]) == 7
+    assert graph["unplaced"][0] == {
+        "first": 8,
+        "last": 10,
+        "first_stamp_ns": 12_500_000_000,
+        "last_stamp_ns": 14_000_000_000,
+    }
