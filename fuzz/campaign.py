@@ -1898,7 +1898,8 @@ def call_case(built: Built, folder: Path, seeds: Seeds) -> str:
     if built.call == "two-writers":  # the output is held, as by a run in another process
         from navlog.replay.io.atomic import hold_output
 
-        out = a["argv"][a["argv"].index("-o") + 1]
+        argv = a["argv"]
+        out = argv[argv.index("-o" if "-o" in argv else "--save") + 1]
         with hold_output(folder / out):
             outcome = run_cli(a["argv"], folder, seeds)
         return "TWO-WRITERS-" + outcome if outcome == "OK" else outcome

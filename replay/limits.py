@@ -19,6 +19,8 @@ MIN_PERIOD_S = 1.0 / MAX_RATE_HZ  # any other period in seconds
 MIN_MAP_PERIOD_S = 0.05  # between two published maps (a map per message would be hours on a long log)
 MAX_PERIOD_S = 1e6  # any period in seconds (about 11 days: beyond it no log reaches a second tick)
 MAX_COSTMAP_CELLS = 10**8  # (width / resolution) x (height / resolution): 100 MB of uint8 costs
+MAX_GRID_CELLS = 10**8  # a 2D map's grid as it grows: 400 MB of float32 log-odds (500 x 500 m at 5 cm)
+MIN_GRID_RESOLUTION_M = 0.005  # a 2D map's cell: finer than any laser ranges (a 1 mm grid of a room took 6.7 GB)
 MAX_PARTICLES = 100_000  # AMCL's particle filter (Nav2's default max_particles: 2,000)
 MAX_MPPI_SAMPLES = 2_000_000  # MPPI batch_size x time_steps (Nav2's default: 1,000 x 56 = 56,000)
 MAX_MPPI_ITERATIONS = 100  # MPPI iteration_count (Nav2's default: 1)

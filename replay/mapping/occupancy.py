@@ -20,11 +20,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from navlog.replay.config import param
 from navlog.replay.geometry import world_to_cell
+from navlog.replay.limits import MAX_GRID_CELLS, MIN_GRID_RESOLUTION_M
 from navlog.replay.occupancy_map import OccupancyMap
 
 NUMPY_BEAM_GROUPS = 4  # beams of similar length updated together (``_update``)
-MAX_CELLS = 1_000_000_000  # a grid larger than this (4 GB of log-odds) comes from a pose or range far off
+MAX_CELLS = MAX_GRID_CELLS  # a grid larger than this comes from a pose or range far off, or a resolution too fine
 MAX_COORDINATE = 1e6  # m; a grid reaching farther from the map origin comes from a pose or range far off
 
 
@@ -38,7 +40,7 @@ def logit(p: float) -> float:
 
 @dataclass(frozen=True)
 class OccupancyParams:
-    resolution: float = 0.05
+    resolution: float = param(0.05, ge=MIN_GRID_RESOLUTION_M)  # m per cell
     hit_probability: float = 0.7  # per observation of an end point
     miss_probability: float = 0.4  # per beam crossing a cell
     clamp: tuple[float, float] = (0.12, 0.97)  # probability limits of a cell

@@ -95,7 +95,8 @@ def read_behavior_server(r: SectionReader, params: dict, path: tuple) -> Behavio
     names = params.get("behavior_plugins", list(BehaviorServerParams.behavior_plugins))
     sections = tuple(k for k, v in params.items() if isinstance(v, dict))
     behaviors: dict[str, str] = {}
-    for name in names if isinstance(names, list) else []:
+    # a list holding anything but names is reported by the read of behavior_plugins below
+    for name in names if isinstance(names, list) and all(isinstance(n, str) for n in names) else []:
         sec = params.get(name)
         if not isinstance(sec, dict) or not isinstance(sec.get("plugin"), str):
             r.add(ERROR, path + ("behavior_plugins",), f"behaviour '{name}' is listed but has no '{name}: plugin:'")

@@ -23,6 +23,8 @@ from navlog.replay.geometry import (
     unit_quats_to_matrices,
 )
 
+MAX_STEP_RAD = 1e6  # a rotation between two gyro samples beyond this (or not finite) is no measurement
+
 
 class GyroTrack:
     """Angular velocity samples of base_link, integrated as they arrive (midpoint rule) into an
@@ -40,11 +42,16 @@ class GyroTrack:
         if self._t and t_ns <= self._t[-1]:
             self.out_of_order += 1
             return
-        if not self._t:
+        with np.errstate(over="ignore", invalid="ignore"):
+            rotvec = 0.5 * (w + self._w[-1]) * ((t_ns - self._t[-1]) * 1e-9) if self._t else None
+        if rotvec is not None and (t_ns - self._t[-1] > self.keep_ns or not np.all(np.abs(rotvec) <= MAX_STEP_RAD)):
+            # a gap longer than what is kept, or a rotation no gyro measures: the track starts afresh here
+            self._t, self._w, self._q = [], [], []
+            rotvec = None
+        if rotvec is None:
             q = np.array([0.0, 0.0, 0.0, 1.0])
         else:
-            dt = (t_ns - self._t[-1]) * 1e-9
-            q = quat_mul(self._q[-1], quat_exp(0.5 * (w + self._w[-1]) * dt))
+            q = quat_mul(self._q[-1], quat_exp(rotvec))
             q /= np.linalg.norm(q)
         self._t.append(int(t_ns))
         self._w.append(w)
@@ -93,6 +100,8 @@ class PoseTrack:
         if self._t and t_ns <= self._t[-1]:
             self.out_of_order += 1
             return
+        if self._t and t_ns - self._t[-1] > self.keep_ns:  # a gap longer than what is kept: integrate afresh
+            self._t, self._w, self._q = [], [], []
         self._t.append(int(t_ns))
         self._p.append(np.asarray(pose, dtype=np.float64))
         if self._t[-1] - self._t[0] > 2 * self.keep_ns:

@@ -28,6 +28,24 @@ def test_gyro_track_integrates_a_known_rate():
     assert gyro.relative_rotations(0, np.array([300_000_000])) is None  # beyond the data: no guess
 
 
+def test_a_gyro_sample_after_a_gap_longer_than_kept_starts_the_track_afresh():
+    """A stamp 10^9 s ahead (a bit flip in a log) and a rate of 1e300 rad/s integrated over 5 ms gave an
+    infinite angle and a math domain error; now the track starts again there and covers only what follows."""
+    gyro = GyroTrack()
+    for k in range(41):
+        gyro.add(k * 5_000_000, (0.0, 0.0, 0.5))
+    far = 10**18
+    gyro.add(far, (0.0, 0.0, 1e300))
+    gyro.add(far + 5_000_000, (0.0, 0.0, 1e300))
+    # the gap started the track again at ``far``; 1e300 rad/s over 5 ms is no rotation: again at far + 5 ms
+    assert not gyro.covers(0, 200_000_000) and not gyro.covers(far, far + 5_000_000)
+    assert gyro.covers(far + 5_000_000, far + 5_000_000)
+    for k in range(2, 42):
+        gyro.add(far + k * 5_000_000, (0.0, 0.0, 0.5))
+    rel = gyro.relative_rotations(far + 50_000_000, np.array([far + 150_000_000]))
+    np.testing.assert_allclose(Rotation.from_matrix(rel).as_rotvec(), [[0, 0, 0.05]], atol=1e-12)
+
+
 def test_deskew_reduces_error_on_a_fast_rotating_sweep(room):
     seq = scene.make_sequence(scene.spin_trajectory(rate=1.5, speed=0.2), 30, scene=room)
     gt0 = seq.ground_truth([0])[0]
