@@ -100,8 +100,6 @@ class PoseTrack:
         if self._t and t_ns <= self._t[-1]:
             self.out_of_order += 1
             return
-        if self._t and t_ns - self._t[-1] > self.keep_ns:  # a gap longer than what is kept: integrate afresh
-            self._t, self._w, self._q = [], [], []
         self._t.append(int(t_ns))
         self._p.append(np.asarray(pose, dtype=np.float64))
         if self._t[-1] - self._t[0] > 2 * self.keep_ns:
