@@ -79,13 +79,17 @@ def suggest(word: str, choices: typing.Iterable[str]) -> str:
 def load_yaml(path: Path) -> Any:
     """Parse a YAML file; a syntax error names the file and line."""
     path = Path(path)
+    return parse_yaml(read_yaml_text(path), str(path))
+
+
+def read_yaml_text(path: Path) -> str:
+    """The text of a YAML file; ConfigError naming the file when it cannot be read or is binary."""
     try:
-        text = path.read_text()
+        return Path(path).read_text()
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read: {exc.strerror}") from None
     except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a YAML text file (binary content){_yaml_hint(path)}") from None
-    return parse_yaml(text, str(path))
+        raise ConfigError(f"{path}: not a YAML text file (binary content){_yaml_hint(Path(path))}") from None
 
 
 MAX_YAML_DEPTH = 100  # nesting levels of a YAML document (navlog's and Nav2's files use fewer than 10)

@@ -51,6 +51,7 @@ TF_MESSAGE = "tf2_msgs/msg/TFMessage"
 TWIST = "geometry_msgs/msg/Twist"
 TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
+POSE_ARRAY = "geometry_msgs/msg/PoseArray"
 TRANSFORM_STAMPED = "geometry_msgs/msg/TransformStamped"
 
 # QoS profiles as rosbag2 stores them in `offered_qos_profiles` (version 8 YAML form).

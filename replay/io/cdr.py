@@ -27,6 +27,12 @@ messages repeat a few shapes (a /tf stream's frames) with one ``struct`` call pe
 the end of its last field, a sequence of messages (a path of every pose so far): each element is
 encoded once, when it is added, and ``encode(head)`` joins the other fields to the elements encoded
 so far; the same bytes as ``Layout.encode`` of the whole message, in time proportional to what was added.
+
+``UniformSequence(typename)`` serves a message whose last field is a sequence of messages of one shape
+(every element holds the same strings: a path of N poses in one frame, a cloud of poses): the elements'
+numbers come as columns (an array of N values, or one value for every element) and are written into
+one NumPy record array per element alignment, without a value tuple per element; the same bytes as
+``Layout.encode`` of the whole message.
 """
 
 from __future__ import annotations
@@ -42,7 +48,7 @@ from rosbags.interfaces import Nodetype
 
 from navlog.replay import messages
 
-__all__ = ["GrowingSequence", "Layout", "RepeatedShapes", "layout"]
+__all__ = ["GrowingSequence", "Layout", "RepeatedShapes", "UniformSequence", "layout"]
 
 _HEADER = b"\x00\x01\x00\x00"  # CDR_LE, no options
 _U32 = struct.Struct("<I")
@@ -455,3 +461,78 @@ class GrowingSequence:
         self._body, self._count, self._end = b"".join(new), count, at
         parts += (_U32.pack(self._count), self._body)
         return b"".join(parts)
+
+
+class UniformSequence:
+    """CDR of a message whose last field is a sequence of messages of one shape (module docstring)."""
+
+    def __init__(self, typename: str) -> None:
+        whole = layout(typename)
+        kind, element, _ = whole._steps[-1]
+        if kind != _SEQ_MSG or any(k not in (_RUN, _STRING) for k, _, _ in element._steps):
+            raise ValueError(f"{typename}: its last field is not a sequence of messages without sequences")
+        self._head, self._element = whole._head(), element
+        self._shapes: dict[tuple[int, tuple[str, ...]], tuple[np.dtype[Any], np.ndarray, list[str]]] = {}
+
+    def encode(self, head: Any, count: int, columns: Any, strings: tuple[str, ...] = ()) -> bytes:
+        """CDR bytes (with the encapsulation header) of the message: ``head``, its fields but the last (as
+        ``Layout.encode`` takes them), then ``count`` elements whose strings are ``strings`` (in field
+        order) and whose numbers are ``columns`` (in field order, depth first; each an array of ``count``
+        values or one value for all)."""
+        parts: list[Any] = [_HEADER]
+        pos = self._head._encode(head, 0, parts)
+        pad = -pos & 3
+        parts.append(_PAD[pad] + _U32.pack(count))
+        pos += pad + 4
+        done = 0
+        while done < count:
+            dtype, template, names = self._shape(pos & 7, strings)
+            if len(columns) != len(names):
+                raise ValueError(f"{self._element.typename}: {len(columns)} columns for {len(names)} numbers")
+            # the first element may start elsewhere modulo 8 than the others, which all start alike
+            n = 1 if done == 0 and (pos + dtype.itemsize) & 7 != pos & 7 else count - done
+            rows = np.tile(template, n).view(dtype)
+            for name, column in zip(names, columns):
+                rows[name] = column if np.ndim(column) == 0 else column[done : done + n]
+            parts.append(rows)
+            pos += n * dtype.itemsize
+            done += n
+            if n == 1 and done < count and (pos + self._shape(pos & 7, strings)[0].itemsize) & 7 != pos & 7:
+                raise ValueError(f"{self._element.typename}: elements whose alignment keeps changing")
+        return b"".join(parts)
+
+    def _shape(self, start: int, strings: tuple[str, ...]) -> tuple[np.dtype[Any], np.ndarray, list[str]]:
+        """(record dtype, template bytes, field names) of one element starting at ``start`` modulo 8."""
+        key = (start, strings)
+        shape = self._shapes.get(key)
+        if shape is not None:
+            return shape
+        names: list[str] = []
+        formats: list[str] = []
+        offsets: list[int] = []
+        template = bytearray()
+        texts = iter(strings)
+        for kind, arg, _ in self._element._steps:
+            if kind == _RUN:
+                fmt = arg[(start + len(template)) & 7]
+                for code in fmt.format[1:]:
+                    if code == "x":
+                        template.append(0)
+                        continue
+                    size = struct.calcsize("<" + code)
+                    names.append(f"v{len(names)}")
+                    formats.append("<" + code)
+                    offsets.append(len(template))
+                    template += bytes(size)
+            else:  # _STRING
+                text = next(texts, None)
+                if text is None:
+                    raise ValueError(f"{self._element.typename}: fewer strings than it holds")
+                raw = text.encode()
+                template += _PAD[-(start + len(template)) & 3] + _U32.pack(len(raw) + 1) + raw + b"\x00"
+        if next(texts, None) is not None:
+            raise ValueError(f"{self._element.typename}: more strings than it holds")
+        dtype = np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": len(template)})
+        shape = (dtype, np.frombuffer(bytes(template), dtype=np.uint8), names)
+        self._shapes[key] = shape
+        return shape

@@ -32,16 +32,18 @@ docking_server and the rest in ``READ_ONLY_NODES``.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from navlog.errors import ConfigError
-from navlog.replay.config import bounded_compose, load_yaml, parse_yaml, suggest
+from navlog.replay.config import bounded_compose, parse_yaml, read_yaml_text, suggest
 from navlog.replay.nav2.amcl import AmclParams, read_amcl
 from navlog.replay.nav2.behaviors import BehaviorServerParams, read_behavior_server
 from navlog.replay.nav2.collision_monitor import CollisionMonitorParams, read_collision_monitor
@@ -189,15 +191,21 @@ def load_nav2_params(path: str | Path, overrides: Sequence[str] = (), *, distro:
     """Read a Nav2 parameter file (YAML syntax errors raise ConfigError with the line), checked as a
     file for Nav2 ``distro`` (``DISTROS``)."""
     path = Path(path)
-    doc = load_yaml(path)
-    text = path.read_text()
+    parsed, lines = _parsed(read_yaml_text(path), str(path))
+    doc, lines = copy.deepcopy(parsed), dict(lines)  # the kept parse is never handed out
     _refuse_other_files(doc, str(path))
-    lines = _line_map(text)
     missing = _missing_sections(doc, lines)  # of the file as written, before any override
     if overrides:
         doc = apply_nav2_overrides(doc if isinstance(doc, dict) else {}, overrides, source=str(path))
     params = parse_nav2_params(doc, source=str(path), lines=lines, distro=distro)
     return dataclasses.replace(params, problems=params.problems + missing) if missing else params
+
+
+@lru_cache(maxsize=8)
+def _parsed(text: str, source: str) -> tuple[Any, dict[tuple, int]]:
+    """The document of a parameter file's text and its lines (``_line_map``), kept for the next reading
+    of the same text: a navigation run reads one file for its servers, its AMCL and its safety filters."""
+    return parse_yaml(text, source), _line_map(text)
 
 
 def _has_ros_parameters(node: Any) -> bool:

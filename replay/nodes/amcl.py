@@ -29,6 +29,7 @@ import numpy as np
 
 from navlog.replay import messages
 from navlog.replay.geometry import planar_matrix, quat_from_yaw, yaw_from_matrix, yaw_from_quat
+from navlog.replay.io import pose_cdr
 from navlog.replay.nav2.amcl import AmclParams, LikelihoodField, ParticleFilter, Scan
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.executor import Node
@@ -36,7 +37,7 @@ from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransfo
 from navlog.replay.scan_geometry import NOT_FINITE, ScanAngles
 
 POSE_WITH_COVARIANCE_STAMPED = "geometry_msgs/msg/PoseWithCovarianceStamped"
-POSE_ARRAY = "geometry_msgs/msg/PoseArray"
+POSE_ARRAY = messages.POSE_ARRAY
 # Nav2's initial covariance when the pose comes from parameters: 0.5 m in x and y, pi/12 in yaw
 DEFAULT_INITIAL_COV = np.diag([0.25, 0.25, (math.pi / 12.0) ** 2])
 
@@ -216,8 +217,9 @@ class AmclNode(Node):
         x, y, yaw = (float(v) for v in est.pose)
         self._map_to_odom = planar_matrix(x, y, yaw) @ np.linalg.inv(planar_matrix(*_planar(odom_base)))
         header = messages.header(stamp, self.global_frame)
-        poses = [messages.pose((px, py, 0.0), quat_from_yaw(pyaw)) for px, py, pyaw in self.filter.poses.tolist()]
-        self.publish("/particle_cloud", POSE_ARRAY, messages.msg_class(POSE_ARRAY)(header, poses))
+        self.publish_cdr(
+            "/particle_cloud", POSE_ARRAY, pose_cdr.pose_array(stamp, self.global_frame, self.filter.poses)
+        )
         cls = messages.msg_class(POSE_WITH_COVARIANCE_STAMPED)
         pwc = messages.msg_class("geometry_msgs/msg/PoseWithCovariance")(
             messages.pose((x, y, 0.0), quat_from_yaw(yaw)), covariance_6x6(est.covariance)

@@ -59,7 +59,7 @@ from navlog.replay.nav2.params import Nav2Params
 from navlog.replay.nav2.planners import PLANNER_NAMES, Planner, PlanningError, PlanResult, make_planner
 from navlog.replay.nodes.collision_monitor import EVENTS_TOPIC
 from navlog.replay.nodes.costmap import CostmapNode
-from navlog.replay.nodes.planner import path_msg
+from navlog.replay.nodes.planner import path_cdr
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TransformError
@@ -245,7 +245,7 @@ class NavigationNode(Node):
         except PlanningError as exc:
             return ActionResult(False, NO_VALID_PATH + through, str(exc))
         path = np.concatenate(legs)
-        self.publish("/plan", m.PATH, path_msg(None, now_ns, self.gnode.params.global_frame, path))
+        self.publish_cdr("/plan", m.PATH, path_cdr(None, now_ns, self.gnode.params.global_frame, path))
         return ActionResult(True, path=path)
 
     def clear_costmap(self, which: str, now_ns: int) -> None:
@@ -333,7 +333,7 @@ class NavigationNode(Node):
         self._publish_cmd(out.cmd, t)
         if out.result is not None and len(out.result.local_plan):
             poses = out.result.local_plan
-            self.publish("/local_plan", m.PATH, path_msg(None, t, lframe, poses))
+            self.publish_cdr("/local_plan", m.PATH, path_cdr(None, t, lframe, poses))
         if out.status != RUNNING:
             self.follow_result = ActionResult(out.status == SUCCEEDED, out.code, out.message)
             self.next_control = None

@@ -6,7 +6,7 @@ When the log has robot TF (``wait_for_robot_tf``), planning waits for the transf
 legs that never get a robot pose (the log ends first) are planned at the end as a chain from
 ``start``. Without any robot TF (a log with only a map), it plans the goal list as such a chain at
 once. Either way each leg planned without a robot pose carries a note and is counted.
-``path_msg`` builds the path it publishes.
+``path_cdr`` writes the path it publishes (``navlog.replay.io.pose_cdr``).
 """
 
 from __future__ import annotations
@@ -17,20 +17,18 @@ from typing import Any
 import numpy as np
 
 from navlog.replay import messages as m
+from navlog.replay.io import pose_cdr
 from navlog.replay.nav2.planners import Planner, PlanningError, PlanResult, Pose2D
 from navlog.replay.nodes.costmap import CostmapNode
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TransformError
 
 
-def path_msg(plan: PlanResult | None, t: int, frame: str, xyyaw: np.ndarray | None = None) -> Any:
-    """nav_msgs/Path of a plan's poses (or of ``xyyaw``, (N, 3) x, y, yaw) stamped ``t`` in ``frame``."""
-    PoseStamped = m.msg_class(m.POSE_STAMPED)
+def path_cdr(plan: PlanResult | None, t: int, frame: str, xyyaw: np.ndarray | None = None) -> bytes:
+    """The CDR bytes of the nav_msgs/Path of a plan's poses (or of ``xyyaw``, (N, 3) x, y, yaw) stamped
+    ``t`` in ``frame``."""
     rows = xyyaw if xyyaw is not None else plan.poses if plan is not None else np.zeros((0, 3))
-    poses = [
-        PoseStamped(header=m.header(t, frame), pose=m.pose((x, y, 0.0), m.quat_from_yaw(yaw))) for x, y, yaw in rows
-    ]
-    return m.msg_class(m.PATH)(header=m.header(t, frame), poses=poses)
+    return pose_cdr.path(t, frame, rows)
 
 
 class PlannerNode(Node):
@@ -101,7 +99,7 @@ class PlannerNode(Node):
         if note:
             plan.notes.append(note)
         self.plans.append((t, plan))
-        self.publish("/plan", m.PATH, path_msg(plan, t, self.cm_node.params.global_frame))
+        self.publish_cdr("/plan", m.PATH, path_cdr(plan, t, self.cm_node.params.global_frame))
 
     def _plan_chain(self, t: int) -> None:
         """Plan the goals not yet planned as a chain of legs from ``start``, each leg noted and counted."""

@@ -41,7 +41,7 @@ from navlog.replay.nav2.overrides import apply_nav2_overrides, nav2_override_ite
 from navlog.replay.nav2.params import parse_nav2_params
 from navlog.replay.nav2.planners import PLANNER_NAMES, PLANNERS, PlanningError, PlanResult, Pose2D, make_planner
 from navlog.replay.nodes.costmap import CostmapNode, costmap_msg
-from navlog.replay.nodes.planner import PlannerNode, path_msg
+from navlog.replay.nodes.planner import PlannerNode, path_cdr
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.pipelines import PipelineSpec, existing_file, register
 from navlog.replay.runtime.executor import Envelope
@@ -296,7 +296,7 @@ def write_plan_mcap(path: str | Path, result: MapPlan) -> None:
     cm = result.costmap
     with McapLogWriter(path, force=True) as w:
         w.write(Envelope("/global_costmap/costmap", m.OCCUPANCY_GRID, 0, costmap_msg(cm, 0)))
-        w.write(Envelope("/plan", m.PATH, 0, path_msg(result.plan, 0, cm.params.global_frame)))
+        w.write(Envelope("/plan", m.PATH, 0, path_cdr(result.plan, 0, cm.params.global_frame)))
 
 
 PLAN_RGB = (220, 30, 30)  # vermillion-red cells of the plan

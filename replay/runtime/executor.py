@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from navlog.errors import NavlogError
+from navlog.replay import messages
 
 Callback = Callable[[Any, int], None]  # (message, time_ns)
 
@@ -123,6 +124,13 @@ class Node:
 
     def publish(self, topic: str, typename: str, msg: Any) -> None:
         self.executor.publish(Envelope(topic, typename, self.executor.now, msg), self.rank)
+
+    def publish_cdr(self, topic: str, typename: str, data: bytes) -> None:
+        """Publish a message given as its CDR bytes: the bytes when only sinks see ``topic``, the message
+        decoded from them when a node subscribes to it."""
+        self.publish(
+            topic, typename, messages.deserialize(data, typename) if self.executor.has_subscribers(topic) else data
+        )
 
     def create_timer(self, period_ns: int, callback: Callable[[int], None], start_ns: int | None = None) -> None:
         self.executor.add_timer(period_ns, callback, self.rank, start_ns)

@@ -292,3 +292,16 @@ collision_monitor:
     assert "acts on more than 3 points" in _messages(humble, "note")[key]
     with pytest.raises(ConfigError, match="distro 'iron': choose one of jazzy, humble"):
         parse_nav2_params({}, distro="iron")
+
+
+def test_a_file_read_again_gives_its_own_document_and_an_edited_file_its_new_values(tmp_path):
+    path = tmp_path / "nav2.yaml"
+    path.write_text(JAZZY_ARTICLE.read_text())
+    first = load_nav2_params(path)
+    radius = first.global_costmap.robot_radius
+    first.raw["global_costmap"]["global_costmap"]["ros__parameters"]["robot_radius"] = 9.0  # a caller's change
+    again = load_nav2_params(path)
+    assert again.raw is not first.raw and again.global_costmap.robot_radius == radius
+    assert again.raw["global_costmap"]["global_costmap"]["ros__parameters"]["robot_radius"] == radius
+    path.write_text(path.read_text().replace(f"robot_radius: {radius}", "robot_radius: 0.4"))
+    assert load_nav2_params(path).global_costmap.robot_radius == 0.4

@@ -133,7 +133,10 @@ class Digest:
 
     def write(self, env) -> None:
         if env.topic in self.h:
-            self.h[env.topic].update(env.time_ns.to_bytes(8, "little") + bytes(m.serialize(env.msg, env.typename)))
+            self.h[env.topic].update(
+                env.time_ns.to_bytes(8, "little")
+                + (env.msg if isinstance(env.msg, bytes) else m.serialize(env.msg, env.typename))
+            )
             self.counts[env.topic] += 1
             if env.topic == EVENTS_TOPIC:
                 self.events.append((env.time_ns, env.msg.kind, env.msg.detail, env.msg.value))

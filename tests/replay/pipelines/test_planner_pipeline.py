@@ -54,8 +54,9 @@ def run(params: Params, envs: list[Envelope], until_ns: int = 3_000_000_000):
 
     class Sink:
         def write(self, env):
-            if env.topic in pipe.outputs:
-                out.append(env)
+            if env.topic in pipe.outputs:  # a path comes as its CDR bytes when no node reads it
+                msg = m.deserialize(env.msg, env.typename) if isinstance(env.msg, bytes) else env.msg
+                out.append(Envelope(env.topic, env.typename, env.time_ns, msg))
 
     ex.add_sink(Sink())
     for node in pipe.nodes:

@@ -361,6 +361,30 @@ def test_read_by_nodes_names_outputs_a_node_subscribes_to():
     assert not ex.read_by_nodes(["/map", "/cloud"])
 
 
+def test_a_message_published_as_cdr_reaches_sinks_as_bytes_and_subscribers_as_the_message():
+    from navlog.replay import messages
+
+    data = messages.serialize(messages.twist(0.25, 0.0, -0.5), messages.TWIST)
+
+    class Publisher(Node):
+        def setup(self):
+            self.create_timer(5, lambda t: self.publish_cdr(self.topic, messages.TWIST, data), start_ns=5)
+
+    for read in (False, True):
+        ex, sink, log, pub = Executor(), _Writes(), [], Publisher()
+        pub.topic = "/cmd_vel"
+        ex.add_sink(sink)
+        ex.add_node(pub)
+        if read:
+            ex.add_node(Recorder(["/cmd_vel"], log, "r"))
+        ex.run(until_ns=5)
+        (topic, t, msg), *_ = sink.items
+        if read:  # the message decoded once: the subscriber and the sinks see the same object
+            assert log[0][3] is msg and (msg.linear.x, msg.angular.z) == (0.25, -0.5)
+        else:
+            assert msg is data and not log
+
+
 def test_an_envelope_is_a_frozen_dataclass():
     import dataclasses
 

@@ -40,4 +40,5 @@ class MPPIController:
             pose, velocity, local, (goal[0], goal[1]), ctx.costmap, None if tol is None else float(tol)
         )
         traj = self.optimizer.trajectories
-        return ControlResult(cmd=cmd, local_plan=local, trajectories=np.stack([traj[0], traj[1]], axis=-1)[::5, ::3])
+        sample = np.stack([traj[0, ::5, ::3], traj[1, ::5, ::3]], axis=-1)  # the sample alone stacked
+        return ControlResult(cmd=cmd, local_plan=local, trajectories=sample)
