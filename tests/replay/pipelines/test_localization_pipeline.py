@@ -88,8 +88,11 @@ def test_amcl_converges_from_half_a_metre_and_0_3_rad(teleop_log, room_map):
         np.array([(0.0, 0.0, 0.0, 1.0)] * len(stamps)),
     )
     err = errors_after(traj, gt, 5.0)
-    assert float(np.sqrt(np.mean(err**2))) < 0.05  # ATE after 5 s
-    assert float(np.median(err)) < 0.04
+    # ATE after 5 s: median 0.018 m, RMS 0.054 m (one turn reaches 0.16 m). The laser's range is the scan's
+    # 20 m narrowed by laser_max_range, as nav2_amcl takes it, so z_rand spreads over 20 m, not Nav2's
+    # default 100 m (the bounds before, RMS 0.05 m and median 0.04 m, were set with the 100 m range)
+    assert float(np.sqrt(np.mean(err**2))) < 0.06
+    assert float(np.median(err)) < 0.025
 
 
 def test_localization_needs_a_map_and_says_how(teleop_log, tmp_path):
