@@ -3,16 +3,18 @@
 Two parts (each runs its campaign into fresh folders; nothing is asserted, every target is printed
 with the measured value; on a shared machine read the load averages printed before and after):
 
-- ``executors`` (default): ``examples/campaigns/small.yaml`` (3 generated rooms x 2 seeds x 2
-  variants: 12 recorded Go2 runs) in this process, on a pool of 2 worker processes and on a local
-  Ray instance of 2 CPUs, in that order, ``--repeat`` times alternating. Targets: the pool >= 1.7x one
-  process; Ray's wall time within 15 % of the pool's; the same deterministic rows whichever executor
-  ran (the bytes of ``campaign.json`` and ``campaign.csv`` compared).
+- ``executors`` (default): a campaign in this process, on a pool of 2 worker processes and on a local
+  Ray instance of 2 CPUs, in that order, ``--repeat`` times alternating: by default ``barn_like``'s DWB
+  variant (50 runs; ``--variant`` picks others), or with ``--campaign small`` ``small.yaml`` (3
+  generated rooms x 2 seeds x 2 variants: 12 short Go2 runs, where starting the workers and planning
+  the campaign weigh more than the runs). Targets: the pool >= 1.7x one process; Ray's wall time within
+  15 % of the pool's; the same deterministic rows whichever executor ran (the bytes of
+  ``campaign.json`` and ``campaign.csv`` compared).
 - ``barn``: ``examples/campaigns/barn_like.yaml`` (50 generated BARN-style fields x 1 seed; the three
   variants RPP, MPPI and DWB, or those given with ``--variant``) on a pool of 2 workers. Target: at
   most 10 minutes on 2 cores for the 50 worlds of one seed.
 
-    .venv/bin/python benchmarks/bench_campaign.py [executors] [--repeat 1] [--no-ray]
+    .venv/bin/python benchmarks/bench_campaign.py [executors] [--campaign barn|small] [--variant dwb] [--repeat 1] [--no-ray]
     .venv/bin/python benchmarks/bench_campaign.py barn [--variant rpp] [--workers 2]
 """
 
@@ -52,12 +54,14 @@ def executors(args: argparse.Namespace) -> None:
         makers["Ray, 2 CPUs"] = lambda: RayPool(local_cpus=2)
     walls: dict[str, list[float]] = {k: [] for k in makers}
     reports: dict[str, bytes] = {}
+    campaign, only = (SMALL, ()) if args.campaign == "small" else (BARN, tuple(args.variant) or ("dwb",))
+    print(f"campaign {campaign.name}" + (f", variants {', '.join(only)}" if only else ""))
     with tempfile.TemporaryDirectory() as tmp:
         for rep in range(args.repeat):
             for name, make in makers.items():
                 ex = make()
                 try:
-                    wall, sim, runs, report = once(SMALL, Path(tmp) / f"{rep}-{name}", ex)
+                    wall, sim, runs, report = once(campaign, Path(tmp) / f"{rep}-{name}", ex, only=only)
                 finally:
                     ex.close()
                 walls[name].append(wall)
@@ -97,7 +101,8 @@ def main() -> None:
     ap.add_argument("part", nargs="?", default="executors", choices=("executors", "barn"))
     ap.add_argument("--repeat", type=int, default=1, help="executors: rounds, alternating the executors")
     ap.add_argument("--no-ray", action="store_true", help="executors: leave Ray out")
-    ap.add_argument("--variant", action="append", default=[], help="barn: only this variant (repeatable)")
+    ap.add_argument("--campaign", choices=("barn", "small"), default="barn", help="executors: the campaign run")
+    ap.add_argument("--variant", action="append", default=[], help="only this variant (repeatable; executors: dwb)")
     ap.add_argument("--workers", type=int, default=2, help="barn: worker processes")
     args = ap.parse_args()
     print(f"load average before: {load()} ({os.cpu_count()} CPUs)")
