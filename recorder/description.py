@@ -346,8 +346,11 @@ class _Flat:
     plugins: list[ET.Element] = field(default_factory=list)
 
 
-def _flatten(model: ET.Element, frame: np.ndarray, prefix: str, file: Path, reader: _Reader, out: _Flat) -> None:
-    """Add ``model``'s links and joints (scoped by ``prefix``), then its nested models' and includes'."""
+def _flatten(
+    model: ET.Element, frame: np.ndarray, prefix: str, file: Path, reader: _Reader, out: _Flat, within: tuple = ()
+) -> None:
+    """Add ``model``'s links and joints (scoped by ``prefix``), then its nested models' and includes'
+    (``within``: the files being included, outermost first; a file that includes itself is an error)."""
     from navlog.recorder.sdf_world import model_sdf_file
 
     own = {el.get("name", ""): el for el in model.findall("link")}
@@ -369,7 +372,7 @@ def _flatten(model: ET.Element, frame: np.ndarray, prefix: str, file: Path, read
     for nested in model.findall("model"):
         name = nested.get("name", "")
         where = f"{file}: model '{prefix}{name}'"
-        _flatten(nested, frame @ _sdf_pose(nested, where), f"{prefix}{name}::", file, reader, out)
+        _flatten(nested, frame @ _sdf_pose(nested, where), f"{prefix}{name}::", file, reader, out, within)
     for inc in model.findall("include"):
         uri = _text(inc, "uri", "") or ""
         try:
@@ -377,6 +380,10 @@ def _flatten(model: ET.Element, frame: np.ndarray, prefix: str, file: Path, read
         except ConfigError as exc:
             raise ConfigError(f"{file}: <include> {uri}: {exc}") from None
         inc_file = model_sdf_file(target) if target.is_dir() else target
+        chain = (*within, file)
+        if inc_file.resolve() in {f.resolve() for f in chain}:
+            names = " -> ".join(str(f) for f in (*chain, inc_file))
+            raise ConfigError(f"{file}: <include> {uri}: includes itself ({names}); remove the include")
         text = read_description(inc_file, None, reader.search)
         try:
             inc_root = ET.fromstring(text)
@@ -388,7 +395,7 @@ def _flatten(model: ET.Element, frame: np.ndarray, prefix: str, file: Path, read
         name = _text(inc, "name") or inc_model.get("name") or ""
         where = f"{file}: include {uri}"
         pose = _sdf_pose(inc if inc.find("pose") is not None else inc_model, where)  # the include's replaces
-        _flatten(inc_model, frame @ pose, f"{prefix}{name}::", inc_file, reader, out)
+        _flatten(inc_model, frame @ pose, f"{prefix}{name}::", inc_file, reader, out, chain)
 
 
 def _parse_sdf(root: ET.Element, reader: _Reader) -> _Parsed:

@@ -34,7 +34,7 @@ from navlog.analysis.fleet.summary import (
 )
 from navlog.analysis.fleet.worker import LogJob, LogResult, replay_log
 from navlog.errors import ConfigError
-from navlog.replay.io.atomic import hold_output
+from navlog.replay.io.atomic import hold_output, write_error
 from navlog.version import __version__
 
 __all__ = ["FleetResult", "format_fleet", "make_executor", "replay_fleet"]
@@ -133,7 +133,10 @@ def replay_fleet(
         )
     created = not is_url(out_root) and not Path(out_root).exists()
     if not is_url(out_root):
-        Path(out_root).mkdir(parents=True, exist_ok=True)
+        try:
+            Path(out_root).mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise write_error(Path(out_root), exc) from None
     try:
         with nullcontext() if is_url(out_root) else hold_output(Path(out_root)):  # one fleet writes a folder at a time
             return _run(

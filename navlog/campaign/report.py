@@ -17,6 +17,8 @@ import textwrap
 from pathlib import Path
 from typing import Any
 
+from navlog.errors import ConfigError
+
 CSV_FIELDS = [
     "run_id",
     "world",
@@ -268,10 +270,13 @@ def _draw_run(ax: Any, row: dict[str, Any], world: dict[str, Any], grids: dict[s
     from navlog.recorder.world import load_world
 
     path = world.get("path")
-    if path and out is not None and not Path(path).is_absolute():
-        path = str(out / path)
+    if path and out is not None and not Path(path).is_absolute() and (out / path).is_file():
+        path = str(out / path)  # a generated world, by its place in OUT; others by their name or path as given
     if path and path not in grids:
-        grids[path] = true_grid(load_world(path))
+        try:
+            grids[path] = true_grid(load_world(path))
+        except ConfigError:  # a world moved or renamed since: the run is drawn without it, the reports still written
+            grids[path] = None
     grid = grids.get(path) if path else None
     if grid is not None:
         ny, nx = grid.occupied.shape

@@ -31,7 +31,7 @@ from typing import Any, Literal
 
 from navlog.campaign.spec import CampaignSpec, load_campaign
 from navlog.errors import ConfigError, NavlogError
-from navlog.replay.io.atomic import hold_output
+from navlog.replay.io.atomic import hold_output, write_error
 
 KeepLogs = Literal["none", "all", "failed"]
 RESULTS = ("succeeded", "collision", "timeout", "aborted", "failed", "infeasible")
@@ -507,7 +507,10 @@ def run_campaign(
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a folder; choose another output folder")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise write_error(out.parent, exc) from None
     with hold_output(out):  # one run writes a campaign folder at a time
         out.mkdir(exist_ok=True)
         plan = plan_campaign(spec, folder, out, keep_logs)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import json
+from pathlib import Path
 
 import numpy as np
 
@@ -104,3 +105,19 @@ def test_generated_worlds_are_named_by_their_place_in_the_output_folder(tmp_path
     summary = {"campaign": "t", "worlds": one}
     drawn = contact_sheet_png([row], summary, tmp_path / "one")  # the world found in OUT
     assert drawn != contact_sheet_png([row], {"campaign": "t", "worlds": {}})  # no world: no obstacles, no path
+
+
+def test_worlds_named_by_config_name_or_gone_still_give_every_report(tmp_path):
+    """A world given by its name (``indoor_room``) is not a file in OUT; one deleted since the runs cannot be
+    drawn: the contact sheet draws the runs without it and every report is written."""
+    track = [(-2.0 + 0.2 * k, 0.1 * np.sin(k)) for k in range(6)]
+    rows = [_row(i, "a", 2.0, 10.0, track) for i in range(2)]
+    for r in rows:
+        r["result"] = "timeout"
+    summary = _summary(tmp_path, rows)
+    for path in ("indoor_room", str(tmp_path / "gone.yaml")):
+        summary["worlds"]["corridor_0"]["path"] = path
+        out = tmp_path / Path(path).stem
+        out.mkdir()
+        names = sorted(p.name for p in write_reports(out, rows, summary))
+        assert "campaign.json" in names and "campaign_failures.png" in names, path

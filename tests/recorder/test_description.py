@@ -374,3 +374,25 @@ def test_a_joint_to_an_unscoped_nested_link_names_the_scoped_form(tmp_path, monk
     monkeypatch.setenv("GZ_SIM_RESOURCE_PATH", str(models))
     with pytest.raises(ConfigError, match=r"bot\.sdf: joint 'lidar_joint' joins 'base_link' to 'link'.*MODEL::LINK"):
         describe(bad)
+
+
+def test_a_model_that_includes_itself_is_an_error_naming_the_chain(tmp_path, monkeypatch):
+    """mini_lidar includes loop_a, which includes mini_lidar again: a ConfigError naming both files, not a
+    RecursionError."""
+    models = tmp_path / "models"
+    for name, text in {
+        "mini_lidar": LIDAR_MODEL.replace(
+            "</model></sdf>", "<include><uri>model://loop_a</uri></include></model></sdf>"
+        ),
+        "loop_a": '<sdf version="1.9"><model name="loop_a"><include><uri>model://mini_lidar</uri></include></model></sdf>',
+    }.items():
+        (models / name).mkdir(parents=True)
+        (models / name / "model.config").write_text('<model><sdf version="1.9">model.sdf</sdf></model>')
+        (models / name / "model.sdf").write_text(text)
+    robot_file = tmp_path / "bot.sdf"
+    robot_file.write_text(NESTED_ROBOT)
+    monkeypatch.setenv("GZ_SIM_RESOURCE_PATH", str(models))
+    with pytest.raises(
+        ConfigError, match=r"loop_a/model\.sdf: <include> model://mini_lidar: includes itself \(.*bot\.sdf -> "
+    ):
+        describe(robot_file)
