@@ -289,6 +289,15 @@ def _bin_keys(poses: np.ndarray) -> np.ndarray:
     return np.floor(poses / np.asarray(BIN_SIZE)).astype(np.int64)
 
 
+def _closed_up(keys: np.ndarray) -> np.ndarray:
+    """Bin indices along one axis from 0, each gap of two or more empty bins closed to one: bins stay
+    neighbours exactly when they were, and the axis spans at most twice its occupied bins (the yaw is never
+    wrapped, so after many turns its bins would span thousands)."""
+    values, index = np.unique(keys, return_inverse=True)
+    steps = np.minimum(np.diff(values), 2)
+    return np.concatenate([[0], np.cumsum(steps)])[index.reshape(-1)]
+
+
 @dataclass(frozen=True)
 class PoseEstimate:
     """The filter's pose (x, y, yaw), its 3x3 covariance, the heaviest cluster's weight and cluster count."""
@@ -416,11 +425,8 @@ class ParticleFilter:
         """The heaviest cluster's mean pose and the whole set's covariance (Nav2's published estimate)."""
         from scipy import ndimage
 
-        keys = _bin_keys(self.poses)
-        lo = keys.min(axis=0)
-        shape = tuple(keys.max(axis=0) - lo + 1)
-        grid = np.zeros(shape, dtype=bool)
-        rel = keys - lo
+        rel = np.column_stack([_closed_up(column) for column in _bin_keys(self.poses).T])
+        grid = np.zeros(tuple(rel.max(axis=0) + 1), dtype=bool)
         grid[rel[:, 0], rel[:, 1], rel[:, 2]] = True
         labels, count = ndimage.label(grid, structure=np.ones((3, 3, 3), dtype=bool))
         particle_label = labels[rel[:, 0], rel[:, 1], rel[:, 2]]

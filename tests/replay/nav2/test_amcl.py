@@ -255,3 +255,16 @@ def test_initialpose_restarts_the_filter_around_the_given_gaussian():
     assert node.initialised_ns == 0 and len(node.filter.poses) == 4000
     np.testing.assert_allclose(node.filter.poses.mean(axis=0), [2.0, 3.0, 0.5], atol=0.02)
     np.testing.assert_allclose(node.filter.poses.std(axis=0), [0.3, 0.1, 0.2], rtol=0.05)
+
+
+def test_closing_up_empty_bins_keeps_neighbours_and_bounds_the_axis():
+    """Bins stay neighbours (one apart or the same) exactly when they were; 600 turns of yaw bins (10 deg)
+    close up to at most twice the occupied bins instead of a grid 21,600 bins deep."""
+    from navlog.replay.nav2.amcl import _closed_up
+
+    rng = np.random.default_rng(3)
+    keys = np.concatenate([rng.integers(-40, 40, 300), rng.integers(21_560, 21_600, 50), [-18, 17]])
+    closed = _closed_up(keys)
+    near = np.abs(keys[:, None] - keys[None, :]) <= 1
+    assert np.array_equal(near, np.abs(closed[:, None] - closed[None, :]) <= 1)
+    assert closed.min() == 0 and closed.max() < 2 * len(np.unique(keys))
