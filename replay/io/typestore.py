@@ -91,21 +91,32 @@ def type_cycle(types: dict[str, Any], first: str = "") -> list[str]:
     return []
 
 
-def type_depth(types: dict[str, Any], root: str) -> int:
+def type_depth(types: dict[str, Any], root: str, known: dict[str, int] | None = None) -> int:
     """How many message types deep ``root`` nests (1: only built-in fields), through the types of ``types``
-    (acyclic: ``type_cycle`` found none)."""
-    edges = {name: [n for _, ft in fields for n in _names(ft) if n in types] for name, (_, fields) in types.items()}
-    depth: dict[str, int] = {}
-    stack = [root] if root in edges else []
-    while stack:  # depth first without recursion: a type's depth once all it holds have theirs
-        name = stack[-1]
-        todo = [n for n in edges[name] if n not in depth]
-        if todo:
-            stack.extend(todo)
-        else:
-            stack.pop()
-            depth[name] = 1 + max((depth[n] for n in edges[name]), default=0)
-    return depth.get(root, 1)
+    (acyclic: ``type_cycle`` found none) and those of ``known`` (depths of types already registered)."""
+    return type_depths(types, known).get(root, 1)
+
+
+def type_depths(types: dict[str, Any], known: dict[str, int] | None = None) -> dict[str, int]:
+    """The depth (``type_depth``) of every type of ``types``; a field of a type in ``known`` counts that
+    type's known depth."""
+    known = known or {}
+    edges = {
+        name: [n for _, ft in fields for n in _names(ft) if n in types or n in known]
+        for name, (_, fields) in types.items()
+    }
+    depth: dict[str, int] = {n: d for n, d in known.items() if n not in edges}
+    for root in edges:
+        stack = [root] if root not in depth else []
+        while stack:  # depth first without recursion: a type's depth once all it holds have theirs
+            name = stack[-1]
+            todo = [n for n in edges[name] if n not in depth]
+            if todo:
+                stack.extend(todo)
+            else:
+                stack.pop()
+                depth[name] = 1 + max((depth[n] for n in edges[name]), default=0)
+    return {n: depth[n] for n in edges}
 
 
 class LogTypestore:
@@ -119,6 +130,7 @@ class LogTypestore:
         self.store = store if store is not None else messages.typestore()
         self.refused: dict[str, str] = {}  # type name -> why its schema was refused
         self.fields_parsed = 0  # toward MAX_LOG_SCHEMA_FIELDS
+        self.depths: dict[str, int] = {}  # how deep each type of an accepted schema nests (``type_depth``)
 
     def add_schema(self, typename: str, text: str) -> bool:
         """Make ``typename`` decodable from its schema text; False if the text cannot be parsed or is
@@ -150,11 +162,14 @@ class LogTypestore:
         cycle = type_cycle(types, typename)
         if cycle:
             why = f"recursive type ({' holds '.join(cycle)})"
-        elif types and (depth := type_depth(types, typename)) > MAX_TYPE_DEPTH:
-            why = f"types nested {depth} deep, more than {MAX_TYPE_DEPTH}"
+        else:
+            depths = type_depths(types, self.depths)
+            if (depth := max(depths.values(), default=1)) > MAX_TYPE_DEPTH:
+                why = f"types nested {depth} deep, more than {MAX_TYPE_DEPTH}"
         if why:
             self.refused[typename] = f"schema of {typename} refused: {why}"
             return None
+        self.depths.update(depths)
         return types
 
     def _too_large(self, text: str) -> str:

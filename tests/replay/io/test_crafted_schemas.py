@@ -193,3 +193,21 @@ def test_types_nested_too_deep_are_refused_and_a_real_depth_is_not():
     assert types.add_schema("x_msgs/msg/Deep", chain) is False
     assert types.refused["x_msgs/msg/Deep"] == "schema of x_msgs/msg/Deep refused: types nested 1001 deep, more than 64"
     assert type_depth(types_from_schema("x_msgs/msg/Top", DIAMOND), "x_msgs/msg/Top") == 2
+
+
+def test_a_chain_built_across_schemas_counts_the_types_registered_before():
+    """Each schema a chain of 30 types ending in the previous schema's root, without repeating its section:
+    each alone is 31 deep, the third reaches past 64 and is refused."""
+    types = LogTypestore()
+    previous = ""
+    accepted = []
+    for k in range(3):
+        chain = f"x_msgs/C{k}_0 next\n" + "".join(
+            f"{SEP}MSG: x_msgs/C{k}_{j}\nint8 v\n"
+            + (f"x_msgs/C{k}_{j + 1} next\n" if j + 1 < 30 else (f"x_msgs/Root{k - 1} prev\n" if previous else ""))
+            for j in range(30)
+        )
+        accepted.append(types.add_schema(f"x_msgs/msg/Root{k}", chain))
+        previous = f"x_msgs/msg/Root{k}"
+    assert accepted == [True, True, False]
+    assert types.refused["x_msgs/msg/Root2"].endswith("types nested 93 deep, more than 64")
