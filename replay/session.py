@@ -324,6 +324,9 @@ def _manifest(
     files = {"replay_mcap": tmp / "replay.mcap", **result["artifacts"]}
     skipped = {f"log: {k}": v for k, v in sorted(reader.report.skipped.items())}
     skipped.update({k: v for k, v in sorted(pipe.skipped().items())})
+    for t in sorted(reader.topics.values(), key=lambda t: t.name):  # whole topics whose schema was refused
+        if not t.known and t.why:
+            skipped[f"log: {t.name} messages ({t.why})"] = t.count
     if stats.out_of_order:
         skipped["log: messages with out-of-order timestamps (delivered in arrival order)"] = stats.out_of_order
     for topic, n in sorted(result["backwards"].items()):

@@ -30,7 +30,8 @@ def test_half_speed_is_regressed_on_time_and_a_rerun_reuses_every_run(tmp_path):
         assert r["min_clearance_m"] > 0.22 and r["collisions"] == 0
         # the controller cycles at 20 Hz until the goal: one cycle per 50 ms of the run's time to the goal
         assert r["cycles"] == pytest.approx(r["time_s"] * 20, abs=25)
-        assert 0 < r["cycle_ms_mean"] <= r["cycle_ms_p95"] < 1000
+        # (one slow first cycle, numba loading its kernels, can lift the mean past the p95)
+        assert 0 < r["cycle_ms_mean"] < 1000 and 0 < r["cycle_ms_p95"] < 1000
     assert "cycle_ms" not in (out / "campaign.json").read_text()  # the machine's figures: campaign_timing.*
     assert (out / "campaign_timing.csv").read_text().count("\n") == 13
     report = (out / "campaign.json").read_bytes()

@@ -180,9 +180,11 @@ def test_every_command_answers_a_log_with_a_huge_and_a_recursive_schema(teleop_l
         out = capsys.readouterr()
         text = out.out + out.err + caplog.text
         caplog.clear()
+        if name == "replay":  # its warning, and for good in its manifest's skipped inputs
+            text += (tmp_path / "r" / "manifest.json").read_text()
         if name != "check":  # (check lists the topics of unknown type)
             assert "x_msgs/msg/Big refused" in text and "x_msgs/msg/Top refused: recursive type" in text, (name, text)
-    assert (tmp_path / "r" / "manifest.json").is_file() and (tmp_path / "v.rrd").is_file()
+    assert (tmp_path / "v.rrd").is_file()
 
 
 def test_types_nested_too_deep_are_refused_and_a_real_depth_is_not():
