@@ -16,20 +16,7 @@ from navlog.campaign.runner import _cached_row, plan_campaign, run_campaign
 from navlog.campaign.spec import load_campaign
 from navlog.campaign.stats import variant_summary
 from navlog.errors import ConfigError
-
-BASE = """name: t
-worlds:
-  - {generate: corridor, count: 1, params: {doors: 0, length: 6.0}}
-robots: [go2]
-variants:
-  - {name: a, nav2_params: nav_go2}
-"""
-
-
-def write(tmp_path, text):
-    path = tmp_path / "c.yaml"
-    path.write_text(text)
-    return path
+from tests.campaign.campaign_files import BASE, write
 
 
 def test_an_impossible_field_is_an_error_before_any_run(tmp_path):

@@ -7,20 +7,7 @@ import pytest
 from navlog.campaign.runner import run_campaign
 from navlog.campaign.spec import load_campaign
 from navlog.errors import ConfigError
-
-BASE = """name: t
-worlds:
-  - {generate: corridor, count: 1, params: {doors: 0, length: 6.0}}
-robots: [go2]
-variants:
-  - {name: a, nav2_params: nav_go2}
-"""
-
-
-def write(tmp_path, text):
-    path = tmp_path / "c.yaml"
-    path.write_text(text)
-    return path
+from tests.campaign.campaign_files import BASE, write
 
 
 def test_a_campaign_file_loads_typed(tmp_path):

@@ -14,14 +14,8 @@ from navlog.analysis.ci.runner import run_suite
 from navlog.analysis.ci.suite import load_suite
 from navlog.campaign.stats import summarize
 from navlog.errors import ConfigError
+from tests.campaign.campaign_files import BASE
 
-CAMPAIGN = """name: t
-worlds:
-  - {generate: corridor, count: 1, params: {doors: 0, length: 6.0}}
-robots: [go2]
-variants:
-  - {name: a, nav2_params: nav_go2}
-"""
 SUITE = """name: s
 cases:
   - name: camp
@@ -53,7 +47,7 @@ def _summary():
 
 
 def _suite(tmp_path, text=SUITE):
-    (tmp_path / "c.yaml").write_text(CAMPAIGN)
+    (tmp_path / "c.yaml").write_text(BASE)
     (tmp_path / "s.yaml").write_text(text)
     return tmp_path / "s.yaml"
 
@@ -141,7 +135,7 @@ def test_navlog_ci_run_runs_a_campaign_case(tmp_path, capsys):
     """End to end through the command: one corridor run of the Go2 (6 m, no doors) succeeds."""
     from navlog.cli import main
 
-    text = CAMPAIGN + "routes: {kind: fixed, start: [-2.0, 0, 0], goal: [2.0, 0, 0]}\nmax_duration: 60\n"
+    text = BASE + "routes: {kind: fixed, start: [-2.0, 0, 0], goal: [2.0, 0, 0]}\nmax_duration: 60\n"
     (tmp_path / "c.yaml").write_text(text)
     (tmp_path / "s.yaml").write_text(SUITE.replace("success_rate >= 0.9", "success_rate >= 1.1"))
     code = main(["ci", "run", str(tmp_path / "s.yaml"), "--cache", str(tmp_path / "cache"),
