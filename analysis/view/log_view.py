@@ -126,8 +126,9 @@ class ViewBuilder:
         summary = self.ctx.summary
         if self.ctx.offset_ns is None:
             self._start(reader)
-        for name, typename in sorted(reader.unknown_types.items()):
-            summary.unknown_types[(prefix + name) if prefix else name] = typename
+        for t in sorted(reader.topics.values(), key=lambda t: t.name):
+            if not t.known:  # the type, or why its schema was refused
+                summary.unknown_types[(prefix + t.name) if prefix else t.name] = t.why or t.typename
         if reader.unknown_types:
             log.warning("%s: skipping topics of unknown types: %s", reader.path, reader.unknown_listed)
         handlers = self.handlers

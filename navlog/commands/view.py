@@ -96,7 +96,12 @@ def run(args) -> int:
             if summary.thinned
             else ""
         )
-        + (f"; stored but not drawn: {', '.join(sorted(summary.not_drawn))}" if summary.not_drawn else ""),
+        + (f"; stored but not drawn: {', '.join(sorted(summary.not_drawn))}" if summary.not_drawn else "")
+        + (
+            f"; not read: {', '.join(f'{k} ({v})' for k, v in sorted(summary.unknown_types.items()))}"
+            if summary.unknown_types
+            else ""
+        ),
         file=sys.stdout,
     )
     return 0
