@@ -342,7 +342,8 @@ class _Flat:
     poses: dict[str, np.ndarray] = field(default_factory=dict)  # link -> pose in the top model's frame
     frames: dict[str, np.ndarray] = field(default_factory=dict)  # link -> its own model's frame in the top's
     files: dict[str, Path] = field(default_factory=dict)  # link -> the file that declares it
-    joints: list[tuple[ET.Element, str, str, Path]] = field(default_factory=list)  # (joint, parent, child, file)
+    # (joint, parent, child, file, the frame of the model that declares the joint, in the top model's)
+    joints: list[tuple[ET.Element, str, str, Path, np.ndarray]] = field(default_factory=list)
     plugins: list[ET.Element] = field(default_factory=list)
 
 
@@ -367,7 +368,7 @@ def _flatten(
     for j in model.findall("joint"):
         parent, child = _text(j, "parent", "") or "", _text(j, "child", "") or ""
         scoped_parent = parent if parent == "world" else prefix + parent
-        out.joints.append((j, scoped_parent, prefix + child, file))
+        out.joints.append((j, scoped_parent, prefix + child, file, frame))
     out.plugins += model.findall("plugin")
     for nested in model.findall("model"):
         name = nested.get("name", "")
@@ -409,14 +410,14 @@ def _parse_sdf(root: ET.Element, reader: _Reader) -> _Parsed:
     flat = _Flat()
     _flatten(model, np.eye(4), "", src, reader, flat)
     elements, in_model = flat.links, flat.poses
-    joints: dict[str, tuple[ET.Element, str]] = {}
-    for j, parent, child, file in flat.joints:
+    joints: dict[str, tuple[ET.Element, str, np.ndarray]] = {}
+    for j, parent, child, file, model_frame in flat.joints:
         if child not in elements or (parent not in elements and parent != "world"):
             raise ConfigError(
                 f"{file}: joint '{j.get('name')}' joins '{parent}' to '{child}': not links of the model "
                 "(a nested model's link is named MODEL::LINK)"
             )
-        joints[child] = (j, parent)
+        joints[child] = (j, parent, model_frame)
     links: dict[str, Link] = {}
     sensors: list[_Sensor] = []
     for name, el in elements.items():
@@ -441,7 +442,7 @@ def _parse_sdf(root: ET.Element, reader: _Reader) -> _Parsed:
             inertial = Inertial(float(_number(ie, ["mass"], where, 0.0) or 0.0), _pose(_sdf_pose(ie, where)), inertia)  # type: ignore[arg-type]
         link = Link(name, _pose(in_model[name]), inertial=inertial, collisions=collisions)
         if name in joints and joints[name][1] in elements:
-            j, parent = joints[name]
+            j, parent, model_frame = joints[name]
             child_in_parent = rigid_inverse(in_model[parent]) @ in_model[name]
             joint_pose = _sdf_pose(j, f"{file}: joint '{j.get('name')}'")  # in the child link's frame
             axis_el = j.find("axis")
@@ -449,7 +450,7 @@ def _parse_sdf(root: ET.Element, reader: _Reader) -> _Parsed:
             xyz_el = axis_el.find("xyz") if axis_el is not None else None
             expressed = xyz_el.get("expressed_in", "") if xyz_el is not None else ""
             if _text(axis_el, "use_parent_model_frame", "false") in ("true", "1") or expressed == "__model__":
-                axis = in_model[name][:3, :3].T @ flat.frames[name][:3, :3] @ axis  # the joint's model's frame
+                axis = in_model[name][:3, :3].T @ model_frame[:3, :3] @ axis  # the frame of the joint's model
             elif not expressed:
                 axis = joint_pose[:3, :3] @ axis  # the joint's frame
             link = Link(

@@ -396,3 +396,24 @@ def test_a_model_that_includes_itself_is_an_error_naming_the_chain(tmp_path, mon
         ConfigError, match=r"loop_a/model\.sdf: <include> model://mini_lidar: includes itself \(.*bot\.sdf -> "
     ):
         describe(robot_file)
+
+
+def test_an_axis_expressed_in_the_model_is_the_declaring_models_frame(tmp_path, monkeypatch):
+    """The top model's joint turns lidar::link (its include yawed 90 deg) about the top model's y axis
+    (``expressed_in="__model__"``): in the link's own frame that is its x axis, not the include's y."""
+    models = tmp_path / "models"
+    (models / "mini_lidar").mkdir(parents=True)
+    (models / "mini_lidar" / "model.config").write_text('<model><sdf version="1.9">model.sdf</sdf></model>')
+    (models / "mini_lidar" / "model.sdf").write_text(LIDAR_MODEL)
+    robot_file = tmp_path / "bot.sdf"
+    robot_file.write_text(
+        NESTED_ROBOT.replace(
+            '<joint name="lidar_joint" type="fixed"><parent>base_link</parent><child>lidar::link</child></joint>',
+            '<joint name="lidar_joint" type="revolute"><parent>base_link</parent><child>lidar::link</child>'
+            '<axis><xyz expressed_in="__model__">0 1 0</xyz></axis></joint>',
+        )
+    )
+    monkeypatch.setenv("GZ_SIM_RESOURCE_PATH", str(models))
+    link = next(link for link in describe(robot_file).model.links if link.name == "lidar::link")
+    assert link.joint_type == "revolute"
+    assert link.axis == pytest.approx((1.0, 0.0, 0.0), abs=1e-6)
