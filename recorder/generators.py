@@ -203,6 +203,21 @@ def barn_field(params: BarnParams, seed: int) -> GeneratedWorld:
 # ---------------------------------------------------------------- rooms and corridors
 
 
+def _walled_world(
+    kind: str, seed: int, params: Any, size: tuple[float, float], description: str, objects: list[ObjectSpec]
+) -> GeneratedWorld:
+    """A generated world of ``objects`` inside walls of ``size`` (0.2 m thick, ``OBSTACLE_HEIGHT`` high),
+    named ``KIND_SEED``, with the generator's record of itself."""
+    spec = WorldSpec(
+        f"{kind}_{seed}",
+        description=description,
+        walls=WallsSpec(size, thickness=0.2, height=OBSTACLE_HEIGHT),
+        objects=objects,
+    )
+    world = resolve_world(spec, Path(f"<{kind} seed {seed}>"))
+    return GeneratedWorld(spec, world, {"generator": kind, "seed": seed, "params": to_mapping(params)})
+
+
 def cluttered_room(params: RoomParams, seed: int) -> GeneratedWorld:
     """A walled room with random boxes and cylinders (module docstring)."""
     p = params
@@ -222,14 +237,14 @@ def cluttered_room(params: RoomParams, seed: int) -> GeneratedWorld:
             objects.append(
                 ObjectSpec(f"cylinder_{i}", (round(x, 4), round(y, 4), 0.0), shape="cylinder", radius=r, height=1.0)
             )
-    spec = WorldSpec(
-        f"room_{seed}",
-        description=f"cluttered room {p.size[0]:g} x {p.size[1]:g} m, {p.obstacles} obstacles, seed {seed}",
-        walls=WallsSpec((float(p.size[0]), float(p.size[1])), thickness=0.2, height=OBSTACLE_HEIGHT),
-        objects=objects,
+    return _walled_world(
+        "room",
+        seed,
+        p,
+        (float(p.size[0]), float(p.size[1])),
+        f"cluttered room {p.size[0]:g} x {p.size[1]:g} m, {p.obstacles} obstacles, seed {seed}",
+        objects,
     )
-    world = resolve_world(spec, Path(f"<room seed {seed}>"))
-    return GeneratedWorld(spec, world, {"generator": "room", "seed": seed, "params": to_mapping(p)})
 
 
 def corridor(params: CorridorParams, seed: int) -> GeneratedWorld:
@@ -253,14 +268,14 @@ def corridor(params: CorridorParams, seed: int) -> GeneratedWorld:
                     size=(t, round(b - a, 4), OBSTACLE_HEIGHT),
                 )
             )
-    spec = WorldSpec(
-        f"corridor_{seed}",
-        description=f"corridor {p.length:g} x {p.width:g} m, {p.doors} doorways of {p.door_width:g} m, seed {seed}",
-        walls=WallsSpec((float(p.length), float(p.width)), thickness=0.2, height=OBSTACLE_HEIGHT),
-        objects=objects,
+    return _walled_world(
+        "corridor",
+        seed,
+        p,
+        (float(p.length), float(p.width)),
+        f"corridor {p.length:g} x {p.width:g} m, {p.doors} doorways of {p.door_width:g} m, seed {seed}",
+        objects,
     )
-    world = resolve_world(spec, Path(f"<corridor seed {seed}>"))
-    return GeneratedWorld(spec, world, {"generator": "corridor", "seed": seed, "params": to_mapping(p)})
 
 
 def office(params: OfficeParams, seed: int) -> GeneratedWorld:
@@ -298,15 +313,15 @@ def office(params: OfficeParams, seed: int) -> GeneratedWorld:
                 depth = p.room_depth - t
                 cy = sign * (p.corridor_width / 2 + t + depth / 2 + float(rng.uniform(0, depth / 2 - d / 2)))
                 box(f"{side}{k}_desk_{j}", cx - w / 2, cx + w / 2, cy - d / 2, cy + d / 2)
-    spec = WorldSpec(
-        f"office_{seed}",
-        description=f"office: {p.rooms} + {p.rooms} rooms of {p.room_width:g} x {p.room_depth:g} m on a "
+    return _walled_world(
+        "office",
+        seed,
+        p,
+        (round(length, 6), round(2 * hy, 6)),
+        f"office: {p.rooms} + {p.rooms} rooms of {p.room_width:g} x {p.room_depth:g} m on a "
         f"{p.corridor_width:g} m corridor, doorways {p.door_width:g} m, seed {seed}",
-        walls=WallsSpec((round(length, 6), round(2 * hy, 6)), thickness=0.2, height=OBSTACLE_HEIGHT),
-        objects=objects,
+        objects,
     )
-    world = resolve_world(spec, Path(f"<office seed {seed}>"))
-    return GeneratedWorld(spec, world, {"generator": "office", "seed": seed, "params": to_mapping(p)})
 
 
 GENERATORS: dict[str, tuple[type, Callable[[Any, int], GeneratedWorld]]] = {
