@@ -21,17 +21,22 @@ __all__ = ["SerialThread", "in_thread"]
 IDLE_S = 1.0  # a SerialThread's thread ends after this long without work
 
 
-def in_thread(work: Callable[[], None]) -> Callable[[], None]:
-    """Start ``work`` in a thread of its own; the returned call waits for it and re-raises its error."""
-    error: list[BaseException] = []
+def _caught(work: Callable[[], None], error: list[BaseException]) -> Callable[[], None]:
+    """``work`` with any error it raises kept in ``error`` (to be re-raised by the wait, in the caller's thread)."""
 
     def run() -> None:
         try:
             work()
-        except BaseException as exc:  # re-raised by the wait, in the caller's thread
+        except BaseException as exc:
             error.append(exc)
 
-    thread = threading.Thread(target=run, name="navlog-background", daemon=True)
+    return run
+
+
+def in_thread(work: Callable[[], None]) -> Callable[[], None]:
+    """Start ``work`` in a thread of its own; the returned call waits for it and re-raises its error."""
+    error: list[BaseException] = []
+    thread = threading.Thread(target=_caught(work, error), name="navlog-background", daemon=True)
     thread.start()
 
     def wait() -> None:
@@ -53,14 +58,11 @@ class SerialThread:
     def __call__(self, work: Callable[[], None]) -> Callable[[], None]:
         done = threading.Event()
         error: list[BaseException] = []
+        run = _caught(work, error)
 
         def job() -> None:
-            try:
-                work()
-            except BaseException as exc:  # re-raised by the wait, in the caller's thread
-                error.append(exc)
-            finally:
-                done.set()
+            run()
+            done.set()
 
         with self._lock:
             self._jobs.put(job)
