@@ -188,6 +188,7 @@ class SlamNode(Node):
                 "scans": c.scans,
                 "keyframes": c.keyframes,
                 "matched": c.matched,
+                "matched_between": c.matched_between,
                 "odometry_only": c.odometry_only,
                 "loop_attempts": c.loop_attempts,
                 "loops": c.loops,

@@ -24,6 +24,12 @@ class SlamParams:
     minimum_travel_heading: float = 0.5  # ... or this much turning since the last keyframe
     scan_buffer_size: int = 10  # the running buffer: keyframes a new keyframe is matched against
     scan_buffer_maximum_scan_distance: float = 10.0  # buffer keyframes farther than this are left out
+    # navlog's: a scan between keyframes is matched against the running buffer too (not added to the graph)
+    # and its pose weighted against the odometry, at most once per minimum_time_interval (slam_toolbox's
+    # name: its scans closer than this are not processed); the scans in between follow the odometry from
+    # the last matched one. Off: every scan between keyframes follows the odometry from its keyframe
+    match_between_keyframes: bool = True
+    minimum_time_interval: float = 0.5
     link_match_minimum_response_fine: float = 0.1  # below it a sequential match is not trusted (odometry used)
     correlation_search_space_dimension: float = 0.5  # side of the square searched around the prediction
     correlation_search_space_resolution: float = 0.025  # cell of the correlation grid (slam_toolbox: 0.01)
@@ -79,6 +85,7 @@ class SlamParams:
         for name in (
             "minimum_travel_distance",
             "minimum_travel_heading",
+            "minimum_time_interval",
             "coarse_search_angle_offset",
             "loop_search_drift_rate",
         ):

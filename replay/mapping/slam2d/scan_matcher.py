@@ -168,7 +168,15 @@ class ScanMatcher:
         reference = reference[np.hypot(reference[:, 0] - prediction[0], reference[:, 1] - prediction[1]) <= reach]
         if len(reference) == 0:
             return None
-        grid = self.grid(reference, window)
+        return self.match_on(self.grid(reference, window), scan_points, prediction, window, min_response)
+
+    def match_on(
+        self, grid: LookupGrid, scan_points: np.ndarray, prediction, window: SearchWindow, min_response: float
+    ) -> MatchResult | None:
+        """``match`` against a lookup grid made by ``grid`` for a window at least as large (several scans
+        matched against the same reference share its grid)."""
+        if len(scan_points) == 0:
+            return None
         best = self._search(grid, scan_points, prediction, window, min_response)
         if best is None:
             return None

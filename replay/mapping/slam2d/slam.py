@@ -5,7 +5,11 @@ scan's valid points in the robot frame:
 
 1. **predict**: the last keyframe's pose composed with the odometry travelled since it;
 2. **keyframe?** only after ``minimum_travel_distance`` or ``minimum_travel_heading`` since the last
-   keyframe (the first scan is one); other scans just report the prediction;
+   keyframe (the first scan is one); another scan is placed by the odometry since the last scan that
+   was matched or, at most once per ``minimum_time_interval`` (``match_between_keyframes``), matched
+   against the running buffer like a keyframe and weighted against that odometry — it is not added to
+   the graph (the keyframes' graph is the same either way), but it no longer carries the odometry's
+   error since its keyframe (a robot turning on the spot on slipping wheels);
 3. **match** the scan against the running buffer (the last ``scan_buffer_size`` keyframes' points)
    in a ``correlation_search_space_dimension`` square around the prediction; a response below
    ``link_match_minimum_response_fine`` falls back to odometry;
@@ -39,7 +43,13 @@ from navlog.replay.geometry import planar_matrix
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d.params import SlamParams
 from navlog.replay.mapping.slam2d.pose_graph import PoseGraph
-from navlog.replay.mapping.slam2d.scan_matcher import MatchResult, ScanMatcher, SearchWindow, transform_points
+from navlog.replay.mapping.slam2d.scan_matcher import (
+    LookupGrid,
+    MatchResult,
+    ScanMatcher,
+    SearchWindow,
+    transform_points,
+)
 
 ODOMETRY_WINDOW = 20  # matches the odometry's noise is estimated over
 
@@ -96,6 +106,7 @@ class SlamCounts:
     scans: int = 0
     keyframes: int = 0
     matched: int = 0  # sequential matches accepted
+    matched_between: int = 0  # scans between keyframes placed by a match (match_between_keyframes)
     odometry_only: int = 0  # keyframes placed by odometry (no or weak match)
     loop_attempts: int = 0
     loops: int = 0
@@ -137,7 +148,11 @@ class Slam2D:
         self.graph = PoseGraph()
         self.keyframes: list[Keyframe] = []
         self.counts = SlamCounts()
-        self._scans: list[tuple[int, int, gtsam.Pose2]] = []  # (stamp, keyframe index, odometry) per scan
+        # per scan: (stamp, its keyframe, its pose in the keyframe's frame)
+        self._scans: list[tuple[int, int, gtsam.Pose2]] = []
+        # the last scan placed by a match or a keyframe: (stamp, odometry pose, pose in its keyframe's frame)
+        self._anchor: tuple[int, gtsam.Pose2, gtsam.Pose2] = (0, gtsam.Pose2(), gtsam.Pose2())
+        self._between: tuple[tuple[int, int], LookupGrid] | None = None  # see _between_grid
         self._grid = OccupancyGrid2D(self.grid_params)
         self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
         self._grid_drawn = 0  # keyframes when the grid was last redrawn from scratch
@@ -156,21 +171,61 @@ class Slam2D:
         self.counts.scans += 1
         odom = _pose2(odom_pose)
         prediction = self._predict(odom)
-        if self.keyframes and not self._travelled(odom):
-            self._scans.append((stamp, len(self.keyframes) - 1, odom))
-            return _xyt(prediction)
-        points = scan.points(self.p.max_laser_range)
-        if len(points) == 0:
+        keyframe = not self.keyframes or self._travelled(odom)
+        points = scan.points(self.p.max_laser_range) if keyframe or self._match_due(stamp) else None
+        if points is not None and len(points) == 0:
             self.counts.empty_scans += 1
             if not self.keyframes:
                 return None
-            self._scans.append((stamp, len(self.keyframes) - 1, odom))
-            return _xyt(prediction)
+            keyframe = False
+        if not keyframe:
+            return self._between_keyframes(stamp, odom, points)
+        assert points is not None
         pose = self._add_keyframe(stamp, odom, points, scan, prediction)
         if self.p.do_loop_closing:
             self._close_loop()
-        self._scans.append((stamp, len(self.keyframes) - 1, odom))
+        self._scans.append((stamp, len(self.keyframes) - 1, gtsam.Pose2()))
+        self._anchor = (stamp, odom, gtsam.Pose2())
         return _xyt(self._pose(len(self.keyframes) - 1)) if self.graph.optimizations else pose
+
+    def _match_due(self, stamp: int) -> bool:
+        """Whether a scan between keyframes is to be matched (``match_between_keyframes``, and at least
+        ``minimum_time_interval`` since the last matched scan)."""
+        return self.p.match_between_keyframes and stamp - self._anchor[0] >= self.p.minimum_time_interval * 1e9
+
+    def _between_keyframes(self, stamp: int, odom: gtsam.Pose2, points: np.ndarray | None) -> np.ndarray:
+        """A scan that is no keyframe: placed by the odometry since the last matched scan (its *anchor*) or,
+        given its points, matched against the running buffer and weighted against that odometry; kept as
+        its pose relative to the last keyframe, so that it follows the keyframe when the graph moves it."""
+        last = self.keyframes[-1]
+        base = self._pose(last.index)
+        _, anchor_odom, anchor_rel = self._anchor
+        rel = anchor_rel.compose(anchor_odom.between(odom))
+        pose = _xyt(base.compose(rel))
+        if points is not None and len(points):
+            match = self.matcher.match_on(
+                self._between_grid(base), points, pose, self._link, self.p.link_match_minimum_response_fine
+            )
+            if match is not None:
+                rot = _rotation(base.theta())
+                odometry_cov = np.diag(np.square(self._odometry_sigmas()))
+                pose, _ = self._fuse(pose, rot @ odometry_cov @ rot.T, match)
+                rel = base.between(_pose2(pose))
+                self.counts.matched_between += 1
+            self._anchor = (stamp, odom, rel)
+        self._scans.append((stamp, last.index, rel))
+        return pose
+
+    def _between_grid(self, base: gtsam.Pose2) -> LookupGrid:
+        """The running buffer's lookup grid for the scans between the last keyframe and the next (made once
+        per keyframe, and again when an optimisation moved the keyframes)."""
+        key = (len(self.keyframes), self.graph.optimizations)
+        if self._between is None or self._between[0] != key:
+            reference = self._buffer_points(base)
+            reach = self.p.max_laser_range + self._link.linear + 4 * self.p.correlation_search_space_smear_deviation
+            reference = reference[np.hypot(reference[:, 0] - base.x(), reference[:, 1] - base.y()) <= reach]
+            self._between = (key, self.matcher.grid(reference, self._link))
+        return self._between[1]
 
     def _predict(self, odom: gtsam.Pose2) -> gtsam.Pose2:
         if not self.keyframes:
@@ -408,11 +463,10 @@ class Slam2D:
         return planar_matrix(m.x(), m.y(), m.theta())
 
     def trajectory(self) -> tuple[list[int], np.ndarray]:
-        """Stamps and (n, 3) map poses of every scan: its keyframe's final pose composed with the odometry since it."""
+        """Stamps and (n, 3) map poses of every scan: its keyframe's final pose composed with its pose relative
+        to the keyframe (the odometry since it, or since the last scan matched between keyframes)."""
         poses = [self._pose(k) for k in range(len(self.keyframes))]
-        out = np.array(
-            [_xyt(poses[k].compose(self.keyframes[k].odom.between(odom))) for _, k, odom in self._scans]
-        ).reshape(-1, 3)
+        out = np.array([_xyt(poses[k].compose(rel)) for _, k, rel in self._scans]).reshape(-1, 3)
         return [t for t, _, _ in self._scans], out
 
     def grid(self, final: bool = True) -> OccupancyGrid2D:

@@ -260,3 +260,42 @@ def test_scans_that_overlap_nothing_before_them_are_a_named_stretch(scene):
     assert slam.counts.odometry_only == 1
     first = len(slam.keyframes) - 4
     assert slam.counts.unplaced == [(first, first, 40 * 100_000_000, 40 * 100_000_000)]
+
+
+def turn_on_the_spot(scene, spacing_ns: int, params: SlamParams) -> tuple[Slam2D, np.ndarray]:
+    """A full turn on the spot at (0.5, -0.5) in 0.05 rad steps (ten scans between keyframes) whose
+    odometry turns 20 % too much: by the time it reports a keyframe's 0.5 rad, the robot turned 0.42."""
+    truth = np.array([(0.5, -0.5, 0.05 * k) for k in range(126)])
+    odom = drifting_odometry(truth, 0.2)
+    rng = np.random.default_rng(2)
+    slam = Slam2D(params)
+    for i, (t, o) in enumerate(zip(truth, odom, strict=True)):
+        slam.add_scan(i * spacing_ns, o, scan_of(cast(scene, t, rng)))
+    return slam, truth
+
+
+def yaw_errors(slam: Slam2D, truth: np.ndarray) -> np.ndarray:
+    _, poses = slam.trajectory()
+    return np.abs(np.remainder(poses[:, 2] - truth[:, 2] + np.pi, 2 * np.pi) - np.pi)
+
+
+def test_scans_between_keyframes_are_matched_not_left_to_the_odometry(scene):
+    slam, truth = turn_on_the_spot(scene, 1_000_000_000, SlamParams(do_loop_closing=False))
+    assert slam.counts.keyframes < 20 and slam.counts.matched_between == 126 - slam.counts.keyframes
+    assert yaw_errors(slam, truth).max() < 0.01  # the match, weighted against the odometry's 0.05 rad
+    # without it the scans between keyframes carry the odometry's extra turn since their keyframe
+    plain, _ = turn_on_the_spot(scene, 1_000_000_000, SlamParams(do_loop_closing=False, match_between_keyframes=False))
+    assert plain.counts.matched_between == 0
+    assert 0.06 < yaw_errors(plain, truth).max() < 0.12
+    # the keyframes themselves are matched either way
+    assert np.allclose(slam.graph.poses()[:, 2], plain.graph.poses()[:, 2], atol=0.005)
+
+
+def test_scans_between_keyframes_are_matched_at_most_once_per_minimum_time_interval(scene):
+    # scans 0.1 s apart, minimum_time_interval 0.5 s: every fifth scan between keyframes is matched; those
+    # after it follow the odometry from it
+    slam, truth = turn_on_the_spot(scene, 100_000_000, SlamParams(do_loop_closing=False))
+    between = 126 - slam.counts.keyframes
+    assert between / 5 - slam.counts.keyframes <= slam.counts.matched_between <= between / 5 + 1
+    err = yaw_errors(slam, truth)
+    assert 0.005 < err.max() < 0.06  # five steps of 0.01 rad extra turn, and the match's own error
