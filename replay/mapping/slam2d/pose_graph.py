@@ -59,21 +59,22 @@ class PoseGraph:
         kind: EdgeKind,
         *,
         response: float = 0.0,
-        huber_k: float | None = None,
-        cauchy_k: float | None = None,
+        kernel: Literal["huber", "cauchy", "none"] = "none",
+        kernel_k: float = 1.345,
     ) -> None:
         """An edge measuring ``target``'s pose in ``source``'s frame. ``noise``: three standard deviations
-        (x, y, yaw) or a (3, 3) covariance; robust (Huber or Cauchy) when ``huber_k`` or ``cauchy_k`` is set."""
+        (x, y, yaw) or a (3, 3) covariance; behind a robust ``kernel`` (Huber or Cauchy, threshold
+        ``kernel_k`` standard deviations) unless ``none``."""
         rel = tuple(float(v) for v in relative)
         arr = np.asarray(noise, dtype=np.float64)
         model: gtsam.noiseModel.Base = (
             gtsam.noiseModel.Gaussian.Covariance(arr) if arr.ndim == 2 else gtsam.noiseModel.Diagonal.Sigmas(arr)
         )
         self._gaussians.append(model)
-        if huber_k is not None:
-            model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(huber_k), model)
-        elif cauchy_k is not None:
-            model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(cauchy_k), model)
+        if kernel == "huber":
+            model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(kernel_k), model)
+        elif kernel == "cauchy":
+            model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(kernel_k), model)
         self._graph.add(gtsam.BetweenFactorPose2(source, target, gtsam.Pose2(*rel), model))
         self.edges.append(Edge(source, target, kind, (rel[0], rel[1], rel[2]), float(response)))
 

@@ -434,7 +434,8 @@ class Slam2D:
             rot.T @ cov @ rot,
             "loop",
             response=match.response,
-            huber_k=self.p.loop_huber_k,
+            kernel=self.p.loop_kernel,
+            kernel_k=self.p.loop_kernel_k,
         )
         self.graph.optimize()
         if self.graph.edge_chi2() > self.p.loop_match_maximum_chi2:

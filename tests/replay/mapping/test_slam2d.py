@@ -218,11 +218,11 @@ def test_a_loop_the_graph_disagrees_with_is_measured_and_taken_back():
         if i:
             graph.add_edge(i - 1, i, (1.0, 0.0, 0.0), (0.02, 0.02, 0.01), "match")
     before = graph.snapshot()
-    graph.add_edge(0, 5, (5.03, 0.0, 0.0), (0.05, 0.05, 0.02), "loop", huber_k=1.345)  # agrees within 3 cm
+    graph.add_edge(0, 5, (5.03, 0.0, 0.0), (0.05, 0.05, 0.02), "loop", kernel="huber")  # agrees within 3 cm
     graph.optimize()
     assert graph.edge_chi2() < 1.0
     graph.remove_last_edge(before)
-    graph.add_edge(0, 5, (4.0, 1.0, 0.0), (0.05, 0.05, 0.02), "loop", huber_k=1.345)  # 1.4 m off: false
+    graph.add_edge(0, 5, (4.0, 1.0, 0.0), (0.05, 0.05, 0.02), "loop", kernel="huber")  # 1.4 m off: false
     graph.optimize()
     assert graph.edge_chi2() > 16.3  # SlamParams.loop_match_maximum_chi2
     graph.remove_last_edge(before)
@@ -230,6 +230,27 @@ def test_a_loop_the_graph_disagrees_with_is_measured_and_taken_back():
     assert np.allclose(graph.pose(5), (5.0, 0.0, 0.0))
     graph.optimize()
     assert np.allclose(graph.pose(5), (5.0, 0.0, 0.0), atol=1e-6)
+
+
+def test_the_loop_kernel_bounds_how_far_a_false_closure_bends_the_chain():
+    from navlog.replay.mapping.slam2d import PoseGraph
+
+    def bent(kernel: str) -> float:
+        graph = PoseGraph()
+        for i in range(6):  # a straight chain, 1 m steps (2 cm, 0.01 rad)
+            graph.add_node((float(i), 0.0, 0.0))
+            if i:
+                graph.add_edge(i - 1, i, (1.0, 0.0, 0.0), (0.02, 0.02, 0.01), "match")
+        graph.add_edge(0, 5, (4.0, 1.0, 0.0), (0.05, 0.05, 0.02), "loop", kernel=kernel)  # 1.4 m off: false
+        graph.optimize()
+        return float(np.hypot(*(graph.pose(5)[:2] - (5.0, 0.0))))
+
+    plain, huber, cauchy = bent("none"), bent("huber"), bent("cauchy")
+    # least squares meets the false closure a good part of the way; Huber's linear tail pulls far less,
+    # Cauchy's (redescending) hardly at all
+    assert plain > 0.3 and huber < 0.5 * plain and cauchy < 0.5 * huber
+    with pytest.raises(ValueError, match="loop_kernel"):
+        SlamParams(loop_kernel="tukey")  # type: ignore[arg-type]
 
 
 def test_odometry_that_jumps_is_found_by_the_wider_search_and_counted(scene):
