@@ -42,9 +42,10 @@ class SlamParams:
     loop_match_minimum_chain_size: int = 10  # a candidate chain needs this many keyframes
     loop_match_minimum_response_fine: float = 0.45  # a loop is accepted at or above this response
     loop_search_space_dimension: float = 8.0  # side of the largest square searched for a loop
-    # navlog's: the loop search reaches loop_search_maximum_distance plus this share of the travel between
-    # the two keyframes (the drift the path may have accumulated), up to half the loop search square
-    loop_search_drift_rate: float = 0.05
+    # navlog's: the loop search reaches loop_search_maximum_distance plus this many standard deviations of
+    # the new keyframe's position relative to an older one (the uncertainty the sequential edges between
+    # them add up to: the path's own, from the matches' covariances), up to half the loop search square
+    loop_search_path_sigmas: float = 3.0
     # a loop match whose translation variance (m^2, its worst direction) exceeds this is refused: the
     # submap does not pin the scan (a corridor). slam_toolbox's name; navlog's variance is the match's
     # Hessian's (ScanMatcher.covariance), hence the smaller default (slam_toolbox: 3.0 of its own measure)
@@ -91,7 +92,7 @@ class SlamParams:
             "minimum_travel_heading",
             "minimum_time_interval",
             "coarse_search_angle_offset",
-            "loop_search_drift_rate",
+            "loop_search_path_sigmas",
         ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):

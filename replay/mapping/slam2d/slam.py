@@ -159,6 +159,8 @@ class Slam2D:
         self._since_loop = math.inf  # path length of keyframes since the last loop closure
         self._innovations: list[np.ndarray] = []  # per match: match - odometry prediction, previous keyframe's frame
         self._travel: list[float] = [0.0]  # per keyframe: path length from the first, along the estimate
+        # per keyframe: the covariance of its sequential edge (in the previous keyframe's frame; zero for the first)
+        self._chain_cov: list[np.ndarray] = [np.zeros((3, 3))]
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
         self._link = SearchWindow(
             params.correlation_search_space_dimension, params.coarse_search_angle_offset, params.coarse_angle_resolution
@@ -284,6 +286,7 @@ class Slam2D:
             self.graph.add_node(pose)
             rel = prev.between(_pose2(pose))
             self.graph.add_edge(i - 1, i, _xyt(rel), noise, kind, response=response)  # type: ignore[arg-type]
+            self._chain_cov.append(np.asarray(noise, dtype=np.float64))
             self._travel.append(self._travel[-1] + float(np.linalg.norm(pose[:2] - _xyt(prev)[:2])))
         res = self.p.correlation_search_space_resolution
         surface = surface_points(points, res / 2, self.p.correlation_search_space_smear_deviation * 1.5)
@@ -384,12 +387,12 @@ class Slam2D:
             return
         poses = self.graph.poses()
         d = np.linalg.norm(poses[:old_end, :2] - poses[new, :2], axis=1)
-        # the search reaches as far as the path's drift since a keyframe may have carried the estimate
-        # off it: the fixed distance plus loop_search_drift_rate of the travel between them, bounded by
-        # the loop search window
-        travel = self._travel[new] - np.asarray(self._travel[:old_end])
+        # the search reaches as far as the path's uncertainty since a keyframe may have carried the estimate
+        # off it: the fixed distance plus loop_search_path_sigmas standard deviations of the new keyframe's
+        # position relative to it, bounded by the loop search window
         reach = np.minimum(
-            self.p.loop_search_maximum_distance + self.p.loop_search_drift_rate * travel,
+            self.p.loop_search_maximum_distance
+            + self.p.loop_search_path_sigmas * np.sqrt(self._path_variance(poses, new)[:old_end]),
             self.p.loop_search_space_dimension / 2,
         )
         near = d <= reach
@@ -446,6 +449,43 @@ class Slam2D:
         self.counts.loops += 1
         self.counts.responses.append(match.response)
         self._since_loop = 0.0
+
+    def _path_variance(self, poses: np.ndarray, new: int) -> np.ndarray:
+        """Per keyframe i <= new: the variance, in its worst direction, of keyframe ``new``'s position
+        relative to keyframe i along the chain of sequential edges between them: the sum over the edges k
+        of their translation covariance (rotated into the map frame) and their yaw variance times the
+        lever arm from keyframe k to ``new`` (a heading error at k swings everything after it about k)."""
+        cov = np.asarray(self._chain_cov[: new + 1])  # edge k: keyframe k - 1 -> k, in k - 1's frame
+        theta = np.concatenate([[0.0], poses[:new, 2]])  # the source's heading of edge k
+        c, s = np.cos(theta), np.sin(theta)
+        rot = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)  # (n, 2, 2)
+        trans = rot @ cov[:, :2, :2] @ np.swapaxes(rot, 1, 2)
+        yaw = cov[:, 2, 2]
+        p = poses[: new + 1, :2]
+        terms = np.concatenate(
+            [
+                trans.reshape(-1, 4),
+                yaw[:, None],
+                yaw[:, None] * p,
+                (yaw[:, None, None] * p[:, :, None] * p[:, None, :]).reshape(-1, 4),
+            ],
+            axis=1,
+        )
+        total = np.cumsum(terms, axis=0)
+        after = total[-1] - total  # sums over the edges k in (i, new]
+        a = after[:, 0:4].reshape(-1, 2, 2)
+        sy, sp, spp = after[:, 4], after[:, 5:7], after[:, 7:11].reshape(-1, 2, 2)
+        pn = p[-1]
+        # sum_k yaw_k (pn - p_k)(pn - p_k)^T, then turned a quarter (the lever arm's perpendicular)
+        b = (
+            sy[:, None, None] * np.outer(pn, pn)
+            - pn[None, :, None] * sp[:, None, :]
+            - sp[:, :, None] * pn[None, None, :]
+            + spp
+        )
+        m = a + np.stack([np.stack([b[:, 1, 1], -b[:, 1, 0]], -1), np.stack([-b[:, 0, 1], b[:, 0, 0]], -1)], -2)
+        half = 0.5 * (m[:, 0, 0] + m[:, 1, 1])
+        return half + np.sqrt(np.maximum(0.25 * (m[:, 0, 0] - m[:, 1, 1]) ** 2 + m[:, 0, 1] * m[:, 1, 0], 0.0))
 
     # ------------------------------------------------------------ results
     def _pose(self, i: int) -> gtsam.Pose2:

@@ -120,6 +120,31 @@ def test_a_loop_closure_removes_the_odometry_drift(scene):
     assert kinds.count("odometry") == len(slam.keyframes) - 1 and kinds.count("loop") == slam.counts.loops
 
 
+def test_the_loop_search_reaches_as_far_as_the_path_is_uncertain(scene):
+    # keyframes placed by odometry alone (0.1 m, 0.05 rad per edge) that turns 4 % too much: back at the start
+    # corner the estimate is 1.03 m off, twice the fixed search radius
+    truth = rectangle_path()
+    odom = drifting_odometry(truth, 0.04)
+    assert 1.0 < np.hypot(*(odom[240, :2] - truth[240, :2])) < 1.1
+
+    def run(sigmas: float) -> tuple[Slam2D, np.ndarray]:
+        params = SlamParams(
+            link_match_minimum_response_fine=1.0,
+            loop_match_minimum_chain_size=4,
+            scan_buffer_size=6,
+            loop_search_maximum_distance=0.5,
+            loop_search_path_sigmas=sigmas,
+        )
+        slam = run_slam(scene, truth, odom, params)
+        _, poses = slam.trajectory()
+        return slam, np.hypot(*(poses[:, :2] - truth[:, :2]).T)
+
+    fixed, err_fixed = run(0.0)  # the fixed radius alone never sees the start corner again
+    assert fixed.counts.loop_attempts == 0 and err_fixed[240] > 1.0
+    grown, err = run(3.0)  # three standard deviations of the chain's covariance reach it
+    assert grown.counts.loops >= 1 and err[240] < 0.02 and err[-1] < 0.1
+
+
 def test_sequential_matching_keeps_the_drifting_path_and_the_map_right(scene):
     truth = rectangle_path(0.1)[:150]
     odom = drifting_odometry(truth, 0.02)
