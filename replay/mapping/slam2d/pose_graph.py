@@ -114,8 +114,10 @@ class PoseGraph:
         return np.array([p.x(), p.y(), p.theta()])
 
     def poses(self) -> np.ndarray:
-        """(n, 3) current poses."""
-        return np.array([self.pose(i) for i in range(len(self))]).reshape(-1, 3)
+        """(n, 3) current poses, read in one call (gtsam's ``extractPose2``, the nodes in key order): the
+        loop search and the map read them at every keyframe, and a Python loop over the nodes would make
+        that work grow with the square of the travel."""
+        return np.asarray(gtsam.utilities.extractPose2(self._values), dtype=np.float64).reshape(-1, 3)
 
     def error(self) -> float:
         """The graph's total (robust) squared error at the current estimate."""
