@@ -13,6 +13,10 @@ with the wheel odometry alone (the bag's odom -> base_footprint at the same stam
 - **walls**: the share of the occupied cells of a map drawn from the estimate (aligned onto the
   reference) that lie within 0.10 m of an occupied cell of the map drawn from the same scans at
   the reference poses (0.05 m cells, navlog's grid rules);
+- **overlap**: a figure that needs no reference: for every third scan, the median distance of its points
+  (within 20 m) to the nearest point of the scans at least 30 scans away in the log (the other passes
+  through the same place), the mean over the scans that have 20 such neighbours within 0.5 m, in cm;
+  also printed for the reference trajectory itself (a map whose passes agree scores low);
 - **loops**: loop-closure edges in pose_graph.json; **wall s** / **x real**: the replay's wall time
   and the log's duration over it (with the load average: the machine is shared); **x (CPU)**: the
   log's duration over the CPU time of the replay.
@@ -41,6 +45,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from navlog.analysis.metrics import align_planar, planar_relative_error
 from navlog.replay.geometry import planar_matrix
@@ -125,6 +130,25 @@ def wall_agreement(est_grid: OccupancyGrid2D, ref_grid: OccupancyGrid2D) -> floa
     return float(near.mean())
 
 
+def overlap(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> float:
+    """The reference-free agreement of the passes (see the module docstring), in cm."""
+    points = [LaserScan2D(*scans[t], np.eye(4)).points(20.0) for t in stamps.tolist()]
+    placed = np.concatenate([transform_points(p, q) for p, q in zip(poses, points, strict=True)])
+    owner = np.repeat(np.arange(len(points)), [len(q) for q in points])
+    tree = cKDTree(placed)
+    medians = []
+    for i in range(0, len(points), 3):
+        d, j = tree.query(transform_points(poses[i], points[i]), k=60, distance_upper_bound=0.5)
+        far = np.zeros(d.shape, dtype=bool)
+        hit = j < len(placed)
+        far[hit] = np.abs(owner[j[hit]] - i) >= 30
+        nearest = np.where(far, d, np.inf).min(axis=1)
+        nearest = nearest[np.isfinite(nearest)]
+        if len(nearest) >= 20:
+            medians.append(float(np.median(nearest)))
+    return 100 * float(np.mean(medians)) if medians else float("nan")
+
+
 def score(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid) -> dict[str, float]:
     aligned = align_planar(est, ref)
     ate = float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
@@ -133,6 +157,7 @@ def score(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid)
         "re1": planar_relative_error(est, ref, 1.0),
         "re5": planar_relative_error(est, ref, 5.0),
         "walls": wall_agreement(draw(aligned, stamps, scans), ref_grid),
+        "overlap": overlap(est, stamps, scans),
     }
 
 
@@ -202,9 +227,11 @@ def evaluate(name: str, carmen: Path, work: Path, sets: list[str], floor: bool =
         )
         print(
             f"{name if source == 'slam' else '':<8} {source:<9} {s['ate']:>7.3f} {s['re1']:>7.3f} {s['re5']:>7.3f}"
-            f" {s['walls']:>6.2f} {extra}",
+            f" {s['walls']:>6.2f} {s['overlap']:>7.2f} {extra}",
             flush=True,
         )
+    reference = overlap(ref[keep], ts, scans)
+    print(f"{'':<8} {'reference':<9} {'-':>7} {'-':>7} {'-':>7} {'-':>6} {reference:>7.2f}", flush=True)
     print(f"{'':<8} ({len(ts)}/{len(ref_t)} scans placed, {travel:.0f} m, load {before} -> {load()})", flush=True)
 
 
@@ -220,7 +247,7 @@ def main() -> None:
     carmen = args.shared / "external-data" / "carmen"
     print(f"machine: {os.cpu_count()} cores, load average {load()}")
     print(
-        f"{'dataset':<8} {'source':<9} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'loops':>6} {'wall s':>7} {'x real':>9} {'x (CPU)':>9}"
+        f"{'dataset':<8} {'source':<9} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'overlap':>7} {'loops':>6} {'wall s':>7} {'x real':>9} {'x (CPU)':>9}"
     )
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.names:

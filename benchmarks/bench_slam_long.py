@@ -4,6 +4,10 @@ The log is made from the Intel bag of the external data (``external-data/carmen/
 real scans, real wheel odometry): played forward, then backward (the robot driving the same path
 back), then forward, then backward: ``--laps`` laps (default 4) of one continuous trajectory, written
 as an MCAP with the bag's topics and schemas by navlog's writer (``tests/replay/mapping/lap_logs.py``).
+With ``--forward`` every lap is forward (the tour repeated, as a patrolling robot drives it; the
+reference's 1.2 m from the tour's end back to its start is one odometry step between the laps).
+Driving back with a forward-facing 180-degree laser, each scan sees near ground the keyframes ahead
+of it never saw: the backward laps are the harder log.
 It is replayed in this process through the real path, ``--pipeline mapping --set pose_source=slam``
 (``lidar_mapper=off``), as ``bench_slam_datasets.py`` replays the bags.
 
@@ -18,7 +22,7 @@ then the last lap's time over the first's, the load average, and the ATE of the 
 of the positions after SE(2) alignment) against the Intel reference repeated the same way
 (``intel.reference.tum`` at the scan stamps of every lap), with each lap's share of it.
 
-    .venv/bin/python benchmarks/bench_slam_long.py [--laps N] [--prefixes] [--shared DIR] [--set KEY=VALUE ...]
+    .venv/bin/python benchmarks/bench_slam_long.py [--laps N] [--forward] [--prefixes] [--shared DIR] [--set KEY=VALUE ...]
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ import numpy as np
 
 from navlog.analysis.metrics import align_planar
 from navlog.replay import session
+from navlog.replay.geometry import planar_matrix
 from navlog.replay.io.formats import open_log
 from navlog.replay.runtime.progress import Progress
 from navlog.replay.session import run_replay
@@ -93,6 +98,11 @@ def per_lap_from_marks(
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--laps", type=int, default=4, help="laps of the Intel bag (forward, backward, ...)")
+    ap.add_argument(
+        "--forward",
+        action="store_true",
+        help="every lap forward (the tour repeated; the reference's 1.2 m from the end back to the start as one step)",
+    )
     ap.add_argument("--prefixes", action="store_true", help="time the first 1..N laps as separate logs")
     ap.add_argument("--shared", type=Path, default=default_shared_dir(), help="the external data folder")
     ap.add_argument("--set", action="append", default=[], help="a parameter override, e.g. slam.do_loop_closing=false")
@@ -106,8 +116,11 @@ def main() -> None:
         work = Path(tmp) if args.keep is None else args.keep
         if args.keep is not None:
             work.mkdir(parents=True, exist_ok=False)  # a new folder: nothing of another run mixed in
-        log, times = write_laps(carmen / SOURCE, work / "laps.mcap", args.laps)
         ref_t, ref = tum_xyt(carmen / f"{SOURCE}.reference.tum")
+        back = None
+        if args.forward:
+            back = np.linalg.inv(planar_matrix(*ref[-1])) @ planar_matrix(*ref[0])
+        log, times = write_laps(carmen / SOURCE, work / "laps.mcap", args.laps, back)
         with open_log(log) as reader:
             start_ns = reader.start_ns
             scan_ns = [env.time_ns for env in reader.messages(["/scan"])]
@@ -118,7 +131,7 @@ def main() -> None:
         if args.prefixes:
             totals = []
             for n in range(1, args.laps + 1):
-                prefix, _ = write_laps(carmen / SOURCE, work / f"laps{n}.mcap", n)
+                prefix, _ = write_laps(carmen / SOURCE, work / f"laps{n}.mcap", n, back)
                 wall, cpu, _ = replay(prefix, work / f"out{n}", args.set)
                 totals.append((wall, cpu))
                 print(f"  first {n} lap(s): {wall:.1f} s wall, {cpu:.1f} s CPU (load {load()})", flush=True)

@@ -14,17 +14,19 @@ scan's valid points in the robot frame:
    in a ``correlation_search_space_dimension`` square around the prediction; a response below
    ``link_match_minimum_response_fine`` falls back to odometry;
 4. **add** the keyframe to the pose graph with an edge from the previous one;
-5. **close loops** (``do_loop_closing``): keyframes within ``loop_search_maximum_distance`` that are
+5. **close loops** (``do_loop_closing``): keyframes within ``loop_search_maximum_distance`` plus
+   ``loop_search_path_sigmas`` standard deviations of the path's uncertainty since them, that are
    older than the running buffer, in a chain of at least ``loop_match_minimum_chain_size`` such
    keyframes, form a submap; a match of the new scan against it in a
    ``loop_search_space_dimension`` square with a response of at least
    ``loop_match_minimum_response_fine`` adds a loop edge, and the graph is optimised (gtsam). After
    a closure the next search waits until the keyframes have travelled ``loop_search_maximum_distance``
    (a closed loop stays closed; searching again at every keyframe of the same pass would only
-   repeat it).
+   repeat it), and so does it after a closure the optimised graph disagreed with and that was taken
+   back (its chain would be met again at the next keyframe).
 
 ``map_to_odom`` is the correction the last keyframe implies; ``trajectory()`` is the robot's pose at
-every scan with the final poses (each scan's keyframe pose composed with the odometry since it);
+every scan with the final poses (each scan's keyframe pose composed with its pose relative to it);
 ``grid()`` is the occupancy grid rebuilt from the keyframes' scans at their optimised poses (the
 real-scan rules of ``navlog.replay.mapping.occupancy``), kept up to date incrementally: it is
 rebuilt only when an optimisation has moved a keyframe's scan by more than a map cell since it was
@@ -445,6 +447,9 @@ class Slam2D:
             # the rest of the graph disagrees with the closure: a false match, taken back
             self.graph.remove_last_edge(before)
             self.counts.loops_inconsistent += 1
+            # the next keyframes would meet the same chain: wait as after a closure (each try optimises
+            # the whole graph)
+            self._since_loop = 0.0
             return
         self.counts.loops += 1
         self.counts.responses.append(match.response)

@@ -47,10 +47,11 @@ class LapTime:
     first: int
     last: int
     carry: np.ndarray
+    forward_only: bool = False  # every lap forward (a tour repeated), not forward then backward
 
     @property
     def backward(self) -> bool:
-        return self.lap % 2 == 1
+        return self.lap % 2 == 1 and not self.forward_only
 
     def __call__(self, t: int) -> int:
         return self.start + (self.last - t if self.backward else t - self.first)
@@ -58,7 +59,7 @@ class LapTime:
     def instants(self, source: list[int]) -> list[int]:
         """The source's instants this lap plays, in its order (the turning instant only once over the laps)."""
         order = source[::-1] if self.backward else source
-        return order if self.lap == 0 else order[1:]
+        return order if self.lap == 0 or self.forward_only else order[1:]
 
 
 def _odometry_poses(log: Path) -> dict[int, np.ndarray]:
@@ -72,11 +73,25 @@ def _odometry_poses(log: Path) -> dict[int, np.ndarray]:
     return poses
 
 
-def lap_times(source: list[int], odometry: dict[int, np.ndarray], laps: int) -> list[LapTime]:
-    """The ``laps`` laps over the source's sorted instants, each continuing the previous one's time and odometry."""
+def lap_times(
+    source: list[int], odometry: dict[int, np.ndarray], laps: int, back_to_start: np.ndarray | None = None
+) -> list[LapTime]:
+    """The ``laps`` laps over the source's sorted instants, each continuing the previous one's time and odometry.
+
+    With ``back_to_start`` (4x4: the motion from where the source ends to where it starts, in the end
+    pose's frame) every lap is forward: the next lap's first instant follows the previous lap's last
+    after the source's median spacing, its odometry that motion away."""
     if len(source) < 2:
         raise LogError("a lap log needs a source with at least two instants")
     first, last = source[0], source[-1]
+    if back_to_start is not None:
+        step = int(np.median(np.diff(source)))
+        out = [LapTime(0, first, first, last, np.eye(4), True)]
+        for lap in range(1, laps):
+            prev = out[-1]
+            carry = prev.carry @ odometry[last] @ back_to_start @ np.linalg.inv(odometry[first])
+            out.append(LapTime(lap, prev(last) + step, first, last, carry, True))
+        return out
     out = [LapTime(0, first, first, last, np.eye(4))]
     for lap in range(1, laps):
         prev = out[-1]
@@ -129,8 +144,11 @@ def _lap_message(env: Envelope, when: LapTime) -> Any:
     return _restamp(msg, when)  # /scan: the same readings where they were taken
 
 
-def write_laps(source: Path, out: Path, laps: int) -> tuple[Path, list[LapTime]]:
-    """Write ``laps`` laps of the ``source`` log (forward, backward, ...) to the MCAP file ``out``; the laps' times."""
+def write_laps(
+    source: Path, out: Path, laps: int, back_to_start: np.ndarray | None = None
+) -> tuple[Path, list[LapTime]]:
+    """Write ``laps`` laps of the ``source`` log (forward, backward, ...; all forward with ``back_to_start``,
+    see ``lap_times``) to the MCAP file ``out``; the laps' times."""
     by_instant: dict[int, list[Envelope]] = {}
     statics: list[Envelope] = []
     with open_log(source) as reader:
@@ -140,7 +158,7 @@ def write_laps(source: Path, out: Path, laps: int) -> tuple[Path, list[LapTime]]
         for env in reader.messages(list(TOPICS)):
             (statics if env.topic == "/tf_static" else by_instant.setdefault(env.time_ns, [])).append(env)
     source_instants = sorted(by_instant)
-    times = lap_times(source_instants, _odometry_poses(source), laps)
+    times = lap_times(source_instants, _odometry_poses(source), laps, back_to_start)
     with McapLogWriter(out) as writer:
         for env in statics:
             writer.write(Envelope(env.topic, env.typename, source_instants[0], env.msg))

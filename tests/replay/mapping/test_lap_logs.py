@@ -1,4 +1,4 @@
-"""The lap log of ``benchmarks/bench_slam_long.py``: the Intel bag forward, backward, forward, as one
+"""The lap log of ``benchmarks/bench_slam_long.py``: the Intel bag forward, backward, forward (or forward only), as one
 continuous log whose odometry composes the source's increments in each lap's order."""
 
 from __future__ import annotations
@@ -88,3 +88,24 @@ def test_laps_continue_the_odometry_with_the_source_increments_reversed(shared_d
     assert np.allclose([v for _, v, _ in lap_odom[n : 2 * n - 1]], [-v for _, v, _ in src_odom[-2::-1]])
     assert np.allclose([w for _, _, w in lap_odom[n : 2 * n - 1]], [-w for _, _, w in src_odom[-2::-1]])
     assert all(np.array_equal(a, b) for a, b in zip(lap_scans[910 : 2 * 910 - 1], src_scans[-2::-1], strict=True))
+
+
+def test_forward_laps_repeat_the_tour_with_one_step_back_to_its_start(shared_dir, tmp_path):
+    source = shared_dir / "external-data" / "carmen" / "intel"
+    if not source.is_dir():
+        pytest.skip(f"{source}: not in the external data")
+    back = planar_matrix(1.2, -0.1, 0.35)  # from where the tour ends to where it starts
+    log, times = write_laps(source, tmp_path / "laps.mcap", 2, back)
+    src_times, src_odom, src_scans, _ = _read(source)
+    lap_times, lap_odom, lap_scans, _ = _read(log)
+    n = len(src_odom)
+    assert len(lap_odom) == 2 * n and len(lap_scans) == 2 * 910  # every instant, twice
+    assert np.all(np.diff(lap_times["/odom"]) > 0)
+    step = int(np.median(np.diff(src_times["/odom"])))
+    assert lap_times["/odom"][n] - lap_times["/odom"][n - 1] == step
+    src_inc = _increments([p for p, _, _ in src_odom])
+    lap_inc = _increments([p for p, _, _ in lap_odom])
+    assert np.allclose(lap_inc[: n - 1], src_inc, atol=1e-9) and np.allclose(lap_inc[n:], src_inc, atol=1e-9)
+    assert np.allclose(lap_inc[n - 1], (1.2, -0.1, 0.35), atol=1e-9)  # the one step between the laps
+    assert np.allclose([v for _, v, _ in lap_odom[n:]], [v for _, v, _ in src_odom])  # driven forward again
+    assert all(np.array_equal(a, b) for a, b in zip(lap_scans[910:], src_scans, strict=True))
