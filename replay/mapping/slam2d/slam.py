@@ -159,6 +159,7 @@ class Slam2D:
         self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
         self._grid_drawn = 0  # keyframes when the grid was last redrawn from scratch
         self._since_loop = math.inf  # path length of keyframes since the last loop closure
+        self._odometry_steps: list[float] = []  # per keyframe after the first: the odometry's travel to it
         self._innovations: list[np.ndarray] = []  # per match: match - odometry prediction, previous keyframe's frame
         self._travel: list[float] = [0.0]  # per keyframe: path length from the first, along the estimate
         # per keyframe: the covariance of its sequential edge (in the previous keyframe's frame; zero for the first)
@@ -259,11 +260,20 @@ class Slam2D:
             rot = _rotation(prev.theta())
             odometry_cov = np.diag(np.square(self._odometry_sigmas()))  # in the previous keyframe's frame
             recovered = None
-            if match is None or match.response < self.p.loop_match_minimum_response_fine:
-                weak = 0.0 if match is None else match.response
-                recovered = self._recover(points, pose, _xyt(prev), (1.0 + weak) / 2)
-                # found inside the sequential window: no jump, the sequential match's verdict stands
-                if recovered is not None and np.max(np.abs(recovered.pose[:2] - pose[:2])) <= self._link.linear / 2:
+            step = self.keyframes[-1].odom.between(odom)
+            self._odometry_steps.append(math.hypot(step.x(), step.y()))
+            weak = match is None or match.response < self.p.loop_match_minimum_response_fine
+            usual = self._usual_step()
+            if weak and (math.isinf(usual) or self._odometry_steps[-1] > usual):  # early in a log, any step may be
+                recovered = self._recover(
+                    points, pose, _xyt(prev), (1.0 + (0.0 if match is None else match.response)) / 2
+                )
+                # found inside the sequential window: no jump, the sequential match's verdict stands; and the
+                # step the scans say the robot made must be a usual one (it is the odometry that jumped)
+                if recovered is not None and (
+                    np.max(np.abs(recovered.pose[:2] - pose[:2])) <= self._link.linear / 2
+                    or float(np.linalg.norm(recovered.pose[:2] - _xyt(prev)[:2])) > usual
+                ):
                     recovered = None
             if recovered is not None:  # the odometry jumped: the scans say where the robot is
                 self.counts.odometry_jumps.append(
@@ -320,6 +330,17 @@ class Slam2D:
             if float(np.linalg.eigvalsh(cov[:2, :2])[-1]) <= self.p.loop_match_maximum_variance_coarse:
                 return found
         return None
+
+    def _usual_step(self) -> float:
+        """The longest usual step between keyframes: half the sequential search square or twice the median of
+        the odometry's last ``ODOMETRY_WINDOW`` steps, whichever is longer (infinite before ``ODOMETRY_WINDOW /
+        2`` steps). An odometry jump is an unusual odometry step to a place the scans reach by a usual one:
+        where the odometry moved as it usually does, or the scans' place needs an unusual step too, a better
+        fit far away is a look-alike place (a robot reversing with a forward-facing laser meets many)."""
+        recent = self._odometry_steps[-ODOMETRY_WINDOW - 1 : -1]
+        if len(recent) < ODOMETRY_WINDOW // 2:
+            return math.inf
+        return max(self._link.linear / 2, 2.0 * float(np.median(recent)))
 
     def _unplaced(self, i: int, stamp: int) -> None:
         """Keyframe ``i`` is placed by odometry alone: it extends the current stretch or starts one."""

@@ -292,6 +292,30 @@ def test_odometry_that_jumps_is_found_by_the_wider_search_and_counted(scene):
     assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.03
 
 
+def test_a_look_alike_place_far_off_is_no_jump_when_the_odometry_moved_as_usual(scene):
+    # at scan 102 (keyframe 20: the odometry's usual step between keyframes is known by then) the scan fits
+    # 2 m to the side much better than where the robot is (it is the scan taken there: a look-alike place),
+    # while the odometry moved as it always does: no jump is taken
+    truth = rectangle_path(0.1)[:130]
+    rng = np.random.default_rng(5)
+    slam = Slam2D(SlamParams(do_loop_closing=False))
+    elsewhere = truth[102] + np.array([0.0, 2.0, 0.0])
+    for i, t in enumerate(truth):
+        slam.add_scan(i * 100_000_000, t, scan_of(cast(scene, elsewhere if i == 102 else t, rng)))
+    assert slam.counts.odometry_jumps == []
+    _, poses = slam.trajectory()
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.3
+    # the odometry jumping 2 m there, the scan where the robot is: an unusual step, searched for and found
+    odom = truth.copy()
+    odom[102:, 1] += 2.0
+    jumped = Slam2D(SlamParams(do_loop_closing=False))
+    for i, (t, o) in enumerate(zip(truth, odom, strict=True)):
+        jumped.add_scan(i * 100_000_000, o, scan_of(cast(scene, t, rng)))
+    assert [stamp for stamp, _, _ in jumped.counts.odometry_jumps] == [102 * 100_000_000]
+    _, poses = jumped.trajectory()
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.05
+
+
 def test_scans_that_overlap_nothing_before_them_are_a_named_stretch(scene):
     # the robot is carried out of the room: its scans there see nothing of it; the keyframe where the
     # chain breaks is placed by odometry alone and reported as a stretch with its stamps
