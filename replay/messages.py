@@ -449,6 +449,12 @@ def to_ns(t: Any) -> int:
     return int(t.sec) * 1_000_000_000 + int(t.nanosec)
 
 
+def valid_stamp(t: Any) -> bool:
+    """Whether a builtin_interfaces/Time is a time: ``nanosec`` below a second (a larger one would carry
+    into ``sec``, past int32 at the end of its range)."""
+    return 0 <= int(t.nanosec) < 1_000_000_000
+
+
 def header(ns: int, frame_id: str):
     T = _types()
     return T.Header(T.Time(int(ns // 1_000_000_000), int(ns % 1_000_000_000)), frame_id)

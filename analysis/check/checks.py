@@ -259,7 +259,7 @@ def gaps(series: TopicSeries, log_span: tuple[int, int], opts: CheckOptions) -> 
     i = int(np.argmax(d))
     largest = int(d[i])
     over = int((d > limit).sum())
-    lead, tail = int(t[0] - log_span[0]), int(log_span[1] - t[-1])
+    lead, tail = int(t[0]) - int(log_span[0]), int(log_span[1]) - int(t[-1])  # Python ints: no int64 overflow
     edge_limit = max(limit, opts.max_gap_s * 1e9)
     numbers: dict[str, int | float | str | None] = {
         "max_gap_s": _ns_s(largest),

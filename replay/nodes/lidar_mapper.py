@@ -246,6 +246,9 @@ class LidarMapperNode(Node):
 
     def _on_cloud(self, msg: Any, t_ns: int) -> None:
         self.frames_in += 1
+        if not messages.valid_stamp(msg.header.stamp):
+            self._skip("cloud_stamp_invalid")  # nanosec of a second or more: not a time
+            return
         stamp_ns = messages.to_ns(msg.header.stamp)
         try:
             arr = read_points(msg)

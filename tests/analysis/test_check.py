@@ -336,3 +336,17 @@ def test_the_package_is_light_and_states_its_api():
     assert out.strip() == "[]"
     assert check.__doc__ and all(getattr(check, n) is not None for n in check.__all__)
     assert navlog.analysis.check_log is check.check_log
+
+
+def test_a_log_span_past_int64_is_a_gap_not_an_overflow():
+    # another topic's log time at the end of uint64 (a far-future stamp): the tail gap is measured in Python
+    # integers (an int64 subtraction overflowed)
+    from array import array
+
+    from navlog.analysis.check.checks import gaps
+    from navlog.analysis.check.collect import TopicSeries
+
+    series = TopicSeries("/scan", "sensor_msgs/msg/LaserScan", True, array("q", [1_000_000_000, 2_000_000_000]))
+    check = gaps(series, (0, 2**64 - 1), CheckOptions())
+    assert check.numbers["tail_s"] == pytest.approx((2**64 - 1 - 2_000_000_000) / 1e9)
+    assert check.status != Status.PASS

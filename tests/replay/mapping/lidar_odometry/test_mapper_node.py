@@ -3,6 +3,7 @@ accuracy, published topics, the saved map, determinism, and inputs it cannot use
 
 from __future__ import annotations
 
+import dataclasses
 from types import SimpleNamespace
 
 import numpy as np
@@ -125,6 +126,16 @@ def test_bad_clouds_are_counted_not_fatal(room):
             cloud_msg(scene.Frame(f.stamp_ns + 50_000_000, f.points, f.times, f.rings), "unknown_frame"),
         )
     )
+    # a cloud whose stamp's nanosec is a second or more (4294967295): not a time, it would carry into sec
+    f = seq.frames[4]
+    not_a_time = cloud_msg(scene.Frame(f.stamp_ns + 50_000_000, f.points, f.times, f.rings), "livox_frame")
+    not_a_time = dataclasses.replace(
+        not_a_time,
+        header=dataclasses.replace(
+            not_a_time.header, stamp=dataclasses.replace(not_a_time.header.stamp, nanosec=4_294_967_295)
+        ),
+    )
+    bad.append(Envelope("/livox/lidar", messages.POINT_CLOUD2, 850_000_000, not_a_time))
     # NaN points inside an otherwise good frame
     g = seq.frames[6]
     pts = g.points.copy()
@@ -132,7 +143,13 @@ def test_bad_clouds_are_counted_not_fatal(room):
     seq.frames[6] = scene.Frame(g.stamp_ns, pts, g.times, g.rings)
     node, rec = run_node(seq, initial_pose_params(seq), bad)
     counts = node.skipped_counts()
-    assert counts == {"cloud_empty": 1, "cloud_without_xyz": 1, "cloud_missing_extrinsic": 1, "points_not_finite": 100}
+    assert counts == {
+        "cloud_empty": 1,
+        "cloud_without_xyz": 1,
+        "cloud_missing_extrinsic": 1,
+        "cloud_stamp_invalid": 1,
+        "points_not_finite": 100,
+    }
     stamps, poses = node.poses()
     assert len(stamps) == 12  # every good frame was still registered
     assert ate_rmse(stamps, poses, seq) <= 0.03
