@@ -414,6 +414,9 @@ class McapLogReader(LogReader):
             elif isinstance(rec, Channel):
                 chans[rec.id] = (rec.topic, rec.schema_id)
             elif isinstance(rec, Message):
+                if rec.channel_id not in chans:  # a damaged channel id: no topic to give the message
+                    self.report.note_skip(f"messages on undefined channel {rec.channel_id}")
+                    continue
                 topic, sid = chans[rec.channel_id]
                 if (
                     topic in wanted

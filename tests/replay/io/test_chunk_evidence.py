@@ -208,3 +208,28 @@ def test_times_that_jump_everywhere_hold_a_bounded_number_of_messages(tmp_path):
     times = [k * 2 * HOUR for k in range(100)]  # no run of 16: after HELD_AT_MOST, the earliest one is trusted
     got, skipped = read(write_mcap(tmp_path / "x.mcap", messages(times)))
     assert skipped == {LATE: 99} and got == [messages(times)[0][2]]
+
+
+def test_a_message_on_a_channel_never_defined_is_a_counted_skip(tmp_path):
+    # a recording cut short (no index: read record by record) whose one message names channel 999 (a
+    # damaged channel id): that message is skipped and counted, the rest read
+    from mcap.writer import Writer
+
+    path = tmp_path / "x.mcap"
+    with open(path, "wb") as f:
+        w = Writer(f, chunk_size=400, compression=CompressionType.NONE, enable_crcs=False)
+        w.start(profile="ros2", library="test")
+        cid = w.register_channel("/a", "cdr", w.register_schema("std_msgs/msg/String", "ros2msg", b"string data"))
+        for k, t in enumerate(range(0, N * 10_000_000, 10_000_000)):
+            w.add_message(cid, log_time=t, data=b"a%04d" % k + b"." * 35, publish_time=t, sequence=k)
+        w.finish()
+    data = bytearray(path.read_bytes())
+    at = data.index(b"a0100") - 22  # the message record: channel id (u16), sequence, log and publish times, data
+    assert struct.unpack_from("<H", data, at)[0] == cid
+    struct.pack_into("<H", data, at, 999)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(bytes(data[: len(data) * 9 // 10]))
+    with open_log(cut, recover=True) as r:
+        got = [env.msg for env in r.messages(["/a"], decode=False)]
+        assert r.report.skipped["messages on undefined channel 999"] == 1
+    assert b"a0100" + b"." * 35 not in got and b"a0099" + b"." * 35 in got and len(got) > 200
