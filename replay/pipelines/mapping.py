@@ -89,7 +89,7 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
     info = {
         "pose_source": source,
         "lidar_mapper": "on" if lidar_on else "off",
-        "trajectory": "SLAM poses at every scan (optimised keyframes + odometry since)"
+        "trajectory": "SLAM poses at every scan (optimised keyframes + each scan's pose relative to its keyframe)"
         if slam is not None
         else "3D mapper base_link poses"
         if lidar_on

@@ -212,9 +212,7 @@ class Slam2D:
                 self._between_grid(base), points, pose, self._link, self.p.link_match_minimum_response_fine
             )
             if match is not None:
-                rot = _rotation(base.theta())
-                odometry_cov = np.diag(np.square(self._odometry_sigmas()))
-                pose, _ = self._fuse(pose, rot @ odometry_cov @ rot.T, match)
+                pose, _ = self._fuse(pose, base.theta(), match)
                 rel = base.between(_pose2(pose))
                 self.counts.matched_between += 1
             self._anchor = (stamp, odom, rel)
@@ -288,7 +286,7 @@ class Slam2D:
                     innovation = rot.T @ (match.pose - pose)
                     innovation[2] = math.remainder(float(innovation[2]), 2 * math.pi)
                     self._innovations.append(innovation)
-                pose, cov = self._fuse(pose, rot @ odometry_cov @ rot.T, match)
+                pose, cov = self._fuse(pose, prev.theta(), match)
                 self.counts.matched += 1
                 noise, kind, response = rot.T @ cov @ rot, "match", match.response
             else:
@@ -361,12 +359,13 @@ class Slam2D:
         recent = np.array(self._innovations[-ODOMETRY_WINDOW:])
         return np.maximum(np.sqrt(np.mean(np.square(recent), axis=0)), 0.25 * configured)
 
-    def _fuse(
-        self, prediction: np.ndarray, prediction_cov: np.ndarray, match: MatchResult
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The match weighted against the odometry prediction by their covariances (map frame): the pose
-        and its covariance. Where the scan pins the pose the match wins; along a direction it leaves free
-        (a corridor's axis) the odometry does."""
+    def _fuse(self, prediction: np.ndarray, heading: float, match: MatchResult) -> tuple[np.ndarray, np.ndarray]:
+        """The match weighted against the odometry prediction by their covariances (map frame; the odometry's,
+        ``_odometry_sigmas`` in the frame of the keyframe at ``heading`` it was predicted from): the pose and
+        its covariance. Where the scan pins the pose the match wins; along a direction it leaves free (a
+        corridor's axis) the odometry does."""
+        rot = _rotation(heading)
+        prediction_cov = rot @ np.diag(np.square(self._odometry_sigmas())) @ rot.T
         match_cov = self.matcher.covariance(match, self.p.match_sigmas[0], 0.5 * np.asarray(self.p.match_sigmas))
         info_m, info_o = np.linalg.inv(match_cov), np.linalg.inv(prediction_cov)
         cov = np.linalg.inv(info_m + info_o)
