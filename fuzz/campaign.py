@@ -804,13 +804,17 @@ CLAIM_FIELDS = [
 CLAIM_VALUES = [2**31, 2**31 + 1, 2**36, 2**40, 2**63 - 1, 2**64 - 1]
 
 
+def _seed_chunk(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """One of the seed logs (each compression) and one of its chunks."""
+    log = draw(st.sampled_from(["seed_zstd", "seed_none", "seed_lz4"]))
+    return {"log": log, "chunk": draw(st.integers(0, len(chunks_of(seeds.records[log])) - 1))}
+
+
 @st.composite
 def mcap_claims(draw: Any, seeds: Seeds) -> dict[str, Any]:
     """Sizes a chunk, its index entry or a record claim, set to gigabytes or more (or a drawn value)."""
-    log = draw(st.sampled_from(["seed_zstd", "seed_none", "seed_lz4"]))
     return {
-        "log": log,
-        "chunk": draw(st.integers(0, len(chunks_of(seeds.records[log])) - 1)),
+        **_seed_chunk(draw, seeds),
         "field": draw(st.sampled_from(CLAIM_FIELDS)),
         "value": draw(st.one_of(st.sampled_from(CLAIM_VALUES), st.integers(0, 2**64 - 1))),
         "call": draw(st.sampled_from(["read", "read-recover", "check", "cli-info", "recover", "replay-mapping"])),
@@ -820,10 +824,8 @@ def mcap_claims(draw: Any, seeds: Seeds) -> dict[str, Any]:
 @st.composite
 def mcap_crc(draw: Any, seeds: Seeds) -> dict[str, Any]:
     """A chunk's CRC flipped, or a bit of its records flipped with the CRC left as written."""
-    log = draw(st.sampled_from(["seed_zstd", "seed_none", "seed_lz4"]))
     return {
-        "log": log,
-        "chunk": draw(st.integers(0, len(chunks_of(seeds.records[log])) - 1)),
+        **_seed_chunk(draw, seeds),
         "where": draw(st.sampled_from(["crc", "records"])),
         "flips": draw(st.lists(st.tuples(AT, st.integers(0, 7)), min_size=1, max_size=4)),
         "call": draw(st.sampled_from(LOG_CALLS + ["recover"])),

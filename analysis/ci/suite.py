@@ -232,12 +232,7 @@ def _case(data: Any, at: _Where, base: Path, pipelines: Sequence[str]) -> Case:
         )
     if kind == "campaign":
         return _campaign_case(data, at, base)
-    for key in ("name", "pipeline"):
-        if key not in data:
-            raise at.error(key, "required key is missing")
-    name = at.text(data["name"], "name")
-    if not CASE_NAME.match(name):
-        raise at.error("name", f"'{name}' must be letters, digits, '_', '-' or '.' (it names the baseline folder)")
+    name = _case_name(data, at, "pipeline", "the baseline folder")
     pipeline = at.text(data["pipeline"], "pipeline")
     if pipeline not in pipelines:
         raise at.error(
@@ -263,15 +258,21 @@ def _case(data: Any, at: _Where, base: Path, pipelines: Sequence[str]) -> Case:
     return Case(name, pipeline, log, recipe, params, overrides, remap, world_map, diff, invariants)
 
 
-def _campaign_case(data: Mapping[str, Any], at: _Where, base: Path) -> Case:
-    """A case of kind campaign: its campaign file and thresholds (``navlog.analysis.ci.campaign_case``)."""
-    data = at.keys(data, CAMPAIGN_KEYS, "")
-    for key in ("name", "campaign"):
+def _case_name(data: Mapping[str, Any], at: _Where, required: str, names: str) -> str:
+    """A case's name, after checking that it and ``required`` are given (the name ``names`` a folder)."""
+    for key in ("name", required):
         if key not in data:
             raise at.error(key, "required key is missing")
     name = at.text(data["name"], "name")
     if not CASE_NAME.match(name):
-        raise at.error("name", f"'{name}' must be letters, digits, '_', '-' or '.' (it names the output folder)")
+        raise at.error("name", f"'{name}' must be letters, digits, '_', '-' or '.' (it names {names})")
+    return name
+
+
+def _campaign_case(data: Mapping[str, Any], at: _Where, base: Path) -> Case:
+    """A case of kind campaign: its campaign file and thresholds (``navlog.analysis.ci.campaign_case``)."""
+    data = at.keys(data, CAMPAIGN_KEYS, "")
+    name = _case_name(data, at, "campaign", "the output folder")
     campaign = base / at.text(data["campaign"], "campaign")
     if not campaign.is_file():
         raise at.error("campaign", f"{campaign}: no such campaign file")
