@@ -30,7 +30,7 @@ class SlamParams:
     # name: its scans closer than this are not processed); the scans in between follow the odometry from
     # the last matched one. Off: every scan between keyframes follows the odometry from its keyframe
     match_between_keyframes: bool = True
-    minimum_time_interval: float = 0.5
+    minimum_time_interval: float = 0.5  # s: scans between keyframes are matched at most this often
     link_match_minimum_response_fine: float = 0.1  # below it a sequential match is not trusted (odometry used)
     correlation_search_space_dimension: float = 0.5  # side of the square searched around the prediction
     correlation_search_space_resolution: float = 0.025  # cell of the correlation grid (slam_toolbox: 0.01)
