@@ -25,7 +25,10 @@ With ``--floor`` a third row, **matched on the reference**: every scan matched a
 correlative matcher, default parameters) against the previous ``scan_buffer_size`` scans placed at
 their reference poses, from its own reference pose: how far the scans themselves place a pose from
 the reference when the map is the reference's own. Its RE 1 m is the floor of this metric for the
-matcher: the reference is itself a SLAM result, not ground truth.
+matcher: the reference is itself a SLAM result, not ground truth. And a fourth, **SLAM on reference
+odometry**: the same SLAM (``Slam2D``, default parameters, in this process) given the reference poses
+as its odometry, error-free: how far the scans carry the path from the reference when nothing else
+does.
 
 Nothing is asserted; the issue's targets are ATE <= 0.10 m, RE 1 m <= 0.03 m and never above
 odometry, walls >= 0.9, >= 10x real time.
@@ -54,7 +57,7 @@ from navlog.replay.io.tum import read_tum
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow, SlamParams
 from navlog.replay.mapping.slam2d.scan_matcher import transform_points
-from navlog.replay.mapping.slam2d.slam import surface_points
+from navlog.replay.mapping.slam2d.slam import Slam2D, surface_points
 from navlog.replay.session import run_replay
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
@@ -187,6 +190,17 @@ def matched_on_reference(ref: np.ndarray, stamps: np.ndarray, scans: dict[int, t
     return out
 
 
+def slam_on_reference_odometry(ref: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> np.ndarray:
+    """The SLAM's poses when its odometry is the reference trajectory itself (default parameters)."""
+    slam = Slam2D(SlamParams())
+    for t, pose in zip(stamps.tolist(), ref, strict=True):
+        slam.add_scan(t, pose, LaserScan2D(*scans[t], np.eye(4)))
+    placed, poses = slam.trajectory()
+    if placed != stamps.tolist():
+        raise RuntimeError("a scan was left unplaced")
+    return poses
+
+
 def evaluate(name: str, carmen: Path, work: Path, sets: list[str], floor: bool = False) -> None:
     bag = carmen / name
     ref_t, ref = tum_xyt(carmen / f"{name}.reference.tum")
@@ -218,6 +232,7 @@ def evaluate(name: str, carmen: Path, work: Path, sets: list[str], floor: bool =
     rows = [("slam", slam), ("odometry", odom)]
     if floor:
         rows.append(("on ref.", matched_on_reference(ref[keep], ts, scans)))
+        rows.append(("ref. odom", slam_on_reference_odometry(ref[keep], ts, scans)))
     for source, est_poses in rows:
         s = score(est_poses, ref[keep], ts, scans, ref_grid)
         extra = (
@@ -239,7 +254,11 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("names", nargs="*", default=DATASETS, help="datasets in external-data/carmen/")
     ap.add_argument("--shared", type=Path, default=default_shared_dir(), help="the external data folder")
-    ap.add_argument("--floor", action="store_true", help="also score scans matched on the reference's own map")
+    ap.add_argument(
+        "--floor",
+        action="store_true",
+        help="also score scans matched on the reference's own map, and the SLAM given the reference as odometry",
+    )
     ap.add_argument(
         "--set", action="append", default=[], help="a SLAM parameter override, e.g. slam.do_loop_closing=false"
     )
