@@ -193,6 +193,11 @@ def run_replay(
                 identity = replay_identity(inputs_sha256(entries, folder=log.is_dir()), pipeline, asked, remap)
                 manifest = _manifest(entries, reader, pipeline, params, pipe, result, tmp, remap)
                 (tmp / "manifest.json").write_text(json_text.dumps(manifest, indent=2, sort_keys=True) + "\n")
+            except NavlogError as exc:
+                shutil.rmtree(tmp, ignore_errors=True)
+                if type(exc) is NavlogError and str(tmp) in str(exc):  # a file it could not write: named where asked
+                    raise NavlogError(str(exc).replace(str(tmp), str(out_dir))) from None
+                raise
             except BaseException:
                 shutil.rmtree(tmp, ignore_errors=True)
                 raise
