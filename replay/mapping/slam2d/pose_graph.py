@@ -63,8 +63,9 @@ class PoseGraph:
         kernel_k: float = 1.345,
     ) -> None:
         """An edge measuring ``target``'s pose in ``source``'s frame. ``noise``: three standard deviations
-        (x, y, yaw) or a (3, 3) covariance; behind a robust ``kernel`` (Huber or Cauchy, threshold
-        ``kernel_k`` standard deviations) unless ``none``."""
+        (x, y, yaw) or a (3, 3) covariance, in ``target``'s frame (where gtsam's ``BetweenFactorPose2``
+        measures the error); behind a robust ``kernel`` (Huber or Cauchy, threshold ``kernel_k`` standard
+        deviations) unless ``none``."""
         rel = tuple(float(v) for v in relative)
         arr = np.asarray(noise, dtype=np.float64)
         model: gtsam.noiseModel.Base = (

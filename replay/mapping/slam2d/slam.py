@@ -134,6 +134,13 @@ def _rotation(yaw: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def _edge_covariance(cov: np.ndarray, heading: float) -> np.ndarray:
+    """A map-frame (x, y, yaw) covariance of an edge's target as the edge's noise: in the frame of the target
+    at ``heading`` (gtsam's ``BetweenFactorPose2`` measures its error there)."""
+    rot = _rotation(heading)
+    return rot.T @ cov @ rot
+
+
 def _xyt(p: gtsam.Pose2) -> np.ndarray:
     return np.array([p.x(), p.y(), p.theta()])
 
@@ -162,7 +169,7 @@ class Slam2D:
         self._odometry_steps: list[float] = []  # per keyframe after the first: the odometry's travel to it
         self._innovations: list[np.ndarray] = []  # per match: match - odometry prediction, previous keyframe's frame
         self._travel: list[float] = [0.0]  # per keyframe: path length from the first, along the estimate
-        # per keyframe: the covariance of its sequential edge (in the previous keyframe's frame; zero for the first)
+        # per keyframe: the covariance of its sequential edge (in its own frame, as the edge measures it; zero for the first)
         self._chain_cov: list[np.ndarray] = [np.zeros((3, 3))]
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
         self._link = SearchWindow(
@@ -256,7 +263,7 @@ class Slam2D:
             )
             prev = self._pose(i - 1)
             rot = _rotation(prev.theta())
-            odometry_cov = np.diag(np.square(self._odometry_sigmas()))  # in the previous keyframe's frame
+            odometry_cov = rot @ np.diag(np.square(self._odometry_sigmas())) @ rot.T  # map frame
             recovered = None
             step = self.keyframes[-1].odom.between(odom)
             self._odometry_steps.append(math.hypot(step.x(), step.y()))
@@ -280,7 +287,7 @@ class Slam2D:
                 pose = recovered.pose
                 self.counts.matched += 1
                 cov = self.matcher.covariance(recovered, self.p.match_sigmas[0], 0.5 * np.asarray(self.p.match_sigmas))
-                noise, kind, response = rot.T @ cov @ rot, "match", recovered.response
+                kind, response = "match", recovered.response
             elif match is not None:
                 if float(np.linalg.eigvalsh(match.hessian[:2, :2])[0]) > 0.1:  # a match that pins x and y
                     innovation = rot.T @ (match.pose - pose)
@@ -288,11 +295,12 @@ class Slam2D:
                     self._innovations.append(innovation)
                 pose, cov = self._fuse(pose, prev.theta(), match)
                 self.counts.matched += 1
-                noise, kind, response = rot.T @ cov @ rot, "match", match.response
+                kind, response = "match", match.response
             else:
                 self.counts.odometry_only += 1
                 self._unplaced(i, stamp)
-                noise, kind, response = odometry_cov, "odometry", 0.0
+                cov, kind, response = odometry_cov, "odometry", 0.0
+            noise = _edge_covariance(cov, pose[2])
             self.graph.add_node(pose)
             rel = prev.between(_pose2(pose))
             self.graph.add_edge(i - 1, i, _xyt(rel), noise, kind, response=response)  # type: ignore[arg-type]
@@ -450,13 +458,12 @@ class Slam2D:
             return
         anchor = _pose2(poses[closest])
         rel = anchor.between(_pose2(match.pose))
-        rot = _rotation(anchor.theta())
         before = self.graph.snapshot()
         self.graph.add_edge(
             closest,
             new,
             _xyt(rel),
-            rot.T @ cov @ rot,
+            _edge_covariance(cov, match.pose[2]),
             "loop",
             response=match.response,
             kernel=self.p.loop_kernel,
@@ -480,8 +487,8 @@ class Slam2D:
         relative to keyframe i along the chain of sequential edges between them: the sum over the edges k
         of their translation covariance (rotated into the map frame) and their yaw variance times the
         lever arm from keyframe k to ``new`` (a heading error at k swings everything after it about k)."""
-        cov = np.asarray(self._chain_cov[: new + 1])  # edge k: keyframe k - 1 -> k, in k - 1's frame
-        theta = np.concatenate([[0.0], poses[:new, 2]])  # the source's heading of edge k
+        cov = np.asarray(self._chain_cov[: new + 1])  # edge k: keyframe k - 1 -> k, in k's frame
+        theta = poses[: new + 1, 2]  # the heading of edge k's target
         c, s = np.cos(theta), np.sin(theta)
         rot = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)  # (n, 2, 2)
         trans = rot @ cov[:, :2, :2] @ np.swapaxes(rot, 1, 2)

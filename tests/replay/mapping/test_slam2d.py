@@ -257,6 +257,25 @@ def test_a_loop_the_graph_disagrees_with_is_measured_and_taken_back():
     assert np.allclose(graph.pose(5), (5.0, 0.0, 0.0), atol=1e-6)
 
 
+def test_an_edge_weighs_its_error_in_the_frame_of_its_target():
+    """A match loose along the map's x axis (a corridor along x) between keyframes a quarter turn apart:
+    moving the target 0.1 m along the corridor costs 0.01 (in sigmas squared), 1 cm across it costs 1 --
+    gtsam's BetweenFactorPose2 measures its error in the target's frame, so the noise is rotated there."""
+    import gtsam
+
+    from navlog.replay.mapping.slam2d import PoseGraph
+    from navlog.replay.mapping.slam2d.slam import _edge_covariance
+
+    loose_along_x = np.diag([1.0, 1e-4, 1e-4])  # map frame: 1 m along x, 1 cm across, 0.01 rad
+    for moved, chi2 in [((0.1, 1.0), 0.01), ((0.0, 1.01), 1.0)]:
+        graph = PoseGraph()
+        graph.add_node((0.0, 0.0, 0.0))
+        graph.add_node((0.0, 1.0, math.pi / 2))
+        graph.add_edge(0, 1, (0.0, 1.0, math.pi / 2), _edge_covariance(loose_along_x, math.pi / 2), "match")
+        graph._values.update(1, gtsam.Pose2(*moved, math.pi / 2))
+        assert graph.edge_chi2() == pytest.approx(chi2, rel=1e-3)
+
+
 def test_the_loop_kernel_bounds_how_far_a_false_closure_bends_the_chain():
     from navlog.replay.mapping.slam2d import PoseGraph
 
