@@ -271,15 +271,8 @@ class Slam2D:
             usual = self._usual_step()
             if weak and (math.isinf(usual) or self._odometry_steps[-1] > usual):  # early in a log, any step may be
                 recovered = self._recover(
-                    points, pose, _xyt(prev), (1.0 + (0.0 if match is None else match.response)) / 2
+                    points, pose, _xyt(prev), (1.0 + (0.0 if match is None else match.response)) / 2, usual
                 )
-                # found inside the sequential window: no jump, the sequential match's verdict stands; and the
-                # step the scans say the robot made must be a usual one (it is the odometry that jumped)
-                if recovered is not None and (
-                    np.max(np.abs(recovered.pose[:2] - pose[:2])) <= self._link.linear / 2
-                    or float(np.linalg.norm(recovered.pose[:2] - _xyt(prev)[:2])) > usual
-                ):
-                    recovered = None
             if recovered is not None:  # the odometry jumped: the scans say where the robot is
                 self.counts.odometry_jumps.append(
                     (stamp, float(np.linalg.norm(recovered.pose[:2] - pose[:2])), float(recovered.response))
@@ -313,27 +306,39 @@ class Slam2D:
         return pose
 
     def _recover(
-        self, points: np.ndarray, prediction: np.ndarray, previous: np.ndarray, min_response: float
+        self, points: np.ndarray, prediction: np.ndarray, previous: np.ndarray, min_response: float, usual: float
     ) -> MatchResult | None:
         """After a failed or weak sequential match: the scan matched against the running buffer in the loop
         search's window (``loop_search_space_dimension``) around the odometry's prediction, then around the
-        previous keyframe's position (odometry that jumped while the robot stood still), accepted on the
-        loop's terms (``loop_match_minimum_response_fine``, ``loop_match_maximum_variance_coarse``) and with
-        at least ``min_response`` (the caller's: halfway from the weak match's response to 1, so that a
-        slightly better fit elsewhere in a large hall does not move the robot); None when neither places
-        it (the scans do not overlap what came before: the robot was carried off)."""
+        previous keyframe's position with the prediction's heading and, when the two differ by more than the
+        search's fan, with the previous keyframe's own (odometry that jumped or was reset while the robot
+        stood still or drove on); the first place found that (1) passes the loop's terms
+        (``loop_match_minimum_response_fine``, ``loop_match_maximum_variance_coarse``) with at least
+        ``min_response`` (the caller's: halfway from the weak match's response to 1, so that a slightly
+        better fit elsewhere in a large hall does not move the robot), (2) lies outside the sequential
+        search (inside it, the sequential match's verdict stands) and (3) is a ``usual`` step from the
+        previous keyframe (it is the odometry that jumped, not the robot). None when no place passes (the
+        scans do not overlap what came before: the robot was carried off)."""
         window = SearchWindow(
             self.p.loop_search_space_dimension, self.p.coarse_search_angle_offset, self.p.coarse_angle_resolution
         )
         centres = [prediction, np.array([previous[0], previous[1], prediction[2]])]
+        if abs(math.remainder(float(previous[2] - prediction[2]), 2 * math.pi)) > self._link.angular:
+            centres.append(np.asarray(previous, dtype=np.float64))
         reference = self._buffer_points(_pose2(previous))
+        least = max(self.p.loop_match_minimum_response_fine, min_response)
         for centre in centres:
-            least = max(self.p.loop_match_minimum_response_fine, min_response)
             found = self.matcher.match(reference, points, centre, window, least)
             if found is None:
                 continue
             cov = self.matcher.covariance(found, self.p.loop_sigmas[0], 0.5 * np.asarray(self.p.loop_sigmas))
-            if float(np.linalg.eigvalsh(cov[:2, :2])[-1]) <= self.p.loop_match_maximum_variance_coarse:
+            pinned = float(np.linalg.eigvalsh(cov[:2, :2])[-1]) <= self.p.loop_match_maximum_variance_coarse
+            turn = abs(math.remainder(float(found.pose[2] - prediction[2]), 2 * math.pi))
+            inside = np.max(np.abs(found.pose[:2] - prediction[:2])) <= self._link.linear / 2 and turn <= (
+                self._link.angular
+            )
+            step = float(np.linalg.norm(found.pose[:2] - previous[:2]))
+            if pinned and not inside and step <= usual:
                 return found
         return None
 

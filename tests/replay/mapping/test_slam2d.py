@@ -311,6 +311,26 @@ def test_odometry_that_jumps_is_found_by_the_wider_search_and_counted(scene):
     assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.03
 
 
+def test_odometry_reset_to_zero_is_found_whatever_the_heading(scene):
+    # at scan 70 the robot heads along +y (a quarter turn) and its odometry restarts at (0, 0, 0): the
+    # prediction is 4 m off and a quarter turn off, beyond the search's fan; the search around the previous
+    # keyframe with its own heading places the scan
+    import gtsam
+
+    truth = rectangle_path(0.1)[:100]
+    reset = gtsam.Pose2(*truth[70])
+    odom = truth.copy()
+    for i in range(70, len(truth)):
+        p = reset.between(gtsam.Pose2(*truth[i]))
+        odom[i] = (p.x(), p.y(), p.theta())
+    slam = run_slam(scene, truth, odom, SlamParams(do_loop_closing=False))
+    assert len(slam.counts.odometry_jumps) == 1 and slam.counts.unplaced == []
+    assert slam.counts.odometry_jumps[0][0] == 70 * 100_000_000
+    _, poses = slam.trajectory()
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.03
+    assert np.abs(np.remainder(poses[:, 2] - truth[:, 2] + math.pi, 2 * math.pi) - math.pi).max() < 0.01
+
+
 def test_a_look_alike_place_far_off_is_no_jump_when_the_odometry_moved_as_usual(scene):
     # at scan 102 (keyframe 20: the odometry's usual step between keyframes is known by then) the scan fits
     # 2 m to the side much better than where the robot is (it is the scan taken there: a look-alike place),
