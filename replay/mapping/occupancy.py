@@ -16,7 +16,7 @@ explores, in whole blocks, so results do not depend on where the log starts.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -72,6 +72,10 @@ class ScanStats:
     too_close: int = 0  # -inf or <= range_min: not used
     nan: int = 0  # not used
     clipped: int = 0  # beyond max_laser_range: cleared up to it, end not marked
+
+    def add(self, other: ScanStats) -> None:
+        for f in fields(self):
+            setattr(self, f.name, getattr(self, f.name) + getattr(other, f.name))
 
 
 class OccupancyGrid2D:
@@ -134,24 +138,26 @@ class OccupancyGrid2D:
         """Fuse one scan taken at ``sensor_pose`` (4x4 in the map frame); beams lie in the sensor's xy plane."""
         r = np.asarray(ranges, dtype=np.float64)
         a = np.asarray(angles, dtype=np.float64)
-        st = self.stats
-        st.scans += 1
-        st.beams += len(r)
         nan = np.isnan(r)
-        st.nan += int(nan.sum())
         close = ~nan & (r <= range_min)  # includes -inf
         far = ~nan & ~close & (r >= range_max)  # includes +inf: no return
         clip = self.p.max_laser_range
         clipped = ~nan & ~close & ~far & (r > clip) if clip > 0 else np.zeros_like(far)
         hit = ~nan & ~close & ~far & ~clipped
-        st.too_close += int(close.sum())
-        st.no_return += int(far.sum())
-        st.clipped += int(clipped.sum())
-        st.hits += int(hit.sum())
+        counts = ScanStats(
+            scans=1,
+            beams=len(r),
+            hits=int(hit.sum()),
+            no_return=int(far.sum()),
+            too_close=int(close.sum()),
+            nan=int(nan.sum()),
+            clipped=int(clipped.sum()),
+        )
         use = hit | clipped
         if self.p.no_return_ray_length > 0:
             use |= far
         if not use.any():
+            self.stats.add(counts)
             return
         length = np.where(hit, r, np.where(clipped, clip, self.p.no_return_ray_length))[use]
         a = a[use]
@@ -163,12 +169,13 @@ class OccupancyGrid2D:
         d2 = d2 / np.where(norm > 0, norm, 1.0)[:, None]
         length = length * norm  # projected onto the map plane
         ends = pos[:2] + d2 * length[:, None]
-        self._ensure(
+        self._ensure(  # GridTooLarge: neither the grid nor its counts hold the scan
             min(pos[0], ends[:, 0].min()),
             min(pos[1], ends[:, 1].min()),
             max(pos[0], ends[:, 0].max()),
             max(pos[1], ends[:, 1].max()),
         )
+        self.stats.add(counts)
         nx = self.logodds.shape[1]
         # free space: sample every half cell along each beam, stopping short of the end cell
         step = self.res * 0.5

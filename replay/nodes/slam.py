@@ -27,7 +27,7 @@ from navlog.replay import messages
 from navlog.replay.geometry import planar_matrix, quat_from_yaw, yaw_from_matrix
 from navlog.replay.io import json_text
 from navlog.replay.io.tum import write_poses
-from navlog.replay.mapping.occupancy import MAX_COORDINATE, GridTooLarge, OccupancyParams
+from navlog.replay.mapping.occupancy import MAX_COORDINATE, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, Slam2D, SlamParams
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
@@ -151,11 +151,7 @@ class SlamNode(Node):
     def _publish_map(self, t_ns: int, final: bool = False) -> None:
         if not self.slam.keyframes:
             return
-        try:
-            grid = self.slam.grid(final)
-        except GridTooLarge:
-            self.skipped[f"{self.p.scan_topic}: a keyframe's pose or ranges too far off (map not updated)"] += 1
-            return
+        grid = self.slam.grid(final)
         if grid.logodds.size:
             self.publish(self.p.map_topic, messages.OCCUPANCY_GRID, grid.to_map(self.p.map_frame).to_msg(t_ns))
 
@@ -243,6 +239,10 @@ class SlamNode(Node):
                 f"{self.p.scan_topic}: keyframes placed by odometry alone in {len(rest)} more stretches"
                 " (see pose_graph.json unplaced)"
             ] = sum(b - a + 1 for a, b, _, _ in rest)
+        if c.off_map:
+            out[f"{self.p.scan_topic}: keyframes left out of the map (pose or readings too far off for a grid)"] = len(
+                c.off_map
+            )
         if self.slam.counts.empty_scans:
             out[f"{self.p.scan_topic}: scans with no valid reading (not used)"] = self.slam.counts.empty_scans
         return out

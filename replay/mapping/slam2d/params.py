@@ -20,7 +20,9 @@ from navlog.replay.limits import MAX_PERIOD_S, MIN_MAP_PERIOD_S
 @dataclass(frozen=True)
 class SlamParams:
     resolution: float = 0.05  # of the published occupancy grid
-    max_laser_range: float = 20.0  # readings beyond it are not used for matching (they clear up to it in the map)
+    # readings beyond it are not used for matching, and clear up to it in the map without marking (unless the
+    # map's own OccupancyParams.max_laser_range, occupancy.grid.max_laser_range in the pipeline, is set)
+    max_laser_range: float = 20.0
     minimum_travel_distance: float = 0.5  # a scan becomes a keyframe after this much travel ...
     minimum_travel_heading: float = 0.5  # ... or this much turning since the last keyframe
     scan_buffer_size: int = 10  # the running buffer: keyframes a new keyframe is matched against

@@ -36,13 +36,13 @@ inserted (while the log plays, at most once per quarter more keyframes: linear w
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import gtsam
 import numpy as np
 
 from navlog.replay.geometry import planar_matrix
-from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
+from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d.params import SlamParams
 from navlog.replay.mapping.slam2d.pose_graph import PoseGraph
 from navlog.replay.mapping.slam2d.scan_matcher import (
@@ -121,6 +121,8 @@ class SlamCounts:
     # stretches of consecutive keyframes placed by odometry alone (no match, even by the wider search):
     # (first keyframe, last keyframe, first stamp ns, last stamp ns)
     unplaced: list[tuple[int, int, int, int]] = field(default_factory=list)
+    # keyframes left out of the map: their pose or readings lie too far off for a grid (GridTooLarge)
+    off_map: set[int] = field(default_factory=set)
     responses: list[float] = field(default_factory=list)  # of accepted loop closures
 
 
@@ -150,7 +152,10 @@ class Slam2D:
 
     def __init__(self, params: SlamParams, grid: OccupancyParams | None = None) -> None:
         self.p = params
-        self.grid_params = grid or OccupancyParams(resolution=params.resolution)
+        grid = grid or OccupancyParams(resolution=params.resolution)
+        if grid.max_laser_range == 0:  # the map is drawn to the laser range the scans are matched to
+            grid = replace(grid, max_laser_range=params.max_laser_range)
+        self.grid_params = grid
         self.matcher = ScanMatcher(
             params.correlation_search_space_resolution, params.correlation_search_space_smear_deviation
         )
@@ -572,6 +577,9 @@ class Slam2D:
         for k in self.keyframes[done:]:
             x, y, yaw = poses[k.index]
             s = k.scan
-            self._grid.insert_scan(planar_matrix(x, y, yaw) @ s.mount, s.angles, s.ranges, s.range_min, s.range_max)
+            try:
+                self._grid.insert_scan(planar_matrix(x, y, yaw) @ s.mount, s.angles, s.ranges, s.range_min, s.range_max)
+            except GridTooLarge:  # the grid is as it was: the keyframe stays out of the map, counted
+                self.counts.off_map.add(k.index)
         self._grid_poses = np.concatenate([self._grid_poses[:done], poses[done:]])
         return self._grid

@@ -176,6 +176,38 @@ def test_bad_parameters_are_named():
         SlamParams(loop_sigmas=(0.1, 0.1))  # type: ignore[arg-type]
 
 
+def test_the_map_is_drawn_to_the_laser_range_and_a_keyframe_no_grid_can_hold_is_left_out(scene):
+    from navlog.replay.mapping.occupancy import OccupancyParams
+
+    poses = [(-2.0 + 0.6 * k, -3.0, 0.0) for k in range(5)]
+    scans = [cast(scene, p) for p in poses]
+    scans[3][0] = 25.0  # a reading past max_laser_range (20 m): clears up to 20 m, marks nothing
+    slam = Slam2D(SlamParams(do_loop_closing=False))
+    for k, (p, r) in enumerate(zip(poses, scans, strict=True)):
+        slam.add_scan(k * 1_000_000_000, p, LaserScan2D(ANGLES, r, 0.05, 100.0, MOUNT))
+    grid = slam.grid()
+    assert grid.stats.scans == 5 and grid.stats.clipped == 1 and slam.counts.off_map == set()
+
+    # beam 0 points along -x (the angles start at -pi) from x = -0.2: cleared to x = -20.2, nothing marked
+    # at -25.2 (which lies outside the grid or unseen)
+    def cell(x: float) -> tuple[int, int]:
+        ix, iy = np.floor((np.array([x, -3.0]) - grid.origin) / grid.res).astype(int)
+        return iy, ix
+
+    assert grid.seen[cell(-20.0)] and grid.logodds[cell(-20.0)] < 0
+    assert cell(-25.2)[1] < 0 or not grid.seen[cell(-25.2)]
+    # with the map's own range unbounded, a 2,000 km reading is more than any grid: that keyframe is left
+    # out (counted once), the others are drawn once each, however often the map is asked for
+    scans[3][0] = 2e6
+    slam = Slam2D(SlamParams(do_loop_closing=False), OccupancyParams(resolution=0.05, max_laser_range=1e7))
+    for k, (p, r) in enumerate(zip(poses, scans, strict=True)):
+        slam.add_scan(k * 1_000_000_000, p, LaserScan2D(ANGLES, r, 0.05, 1e7, MOUNT))
+        slam.grid(final=False)
+    for final in (False, True, True):
+        grid = slam.grid(final)
+        assert slam.counts.off_map == {3} and grid.stats.scans == 4
+
+
 def test_scans_without_a_valid_reading_are_counted_not_placed(scene):
     slam = Slam2D(SlamParams())
     blind = scan_of(np.full(N_BEAMS, np.inf))
