@@ -132,6 +132,13 @@ class SlamNode(Node):
         if np.abs(odom_base[:2, 3]).max() > MAX_COORDINATE:  # the matcher's window would span it: no memory holds that
             self.skipped[f"{self.p.scan_topic}: odometry farther than {MAX_COORDINATE:g} m at the scan's stamp"] += 1
             return
+        reach = self.p.slam.max_laser_range
+        if not np.all(np.isfinite(mount)) or float(np.hypot(mount[0, 3], mount[1, 3])) > reach:
+            self.skipped[
+                f"{self.p.scan_topic}: laser mount ({msg.header.frame_id} in the base frame) not finite or farther than"
+                f" slam.max_laser_range ({reach:g} m) from the base: check /tf_static"
+            ] += 1
+            return
         scan = LaserScan2D(
             angles, np.asarray(msg.ranges, dtype=np.float64), float(msg.range_min), float(msg.range_max), mount
         )

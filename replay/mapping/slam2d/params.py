@@ -57,15 +57,18 @@ class SlamParams:
     loop_match_maximum_chi2: float = 16.3
     map_update_interval: float = param(5.0, ge=MIN_MAP_PERIOD_S, le=MAX_PERIOD_S)  # s between /map messages
     # noise of the pose-graph edges (x, y, yaw standard deviations), navlog's
-    # a sequential scan match in a room that pins it (a direction the scan leaves free gets more: the
-    # match's covariance, ScanMatcher.covariance); the match is weighted against the odometry by them
+    # a sequential scan match: its covariance (ScanMatcher.covariance) is the first value squared over the
+    # match's Hessian -- x and y get that deviation in a room whose surfaces face both axes equally, a
+    # direction the scan leaves free far more -- plus half of each of the three as a floor; the match is
+    # weighted against the odometry by it
     match_sigmas: tuple[float, float, float] = (0.02, 0.02, 0.01)
     odometry_sigmas: tuple[float, float, float] = (0.1, 0.1, 0.05)  # odometry between keyframes (at first)
     # navlog's: after 20 matches, the odometry's noise is the RMS of the last 20 differences between match
     # and odometry (no less than a quarter of odometry_sigmas). Off by default: on the CARMEN datasets it
     # helps where the odometry is good (seattle ATE 0.058 -> 0.052 m) and hurts where it slips (aces 0.090 -> 0.121 m)
     estimate_odometry_noise: bool = False
-    loop_sigmas: tuple[float, float, float] = (0.05, 0.05, 0.02)  # a loop closure that pins the scan (Huber kernel)
+    # a loop closure, the same way (its covariance also decides loop_match_maximum_variance_coarse)
+    loop_sigmas: tuple[float, float, float] = (0.05, 0.05, 0.02)
     # the robust kernel of the loop edges in the graph: huber (measured best on the CARMEN datasets), cauchy,
     # or none (plain least squares: one false closure bends the whole graph)
     loop_kernel: Literal["huber", "cauchy", "none"] = "huber"
@@ -95,6 +98,8 @@ class SlamParams:
             "minimum_time_interval",
             "coarse_search_angle_offset",
             "loop_search_path_sigmas",
+            "scan_buffer_maximum_scan_distance",
+            "loop_search_maximum_distance",
         ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):

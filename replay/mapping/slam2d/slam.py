@@ -66,12 +66,16 @@ class LaserScan2D:
     range_max: float
     mount: np.ndarray  # 4x4 robot <- laser
 
-    def points(self, max_range: float) -> np.ndarray:
-        """(N, 2) planar points of the valid readings (finite, inside the range limits and
-        ``max_range``) in the robot frame, in beam order."""
+    def valid(self, max_range: float) -> np.ndarray:
+        """Per beam: whether its reading is valid (finite, inside the range limits and ``max_range``)."""
         r = self.ranges
-        ok = np.isfinite(r) & (r > self.range_min) & (r < self.range_max) & (r <= max_range)
-        a, rr = self.angles[ok], r[ok]
+        return np.isfinite(r) & (r > self.range_min) & (r < self.range_max) & (r <= max_range)
+
+    def points(self, max_range: float, valid: np.ndarray | None = None) -> np.ndarray:
+        """(N, 2) planar points of the valid readings (``valid``, computed when not given) in the robot
+        frame, in beam order."""
+        ok = self.valid(max_range) if valid is None else valid
+        a, rr = self.angles[ok], self.ranges[ok]
         local = np.stack([rr * np.cos(a), rr * np.sin(a), np.zeros_like(rr)], axis=1)
         return local @ self.mount[:2, :3].T + self.mount[:2, 3]
 
@@ -166,7 +170,7 @@ class Slam2D:
         self._scans: list[tuple[int, int, gtsam.Pose2]] = []
         # the last scan placed by a match or a keyframe: (stamp, odometry pose, pose in its keyframe's frame)
         self._anchor: tuple[int, gtsam.Pose2, gtsam.Pose2] = (0, gtsam.Pose2(), gtsam.Pose2())
-        self._between: tuple[tuple[int, int], LookupGrid] | None = None  # see _between_grid
+        self._between: tuple[tuple[int, int], LookupGrid | None] | None = None  # see _between_grid
         self._grid = OccupancyGrid2D(self.grid_params)
         self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
         self._grid_drawn = 0  # keyframes when the grid was last redrawn from scratch
@@ -184,17 +188,23 @@ class Slam2D:
     # ------------------------------------------------------------ the steps
     def add_scan(self, stamp: int, odom_pose, scan: LaserScan2D) -> np.ndarray | None:
         """Process one scan; returns the robot's pose (x, y, yaw) in the map frame at its stamp (None for a
-        scan with no valid reading before the first keyframe: nothing places it)."""
+        scan with no valid reading before the first keyframe: nothing places it). Odometry that is not
+        finite raises ``ValueError`` (the caller skips such scans)."""
+        if not all(math.isfinite(float(v)) for v in odom_pose):
+            raise ValueError(f"odometry pose not finite: {tuple(odom_pose)}")
         self.counts.scans += 1
         odom = _pose2(odom_pose)
         prediction = self._predict(odom)
         keyframe = not self.keyframes or self._travelled(odom)
-        points = scan.points(self.p.max_laser_range) if keyframe or self._match_due(stamp) else None
-        if points is not None and len(points) == 0:
+        valid = scan.valid(self.p.max_laser_range)
+        points = None
+        if not valid.any():
             self.counts.empty_scans += 1
             if not self.keyframes:
                 return None
             keyframe = False
+        elif keyframe or self._match_due(stamp):
+            points = scan.points(self.p.max_laser_range, valid)
         if not keyframe:
             return self._between_keyframes(stamp, odom, points)
         assert points is not None
@@ -219,10 +229,9 @@ class Slam2D:
         _, anchor_odom, anchor_rel = self._anchor
         rel = anchor_rel.compose(anchor_odom.between(odom))
         pose = _xyt(base.compose(rel))
-        if points is not None and len(points):
-            match = self.matcher.match_on(
-                self._between_grid(base), points, pose, self._link, self.p.link_match_minimum_response_fine
-            )
+        grid = self._between_grid(base) if points is not None and len(points) else None
+        if grid is not None:
+            match = self.matcher.match_on(grid, points, pose, self._link, self.p.link_match_minimum_response_fine)
             if match is not None:
                 pose, _ = self._fuse(pose, base.theta(), match)
                 rel = base.between(_pose2(pose))
@@ -231,15 +240,16 @@ class Slam2D:
         self._scans.append((stamp, last.index, rel))
         return pose
 
-    def _between_grid(self, base: gtsam.Pose2) -> LookupGrid:
+    def _between_grid(self, base: gtsam.Pose2) -> LookupGrid | None:
         """The running buffer's lookup grid for the scans between the last keyframe and the next (made once
-        per keyframe, and again when an optimisation moved the keyframes)."""
+        per keyframe, and again when an optimisation moved the keyframes); None when no buffer point is in
+        reach (nothing to match against)."""
         key = (len(self.keyframes), self.graph.optimizations)
         if self._between is None or self._between[0] != key:
             reference = self._buffer_points(base)
             reach = self.p.max_laser_range + self._link.linear + 4 * self.p.correlation_search_space_smear_deviation
             reference = reference[np.hypot(reference[:, 0] - base.x(), reference[:, 1] - base.y()) <= reach]
-            self._between = (key, self.matcher.grid(reference, self._link))
+            self._between = (key, self.matcher.grid(reference, self._link) if len(reference) else None)
         return self._between[1]
 
     def _predict(self, odom: gtsam.Pose2) -> gtsam.Pose2:

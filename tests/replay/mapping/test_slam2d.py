@@ -174,6 +174,12 @@ def test_bad_parameters_are_named():
         SlamParams(correlation_search_space_resolution=0.0)
     with pytest.raises(ValueError, match="loop_sigmas"):
         SlamParams(loop_sigmas=(0.1, 0.1))  # type: ignore[arg-type]
+    for name in ("scan_buffer_maximum_scan_distance", "loop_search_maximum_distance"):
+        for bad in (-1.0, math.nan):
+            with pytest.raises(ValueError, match=name):
+                SlamParams(**{name: bad})
+    with pytest.raises(ValueError, match="odometry pose not finite"):
+        Slam2D(SlamParams()).add_scan(0, (0.0, math.nan, 0.0), scan_of(np.full(N_BEAMS, 2.0)))
 
 
 def test_the_map_is_drawn_to_the_laser_range_and_a_keyframe_no_grid_can_hold_is_left_out(scene):
@@ -218,6 +224,24 @@ def test_scans_without_a_valid_reading_are_counted_not_placed(scene):
     assert slam.counts.empty_scans == 2 and slam.counts.keyframes == 1
     stamps, poses = slam.trajectory()
     assert stamps == [100_000_000, 200_000_000] and np.allclose(poses[1], (0.6, 0.0, 0.0))
+    # every blind scan is counted, whether or not it was due for a match (standing still, 0.1 s apart)
+    for on in (True, False):
+        slam = Slam2D(SlamParams(match_between_keyframes=on))
+        slam.add_scan(0, (0.0, 0.0, 0.0), scan_of(cast(scene, (0.0, 0.0, 0.0))))
+        for k in range(1, 11):
+            slam.add_scan(k * 100_000_000, (0.0, 0.0, 0.0), blind)
+        assert slam.counts.empty_scans == 10
+
+
+def test_a_scan_between_keyframes_with_nothing_in_reach_follows_the_odometry():
+    # the only keyframe saw a wall 30 m off (beyond max_laser_range: no point in the buffer), the next scan
+    # sees something: nothing to match it against, it follows the odometry
+    far = np.full(N_BEAMS, np.inf)
+    far[0] = 30.0
+    slam = Slam2D(SlamParams())
+    slam.add_scan(0, (0.0, 0.0, 0.0), LaserScan2D(ANGLES, far, 0.05, 100.0, MOUNT))
+    pose = slam.add_scan(600_000_000, (0.1, 0.0, 0.0), scan_of(np.full(N_BEAMS, 2.0)))
+    assert slam.counts.matched_between == 0 and np.allclose(pose, (0.1, 0.0, 0.0))
 
 
 def corridor_scan(pose) -> LaserScan2D:

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+import math
 
+import numpy as np
 import pytest
 
 from navlog.analysis.metrics import compute_metrics
@@ -108,3 +110,31 @@ def test_odometry_jumps_and_unplaced_stretches_are_named_in_the_skipped_inputs()
         "first_stamp_ns": 12_500_000_000,
         "last_stamp_ns": 14_000_000_000,
     }
+
+
+def test_a_laser_mount_not_finite_or_far_off_is_a_named_skip():
+    import types
+
+    from navlog.replay.nodes.slam import SlamNode, SlamNodeParams
+
+    node = SlamNode(SlamNodeParams())
+    node.publish = lambda *a, **k: None  # type: ignore[method-assign]
+    n = 360
+    msg = types.SimpleNamespace(
+        header=types.SimpleNamespace(frame_id="laser"),
+        angle_min=-math.pi,
+        angle_max=math.pi - 2 * math.pi / n,
+        angle_increment=2 * math.pi / n,
+        ranges=[2.0] * n,
+        range_min=0.05,
+        range_max=8.0,
+    )
+    for k, offset in enumerate((math.nan, 25.0)):
+        mount = np.eye(4)
+        mount[0, 3] = offset
+        node._process(msg, k * 600_000_000, np.eye(4), mount, np.eye(4))
+    key = (
+        "/scan: laser mount (laser in the base frame) not finite or farther than slam.max_laser_range (20 m) from the"
+        " base: check /tf_static"
+    )
+    assert node.skipped_counts() == {key: 2} and node.slam.counts.scans == 0
