@@ -93,12 +93,15 @@ class SlamNode(Node):
 
     @property
     def base(self) -> str:
-        """``base_frame``, or base_link when the tree has no such frame (decided once either is known)."""
+        """``base_frame``, or base_link when no such frame hangs below the odometry frame (decided once
+        either does: a /tf_static under base_link may come before the odometry's base_footprint)."""
         if self._base is None:
-            frames = self.tf.frames()
             want = self.tf.name(self.p.base_frame)
-            if want in frames or "base_link" in frames:
-                self._base = want if want in frames else "base_link"
+            frames = set(self.tf.frames())
+            for candidate in (want, self.tf.name("base_link")):
+                if candidate in frames and self.odom in frames and self.tf.connected(self.odom, candidate):
+                    self._base = candidate
+                    return candidate
             return want
         return self._base
 

@@ -361,6 +361,14 @@ class TFBuffer:
                     latest = e.times[-1]
         return latest
 
+    def connected(self, a: str, b: str) -> bool:
+        """Whether frames ``a`` and ``b`` are in one tree (at some time)."""
+        try:
+            self._path(a, b)
+            return True
+        except TransformError:
+            return False
+
     def can_transform(self, target: str, source: str, t_ns: int | None) -> bool:
         try:
             self.lookup(target, source, t_ns)

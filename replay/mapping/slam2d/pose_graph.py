@@ -119,7 +119,3 @@ class PoseGraph:
         loop search and the map read them at every keyframe, and a Python loop over the nodes would make
         that work grow with the square of the travel."""
         return np.asarray(gtsam.utilities.extractPose2(self._values), dtype=np.float64).reshape(-1, 3)
-
-    def error(self) -> float:
-        """The graph's total (robust) squared error at the current estimate."""
-        return float(self._graph.error(self._values))

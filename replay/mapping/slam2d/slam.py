@@ -127,7 +127,6 @@ class SlamCounts:
     unplaced: list[tuple[int, int, int, int]] = field(default_factory=list)
     # keyframes left out of the map: their pose or readings lie too far off for a grid (GridTooLarge)
     off_map: set[int] = field(default_factory=set)
-    responses: list[float] = field(default_factory=list)  # of accepted loop closures
 
 
 def _pose2(pose) -> gtsam.Pose2:
@@ -499,7 +498,6 @@ class Slam2D:
             self._since_loop = 0.0
             return
         self.counts.loops += 1
-        self.counts.responses.append(match.response)
         self._since_loop = 0.0
 
     def _path_variance(self, poses: np.ndarray, new: int) -> np.ndarray:

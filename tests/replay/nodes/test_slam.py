@@ -138,3 +138,17 @@ def test_a_laser_mount_not_finite_or_far_off_is_a_named_skip():
         " base: check /tf_static"
     )
     assert node.skipped_counts() == {key: 2} and node.slam.counts.scans == 0
+
+
+def test_the_base_frame_is_chosen_below_the_odometry_frame_whatever_arrives_first():
+    from navlog.replay.nodes.slam import SlamNode, SlamNodeParams
+
+    node = SlamNode(SlamNodeParams())  # base_frame base_footprint
+    node.tf.add("base_link", "laser", 0, (0.1, 0.0, 0.2), (0.0, 0.0, 0.0, 1.0), static=True)  # /tf_static first
+    assert node.base == "base_footprint" and node._base is None  # undecided: nothing hangs below odom yet
+    node.tf.add("odom", "base_footprint", 1, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    node.tf.add("base_footprint", "base_link", 1, (0.0, 0.0, 0.3), (0.0, 0.0, 0.0, 1.0))
+    assert node.base == "base_footprint" and node._base == "base_footprint"
+    other = SlamNode(SlamNodeParams())  # a robot whose odometry moves base_link
+    other.tf.add("odom", "base_link", 1, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    assert other.base == "base_link" and other._base == "base_link"
