@@ -20,6 +20,7 @@ NOT_FINITE = "NaN or infinite angle/range fields"
 ZERO_INCREMENT = "angle_increment is 0"
 WRONG_SIGN = "angle_increment of the wrong sign for angle_min..angle_max"
 INCONSISTENT = "len(ranges) inconsistent with angle_min, angle_max and angle_increment"
+ANGLE_SETS_KEPT = 16  # ScanAngles keeps the angles of this many (angle_min, increment, beams) at most
 
 
 def geometry_fault(angle_min: float, angle_max: float, angle_increment: float, beams: int) -> str | None:
@@ -60,5 +61,7 @@ class ScanAngles:
         key = (float(msg.angle_min), float(msg.angle_increment), len(msg.ranges))
         angles = self._cache.get(key)
         if angles is None:
+            if len(self._cache) >= ANGLE_SETS_KEPT:  # a log whose scans all differ: the cache stays bounded
+                self._cache.clear()
             angles = self._cache[key] = msg.angle_min + msg.angle_increment * np.arange(len(msg.ranges))
         return angles

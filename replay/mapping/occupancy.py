@@ -26,6 +26,7 @@ from navlog.replay.limits import MAX_GRID_CELLS, MIN_GRID_RESOLUTION_M
 from navlog.replay.occupancy_map import OccupancyMap
 
 NUMPY_BEAM_GROUPS = 4  # beams of similar length updated together (``_update``)
+GROUP_SAMPLES = 1 << 22  # at most this many (beam, sample) pairs in one group's work arrays (about 90 MB)
 MAX_CELLS = MAX_GRID_CELLS  # a grid larger than this comes from a pose or range far off, or a resolution too fine
 MAX_COORDINATE = 1e6  # m; a grid reaching farther from the map origin comes from a pose or range far off
 
@@ -195,7 +196,9 @@ class OccupancyGrid2D:
 
         The beams are taken in ``NUMPY_BEAM_GROUPS`` groups of similar length (sorted by their number
         of free samples), each group's arrays as long as its longest beam: a room's beams are mostly
-        short, so this computes about half the samples one array as long as the longest beam would."""
+        short, so this computes about half the samples one array as long as the longest beam would. A
+        group with more than ``GROUP_SAMPLES`` (beam, sample) pairs is taken in parts (the same cells:
+        the work arrays stay bounded for a scan of a million beams)."""
         ny, nx = self.logodds.shape
         ncell = ny * nx
         mask = self._work("mask", np.int8, (ncell + 1,))
@@ -205,8 +208,12 @@ class OccupancyGrid2D:
         bounds = np.linspace(0, len(order), NUMPY_BEAM_GROUPS + 1).astype(int)
         for lo, hi in zip(bounds[:-1], bounds[1:]):
             if hi > lo:
-                beams = order[lo:hi]
-                mask[self._crossed(t[: samples[beams[-1]]], last[beams], d2c[beams], g0, nx, ncell).reshape(-1)] = 1
+                longest = int(samples[order[hi - 1]])
+                part = max(1, GROUP_SAMPLES // longest)
+                for start in range(lo, hi, part):
+                    beams = order[start : min(hi, start + part)]
+                    cells = self._crossed(t[:longest], last[beams], d2c[beams], g0, nx, ncell)
+                    mask[cells.reshape(-1)] = 1
         # a beam's own end cell is not cleared by it (nor by grazing neighbours in this scan)
         mask[end_cells] = 2
         mask = mask[:ncell]

@@ -119,3 +119,19 @@ def test_a_costmap_scan_source_skips_and_counts_an_unusable_scan():
     scan.angle_increment, scan.ranges = 2 * PI / 4, [1.0] * 8
     assert node._observation("scan", 0, scan, sp) is None
     assert node.skipped == {f"scan: {WRONG_SIGN}": 1, f"scan: {INCONSISTENT}": 1}
+
+
+def test_scan_angles_keep_a_bounded_number_of_angle_sets():
+    import types
+
+    from navlog.replay.scan_geometry import ANGLE_SETS_KEPT, ScanAngles
+
+    angles = ScanAngles()
+    for k in range(1000):  # every scan a different start angle: a log written that way, or a hostile one
+        lo = -PI + k * 1e-6
+        msg = types.SimpleNamespace(
+            angle_min=lo, angle_max=lo + PI, angle_increment=PI / 8, ranges=[1.0] * 9, range_min=0.1, range_max=5.0
+        )
+        got = angles(msg)
+        assert got is not None and got[0] == lo and got[-1] == pytest.approx(lo + PI)
+        assert len(angles._cache) <= ANGLE_SETS_KEPT

@@ -54,6 +54,9 @@ from navlog.replay.mapping.slam2d.scan_matcher import (
 )
 
 ODOMETRY_WINDOW = 20  # matches the odometry's noise is estimated over
+# a scan's points matched at most (every k-th valid beam beyond: a 2D laser has a few thousand beams; the
+# matcher's work arrays grow with the points times the candidate poses)
+MAX_MATCH_POINTS = 8192
 
 
 @dataclass(frozen=True)
@@ -204,6 +207,8 @@ class Slam2D:
             keyframe = False
         elif keyframe or self._match_due(stamp):
             points = scan.points(self.p.max_laser_range, valid)
+            if len(points) > MAX_MATCH_POINTS:
+                points = points[:: math.ceil(len(points) / MAX_MATCH_POINTS)]
         if not keyframe:
             return self._between_keyframes(stamp, odom, points)
         assert points is not None

@@ -131,3 +131,25 @@ def test_the_numpy_update_gives_the_same_bits_whatever_the_beam_groups(monkeypat
     assert grids[groups].seen.tobytes() == grids[1].seen.tobytes() and grids[1].seen.sum() > 1000
     # the largest work array of the grouped update holds fewer samples than 720 beams x the longest beam
     assert grids[groups]._buffers["x"].size < grids[1]._buffers["x"].size
+
+
+def test_a_group_larger_than_the_sample_budget_is_taken_in_parts_with_the_same_bits(monkeypatch):
+    scans = list(random_scans(11, 6))
+    grids, shapes = {}, []
+    crossed = OccupancyGrid2D._crossed
+
+    def recorded(self, t, last, *rest):
+        shapes.append((len(last), len(t)))
+        return crossed(self, t, last, *rest)
+
+    monkeypatch.setattr(OccupancyGrid2D, "_crossed", recorded)
+    for budget in (occupancy_module.GROUP_SAMPLES, 200):
+        monkeypatch.setattr(occupancy_module, "GROUP_SAMPLES", budget)
+        shapes.clear()
+        grids[budget] = OccupancyGrid2D(OccupancyParams())
+        for p, ang, r in scans:
+            grids[budget].insert_scan(p, ang, r, 0.1, 10.0)
+    default, small = grids[occupancy_module.GROUP_SAMPLES], grids[200]
+    assert small.logodds.tobytes() == default.logodds.tobytes() and small.seen.tobytes() == default.seen.tobytes()
+    # every part within the budget, but for a single beam longer than it
+    assert all(beams * samples <= 200 or beams == 1 for beams, samples in shapes) and len(shapes) > 100

@@ -464,3 +464,16 @@ def test_scans_between_keyframes_are_matched_at_most_once_per_minimum_time_inter
     assert between / 5 - slam.counts.keyframes <= slam.counts.matched_between <= between / 5 + 1
     err = yaw_errors(slam, truth)
     assert 0.005 < err.max() < 0.06  # five steps of 0.01 rad extra turn, and the match's own error
+
+
+def test_a_scan_of_more_beams_than_the_match_takes_is_thinned_and_still_placed(scene, monkeypatch):
+    from navlog.replay.mapping.slam2d import slam as slam_module
+
+    monkeypatch.setattr(slam_module, "MAX_MATCH_POINTS", 150)  # the 720-beam scans: every 5th valid beam
+    truth = [(-2.0 + 0.1 * k, -2.0, 0.0) for k in range(30)]
+    odom = [(x + 0.004 * k, y, yaw) for k, (x, y, yaw) in enumerate(truth)]  # 4 % long
+    slam = run_slam(scene, np.array(truth), np.array(odom), SlamParams(do_loop_closing=False))
+    assert all(len(k.points) <= 150 for k in slam.keyframes) and len(slam.keyframes) >= 5
+    _, poses = slam.trajectory()
+    # the odometry ends 0.12 m off; a scan between matched ones (0.5 s apart) follows it for up to 2 cm
+    assert np.hypot(*(poses[:, :2] - np.array(truth)[:, :2]).T).max() < 0.04
