@@ -5,8 +5,9 @@ scan's valid points in the robot frame:
 
 1. **predict**: the last keyframe's pose composed with the odometry travelled since it;
 2. **keyframe?** only after ``minimum_travel_distance`` or ``minimum_travel_heading`` since the last
-   keyframe (the first scan is one); another scan is placed by the odometry since the last scan that
-   was matched or, at most once per ``minimum_time_interval`` (``match_between_keyframes``), matched
+   keyframe (the first scan with a valid reading is one); another scan is placed by the odometry since
+   the last scan that was matched or, at most once per ``minimum_time_interval``
+   (``match_between_keyframes``), matched
    against the running buffer like a keyframe and weighted against that odometry — it is not added to
    the graph (the keyframes' graph is the same either way), but it no longer carries the odometry's
    error since its keyframe (a robot turning on the spot on slipping wheels);
@@ -170,7 +171,8 @@ class Slam2D:
         self.counts = SlamCounts()
         # per scan: (stamp, its keyframe, its pose in the keyframe's frame)
         self._scans: list[tuple[int, int, gtsam.Pose2]] = []
-        # the last scan placed by a match or a keyframe: (stamp, odometry pose, pose in its keyframe's frame)
+        # the last keyframe or scan a match was tried for (placed by it, or by the odometry when it failed):
+        # (stamp, odometry pose, pose in its keyframe's frame)
         self._anchor: tuple[int, gtsam.Pose2, gtsam.Pose2] = (0, gtsam.Pose2(), gtsam.Pose2())
         self._between: tuple[tuple[int, int], LookupGrid | None] | None = None  # see _between_grid
         self._grid = OccupancyGrid2D(self.grid_params)
@@ -179,7 +181,7 @@ class Slam2D:
         self._since_loop = math.inf  # path length of keyframes since the last loop closure
         self._odometry_steps: list[float] = []  # per keyframe after the first: the odometry's travel to it
         self._innovations: list[np.ndarray] = []  # per match: match - odometry prediction, previous keyframe's frame
-        self._travel: list[float] = [0.0]  # per keyframe: path length from the first, along the estimate
+        self._travel: list[float] = [0.0]  # per keyframe: path length from the first, as estimated when added
         # per keyframe: the covariance of its sequential edge (in its own frame, as the edge measures it; zero for the first)
         self._chain_cov: list[np.ndarray] = [np.zeros((3, 3))]
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
@@ -282,7 +284,6 @@ class Slam2D:
             )
             prev = self._pose(i - 1)
             rot = _rotation(prev.theta())
-            odometry_cov = rot @ np.diag(np.square(self._odometry_sigmas())) @ rot.T  # map frame
             recovered = None
             step = self.keyframes[-1].odom.between(odom)
             self._odometry_steps.append(math.hypot(step.x(), step.y()))
@@ -296,9 +297,10 @@ class Slam2D:
                 self.counts.odometry_jumps.append(
                     (stamp, float(np.linalg.norm(recovered.pose[:2] - pose[:2])), float(recovered.response))
                 )
-                pose = recovered.pose
+                pose = recovered.pose.copy()
+                pose[2] = math.remainder(float(pose[2]), 2 * math.pi)
                 self.counts.matched += 1
-                cov = self.matcher.covariance(recovered, self.p.match_sigmas[0], 0.5 * np.asarray(self.p.match_sigmas))
+                cov = self._match_covariance(recovered, self.p.match_sigmas)
                 kind, response = "match", recovered.response
             elif match is not None:
                 if float(np.linalg.eigvalsh(match.hessian[:2, :2])[0]) > 0.1:  # a match that pins x and y
@@ -311,7 +313,7 @@ class Slam2D:
             else:
                 self.counts.odometry_only += 1
                 self._unplaced(i, stamp)
-                cov, kind, response = odometry_cov, "odometry", 0.0
+                cov, kind, response = self._odometry_covariance(prev.theta()), "odometry", 0.0
             noise = _edge_covariance(cov, pose[2])
             self.graph.add_node(pose)
             rel = prev.between(_pose2(pose))
@@ -350,8 +352,7 @@ class Slam2D:
             found = self.matcher.match(reference, points, centre, window, least)
             if found is None:
                 continue
-            cov = self.matcher.covariance(found, self.p.loop_sigmas[0], 0.5 * np.asarray(self.p.loop_sigmas))
-            pinned = float(np.linalg.eigvalsh(cov[:2, :2])[-1]) <= self.p.loop_match_maximum_variance_coarse
+            pinned = self._pins(self._match_covariance(found, self.p.loop_sigmas))
             turn = abs(math.remainder(float(found.pose[2] - prediction[2]), 2 * math.pi))
             inside = np.max(np.abs(found.pose[:2] - prediction[:2])) <= self._link.linear / 2 and turn <= (
                 self._link.angular
@@ -391,15 +392,28 @@ class Slam2D:
         recent = np.array(self._innovations[-ODOMETRY_WINDOW:])
         return np.maximum(np.sqrt(np.mean(np.square(recent), axis=0)), 0.25 * configured)
 
+    def _match_covariance(self, match: MatchResult, sigmas: tuple[float, float, float]) -> np.ndarray:
+        """A match's map-frame covariance under ``match_sigmas`` or ``loop_sigmas`` (``ScanMatcher.covariance``)."""
+        return self.matcher.covariance(match, sigmas[0], 0.5 * np.asarray(sigmas))
+
+    def _pins(self, cov: np.ndarray) -> bool:
+        """Whether a match of covariance ``cov`` pins the scan: its translation variance in the worst direction
+        is at most ``loop_match_maximum_variance_coarse`` (a corridor's axis is not)."""
+        return float(np.linalg.eigvalsh(cov[:2, :2])[-1]) <= self.p.loop_match_maximum_variance_coarse
+
+    def _odometry_covariance(self, heading: float) -> np.ndarray:
+        """The odometry's covariance since the keyframe at ``heading`` (``_odometry_sigmas`` in its frame), in
+        the map frame."""
+        rot = _rotation(heading)
+        return rot @ np.diag(np.square(self._odometry_sigmas())) @ rot.T
+
     def _fuse(self, prediction: np.ndarray, heading: float, match: MatchResult) -> tuple[np.ndarray, np.ndarray]:
         """The match weighted against the odometry prediction by their covariances (map frame; the odometry's,
         ``_odometry_sigmas`` in the frame of the keyframe at ``heading`` it was predicted from): the pose and
         its covariance. Where the scan pins the pose the match wins; along a direction it leaves free (a
         corridor's axis) the odometry does."""
-        rot = _rotation(heading)
-        prediction_cov = rot @ np.diag(np.square(self._odometry_sigmas())) @ rot.T
-        match_cov = self.matcher.covariance(match, self.p.match_sigmas[0], 0.5 * np.asarray(self.p.match_sigmas))
-        info_m, info_o = np.linalg.inv(match_cov), np.linalg.inv(prediction_cov)
+        info_m = np.linalg.inv(self._match_covariance(match, self.p.match_sigmas))
+        info_o = np.linalg.inv(self._odometry_covariance(heading))
         cov = np.linalg.inv(info_m + info_o)
         diff = match.pose - prediction
         diff[2] = math.remainder(float(diff[2]), 2 * math.pi)
@@ -476,8 +490,8 @@ class Slam2D:
         )
         if match is None:
             return
-        cov = self.matcher.covariance(match, self.p.loop_sigmas[0], 0.5 * np.asarray(self.p.loop_sigmas))
-        if float(np.linalg.eigvalsh(cov[:2, :2])[-1]) > self.p.loop_match_maximum_variance_coarse:
+        cov = self._match_covariance(match, self.p.loop_sigmas)
+        if not self._pins(cov):
             self.counts.loops_ambiguous += 1  # the submap does not pin the scan (a corridor): no closure
             return
         anchor = _pose2(poses[closest])
