@@ -236,7 +236,7 @@ class Slam2D:
         rel = anchor_rel.compose(anchor_odom.between(odom))
         pose = _xyt(base.compose(rel))
         grid = self._between_grid(base) if points is not None and len(points) else None
-        if grid is not None:
+        if points is not None and grid is not None:
             match = self.matcher.match_on(grid, points, pose, self._link, self.p.link_match_minimum_response_fine)
             if match is not None:
                 pose, _ = self._fuse(pose, base.theta(), match)
