@@ -41,9 +41,7 @@ class SlamNodeParams:
     scan_topic: str = "/scan"
     map_topic: str = "/map"
     map_frame: str = "map"
-    odom_frame: str = "odom"
-    base_frame: str = "base_footprint"  # slam_toolbox's default; base_link when the tree has no such frame
-    trajectory_frame: str = "base_link"  # whose map pose the trajectory holds ("" = base_frame)
+    trajectory_frame: str = "base_link"  # whose map pose the trajectory holds ("" = the base frame)
     frame_prefix: str = ""  # stripped from every frame name (e.g. "simple_robot/")
     transform_timeout: float = 1.0  # s a scan waits for its odometry
     slam: SlamParams = field(default_factory=SlamParams)
@@ -60,7 +58,7 @@ class SlamNode(Node):
         self.p = params
         self.slam = Slam2D(params.slam, replace(params.grid, resolution=params.slam.resolution))
         self.tf = TFBuffer(frame_prefix=params.frame_prefix)
-        self.odom = self.tf.name(params.odom_frame)
+        self.odom = self.tf.name(params.slam.odom_frame)
         self.tf_published = 0
         self._log_odom_parents = 0
         self._waiting = WaitingForTransforms(int(params.transform_timeout * 1e9))
@@ -96,7 +94,7 @@ class SlamNode(Node):
         """``base_frame``, or base_link when no such frame hangs below the odometry frame (decided once
         either does: a /tf_static under base_link may come before the odometry's base_footprint)."""
         if self._base is None:
-            want = self.tf.name(self.p.base_frame)
+            want = self.tf.name(self.p.slam.base_frame)
             frames = set(self.tf.frames())
             for candidate in (want, self.tf.name("base_link")):
                 if candidate in frames and self.odom in frames and self.tf.connected(self.odom, candidate):
@@ -153,7 +151,7 @@ class SlamNode(Node):
     def _publish_tf(self, stamp: int) -> None:
         m = self.slam.map_to_odom
         ts = messages.transform_stamped(
-            stamp, self.p.map_frame, self.p.odom_frame, (m[0, 3], m[1, 3], 0.0), quat_from_yaw(yaw_from_matrix(m))
+            stamp, self.p.map_frame, self.p.slam.odom_frame, (m[0, 3], m[1, 3], 0.0), quat_from_yaw(yaw_from_matrix(m))
         )
         self.publish("/tf", messages.TF_MESSAGE, messages.tf_message([ts]))
         self.tf_published += 1

@@ -56,6 +56,9 @@ class SlamParams:
     # (the rest of the graph disagrees with it; 16.3 is chi-square's 99.9 % for three degrees of freedom)
     loop_match_maximum_chi2: float = 16.3
     map_update_interval: float = param(5.0, ge=MIN_MAP_PERIOD_S, le=MAX_PERIOD_S)  # s between /map messages
+    odom_frame: str = "odom"  # the odometry frame of the log's TF tree (slam_toolbox's name)
+    # the robot's base below odom_frame (slam_toolbox's name and default); base_link when the tree has none
+    base_frame: str = "base_footprint"
     # noise of the pose-graph edges (x, y, yaw standard deviations), navlog's
     # a sequential scan match: its covariance (ScanMatcher.covariance) is the first value squared over the
     # match's Hessian -- x and y get that deviation in a room whose surfaces face both axes equally, a
@@ -104,6 +107,9 @@ class SlamParams:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a number >= 0, got {value}")
+        for name in ("odom_frame", "base_frame"):
+            if not getattr(self, name).strip():
+                raise ValueError(f"{name} must name a frame, got {getattr(self, name)!r}")
         if self.loop_kernel not in ("huber", "cauchy", "none"):
             raise ValueError(f"loop_kernel must be huber, cauchy or none, got {self.loop_kernel!r}")
         if self.scan_buffer_size < 1 or self.loop_match_minimum_chain_size < 1:

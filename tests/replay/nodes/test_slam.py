@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from navlog.analysis.metrics import compute_metrics
+from navlog.errors import NavlogError
 from navlog.replay.io import open_log
 from navlog.replay.io.map_server import load_map
 from navlog.replay.session import run_replay
@@ -152,3 +153,31 @@ def test_the_base_frame_is_chosen_below_the_odometry_frame_whatever_arrives_firs
     other = SlamNode(SlamNodeParams())  # a robot whose odometry moves base_link
     other.tf.add("odom", "base_link", 1, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
     assert other.base == "base_link" and other._base == "base_link"
+
+
+def test_a_log_whose_odometry_frame_is_not_odom_is_mapped_with_slam_odom_frame(shared_dir, tmp_path):
+    from navlog.replay.io.formats import open_log
+    from navlog.replay.io.logwriter import McapLogWriter
+    from navlog.replay.runtime.executor import Envelope
+
+    log, scans = tmp_path / "wheel_odom.mcap", 0
+    with open_log(shared_dir / "external-data" / "carmen" / "seattle") as reader, McapLogWriter(log) as writer:
+        for env in reader.messages(["/scan", "/odom", "/tf", "/tf_static"]):
+            scans += env.topic == "/scan"
+            if scans > 40:
+                break
+            if env.topic == "/tf":
+                for ts in env.msg.transforms:
+                    ts.header.frame_id = "wheel_odom" if ts.header.frame_id == "odom" else ts.header.frame_id
+            elif env.topic == "/odom":
+                env.msg.header.frame_id = "wheel_odom"
+            writer.write(Envelope(env.topic, env.typename, env.time_ns, env.msg))
+    common = ["pose_source=slam", "lidar_mapper=off"]
+    with pytest.raises(NavlogError, match="produced nothing"):  # every scan waits for odom -> base
+        run_replay(log, "mapping", tmp_path / "default", overrides=common, progress=False)
+    res = run_replay(
+        log, "mapping", tmp_path / "named", overrides=[*common, "slam.odom_frame=wheel_odom"], progress=False
+    )
+    lines = (tmp_path / "named" / "trajectory.tum").read_text().splitlines()
+    assert len([x for x in lines if not x.startswith("#")]) == 40
+    assert res.manifest["skipped"] == {}
