@@ -37,6 +37,7 @@ inserted (while the log plays, at most once per quarter more keyframes: linear w
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field, replace
 
 import gtsam
@@ -179,8 +180,10 @@ class Slam2D:
         self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
         self._grid_drawn = 0  # keyframes when the grid was last redrawn from scratch
         self._since_loop = math.inf  # path length of keyframes since the last loop closure
-        self._odometry_steps: list[float] = []  # per keyframe after the first: the odometry's travel to it
-        self._innovations: list[np.ndarray] = []  # per match: match - odometry prediction, previous keyframe's frame
+        # the last keyframes' odometry travel to them (the newest and ODOMETRY_WINDOW before it)
+        self._odometry_steps: deque[float] = deque(maxlen=ODOMETRY_WINDOW + 1)
+        # the last matches' match - odometry prediction, in the previous keyframe's frame
+        self._innovations: deque[np.ndarray] = deque(maxlen=ODOMETRY_WINDOW)
         self._travel: list[float] = [0.0]  # per keyframe: path length from the first, as estimated when added
         # per keyframe: the covariance of its sequential edge (in its own frame, as the edge measures it; zero for the first)
         self._chain_cov: list[np.ndarray] = [np.zeros((3, 3))]
@@ -368,7 +371,7 @@ class Slam2D:
         2`` steps). An odometry jump is an unusual odometry step to a place the scans reach by a usual one:
         where the odometry moved as it usually does, or the scans' place needs an unusual step too, a better
         fit far away is a look-alike place (a robot reversing with a forward-facing laser meets many)."""
-        recent = self._odometry_steps[-ODOMETRY_WINDOW - 1 : -1]
+        recent = list(self._odometry_steps)[:-1]
         if len(recent) < ODOMETRY_WINDOW // 2:
             return math.inf
         return max(self._link.linear / 2, 2.0 * float(np.median(recent)))
@@ -389,7 +392,7 @@ class Slam2D:
         configured = np.asarray(self.p.odometry_sigmas, dtype=np.float64)
         if not self.p.estimate_odometry_noise or len(self._innovations) < ODOMETRY_WINDOW:
             return configured
-        recent = np.array(self._innovations[-ODOMETRY_WINDOW:])
+        recent = np.array(self._innovations)
         return np.maximum(np.sqrt(np.mean(np.square(recent), axis=0)), 0.25 * configured)
 
     def _match_covariance(self, match: MatchResult, sigmas: tuple[float, float, float]) -> np.ndarray:
