@@ -26,7 +26,7 @@ correlative matcher, default parameters) against the previous ``scan_buffer_size
 their reference poses, from its own reference pose: how far the scans themselves place a pose from
 the reference when the map is the reference's own. Its RE 1 m is the floor of this metric for the
 matcher: the reference is itself a SLAM result, not ground truth. And a fourth, **SLAM on reference
-odometry**: the same SLAM (``Slam2D``, default parameters, in this process) given the reference poses
+odometry**: the same SLAM (``Slam2D``, the replay's parameters, in this process) given the reference poses
 as its odometry, error-free: how far the scans carry the path from the reference when nothing else
 does.
 
@@ -58,7 +58,7 @@ from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow, SlamParams
 from navlog.replay.mapping.slam2d.scan_matcher import transform_points
 from navlog.replay.mapping.slam2d.slam import Slam2D, surface_points
-from navlog.replay.session import run_replay
+from navlog.replay.session import pipeline_params, run_replay
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
 from tests.shared_data import default_shared_dir
@@ -190,9 +190,11 @@ def matched_on_reference(ref: np.ndarray, stamps: np.ndarray, scans: dict[int, t
     return out
 
 
-def slam_on_reference_odometry(ref: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> np.ndarray:
-    """The SLAM's poses when its odometry is the reference trajectory itself (default parameters)."""
-    slam = Slam2D(SlamParams())
+def slam_on_reference_odometry(
+    ref: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple], params: SlamParams
+) -> np.ndarray:
+    """The SLAM's poses when its odometry is the reference trajectory itself."""
+    slam = Slam2D(params)
     for t, pose in zip(stamps.tolist(), ref, strict=True):
         slam.add_scan(t, pose, LaserScan2D(*scans[t], np.eye(4)))
     placed, poses = slam.trajectory()
@@ -232,7 +234,8 @@ def evaluate(name: str, carmen: Path, work: Path, sets: list[str], floor: bool =
     rows = [("slam", slam), ("odometry", odom)]
     if floor:
         rows.append(("on ref.", matched_on_reference(ref[keep], ts, scans)))
-        rows.append(("ref. odom", slam_on_reference_odometry(ref[keep], ts, scans)))
+        slam_params = pipeline_params("mapping", overrides=sets).slam  # the replay's, --set included
+        rows.append(("ref. odom", slam_on_reference_odometry(ref[keep], ts, scans, slam_params)))
     for source, est_poses in rows:
         s = score(est_poses, ref[keep], ts, scans, ref_grid)
         extra = (

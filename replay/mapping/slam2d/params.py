@@ -60,7 +60,7 @@ class SlamParams:
     # the robot's base below odom_frame (slam_toolbox's name and default); base_link when the tree has none
     base_frame: str = "base_footprint"
     # noise of the pose-graph edges (x, y, yaw standard deviations), navlog's
-    # a sequential scan match: its covariance (ScanMatcher.covariance) is the first value squared over the
+    # a sequential scan match: its covariance (ScanMatcher.covariance) is half the first value squared over the
     # match's Hessian -- x and y get that deviation in a room whose surfaces face both axes equally, a
     # direction the scan leaves free far more -- plus half of each of the three as a floor; the match is
     # weighted against the odometry by it
@@ -110,6 +110,10 @@ class SlamParams:
         for name in ("odom_frame", "base_frame"):
             if not getattr(self, name).strip():
                 raise ValueError(f"{name} must name a frame, got {getattr(self, name)!r}")
+        if self.odom_frame == self.base_frame:
+            raise ValueError(
+                f"odom_frame and base_frame are both {self.odom_frame!r}: the base moves in the odometry frame"
+            )
         if self.loop_kernel not in ("huber", "cauchy", "none"):
             raise ValueError(f"loop_kernel must be huber, cauchy or none, got {self.loop_kernel!r}")
         if self.scan_buffer_size < 1 or self.loop_match_minimum_chain_size < 1:

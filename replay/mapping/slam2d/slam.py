@@ -6,7 +6,7 @@ scan's valid points in the robot frame:
 1. **predict**: the last keyframe's pose composed with the odometry travelled since it;
 2. **keyframe?** only after ``minimum_travel_distance`` or ``minimum_travel_heading`` since the last
    keyframe (the first scan with a valid reading is one); another scan is placed by the odometry since
-   the last scan that was matched or, at most once per ``minimum_time_interval``
+   the last keyframe or scan a match was tried for or, at most once per ``minimum_time_interval``
    (``match_between_keyframes``), matched
    against the running buffer like a keyframe and weighted against that odometry — it is not added to
    the graph (the keyframes' graph is the same either way), but it no longer carries the odometry's
@@ -56,8 +56,8 @@ from navlog.replay.mapping.slam2d.scan_matcher import (
 )
 
 ODOMETRY_WINDOW = 20  # matches the odometry's noise is estimated over
-# a scan's points matched at most (every k-th valid beam beyond: a 2D laser has a few thousand beams; the
-# matcher's work arrays grow with the points times the candidate poses)
+# a scan's points matched at most (that many valid beams evenly spread beyond: a 2D laser has a few thousand
+# beams; the matcher's work arrays grow with the points times the candidate poses)
 MAX_MATCH_POINTS = 8192
 
 
@@ -213,7 +213,7 @@ class Slam2D:
         elif keyframe or self._match_due(stamp):
             points = scan.points(self.p.max_laser_range, valid)
             if len(points) > MAX_MATCH_POINTS:
-                points = points[:: math.ceil(len(points) / MAX_MATCH_POINTS)]
+                points = points[np.linspace(0, len(points) - 1, MAX_MATCH_POINTS).astype(np.int64)]
         if not keyframe:
             return self._between_keyframes(stamp, odom, points)
         assert points is not None
@@ -226,11 +226,12 @@ class Slam2D:
 
     def _match_due(self, stamp: int) -> bool:
         """Whether a scan between keyframes is to be matched (``match_between_keyframes``, and at least
-        ``minimum_time_interval`` since the last matched scan)."""
+        ``minimum_time_interval`` since the last keyframe or scan a match was tried for)."""
         return self.p.match_between_keyframes and stamp - self._anchor[0] >= self.p.minimum_time_interval * 1e9
 
     def _between_keyframes(self, stamp: int, odom: gtsam.Pose2, points: np.ndarray | None) -> np.ndarray:
-        """A scan that is no keyframe: placed by the odometry since the last matched scan (its *anchor*) or,
+        """A scan that is no keyframe: placed by the odometry since the last keyframe or scan a match was tried
+        for (its *anchor*) or,
         given its points, matched against the running buffer and weighted against that odometry; kept as
         its pose relative to the last keyframe, so that it follows the keyframe when the graph moves it."""
         last = self.keyframes[-1]
@@ -603,6 +604,7 @@ class Slam2D:
             if float(shift.max()) > self.grid_params.resolution and due:
                 self._grid = OccupancyGrid2D(self.grid_params)
                 self._grid_drawn = len(self.keyframes)
+                self.counts.off_map.clear()  # counted again as the keyframes are drawn again
                 done = 0
         for k in self.keyframes[done:]:
             x, y, yaw = poses[k.index]

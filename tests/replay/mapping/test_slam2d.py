@@ -178,6 +178,8 @@ def test_bad_parameters_are_named():
         for bad in (-1.0, math.nan):
             with pytest.raises(ValueError, match=name):
                 SlamParams(**{name: bad})
+    with pytest.raises(ValueError, match="odom_frame and base_frame are both 'odom'"):
+        SlamParams(base_frame="odom")
     with pytest.raises(ValueError, match="odometry pose not finite"):
         Slam2D(SlamParams()).add_scan(0, (0.0, math.nan, 0.0), scan_of(np.full(N_BEAMS, 2.0)))
 
@@ -234,13 +236,18 @@ def test_scans_without_a_valid_reading_are_counted_not_placed(scene):
 
 
 def test_a_scan_between_keyframes_with_nothing_in_reach_follows_the_odometry():
-    # the only keyframe saw a wall 30 m off (beyond max_laser_range: no point in the buffer), the next scan
-    # sees something: nothing to match it against, it follows the odometry
+    # the only keyframe's laser sits 15 m ahead of the base and sees a wall 10 m further on: its points lie
+    # 25 m from the base, beyond what the next scan's match can reach (20.9 m); that scan, due for a match,
+    # has nothing to match against and follows the odometry
+    ahead = np.eye(4)
+    ahead[0, 3] = 15.0
     far = np.full(N_BEAMS, np.inf)
-    far[0] = 30.0
+    far[N_BEAMS // 2 - 5 : N_BEAMS // 2 + 5] = 10.0  # the beams around 0 rad
     slam = Slam2D(SlamParams())
-    slam.add_scan(0, (0.0, 0.0, 0.0), LaserScan2D(ANGLES, far, 0.05, 100.0, MOUNT))
+    slam.add_scan(0, (0.0, 0.0, 0.0), LaserScan2D(ANGLES, far, 0.05, 100.0, ahead))
+    assert slam.counts.keyframes == 1
     pose = slam.add_scan(600_000_000, (0.1, 0.0, 0.0), scan_of(np.full(N_BEAMS, 2.0)))
+    assert slam._between is not None and slam._between[1] is None  # the lookup grid was asked for: none
     assert slam.counts.matched_between == 0 and np.allclose(pose, (0.1, 0.0, 0.0))
 
 
@@ -469,11 +476,11 @@ def test_scans_between_keyframes_are_matched_at_most_once_per_minimum_time_inter
 def test_a_scan_of_more_beams_than_the_match_takes_is_thinned_and_still_placed(scene, monkeypatch):
     from navlog.replay.mapping.slam2d import slam as slam_module
 
-    monkeypatch.setattr(slam_module, "MAX_MATCH_POINTS", 150)  # the 720-beam scans: every 5th valid beam
+    monkeypatch.setattr(slam_module, "MAX_MATCH_POINTS", 360)  # the 720-beam scans: 360 valid beams, evenly spread
     truth = [(-2.0 + 0.1 * k, -2.0, 0.0) for k in range(30)]
     odom = [(x + 0.004 * k, y, yaw) for k, (x, y, yaw) in enumerate(truth)]  # 4 % long
     slam = run_slam(scene, np.array(truth), np.array(odom), SlamParams(do_loop_closing=False))
-    assert all(len(k.points) <= 150 for k in slam.keyframes) and len(slam.keyframes) >= 5
+    assert all(len(k.points) == 360 for k in slam.keyframes) and len(slam.keyframes) >= 5
     _, poses = slam.trajectory()
     # the odometry ends 0.12 m off; a scan between matched ones (0.5 s apart) follows it for up to 2 cm
     assert np.hypot(*(poses[:, :2] - np.array(truth)[:, :2]).T).max() < 0.04

@@ -139,6 +139,10 @@ def test_a_laser_mount_not_finite_or_far_off_is_a_named_skip():
         " base: check /tf_static"
     )
     assert node.skipped_counts() == {key: 2} and node.slam.counts.scans == 0
+    mount = np.eye(4)
+    mount[0, 3] = 0.1  # a laser 10 cm ahead of the base: taken
+    node._process(msg, 2 * 600_000_000, np.eye(4), mount, np.eye(4))
+    assert node.skipped_counts() == {key: 2} and node.slam.counts.scans == 1
 
 
 def test_the_base_frame_is_chosen_below_the_odometry_frame_whatever_arrives_first():
@@ -181,3 +185,12 @@ def test_a_log_whose_odometry_frame_is_not_odom_is_mapped_with_slam_odom_frame(s
     lines = (tmp_path / "named" / "trajectory.tum").read_text().splitlines()
     assert len([x for x in lines if not x.startswith("#")]) == 40
     assert res.manifest["skipped"] == {}
+    # the node publishes map -> wheel_odom
+    from navlog.replay.mapping.slam2d import SlamParams
+    from navlog.replay.nodes.slam import SlamNode, SlamNodeParams
+
+    node = SlamNode(SlamNodeParams(slam=SlamParams(odom_frame="wheel_odom")))
+    sent: list = []
+    node.publish = lambda topic, typename, msg: sent.append(msg)  # type: ignore[method-assign,assignment]
+    node._publish_tf(0)
+    assert [(t.header.frame_id, t.child_frame_id) for m in sent for t in m.transforms] == [("map", "wheel_odom")]
