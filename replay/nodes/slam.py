@@ -95,9 +95,8 @@ class SlamNode(Node):
         either does: a /tf_static under base_link may come before the odometry's base_footprint)."""
         if self._base is None:
             want = self.tf.name(self.p.slam.base_frame)
-            frames = set(self.tf.frames())
             for candidate in (want, self.tf.name("base_link")):
-                if candidate in frames and self.odom in frames and self.tf.connected(self.odom, candidate):
+                if candidate != self.odom and self.tf.connected(self.odom, candidate):
                     self._base = candidate
                     return candidate
             return want
