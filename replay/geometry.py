@@ -124,6 +124,12 @@ def normalize_angle(a: float) -> float:
     return r - math.pi
 
 
+def remainder_angle(a: float) -> float:
+    """``a`` wrapped to [-pi, pi] by the IEEE remainder of a full turn (``math.remainder``: the nearest
+    multiple of 2 pi taken away, exact)."""
+    return math.remainder(a, 2.0 * math.pi)
+
+
 def shortest_angular_distance(a_from: float, a_to: float) -> float:
     """The signed angle from ``a_from`` to ``a_to`` (ROS ``angles::shortest_angular_distance``):
     ``normalize_angle(a_to - a_from)``."""

@@ -23,7 +23,7 @@ from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
 from navlog.replay.identity import input_entries, inputs_sha256, replay_identity, sha256_file
 from navlog.replay.io import cdr_decode, json_text
-from navlog.replay.io.atomic import hold_output, remove_stale, replace_output, write_error
+from navlog.replay.io.atomic import WriteError, hold_output, remove_stale, replace_output, write_error
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import LogReader
@@ -193,11 +193,9 @@ def run_replay(
                 identity = replay_identity(inputs_sha256(entries, folder=log.is_dir()), pipeline, asked, remap)
                 manifest = _manifest(entries, reader, pipeline, params, pipe, result, tmp, remap)
                 (tmp / "manifest.json").write_text(json_text.dumps(manifest, indent=2, sort_keys=True) + "\n")
-            except NavlogError as exc:
+            except WriteError as exc:  # a file it could not write: named where the user asked for it
                 shutil.rmtree(tmp, ignore_errors=True)
-                if type(exc) is NavlogError and str(tmp) in str(exc):  # a file it could not write: named where asked
-                    raise NavlogError(str(exc).replace(str(tmp), str(out_dir))) from None
-                raise
+                raise exc.moved(tmp, out_dir) from None
             except BaseException:
                 shutil.rmtree(tmp, ignore_errors=True)
                 raise

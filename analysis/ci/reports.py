@@ -22,9 +22,8 @@ from typing import Any
 
 from navlog.analysis.ci.result import ORDER, CaseResult, CheckResult, Status, SuiteResult
 from navlog.analysis.tables import figure
-from navlog.errors import NavlogError
 from navlog.replay.io import json_text
-from navlog.replay.io.atomic import write_file
+from navlog.replay.io.atomic import WriteError, write_file
 
 __all__ = ["format_result", "grouped", "to_json", "to_junit", "to_markdown", "write_reports"]
 
@@ -213,7 +212,7 @@ def _write(path: Path, text: str, *, append: bool = False) -> Path:
         with open(path, "a", encoding="utf-8") as f:
             f.write(text)
     except OSError as exc:
-        raise NavlogError(f"{path}: cannot write the report: {exc.strerror}") from None
+        raise WriteError(path, f"cannot write the report: {exc.strerror}") from None
     return path
 
 

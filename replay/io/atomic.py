@@ -25,6 +25,7 @@ from typing import BinaryIO
 from navlog.errors import NavlogError
 
 __all__ = [
+    "WriteError",
     "check_output",
     "hold_output",
     "open_new",
@@ -113,13 +114,30 @@ def temp_path(out: Path, suffix: str = ".part") -> Path:
     return tmp
 
 
-def write_error(path: Path, exc: OSError) -> NavlogError:
+class WriteError(NavlogError):
+    """An output that could not be written: the message is ``"{path}: {detail}"``."""
+
+    def __init__(self, path: Path, detail: str) -> None:
+        super().__init__(f"{path}: {detail}")
+        self.path, self.detail = Path(path), detail
+
+    def moved(self, tmp: Path, final: Path) -> WriteError:
+        """The same error naming the path under ``final`` that it had under ``tmp`` (a temporary folder
+        that would have become ``final``); itself when its path is not under ``tmp``."""
+        try:
+            inside = self.path.relative_to(tmp)
+        except ValueError:
+            return self
+        return WriteError(final / inside, self.detail)
+
+
+def write_error(path: Path, exc: OSError) -> WriteError:
     """A write that failed (a read-only folder, a full disk, a file-size limit), as one message naming the
     output."""
     if exc.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
-        return NavlogError(f"{path}: cannot write: {exc.strerror or exc} (a read-only folder?); nothing was written")
-    return NavlogError(
-        f"{path}: cannot write: {exc.strerror or exc} (a full disk or a file-size limit?); the partial file was removed"
+        return WriteError(path, f"cannot write: {exc.strerror or exc} (a read-only folder?); nothing was written")
+    return WriteError(
+        path, f"cannot write: {exc.strerror or exc} (a full disk or a file-size limit?); the partial file was removed"
     )
 
 
@@ -132,8 +150,8 @@ def output_failure(out: Path, exc: BaseException) -> NavlogError | None:
     write failure."""
     if isinstance(exc, OSError):
         return write_error(out, exc) if exc.errno in WRITE_ERRNOS else None
-    return NavlogError(
-        f"{out}: cannot write: {exc} (a read-only folder, a full disk or a file-size limit?); nothing was written"
+    return WriteError(
+        out, f"cannot write: {exc} (a read-only folder, a full disk or a file-size limit?); nothing was written"
     )
 
 

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from navlog.errors import ConfigError, NavlogError
+from navlog.errors import ConfigError
 from navlog.replay.config import load_yaml, suggest
-from navlog.replay.io.atomic import write_file
+from navlog.replay.io.atomic import WriteError, write_file
 from navlog.replay.occupancy_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 
 # Pixel values written by the trinary saver.
@@ -172,7 +172,7 @@ def save_map(occ_map: OccupancyMap, yaml_path: str | Path) -> tuple[Path, Path]:
         write_file(image_path, header.encode("ascii") + np.ascontiguousarray(pixels).tobytes())
         write_file(path, doc.encode())
     except OSError as exc:
-        raise NavlogError(f"{path}: cannot write map: {exc.strerror}") from None
+        raise WriteError(path, f"cannot write map: {exc.strerror}") from None
     return path, image_path
 
 

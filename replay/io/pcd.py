@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from navlog.errors import NavlogError
+from navlog.replay.io.atomic import WriteError
 
 __all__ = ["read_pcd", "write_pcd"]
 
@@ -27,7 +27,7 @@ def write_pcd(path: str | Path, points: np.ndarray) -> None:
     try:
         pypcd4.PointCloud.from_xyz_points(xyz).save(path, encoding=pypcd4.Encoding.BINARY)
     except OSError as exc:
-        raise NavlogError(f"{path}: cannot write the point cloud ({exc.strerror or exc})") from None
+        raise WriteError(path, f"cannot write the point cloud ({exc.strerror or exc})") from None
 
 
 def read_pcd(path: str | Path) -> np.ndarray:

@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from navlog.replay import messages
-from navlog.replay.geometry import planar_matrix, quat_from_yaw, yaw_from_matrix, yaw_from_quat
+from navlog.replay.geometry import planar_matrix, quat_from_yaw, remainder_angle, yaw_from_matrix, yaw_from_quat
 from navlog.replay.io import pose_cdr
 from navlog.replay.nav2.amcl import AmclParams, LikelihoodField, ParticleFilter, Scan
 from navlog.replay.occupancy_map import OccupancyMap
@@ -184,7 +184,7 @@ class AmclNode(Node):
         update = self._pf_odom is None
         if self._pf_odom is not None:
             dx, dy = pose[0] - self._pf_odom[0], pose[1] - self._pf_odom[1]
-            da = math.remainder(pose[2] - self._pf_odom[2], 2.0 * math.pi)
+            da = remainder_angle(pose[2] - self._pf_odom[2])
             update = abs(dx) > self.p.update_min_d or abs(dy) > self.p.update_min_d or abs(da) > self.p.update_min_a
             if update:
                 self.filter.motion_update(self._pf_odom, pose)

@@ -17,10 +17,10 @@ from typing import TYPE_CHECKING, Any, Literal
 from navlog.errors import ConfigError
 from navlog.replay.io.map_server import save_map
 from navlog.replay.io.tum import write_poses
-from navlog.replay.mapping.slam2d.params import SlamParams
+from navlog.replay.mapping.slam2d.params import DEFAULT_ODOM_FRAME, SlamParams
 from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams, settle_lidar
 from navlog.replay.nodes.occupancy_mapper import DEFAULT_POSE_TOPICS, OccupancyMapperNode, OccupancyMapperParams
-from navlog.replay.pipelines import PipelineSpec, register
+from navlog.replay.pipelines import PipelineSpec, log_odometry, register
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.pipeline import Pipeline
 
@@ -39,8 +39,17 @@ class Params:
 
 
 def settle(params: Params, reader: Any, log_to: dict[str, str]) -> Params:
-    """Before replaying: the LiDAR topic (the log's only PointCloud2 when the configured one is absent
-    and there is no scan, or ``lidar.lidar_topic: auto``) and a check that its frame has a mount."""
+    """Before replaying: the odometry the recording names (``log_odometry``: the SLAM's ``odom_frame``
+    when it is the default, the ``odom`` pose source's topic when none is set); the LiDAR topic (the log's
+    only PointCloud2 when the configured one is absent and there is no scan, or ``lidar.lidar_topic:
+    auto``) and a check that its frame has a mount."""
+    found = log_odometry(reader)
+    if found is not None:
+        topic, frame = found
+        if params.slam.odom_frame == DEFAULT_ODOM_FRAME and frame != params.slam.base_frame:
+            params = replace(params, slam=replace(params.slam, odom_frame=frame))
+        if params.pose_source == "odom" and not params.occupancy.pose_topic:
+            params = replace(params, occupancy=replace(params.occupancy, pose_topic=topic))
     if params.lidar_mapper == "off":
         return params
     alone = params.occupancy.scan_topic not in {log_to.get(t, t) for t in reader.topics}

@@ -206,3 +206,18 @@ def test_an_omni_base_moves_sideways_by_the_commanded_distance(tmp_path, plugin)
     o = odom[-1].pose.pose.position
     assert o.y == pytest.approx(end.position.y - start.position.y, abs=0.01) and abs(o.x) < 0.02
     assert max(m.twist.twist.linear.y for m in odom) == pytest.approx(0.2, abs=0.01)
+
+
+def test_mapping_replays_on_the_odometry_frame_the_log_names(navigated):
+    log, _, tmp = navigated
+    with open_log(log) as reader:
+        spec = pipeline_spec("mapping")
+        slam = spec.settle(pipeline_params("mapping", overrides=["pose_source=slam"]), reader, {})
+        odom = spec.settle(pipeline_params("mapping", overrides=["pose_source=odom"]), reader, {})
+        kept = spec.settle(pipeline_params("mapping", overrides=["slam.odom_frame=odom"]), reader, {})
+    assert slam.slam.odom_frame == "wheel_odom" and odom.occupancy.pose_topic == "/odometry/wheels"
+    assert kept.slam.odom_frame == "wheel_odom"  # the default's own value reads as the default
+    # the SLAM places every scan on wheel_odom -> base_footprint (on "odom", none)
+    out = run_replay(log, "mapping", tmp / "slam", overrides=["pose_source=slam"], progress=False)
+    stamps = [line for line in (out.out_dir / "trajectory.tum").read_text().splitlines() if line.strip()]
+    assert len(stamps) > 50

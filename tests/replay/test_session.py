@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from navlog.replay.session import ReplayResult, format_summary
 
 
@@ -82,3 +84,20 @@ def test_a_replay_that_produces_no_map_fails_and_says_why(teleop_log, tmp_path):
     assert "pipeline 'mapping' produced nothing: no map: no scan on /scan could be placed (pose source tf)" in msg
     assert "/scan: no pose or transform at the scan's stamp x171" in msg and "/tf_static" in msg
     assert not (tmp_path / "out").exists()
+
+
+def test_a_map_that_cannot_be_written_is_named_in_the_output_folder_asked_for(teleop_log, tmp_path, monkeypatch):
+    import errno
+
+    import navlog.replay.io.map_server as map_server
+    from navlog.errors import NavlogError
+
+    def full(path, data):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(map_server, "write_file", full)
+    out = tmp_path / "out"
+    with pytest.raises(NavlogError) as info:
+        replay_2d(teleop_log, out)
+    assert str(info.value) == f"{out / 'map.yaml'}: cannot write map: No space left on device"
+    assert not out.exists() and list(tmp_path.iterdir()) == []  # no partial folder left beside it

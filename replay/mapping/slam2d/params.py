@@ -16,6 +16,10 @@ from typing import Literal
 from navlog.replay.config import param
 from navlog.replay.limits import MAX_PERIOD_S, MIN_MAP_PERIOD_S
 
+# slam_toolbox's odometry frame; a replay takes the one a navlog recording names instead (the mapping
+# pipeline's settle)
+DEFAULT_ODOM_FRAME = "odom"
+
 
 @dataclass(frozen=True)
 class SlamParams:
@@ -56,7 +60,7 @@ class SlamParams:
     # (the rest of the graph disagrees with it; 16.3 is chi-square's 99.9 % for three degrees of freedom)
     loop_match_maximum_chi2: float = 16.3
     map_update_interval: float = param(5.0, ge=MIN_MAP_PERIOD_S, le=MAX_PERIOD_S)  # s between /map messages
-    odom_frame: str = "odom"  # the odometry frame of the log's TF tree (slam_toolbox's name)
+    odom_frame: str = DEFAULT_ODOM_FRAME  # the odometry frame of the log's TF tree (slam_toolbox's name)
     # the robot's base below odom_frame (slam_toolbox's name and default); base_link when the tree has none
     base_frame: str = "base_footprint"
     # noise of the pose-graph edges (x, y, yaw standard deviations), navlog's

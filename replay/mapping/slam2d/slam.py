@@ -43,7 +43,7 @@ from dataclasses import dataclass, field, replace
 import gtsam
 import numpy as np
 
-from navlog.replay.geometry import planar_matrix
+from navlog.replay.geometry import angle_diff, planar_matrix, remainder_angle
 from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d.params import SlamParams
 from navlog.replay.mapping.slam2d.pose_graph import PoseGraph
@@ -175,7 +175,7 @@ class Slam2D:
         # the last keyframe or scan a match was tried for (placed by it, or by the odometry when it failed):
         # (stamp, odometry pose, pose in its keyframe's frame)
         self._anchor: tuple[int, gtsam.Pose2, gtsam.Pose2] = (0, gtsam.Pose2(), gtsam.Pose2())
-        self._between: tuple[tuple[int, int], LookupGrid | None] | None = None  # see _between_grid
+        self._between: tuple[tuple[int, int], LookupGrid] | None = None  # see _between_grid
         self._grid = OccupancyGrid2D(self.grid_params)
         self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
         self._grid_drawn = 0  # keyframes when the grid was last redrawn from scratch
@@ -250,16 +250,26 @@ class Slam2D:
         self._scans.append((stamp, last.index, rel))
         return pose
 
-    def _between_grid(self, base: gtsam.Pose2) -> LookupGrid | None:
+    def _between_grid(self, base: gtsam.Pose2) -> LookupGrid:
         """The running buffer's lookup grid for the scans between the last keyframe and the next (made once
-        per keyframe, and again when an optimisation moved the keyframes); None when no buffer point is in
-        reach (nothing to match against)."""
+        per keyframe, and again when an optimisation moved the keyframes): the buffer's points within reach
+        of any such scan, among them all of the last keyframe's own."""
         key = (len(self.keyframes), self.graph.optimizations)
         if self._between is None or self._between[0] != key:
             reference = self._buffer_points(base)
-            reach = self.p.max_laser_range + self._link.linear + 4 * self.p.correlation_search_space_smear_deviation
+            # a scan before the next keyframe lies less than minimum_travel_distance (by odometry) from the
+            # keyframe, its laser the mount's offset from its base, its points max_laser_range from the laser;
+            # a full window's side covers the matches' corrections on the way
+            mount = self.keyframes[-1].scan.mount
+            reach = (
+                self.p.max_laser_range
+                + math.hypot(float(mount[0, 3]), float(mount[1, 3]))
+                + self.p.minimum_travel_distance
+                + self._link.linear
+                + 4 * self.p.correlation_search_space_smear_deviation
+            )
             reference = reference[np.hypot(reference[:, 0] - base.x(), reference[:, 1] - base.y()) <= reach]
-            self._between = (key, self.matcher.grid(reference, self._link) if len(reference) else None)
+            self._between = (key, self.matcher.grid(reference, self._link))
         return self._between[1]
 
     def _predict(self, odom: gtsam.Pose2) -> gtsam.Pose2:
@@ -302,14 +312,14 @@ class Slam2D:
                     (stamp, float(np.linalg.norm(recovered.pose[:2] - pose[:2])), float(recovered.response))
                 )
                 pose = recovered.pose.copy()
-                pose[2] = math.remainder(float(pose[2]), 2 * math.pi)
+                pose[2] = remainder_angle(float(pose[2]))
                 self.counts.matched += 1
                 cov = self._match_covariance(recovered, self.p.match_sigmas)
                 kind, response = "match", recovered.response
             elif match is not None:
                 if float(np.linalg.eigvalsh(match.hessian[:2, :2])[0]) > 0.1:  # a match that pins x and y
                     innovation = rot.T @ (match.pose - pose)
-                    innovation[2] = math.remainder(float(innovation[2]), 2 * math.pi)
+                    innovation[2] = remainder_angle(float(innovation[2]))
                     self._innovations.append(innovation)
                 pose, cov = self._fuse(pose, prev.theta(), match)
                 self.counts.matched += 1
@@ -348,7 +358,7 @@ class Slam2D:
             self.p.loop_search_space_dimension, self.p.coarse_search_angle_offset, self.p.coarse_angle_resolution
         )
         centres = [prediction, np.array([previous[0], previous[1], prediction[2]])]
-        if abs(math.remainder(float(previous[2] - prediction[2]), 2 * math.pi)) > self._link.angular:
+        if abs(remainder_angle(float(previous[2] - prediction[2]))) > self._link.angular:
             centres.append(np.asarray(previous, dtype=np.float64))
         reference = self._buffer_points(_pose2(previous))
         least = max(self.p.loop_match_minimum_response_fine, min_response)
@@ -357,7 +367,7 @@ class Slam2D:
             if found is None:
                 continue
             pinned = self._pins(self._match_covariance(found, self.p.loop_sigmas))
-            turn = abs(math.remainder(float(found.pose[2] - prediction[2]), 2 * math.pi))
+            turn = abs(remainder_angle(float(found.pose[2] - prediction[2])))
             inside = np.max(np.abs(found.pose[:2] - prediction[:2])) <= self._link.linear / 2 and turn <= (
                 self._link.angular
             )
@@ -420,9 +430,9 @@ class Slam2D:
         info_o = np.linalg.inv(self._odometry_covariance(heading))
         cov = np.linalg.inv(info_m + info_o)
         diff = match.pose - prediction
-        diff[2] = math.remainder(float(diff[2]), 2 * math.pi)
+        diff[2] = remainder_angle(float(diff[2]))
         pose = prediction + cov @ info_m @ diff
-        pose[2] = math.remainder(float(pose[2]), 2 * math.pi)
+        pose[2] = remainder_angle(float(pose[2]))
         return pose, 0.5 * (cov + cov.T)
 
     def _buffer_points(self, around: gtsam.Pose2) -> np.ndarray:
@@ -597,9 +607,7 @@ class Slam2D:
             reach = self.p.max_laser_range
             if self.keyframes:
                 reach = min(reach, max(float(k.scan.range_max) for k in self.keyframes[:done]))
-            shift = np.hypot(moved[:, 0], moved[:, 1]) + reach * np.abs(
-                np.remainder(moved[:, 2] + np.pi, 2 * np.pi) - np.pi
-            )
+            shift = np.hypot(moved[:, 0], moved[:, 1]) + reach * np.abs(angle_diff(moved[:, 2], 0.0))
             due = final or len(self.keyframes) - self._grid_drawn >= 0.25 * len(self.keyframes)
             if float(shift.max()) > self.grid_params.resolution and due:
                 self._grid = OccupancyGrid2D(self.grid_params)

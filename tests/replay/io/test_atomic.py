@@ -170,3 +170,13 @@ def test_export_view_recover_fleet_and_campaign_refuse_an_output_another_run_wri
         assert "is writing this output" in capsys.readouterr().err, name
         assert not out.exists(), name
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_write_error_moved_out_of_a_temporary_folder_names_the_final_path(tmp_path):
+    from navlog.replay.io.atomic import WriteError
+
+    tmp, final = tmp_path / ".out.partial", tmp_path / "out"
+    err = WriteError(tmp / "maps" / "map.yaml", "cannot write map: No space left on device")
+    assert str(err.moved(tmp, final)) == f"{final / 'maps' / 'map.yaml'}: cannot write map: No space left on device"
+    elsewhere = WriteError(tmp_path / "other.yaml", "cannot write")
+    assert elsewhere.moved(tmp, final) is elsewhere

@@ -235,20 +235,27 @@ def test_scans_without_a_valid_reading_are_counted_not_placed(scene):
         assert slam.counts.empty_scans == 10
 
 
-def test_a_scan_between_keyframes_with_nothing_in_reach_follows_the_odometry():
-    # the only keyframe's laser sits 15 m ahead of the base and sees a wall 10 m further on: its points lie
-    # 25 m from the base, beyond what the next scan's match can reach (20.9 m); that scan, due for a match,
-    # has nothing to match against and follows the odometry
+def test_a_scan_between_keyframes_matches_a_keyframe_whose_laser_sits_far_from_the_base():
+    # the laser sits 15 m ahead of the base and sees a wall across its path 10 m further on (25 m from the
+    # base, beyond max_laser_range + the window); the next scan, due for a match, reads the odometry 5 cm
+    # long: the lookup grid reaches the wall and the match takes the 5 cm back
     ahead = np.eye(4)
     ahead[0, 3] = 15.0
-    far = np.full(N_BEAMS, np.inf)
-    far[N_BEAMS // 2 - 5 : N_BEAMS // 2 + 5] = 10.0  # the beams around 0 rad
+
+    def wall(base_x: float) -> LaserScan2D:
+        r = np.full(N_BEAMS, np.inf)
+        front = np.abs(ANGLES) < 0.3
+        r[front] = (25.0 - 15.0 - base_x) / np.cos(ANGLES[front])
+        return LaserScan2D(ANGLES, r, 0.05, 100.0, ahead)
+
     slam = Slam2D(SlamParams())
-    slam.add_scan(0, (0.0, 0.0, 0.0), LaserScan2D(ANGLES, far, 0.05, 100.0, ahead))
+    slam.add_scan(0, (0.0, 0.0, 0.0), wall(0.0))
     assert slam.counts.keyframes == 1
-    pose = slam.add_scan(600_000_000, (0.1, 0.0, 0.0), scan_of(np.full(N_BEAMS, 2.0)))
-    assert slam._between is not None and slam._between[1] is None  # the lookup grid was asked for: none
-    assert slam.counts.matched_between == 0 and np.allclose(pose, (0.1, 0.0, 0.0))
+    pose = slam.add_scan(600_000_000, (0.15, 0.0, 0.0), wall(0.1))
+    grid = slam._between[1]
+    assert grid.core_origin[0] + grid.likelihood.shape[1] * grid.res > 25.0  # the wall is on the grid
+    assert slam.counts.matched_between == 1
+    assert abs(pose[0] - 0.1) < 0.01 and abs(pose[1]) < 0.05 and abs(pose[2]) < 0.01
 
 
 def corridor_scan(pose) -> LaserScan2D:

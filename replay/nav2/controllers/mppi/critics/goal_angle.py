@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from navlog.replay.compiled import compile_together
+from navlog.replay.geometry import remainder_angle
 from navlog.replay.nav2.controllers.mppi.critics.base import Critic, CriticParams
 from navlog.replay.nav2.schema import param
 
@@ -58,7 +59,7 @@ class GoalAngleCritic(Critic[GoalAngleCriticParams]):
         if not data.robot_near_goal(p.threshold_to_consider):
             return
         goal_yaw = float(data.path[-1, 2])
-        flipped = math.remainder(goal_yaw + math.pi, 2 * math.pi)
+        flipped = remainder_angle(goal_yaw + math.pi)
         out = np.empty(data.yaw.shape[0])
         compiled_heading_errors()(data.yaw, goal_yaw, flipped, p.symmetric_yaw_tolerance, out)
         self.add(data, out)

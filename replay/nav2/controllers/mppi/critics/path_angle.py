@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from navlog.replay.geometry import shortest_angular_distances
+from navlog.replay.geometry import remainder_angle, shortest_angular_distances
 from navlog.replay.nav2.controllers.base import Pose2D
 from navlog.replay.nav2.controllers.mppi.critics.base import Critic, CriticParams
 from navlog.replay.nav2.schema import param
@@ -33,11 +33,11 @@ def pose_point_angle(pose: Pose2D, px: float, py: float, mode: int, point_yaw: f
     yaw = math.atan2(py - pose[1], px - pose[0])
     if mode == 2:
         if abs(float(shortest_angular_distances(yaw, point_yaw))) > math.pi / 2:
-            yaw = math.remainder(yaw + math.pi, 2 * math.pi)
+            yaw = remainder_angle(yaw + math.pi)
         return abs(float(shortest_angular_distances(yaw, pose[2])))
     fwd = abs(float(shortest_angular_distances(yaw, pose[2])))
     if mode == 1:
-        return min(fwd, abs(float(shortest_angular_distances(yaw, math.remainder(pose[2] + math.pi, 2 * math.pi)))))
+        return min(fwd, abs(float(shortest_angular_distances(yaw, remainder_angle(pose[2] + math.pi)))))
     return fwd
 
 
