@@ -6,7 +6,7 @@
 - ``SlamParams`` (``params``): its parameters under slam_toolbox's names;
 - ``ScanMatcher``, ``SearchWindow``, ``MatchResult``, ``LookupGrid`` (``scan_matcher``): the
   multi-resolution correlative matcher (branch and bound, then least squares);
-- ``PoseGraph``, ``Edge`` (``pose_graph``): keyframe poses and their edges, optimised by gtsam.
+- ``PoseGraph``, ``Edge`` (``pose_graph``): keyframe poses and their edges, optimised incrementally by gtsam's iSAM2.
 
 Names are imported on first use, so reading the parameters does not load gtsam.
 """

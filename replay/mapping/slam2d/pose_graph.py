@@ -1,10 +1,17 @@
-"""The pose graph of keyframes: Pose2 nodes, relative-pose edges, optimised by gtsam.
+"""The pose graph of keyframes: Pose2 nodes, relative-pose edges, optimised by gtsam's iSAM2.
 
 Edges are gtsam ``BetweenFactorPose2`` factors with Gaussian noise (diagonal standard deviations, or a
 full covariance: a scan match pins some directions better than others); loop closures sit behind a
 robust kernel (Huber or Cauchy), so one wrong closure bends the graph less than a right one pulls it,
-and ``remove_last_edge`` takes back a closure the optimised graph disagrees with. The first node is anchored by a tight prior. ``optimize`` runs gtsam's Levenberg-Marquardt
-on the whole graph from the current estimate (deterministic: the same graph gives the same poses).
+and ``remove_last_edge`` takes back a closure the optimised graph disagrees with. The first node is
+anchored by a tight prior.
+
+Nodes and edges wait until ``optimize``, which hands them to iSAM2 (Kaess et al. 2012) and updates
+until no variable moves past ``RELINEARIZE_THRESHOLD`` (at most ``MAX_UPDATES`` updates): iSAM2
+re-eliminates only the part of the graph a new edge touches, where a batch optimiser would solve the
+whole graph at every closure and its cost would grow with the travel. Between optimisations the
+estimate of a new node is the pose it was added at. Deterministic: the same nodes and edges in the
+same order give the same poses.
 """
 
 from __future__ import annotations
@@ -17,6 +24,10 @@ import numpy as np
 
 EdgeKind = Literal["match", "odometry", "loop"]
 PRIOR_SIGMAS = (1e-6, 1e-6, 1e-6)
+# iSAM2 relinearises a variable whose update exceeds this (metres and radians of its tangent space)...
+RELINEARIZE_THRESHOLD = 0.001
+# ...and ``optimize`` repeats the update while any variable was relinearised, this many times at most
+MAX_UPDATES = 10
 
 
 @dataclass(frozen=True)
@@ -32,10 +43,17 @@ class PoseGraph:
     """Nodes 0..n-1 (planar poses) and the edges between them."""
 
     def __init__(self) -> None:
-        self._graph = gtsam.NonlinearFactorGraph()
-        self._values = gtsam.Values()
+        params = gtsam.ISAM2Params()
+        params.setRelinearizeThreshold(RELINEARIZE_THRESHOLD)
+        params.relinearizeSkip = 1
+        self._isam = gtsam.ISAM2(params)
+        self._new_factors = gtsam.NonlinearFactorGraph()  # waiting for the next optimisation
+        self._new_values = gtsam.Values()
+        self._values = gtsam.Values()  # the current estimate of every node
         self.edges: list[Edge] = []
         self._gaussians: list[gtsam.noiseModel.Base] = []  # per edge, its noise without the robust kernel
+        self._slots: list[int | None] = []  # per edge, its factor's index in iSAM2 (None while waiting)
+        self._prior_waiting = False
         self.optimizations = 0
 
     def __len__(self) -> int:
@@ -46,8 +64,12 @@ class PoseGraph:
         i = len(self)
         p = gtsam.Pose2(*(float(v) for v in pose))
         self._values.insert(i, p)
+        self._new_values.insert(i, p)
         if i == 0:
-            self._graph.add(gtsam.PriorFactorPose2(0, p, gtsam.noiseModel.Diagonal.Sigmas(np.array(PRIOR_SIGMAS))))
+            self._new_factors.add(
+                gtsam.PriorFactorPose2(0, p, gtsam.noiseModel.Diagonal.Sigmas(np.array(PRIOR_SIGMAS)))
+            )
+            self._prior_waiting = True
         return i
 
     def add_edge(
@@ -76,7 +98,8 @@ class PoseGraph:
             model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(kernel_k), model)
         elif kernel == "cauchy":
             model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(kernel_k), model)
-        self._graph.add(gtsam.BetweenFactorPose2(source, target, gtsam.Pose2(*rel), model))
+        self._new_factors.add(gtsam.BetweenFactorPose2(source, target, gtsam.Pose2(*rel), model))
+        self._slots.append(None)
         self.edges.append(Edge(source, target, kind, (rel[0], rel[1], rel[2]), float(response)))
 
     def edge_chi2(self, k: int = -1) -> float:
@@ -87,27 +110,37 @@ class PoseGraph:
         err = measured.localCoordinates(actual)
         return float(np.sum(np.square(self._gaussians[k].whiten(err))))
 
-    def snapshot(self) -> gtsam.Values:
-        """The current estimate, to ``remove_last_edge`` back to."""
-        return gtsam.Values(self._values)
-
-    def remove_last_edge(self, restore: gtsam.Values) -> None:
-        """Drop the newest edge and return the estimate to ``restore`` (a ``snapshot``)."""
-        graph = gtsam.NonlinearFactorGraph()
-        for i in range(self._graph.size() - 1):
-            graph.add(self._graph.at(i))
-        self._graph = graph
+    def remove_last_edge(self) -> None:
+        """Drop the newest edge and optimise without it (a closure the optimised graph disagrees with)."""
+        slot = self._slots.pop()
         self.edges.pop()
         self._gaussians.pop()
-        self._values = restore
+        if slot is None:  # not handed to iSAM2 yet: out of the waiting factors
+            kept = gtsam.NonlinearFactorGraph()
+            for i in range(self._new_factors.size() - 1):
+                kept.add(self._new_factors.at(i))
+            self._new_factors = kept
+        self._flush([] if slot is None else [slot])
 
     def optimize(self) -> None:
-        """Levenberg-Marquardt on the whole graph; the result becomes the current estimate."""
-        params = gtsam.LevenbergMarquardtParams()
-        params.setMaxIterations(100)
-        params.setRelativeErrorTol(1e-8)
-        params.setAbsoluteErrorTol(1e-10)
-        self._values = gtsam.LevenbergMarquardtOptimizer(self._graph, self._values, params).optimize()
+        """Hand the waiting nodes and edges to iSAM2 and update; the result becomes the current estimate."""
+        self._flush([])
+
+    def _flush(self, remove: list[int]) -> None:
+        """One iSAM2 update with the waiting nodes and edges added and the factors at ``remove`` taken out,
+        then more until nothing is relinearised (``MAX_UPDATES`` in all at most)."""
+        waiting = [k for k, slot in enumerate(self._slots) if slot is None]
+        result = self._isam.update(self._new_factors, self._new_values, remove)
+        added = [int(i) for i in result.getNewFactorsIndices()]
+        if self._prior_waiting:  # the prior came first
+            added, self._prior_waiting = added[1:], False
+        for k, slot in zip(waiting, added, strict=True):
+            self._slots[k] = slot
+        self._new_factors, self._new_values = gtsam.NonlinearFactorGraph(), gtsam.Values()
+        for _ in range(MAX_UPDATES - 1):
+            if self._isam.update().getVariablesRelinearized() == 0:
+                break
+        self._values = self._isam.calculateEstimate()
         self.optimizations += 1
 
     def pose(self, i: int) -> np.ndarray:

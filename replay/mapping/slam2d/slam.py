@@ -510,7 +510,6 @@ class Slam2D:
             return
         anchor = _pose2(poses[closest])
         rel = anchor.between(_pose2(match.pose))
-        before = self.graph.snapshot()
         self.graph.add_edge(
             closest,
             new,
@@ -524,10 +523,10 @@ class Slam2D:
         self.graph.optimize()
         if self.graph.edge_chi2() > self.p.loop_match_maximum_chi2:
             # the rest of the graph disagrees with the closure: a false match, taken back
-            self.graph.remove_last_edge(before)
+            self.graph.remove_last_edge()
             self.counts.loops_inconsistent += 1
-            # the next keyframes would meet the same chain: wait as after a closure (each try optimises
-            # the whole graph)
+            # the next keyframes would meet the same chain: wait as after a closure (each try is an
+            # optimisation)
             self._since_loop = 0.0
             return
         self.counts.loops += 1
