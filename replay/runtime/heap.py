@@ -8,12 +8,14 @@ from the heap, where sweep-sized arrays and the small_gicp maps' buffers, freed 
 different order, leave gaps the heap cannot give back. The resident size then climbs over a long log:
 a full mapping replay of a 10-minute patrol log peaked 39 % above that of its first minute.
 
-``steady_heap`` sets the threshold once, which also stops glibc from moving it: blocks up to 512 KiB
-(a sweep's arrays, which a replay takes and frees at every sweep) still come from the heap, larger
-ones have mappings of their own. Measured on the same two logs: 119 and 137 MiB (1.15); with the
-threshold at 128 KiB the peak is flat too, but every sweep-sized array is then mapped and faulted in
-anew (ten times the page faults, ~3 s of a 25 s replay). Elsewhere than glibc (no ``mallopt``) it
-does nothing.
+``steady_heap`` sets the threshold once, which also stops glibc from moving it: blocks up to 4 MiB
+(a 3D sweep's arrays, a 2D SLAM lookup grid's, taken and freed at every sweep or scan) come from the
+heap, larger ones have mappings of their own. It also lets the heap keep up to 64 MiB free at its top
+(``M_TRIM_THRESHOLD``, which a fixed mmap threshold would otherwise leave at 128 KiB): a block freed
+there is reused by the next one instead of being handed back and faulted in anew, page by page.
+``HeapTrim`` bounds what the heap keeps over time. With the threshold at 512 KiB, every SLAM lookup
+grid's arrays were mapped and faulted in anew (the figures: the performance page). Elsewhere than
+glibc (no ``mallopt``) it does nothing.
 
 The heap's free pages stay resident too: a block freed between blocks still in use is kept for the
 heap's next use, and over a long replay the free space among them grows (a 10-minute patrol log's
@@ -33,20 +35,23 @@ from collections.abc import Callable
 
 __all__ = ["STEADY_MMAP_THRESHOLD", "HeapTrim", "steady_heap"]
 
-STEADY_MMAP_THRESHOLD = 512 * 1024
+STEADY_MMAP_THRESHOLD = 4 << 20
+STEADY_TRIM_THRESHOLD = 64 << 20
 _M_MMAP_THRESHOLD = -3  # glibc's malloc.h
+_M_TRIM_THRESHOLD = -1
 _done = False
 
 
-def steady_heap(threshold: int = STEADY_MMAP_THRESHOLD) -> bool:
-    """Fix glibc's mmap threshold at ``threshold`` bytes for this process (once); True where it was set."""
+def steady_heap(threshold: int = STEADY_MMAP_THRESHOLD, trim: int = STEADY_TRIM_THRESHOLD) -> bool:
+    """Fix glibc's mmap threshold at ``threshold`` bytes and its trim threshold at ``trim`` bytes for this
+    process (once); True where they were set."""
     global _done
     if _done:
         return True
     mallopt = _libc("mallopt", (ctypes.c_int, ctypes.c_int))
     if mallopt is None:
         return False
-    _done = mallopt(_M_MMAP_THRESHOLD, threshold) == 1
+    _done = mallopt(_M_MMAP_THRESHOLD, threshold) == 1 and mallopt(_M_TRIM_THRESHOLD, trim) == 1
     return _done
 
 

@@ -46,7 +46,8 @@ def transform_points(pose, points: np.ndarray) -> np.ndarray:
 
 
 class LookupGrid:
-    """The likelihood and distance fields of reference points (map frame), and their max-pooled levels.
+    """The likelihood field of reference points (map frame), its max-pooled levels, and per cell the nearest
+    occupied cell (the distance transform's feature) with the mean of the points in it.
 
     The fields cover the reference's box widened by ``3 sigma`` (the *core*): the likelihood is cut to
     zero beyond that distance. The search reads the pooled levels on a *canvas*: the core inside a
@@ -61,17 +62,24 @@ class LookupGrid:
             np.ceil((reference.max(axis=0) + cut + resolution - self.core_origin) / resolution).astype(int) + 1
         ).tolist()
         cells = np.floor((reference - self.core_origin) / resolution).astype(np.int64)
-        flat = cells[:, 1] * nx + cells[:, 0]
-        count = np.bincount(flat, minlength=ny * nx)
-        free = (count == 0).reshape(ny, nx)
-        distance, self._feature = ndimage.distance_transform_edt(free, return_indices=True)
-        self.distance = distance * resolution
-        # the mean of the reference points in each occupied cell (NaN elsewhere)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            self._mean_x = (np.bincount(flat, reference[:, 0], ny * nx) / count).reshape(ny, nx)
-            self._mean_y = (np.bincount(flat, reference[:, 1], ny * nx) / count).reshape(ny, nx)
-        likelihood = np.exp(-0.5 * (self.distance / smear_deviation) ** 2).astype(np.float32)
-        likelihood[self.distance > cut] = 0.0
+        # the occupied cells (flat indices, sorted) and each point's among them
+        self._occupied, slot = np.unique(cells[:, 1] * nx + cells[:, 0], return_inverse=True)
+        free = np.ones(ny * nx, dtype=bool)
+        free[self._occupied] = False
+        distance, self._feature = ndimage.distance_transform_edt(free.reshape(ny, nx), return_indices=True)
+        # the mean of the reference points in each occupied cell
+        count = np.bincount(slot)
+        self._mean = np.stack(
+            [np.bincount(slot, reference[:, 0]) / count, np.bincount(slot, reference[:, 1]) / count], 1
+        )
+        # exp(-0.5 (d / sigma)^2) with d in metres, worked in place: a grid holds millions of cells
+        distance *= resolution
+        z = distance / smear_deviation
+        np.square(z, out=z)
+        z *= -0.5
+        np.exp(z, out=z)
+        likelihood = z.astype(np.float32)
+        likelihood[distance > cut] = 0.0
         self.likelihood = likelihood
         self.border = border
         self.origin = self.core_origin - border * resolution  # the canvas's
@@ -85,16 +93,16 @@ class LookupGrid:
             k, b = 2**level, self.border
             ny, nx = self.likelihood.shape
             # windows starting up to k - 1 cells before the core still see it: pool the core with a k-cell margin
-            sub = np.zeros((ny + k + 1, nx + k + 1), dtype=np.float32)
-            sub[k : k + ny, k : k + nx] = self.likelihood
-            if k > 1:
+            canvas = np.zeros(self.shape, dtype=np.float32)
+            if k == 1:
+                canvas[b : b + ny, b : b + nx] = self.likelihood
+            else:
+                sub = np.zeros((ny + k + 1, nx + k + 1), dtype=np.float32)
+                sub[k : k + ny, k : k + nx] = self.likelihood
                 # a centred window of size k covers [i - k//2, i - k//2 + k - 1]: shift it by k//2
                 centred = ndimage.maximum_filter(sub, size=k, mode="constant", cval=0.0)
                 h = k // 2
-                sub = np.zeros_like(centred)
-                sub[: sub.shape[0] - h, : sub.shape[1] - h] = centred[h:, h:]
-            canvas = np.zeros(self.shape, dtype=np.float32)
-            canvas[b - k : b - k + sub.shape[0], b - k : b - k + sub.shape[1]] = sub
+                canvas[b - k : b - k + sub.shape[0] - h, b - k : b - k + sub.shape[1] - h] = centred[h:, h:]
             grid = self._pooled[level] = canvas.ravel()
         return grid
 
@@ -116,14 +124,14 @@ class LookupGrid:
         """Points placed at ``pose``, their distance to the reference (``far`` at most; see the module
         docstring) and the unit vector from the reference to them (zero at ``far``)."""
         xy = transform_points(pose, points)
-        ny, nx = self.distance.shape
+        ny, nx = self.likelihood.shape
         cells = np.floor((xy - self.core_origin) / self.res).astype(np.int64)
         inside = (cells[:, 0] >= 0) & (cells[:, 0] < nx) & (cells[:, 1] >= 0) & (cells[:, 1] < ny)
         d = np.full(len(xy), far)
         away = np.zeros_like(xy)
         ix, iy = cells[inside, 0], cells[inside, 1]
-        fy, fx = self._feature[0, iy, ix], self._feature[1, iy, ix]
-        delta = xy[inside] - np.stack([self._mean_x[fy, fx], self._mean_y[fy, fx]], axis=1)
+        nearest_cell = self._feature[0, iy, ix].astype(np.int64) * nx + self._feature[1, iy, ix]
+        delta = xy[inside] - self._mean[np.searchsorted(self._occupied, nearest_cell)]
         dist = np.hypot(delta[:, 0], delta[:, 1])
         use = (dist < far) & (dist > 0)
         rows = np.flatnonzero(inside)[use]

@@ -10,31 +10,38 @@ import pytest
 PROBE = """
 import resource, sys
 from navlog.replay.runtime.heap import steady_heap
-if sys.argv[1] == "steady":
+mode, size, first = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+if mode == "steady":
     assert steady_heap() and steady_heap()  # once; the second call says it is set
-big = bytearray(8 << 20)  # a large block, freed: glibc's own threshold would rise past 600 kB
-del big
+if first:
+    big = bytearray(first)  # a large block, freed: glibc's own threshold rises to its size
+    del big
 before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
 for _ in range(40):
-    block = bytearray(600_000)
+    block = bytearray(size)
     block[::4096] = b"x" * len(block[::4096])  # touch every page
     del block
 print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
 """
 
 
-def faults(mode: str) -> int:
-    out = subprocess.run([sys.executable, "-c", PROBE, mode], capture_output=True, text=True, check=True)
+def faults(mode: str, size: int, first: int = 0) -> int:
+    out = subprocess.run(
+        [sys.executable, "-c", PROBE, mode, str(size), str(first)], capture_output=True, text=True, check=True
+    )
     return int(out.stdout)
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt")
-def test_blocks_above_the_threshold_get_mappings_of_their_own_after_a_large_one_is_freed():
-    """Forty 600 kB blocks taken and freed after an 8 MB one: from the heap by default (a few page
-    faults: the heap's pages are reused), each in a mapping of its own with the threshold fixed at
-    512 kB (every page faulted in anew: 40 x 147 pages)."""
-    assert faults("default") < 1000
-    assert faults("steady") >= 40 * 140
+def test_blocks_below_the_threshold_come_from_the_heap_and_larger_ones_get_mappings_of_their_own():
+    """Forty 2 MB blocks (a SLAM lookup grid's arrays) taken and freed with the threshold fixed at 4 MiB
+    and the heap's top kept: from the heap (a few hundred faults, where a threshold of 512 kB mapped
+    each anew: 40 x 489 pages). Forty 6 MB blocks after an 8 MB one was freed: from the heap by default
+    (glibc's own threshold rose to 8 MB), each mapped anew with the threshold fixed (40 x 1465 pages),
+    so that blocks above it never linger in the heap."""
+    assert faults("steady", 2_000_000) < 2000
+    assert faults("default", 6_000_000, 8 << 20) < 2000
+    assert faults("steady", 6_000_000, 8 << 20) >= 40 * 1400
 
 
 TRIM_PROBE = """
