@@ -55,6 +55,9 @@ class PoseGraph:
         self._slots: list[int | None] = []  # per edge, its factor's index in iSAM2 (None while waiting)
         self._prior_waiting = False
         self.optimizations = 0
+        # the estimate as rows (x, y, yaw), the first len(self) of a buffer that doubles as it fills:
+        # read at every keyframe, taken from gtsam only after an optimisation
+        self._rows = np.zeros((64, 3))
 
     def __len__(self) -> int:
         return int(self._values.size())
@@ -65,6 +68,9 @@ class PoseGraph:
         p = gtsam.Pose2(*(float(v) for v in pose))
         self._values.insert(i, p)
         self._new_values.insert(i, p)
+        if i == len(self._rows):
+            self._rows = np.concatenate([self._rows, np.zeros_like(self._rows)])
+        self._rows[i] = (p.x(), p.y(), p.theta())
         if i == 0:
             self._new_factors.add(
                 gtsam.PriorFactorPose2(0, p, gtsam.noiseModel.Diagonal.Sigmas(np.array(PRIOR_SIGMAS)))
@@ -141,6 +147,8 @@ class PoseGraph:
             if self._isam.update().getVariablesRelinearized() == 0:
                 break
         self._values = self._isam.calculateEstimate()
+        n = len(self)
+        self._rows[:n] = np.asarray(gtsam.utilities.extractPose2(self._values), dtype=np.float64).reshape(-1, 3)
         self.optimizations += 1
 
     def pose(self, i: int) -> np.ndarray:
@@ -148,7 +156,9 @@ class PoseGraph:
         return np.array([p.x(), p.y(), p.theta()])
 
     def poses(self) -> np.ndarray:
-        """(n, 3) current poses, read in one call (gtsam's ``extractPose2``, the nodes in key order): the
-        loop search and the map read them at every keyframe, and a Python loop over the nodes would make
-        that work grow with the square of the travel."""
-        return np.asarray(gtsam.utilities.extractPose2(self._values), dtype=np.float64).reshape(-1, 3)
+        """(n, 3) current poses (x, y, yaw) in node order, a read-only view: the loop search and the map read
+        them at every keyframe, so they are kept as rows (gtsam's ``extractPose2`` after each optimisation,
+        a new node's pose as it is added) rather than read from gtsam each time."""
+        rows = self._rows[: len(self)]
+        rows.flags.writeable = False
+        return rows

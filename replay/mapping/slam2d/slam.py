@@ -188,6 +188,7 @@ class Slam2D:
         # per keyframe: the covariance of its sequential edge (in its own frame, as the edge measures it; zero for the first)
         self._chain_cov: list[np.ndarray] = [np.zeros((3, 3))]
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
+        self._range_max: list[float] = []  # per keyframe: the longest range_max of the scans up to it
         self._link = SearchWindow(
             params.correlation_search_space_dimension, params.coarse_search_angle_offset, params.coarse_angle_resolution
         )
@@ -337,6 +338,9 @@ class Slam2D:
         res = self.p.correlation_search_space_resolution
         surface = surface_points(points, res / 2, self.p.correlation_search_space_smear_deviation * 1.5)
         self.keyframes.append(Keyframe(i, stamp, odom, points, scan, surface))
+        self._range_max.append(
+            max(self._range_max[-1], float(scan.range_max)) if self._range_max else float(scan.range_max)
+        )
         self.counts.keyframes += 1
         return pose
 
@@ -603,9 +607,7 @@ class Slam2D:
         done = len(self._grid_poses)
         if done:
             moved = poses[:done] - self._grid_poses
-            reach = self.p.max_laser_range
-            if self.keyframes:
-                reach = min(reach, max(float(k.scan.range_max) for k in self.keyframes[:done]))
+            reach = min(self.p.max_laser_range, self._range_max[done - 1])
             shift = np.hypot(moved[:, 0], moved[:, 1]) + reach * np.abs(angle_diff(moved[:, 2], 0.0))
             due = final or len(self.keyframes) - self._grid_drawn >= 0.25 * len(self.keyframes)
             if float(shift.max()) > self.grid_params.resolution and due:
