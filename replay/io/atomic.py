@@ -123,12 +123,15 @@ class WriteError(NavlogError):
 
     def moved(self, tmp: Path, final: Path) -> WriteError:
         """The same error naming the path under ``final`` that it had under ``tmp`` (a temporary folder
-        that would have become ``final``); itself when its path is not under ``tmp``."""
+        that would have become ``final``), in its detail too; itself when its path is not under ``tmp``."""
         try:
             inside = self.path.relative_to(tmp)
         except ValueError:
             return self
-        return WriteError(final / inside, self.detail)
+        return WriteError(final / inside, self.detail.replace(str(tmp), str(final)))
+
+    def __reduce__(self):
+        return WriteError, (self.path, self.detail)
 
 
 def write_error(path: Path, exc: OSError) -> WriteError:

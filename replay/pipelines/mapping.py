@@ -40,7 +40,7 @@ class Params:
 
 def settle(params: Params, reader: Any, log_to: dict[str, str]) -> Params:
     """Before replaying: the odometry the recording names (``log_odometry``: the SLAM's ``odom_frame``
-    when it is the default, the ``odom`` pose source's topic when none is set); the LiDAR topic (the log's
+    when it is the default, the ``odom`` pose source's topic when none is set and /odom is not remapped); the LiDAR topic (the log's
     only PointCloud2 when the configured one is absent and there is no scan, or ``lidar.lidar_topic:
     auto``) and a check that its frame has a mount."""
     found = log_odometry(reader)
@@ -48,8 +48,10 @@ def settle(params: Params, reader: Any, log_to: dict[str, str]) -> Params:
         topic, frame = found
         if params.slam.odom_frame == DEFAULT_ODOM_FRAME and frame != params.slam.base_frame:
             params = replace(params, slam=replace(params.slam, odom_frame=frame))
-        if params.pose_source == "odom" and not params.occupancy.pose_topic:
-            params = replace(params, occupancy=replace(params.occupancy, pose_topic=topic))
+        default = DEFAULT_POSE_TOPICS["odom"]
+        if params.pose_source == "odom" and not params.occupancy.pose_topic and default not in log_to.values():
+            # the recording's topic, as the pipeline reads it; a remap onto /odom says which topic it is
+            params = replace(params, occupancy=replace(params.occupancy, pose_topic=log_to.get(topic, topic)))
     if params.lidar_mapper == "off":
         return params
     alone = params.occupancy.scan_topic not in {log_to.get(t, t) for t in reader.topics}

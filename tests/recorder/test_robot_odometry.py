@@ -215,8 +215,13 @@ def test_mapping_replays_on_the_odometry_frame_the_log_names(navigated):
         slam = spec.settle(pipeline_params("mapping", overrides=["pose_source=slam"]), reader, {})
         odom = spec.settle(pipeline_params("mapping", overrides=["pose_source=odom"]), reader, {})
         kept = spec.settle(pipeline_params("mapping", overrides=["slam.odom_frame=odom"]), reader, {})
+        # --remap /odom=/odometry/wheels (log topic -> the pipeline's): the pipeline reads /odom, remapped
+        remapped = spec.settle(
+            pipeline_params("mapping", overrides=["pose_source=odom"]), reader, {"/odometry/wheels": "/odom"}
+        )
     assert slam.slam.odom_frame == "wheel_odom" and odom.occupancy.pose_topic == "/odometry/wheels"
     assert kept.slam.odom_frame == "wheel_odom"  # the default's own value reads as the default
+    assert remapped.occupancy.pose_topic == ""  # /odom, which the remap feeds
     # the SLAM places every scan on wheel_odom -> base_footprint (on "odom", none)
     out = run_replay(log, "mapping", tmp / "slam", overrides=["pose_source=slam"], progress=False)
     stamps = [line for line in (out.out_dir / "trajectory.tum").read_text().splitlines() if line.strip()]

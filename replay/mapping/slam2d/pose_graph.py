@@ -10,8 +10,10 @@ Nodes and edges wait until ``optimize``, which hands them to iSAM2 (Kaess et al.
 until no variable moves past ``RELINEARIZE_THRESHOLD`` (at most ``MAX_UPDATES`` updates): iSAM2
 re-eliminates only the part of the graph a new edge touches, where a batch optimiser would solve the
 whole graph at every closure and its cost would grow with the travel. Between optimisations the
-estimate of a new node is the pose it was added at. Deterministic: the same nodes and edges in the
-same order give the same poses.
+estimate of a new node is the pose it was added at. iSAM2 factorises by Cholesky; where that finds
+the system indeterminate (an edge that pins almost nothing, a yaw left free by a round room, with no
+loop around it), the graph goes whole to a new iSAM2 that factorises by QR, and stays there.
+Deterministic: the same nodes and edges in the same order give the same poses.
 """
 
 from __future__ import annotations
@@ -43,10 +45,10 @@ class PoseGraph:
     """Nodes 0..n-1 (planar poses) and the edges between them."""
 
     def __init__(self) -> None:
-        params = gtsam.ISAM2Params()
-        params.setRelinearizeThreshold(RELINEARIZE_THRESHOLD)
-        params.relinearizeSkip = 1
-        self._isam = gtsam.ISAM2(params)
+        self._isam = _isam("CHOLESKY")
+        self._qr = False  # whether the graph moved to a QR-factorising iSAM2
+        self._prior: gtsam.PriorFactorPose2 | None = None
+        self._factors: list[gtsam.BetweenFactorPose2] = []  # per edge, its factor (to move the graph whole)
         self._new_factors = gtsam.NonlinearFactorGraph()  # waiting for the next optimisation
         self._new_values = gtsam.Values()
         self._values = gtsam.Values()  # the current estimate of every node
@@ -72,9 +74,8 @@ class PoseGraph:
             self._rows = np.concatenate([self._rows, np.zeros_like(self._rows)])
         self._rows[i] = (p.x(), p.y(), p.theta())
         if i == 0:
-            self._new_factors.add(
-                gtsam.PriorFactorPose2(0, p, gtsam.noiseModel.Diagonal.Sigmas(np.array(PRIOR_SIGMAS)))
-            )
+            self._prior = gtsam.PriorFactorPose2(0, p, gtsam.noiseModel.Diagonal.Sigmas(np.array(PRIOR_SIGMAS)))
+            self._new_factors.add(self._prior)
             self._prior_waiting = True
         return i
 
@@ -104,7 +105,9 @@ class PoseGraph:
             model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(kernel_k), model)
         elif kernel == "cauchy":
             model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Cauchy.Create(kernel_k), model)
-        self._new_factors.add(gtsam.BetweenFactorPose2(source, target, gtsam.Pose2(*rel), model))
+        factor = gtsam.BetweenFactorPose2(source, target, gtsam.Pose2(*rel), model)
+        self._new_factors.add(factor)
+        self._factors.append(factor)
         self._slots.append(None)
         self.edges.append(Edge(source, target, kind, (rel[0], rel[1], rel[2]), float(response)))
 
@@ -121,6 +124,7 @@ class PoseGraph:
         slot = self._slots.pop()
         self.edges.pop()
         self._gaussians.pop()
+        self._factors.pop()
         if slot is None:  # not handed to iSAM2 yet: out of the waiting factors
             kept = gtsam.NonlinearFactorGraph()
             for i in range(self._new_factors.size() - 1):
@@ -134,7 +138,20 @@ class PoseGraph:
 
     def _flush(self, remove: list[int]) -> None:
         """One iSAM2 update with the waiting nodes and edges added and the factors at ``remove`` taken out,
-        then more until nothing is relinearised (``MAX_UPDATES`` in all at most)."""
+        then more until nothing is relinearised (``MAX_UPDATES`` in all at most); the graph moves to QR
+        where Cholesky finds it indeterminate (gtsam raises ``RuntimeError``)."""
+        try:
+            self._update(remove)
+        except RuntimeError:
+            if self._qr:
+                raise
+            self._move_to_qr()
+        self._values = self._isam.calculateEstimate()
+        n = len(self)
+        self._rows[:n] = np.asarray(gtsam.utilities.extractPose2(self._values), dtype=np.float64).reshape(-1, 3)
+        self.optimizations += 1
+
+    def _update(self, remove: list[int]) -> None:
         waiting = [k for k, slot in enumerate(self._slots) if slot is None]
         result = self._isam.update(self._new_factors, self._new_values, remove)
         added = [int(i) for i in result.getNewFactorsIndices()]
@@ -146,10 +163,20 @@ class PoseGraph:
         for _ in range(MAX_UPDATES - 1):
             if self._isam.update().getVariablesRelinearized() == 0:
                 break
-        self._values = self._isam.calculateEstimate()
-        n = len(self)
-        self._rows[:n] = np.asarray(gtsam.utilities.extractPose2(self._values), dtype=np.float64).reshape(-1, 3)
-        self.optimizations += 1
+
+    def _move_to_qr(self) -> None:
+        """The whole graph (the prior, every edge kept, the estimate as it stood) to a new iSAM2 that
+        factorises by QR."""
+        self._isam, self._qr = _isam("QR"), True
+        self._new_factors = gtsam.NonlinearFactorGraph()
+        if self._prior is not None:
+            self._new_factors.add(self._prior)
+        for factor in self._factors:
+            self._new_factors.add(factor)
+        self._new_values = gtsam.Values(self._values)
+        self._slots = [None] * len(self._factors)
+        self._prior_waiting = self._prior is not None
+        self._update([])
 
     def pose(self, i: int) -> np.ndarray:
         p = self._values.atPose2(i)
@@ -162,3 +189,11 @@ class PoseGraph:
         rows = self._rows[: len(self)]
         rows.flags.writeable = False
         return rows
+
+
+def _isam(factorization: str) -> gtsam.ISAM2:
+    params = gtsam.ISAM2Params()
+    params.setRelinearizeThreshold(RELINEARIZE_THRESHOLD)
+    params.relinearizeSkip = 1
+    params.setFactorization(factorization)
+    return gtsam.ISAM2(params)

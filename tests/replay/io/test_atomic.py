@@ -180,3 +180,11 @@ def test_a_write_error_moved_out_of_a_temporary_folder_names_the_final_path(tmp_
     assert str(err.moved(tmp, final)) == f"{final / 'maps' / 'map.yaml'}: cannot write map: No space left on device"
     elsewhere = WriteError(tmp_path / "other.yaml", "cannot write")
     assert elsewhere.moved(tmp, final) is elsewhere
+    # a library's message naming the temporary path names the final one too; the error survives pickling
+    # (a worker process's error reaches its parent)
+    said = WriteError(tmp / "map.pcd", f"cannot write the point cloud ({tmp / 'map.pcd'} is full)").moved(tmp, final)
+    assert str(said) == f"{final / 'map.pcd'}: cannot write the point cloud ({final / 'map.pcd'} is full)"
+    import pickle
+
+    again = pickle.loads(pickle.dumps(said))
+    assert type(again) is WriteError and str(again) == str(said) and again.path == said.path

@@ -376,6 +376,53 @@ def test_the_incremental_optimisation_finds_the_batch_optimum():
     assert graph.optimizations == 9
 
 
+def test_a_graph_cholesky_finds_indeterminate_is_solved_by_qr():
+    """A chain whose edge 2 -> 3 pins no yaw (a match in a round room: yaw sigma ~450 rad) and a loop
+    10 -> 29 that does not span it: iSAM2's Cholesky finds the system indeterminate; the graph moves
+    to QR and ends where gtsam's batch Levenberg-Marquardt puts it."""
+    import gtsam
+
+    from navlog.replay.mapping.slam2d import PoseGraph
+
+    free_yaw = 0.5 * 0.02**2 * np.linalg.inv(np.diag([1e4, 1e4, 0.0]) + 1e-9 * np.eye(3))
+    free_yaw += np.diag(np.square([0.01, 0.01, 0.005]))
+    usual = np.diag(np.square([0.02, 0.02, 0.01]))
+    graph = PoseGraph()
+    batch = gtsam.NonlinearFactorGraph()
+    batch.add(gtsam.PriorFactorPose2(0, gtsam.Pose2(), gtsam.noiseModel.Diagonal.Sigmas(np.full(3, 1e-6))))
+    start = gtsam.Values()
+    for i in range(30):
+        graph.add_node((float(i), 0.0, 0.0))
+        start.insert(i, gtsam.Pose2(float(i), 0.0, 0.0))
+        if i:
+            cov = free_yaw if i == 3 else usual
+            graph.add_edge(i - 1, i, (1.0, 0.0, 0.0), cov, "match")
+            batch.add(
+                gtsam.BetweenFactorPose2(i - 1, i, gtsam.Pose2(1, 0, 0), gtsam.noiseModel.Gaussian.Covariance(cov))
+            )
+    loop = (18.8, 0.1, 0.02)
+    graph.add_edge(10, 29, loop, (0.05, 0.05, 0.02), "loop", kernel="huber")
+    huber = gtsam.noiseModel.mEstimator.Huber.Create(1.345)
+    noise = gtsam.noiseModel.Robust.Create(huber, gtsam.noiseModel.Diagonal.Sigmas(np.array([0.05, 0.05, 0.02])))
+    batch.add(gtsam.BetweenFactorPose2(10, 29, gtsam.Pose2(*loop), noise))
+    graph.optimize()
+    assert graph._qr
+    lm = gtsam.LevenbergMarquardtOptimizer(batch, start).optimize()
+    # the free yaw turns the chain after node 2 as it likes; what the graph decides is 29 seen from 10
+    got = gtsam.Pose2(*graph.pose(10)).between(gtsam.Pose2(*graph.pose(29)))
+    want = lm.atPose2(10).between(lm.atPose2(29))
+    assert np.allclose([got.x(), got.y(), got.theta()], [want.x(), want.y(), want.theta()], atol=1e-4)
+    # it goes on on QR: another closure, one taken back
+    graph.add_node((30.0, 0.0, 0.0))
+    graph.add_edge(29, 30, (1.0, 0.0, 0.0), usual, "match")
+    graph.add_edge(12, 30, (4.0, 1.0, 0.0), (0.05, 0.05, 0.02), "loop", kernel="huber")  # 18 m short: false
+    graph.optimize()
+    graph.remove_last_edge()
+    assert [e.kind for e in graph.edges].count("loop") == 1 and graph.poses().shape == (31, 3)
+    step = gtsam.Pose2(*graph.pose(29)).between(gtsam.Pose2(*graph.pose(30)))
+    assert np.allclose([step.x(), step.y(), step.theta()], (1.0, 0.0, 0.0), atol=1e-6)
+
+
 def test_an_edge_weighs_its_error_in_the_frame_of_its_target():
     """A match loose along the map's x axis (a corridor along x) between keyframes a quarter turn apart:
     moving the target 0.1 m along the corridor costs 0.01 (in sigmas squared), 1 cm across it costs 1 --
