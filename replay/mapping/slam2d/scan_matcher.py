@@ -7,7 +7,7 @@ in [0, 1]; points off the reference count as zero.
 
 The search covers a square of translations and a fan of yaws around a predicted pose. It is a
 branch and bound over translations (Cartographer's): level ``l`` of the grid holds, in every cell,
-the maximum likelihood over the ``2^l x 2^l`` cells starting there (scipy's maximum filter), so a
+the maximum likelihood over the ``2^l x 2^l`` cells starting there (each level the maximum of four cells of the level below), so a
 candidate's score at that level bounds the score of every finer candidate inside it. Candidates are
 expanded best first and a branch is dropped once its bound cannot beat the best full-resolution
 score found. The winner is then refined below the cell by least squares on the distances of the
@@ -87,22 +87,23 @@ class LookupGrid:
         self._pooled: dict[int, np.ndarray] = {}
 
     def pooled(self, level: int) -> np.ndarray:
-        """Flat canvas whose cell (i, j) is the maximum likelihood over cells [i, i + 2^l) x [j, j + 2^l)."""
+        """Flat canvas whose cell (i, j) is the maximum likelihood over cells [i, i + 2^l) x [j, j + 2^l)
+        (zero beyond the canvas): level l is level l - 1's maximum over its cell and the cells half a
+        window (2^(l-1)) further along each axis."""
         grid = self._pooled.get(level)
         if grid is None:
-            k, b = 2**level, self.border
-            ny, nx = self.likelihood.shape
-            # windows starting up to k - 1 cells before the core still see it: pool the core with a k-cell margin
-            canvas = np.zeros(self.shape, dtype=np.float32)
-            if k == 1:
+            b = self.border
+            if level == 0:
+                ny, nx = self.likelihood.shape
+                canvas = np.zeros(self.shape, dtype=np.float32)
                 canvas[b : b + ny, b : b + nx] = self.likelihood
             else:
-                sub = np.zeros((ny + k + 1, nx + k + 1), dtype=np.float32)
-                sub[k : k + ny, k : k + nx] = self.likelihood
-                # a centred window of size k covers [i - k//2, i - k//2 + k - 1]: shift it by k//2
-                centred = ndimage.maximum_filter(sub, size=k, mode="constant", cval=0.0)
-                h = k // 2
-                canvas[b - k : b - k + sub.shape[0] - h, b - k : b - k + sub.shape[1] - h] = centred[h:, h:]
+                h = 2 ** (level - 1)
+                half = self.pooled(level - 1).reshape(self.shape)
+                rows = half.copy()
+                np.maximum(rows[:-h], half[h:], out=rows[:-h])
+                canvas = rows.copy()
+                np.maximum(canvas[:, :-h], rows[:, h:], out=canvas[:, :-h])
             grid = self._pooled[level] = canvas.ravel()
         return grid
 

@@ -63,6 +63,27 @@ def test_matcher_recovers_a_known_offset_within_a_cell(scene):
     )
 
 
+def test_every_pooled_level_bounds_the_finer_cells_it_covers():
+    """Level l holds in each cell the maximum of level 0 over the 2^l x 2^l cells from it, up to the
+    canvas's far edges: a branch-and-bound bound that fell short there (it read 0 where a wall 1.0 was,
+    for the wide windows of a loop search) let the search drop the best pose."""
+    from navlog.replay.mapping.slam2d.scan_matcher import LookupGrid
+
+    rng = np.random.default_rng(3)
+    grid = LookupGrid(rng.uniform(0.0, 3.0, (400, 2)), 0.025, 0.1, 80)
+    rows, cols = grid.shape
+    base = grid.pooled(0).reshape(rows, cols)
+    for level in range(1, 7):
+        k = 2**level
+        padded = np.zeros((rows + k, cols + k), np.float32)
+        padded[:rows, :cols] = base
+        want = np.zeros_like(base)
+        for dy in range(k):
+            for dx in range(k):
+                want = np.maximum(want, padded[dy : dy + rows, dx : dx + cols])
+        assert np.array_equal(grid.pooled(level).reshape(rows, cols), want), level
+
+
 def rectangle_path(step: float = 0.1) -> np.ndarray:
     """(n, 3) poses along a 6 x 6 m rectangle, driven once and a third, heading along the path."""
     corners = [(-3, -3), (3, -3), (3, 3), (-3, 3), (-3, -3), (3, -3), (3, -1)]
