@@ -179,8 +179,8 @@ class PoseGraph:
         self._update([])
 
     def pose(self, i: int) -> np.ndarray:
-        p = self._values.atPose2(i)
-        return np.array([p.x(), p.y(), p.theta()])
+        """Node ``i``'s current pose (x, y, yaw), a copy."""
+        return self._rows[: len(self)][i].copy()
 
     def poses(self) -> np.ndarray:
         """(n, 3) current poses (x, y, yaw) in node order, a read-only view: the loop search and the map read

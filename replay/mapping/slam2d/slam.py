@@ -240,9 +240,10 @@ class Slam2D:
         _, anchor_odom, anchor_rel = self._anchor
         rel = anchor_rel.compose(anchor_odom.between(odom))
         pose = _xyt(base.compose(rel))
-        grid = self._between_grid(base) if points is not None and len(points) else None
-        if points is not None and grid is not None:
-            match = self.matcher.match_on(grid, points, pose, self._link, self.p.link_match_minimum_response_fine)
+        if points is not None and len(points):
+            match = self.matcher.match_on(
+                self._between_grid(base), points, pose, self._link, self.p.link_match_minimum_response_fine
+            )
             if match is not None:
                 pose, _ = self._fuse(pose, base.theta(), match)
                 rel = base.between(_pose2(pose))
