@@ -24,6 +24,8 @@ from typing import Literal
 import gtsam
 import numpy as np
 
+from navlog.replay.mapping.slam2d.rows import Rows
+
 EdgeKind = Literal["match", "odometry", "loop"]
 PRIOR_SIGMAS = (1e-6, 1e-6, 1e-6)
 # iSAM2 relinearises a variable whose update exceeds this (metres and radians of its tangent space)...
@@ -57,9 +59,8 @@ class PoseGraph:
         self._slots: list[int | None] = []  # per edge, its factor's index in iSAM2 (None while waiting)
         self._prior_waiting = False
         self.optimizations = 0
-        # the estimate as rows (x, y, yaw), the first len(self) of a buffer that doubles as it fills:
-        # read at every keyframe, taken from gtsam only after an optimisation
-        self._rows = np.zeros((64, 3))
+        # the estimate as rows (x, y, yaw): read at every keyframe, taken from gtsam only after an optimisation
+        self._rows = Rows((3,))
 
     def __len__(self) -> int:
         return int(self._values.size())
@@ -70,9 +71,7 @@ class PoseGraph:
         p = gtsam.Pose2(*(float(v) for v in pose))
         self._values.insert(i, p)
         self._new_values.insert(i, p)
-        if i == len(self._rows):
-            self._rows = np.concatenate([self._rows, np.zeros_like(self._rows)])
-        self._rows[i] = (p.x(), p.y(), p.theta())
+        self._rows.append((p.x(), p.y(), p.theta()))
         if i == 0:
             self._prior = gtsam.PriorFactorPose2(0, p, gtsam.noiseModel.Diagonal.Sigmas(np.array(PRIOR_SIGMAS)))
             self._new_factors.add(self._prior)
@@ -147,8 +146,7 @@ class PoseGraph:
                 raise
             self._move_to_qr()
         self._values = self._isam.calculateEstimate()
-        n = len(self)
-        self._rows[:n] = np.asarray(gtsam.utilities.extractPose2(self._values), dtype=np.float64).reshape(-1, 3)
+        self._rows.view()[:] = np.asarray(gtsam.utilities.extractPose2(self._values), dtype=np.float64).reshape(-1, 3)
         self.optimizations += 1
 
     def _update(self, remove: list[int]) -> None:
@@ -180,13 +178,13 @@ class PoseGraph:
 
     def pose(self, i: int) -> np.ndarray:
         """Node ``i``'s current pose (x, y, yaw), a copy."""
-        return self._rows[: len(self)][i].copy()
+        return self._rows.view()[i].copy()
 
     def poses(self) -> np.ndarray:
         """(n, 3) current poses (x, y, yaw) in node order, a read-only view: the loop search and the map read
         them at every keyframe, so they are kept as rows (gtsam's ``extractPose2`` after each optimisation,
         a new node's pose as it is added) rather than read from gtsam each time."""
-        rows = self._rows[: len(self)]
+        rows = self._rows.view()
         rows.flags.writeable = False
         return rows
 

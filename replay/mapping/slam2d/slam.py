@@ -47,6 +47,7 @@ from navlog.replay.geometry import angle_diff, planar_matrix, remainder_angle
 from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d.params import SlamParams
 from navlog.replay.mapping.slam2d.pose_graph import PoseGraph
+from navlog.replay.mapping.slam2d.rows import Rows
 from navlog.replay.mapping.slam2d.scan_matcher import (
     LookupGrid,
     MatchResult,
@@ -186,7 +187,8 @@ class Slam2D:
         self._innovations: deque[np.ndarray] = deque(maxlen=ODOMETRY_WINDOW)
         self._travel: list[float] = [0.0]  # per keyframe: path length from the first, as estimated when added
         # per keyframe: the covariance of its sequential edge (in its own frame, as the edge measures it; zero for the first)
-        self._chain_cov: list[np.ndarray] = [np.zeros((3, 3))]
+        self._chain_cov = Rows((3, 3))
+        self._chain_cov.append(np.zeros((3, 3)))
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
         self._range_max: list[float] = []  # per keyframe: the longest range_max of the scans up to it
         self._link = SearchWindow(
@@ -334,7 +336,7 @@ class Slam2D:
             self.graph.add_node(pose)
             rel = prev.between(_pose2(pose))
             self.graph.add_edge(i - 1, i, _xyt(rel), noise, kind, response=response)  # type: ignore[arg-type]
-            self._chain_cov.append(np.asarray(noise, dtype=np.float64))
+            self._chain_cov.append(noise)
             self._travel.append(self._travel[-1] + float(np.linalg.norm(pose[:2] - _xyt(prev)[:2])))
         res = self.p.correlation_search_space_resolution
         surface = surface_points(points, res / 2, self.p.correlation_search_space_smear_deviation * 1.5)
@@ -542,7 +544,7 @@ class Slam2D:
         relative to keyframe i along the chain of sequential edges between them: the sum over the edges k
         of their translation covariance (rotated into the map frame) and their yaw variance times the
         lever arm from keyframe k to ``new`` (a heading error at k swings everything after it about k)."""
-        cov = np.asarray(self._chain_cov[: new + 1])  # edge k: keyframe k - 1 -> k, in k's frame
+        cov = self._chain_cov.view()[: new + 1]  # edge k: keyframe k - 1 -> k, in k's frame
         theta = poses[: new + 1, 2]  # the heading of edge k's target
         c, s = np.cos(theta), np.sin(theta)
         rot = np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)  # (n, 2, 2)

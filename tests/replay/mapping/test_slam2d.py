@@ -347,13 +347,48 @@ def test_a_loop_the_graph_disagrees_with_is_measured_and_taken_back():
     assert np.allclose(graph.pose(5), (5.0, 0.0, 0.0), atol=1e-6)
 
 
+class _GraphAndBatch:
+    """A PoseGraph and, beside it, the same prior, nodes and edges as a gtsam batch problem (the oracle)."""
+
+    def __init__(self) -> None:
+        import gtsam
+
+        from navlog.replay.mapping.slam2d import PoseGraph
+
+        self.graph = PoseGraph()
+        self.batch = gtsam.NonlinearFactorGraph()
+        self.batch.add(gtsam.PriorFactorPose2(0, gtsam.Pose2(), gtsam.noiseModel.Diagonal.Sigmas(np.full(3, 1e-6))))
+        self.start = gtsam.Values()
+
+    def add_node(self, pose) -> None:
+        import gtsam
+
+        self.start.insert(len(self.graph), gtsam.Pose2(*pose))
+        self.graph.add_node(pose)
+
+    def add_edge(self, source: int, target: int, relative, noise, kind: str, kernel: str = "none") -> None:
+        import gtsam
+
+        self.graph.add_edge(source, target, relative, noise, kind, kernel=kernel)  # type: ignore[arg-type]
+        arr = np.asarray(noise, dtype=np.float64)
+        model = gtsam.noiseModel.Gaussian.Covariance(arr) if arr.ndim == 2 else gtsam.noiseModel.Diagonal.Sigmas(arr)
+        if kernel == "huber":
+            model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(1.345), model)
+        self.batch.add(gtsam.BetweenFactorPose2(source, target, gtsam.Pose2(*relative), model))
+
+    def batch_optimum(self, params=None):
+        """gtsam's batch Levenberg-Marquardt on the same problem, from the poses the nodes were added at."""
+        import gtsam
+
+        args = (self.batch, self.start) if params is None else (self.batch, self.start, params)
+        return gtsam.LevenbergMarquardtOptimizer(*args).optimize()
+
+
 def test_the_incremental_optimisation_finds_the_batch_optimum():
     """A square driven three times with odometry that turns 3 % too much, closed at each corner after the
     first lap (Huber loop edges), optimised after each closure as the SLAM does: iSAM2's poses are those
     of gtsam's batch Levenberg-Marquardt on the same graph, run to convergence, within 0.1 mm."""
     import gtsam
-
-    from navlog.replay.mapping.slam2d import PoseGraph
 
     truth = [(0.0, 0.0, 0.0)]
     for _ in range(3 * 4):
@@ -361,34 +396,26 @@ def test_the_incremental_optimisation_finds_the_batch_optimum():
             x, y, yaw = truth[-1]
             turn = math.pi / 2 if step == 9 else 0.0
             truth.append((x + 0.5 * math.cos(yaw), y + 0.5 * math.sin(yaw), yaw + turn))
-    graph = PoseGraph()
-    batch = gtsam.NonlinearFactorGraph()
-    batch.add(gtsam.PriorFactorPose2(0, gtsam.Pose2(), gtsam.noiseModel.Diagonal.Sigmas(np.full(3, 1e-6))))
-    start = gtsam.Values()
+    both = _GraphAndBatch()
+    graph = both.graph
     estimate = gtsam.Pose2()
-    graph.add_node((0.0, 0.0, 0.0))
-    start.insert(0, estimate)
+    both.add_node((0.0, 0.0, 0.0))
     sigmas = np.array([0.02, 0.02, 0.01])
     loop_sigmas = np.array([0.05, 0.05, 0.02])
     for i in range(1, len(truth)):
         step = gtsam.Pose2(*truth[i - 1]).between(gtsam.Pose2(*truth[i]))
         odom = gtsam.Pose2(step.x(), step.y(), step.theta() * 1.03)
         estimate = estimate.compose(odom)
-        graph.add_node((estimate.x(), estimate.y(), estimate.theta()))
-        start.insert(i, estimate)
-        graph.add_edge(i - 1, i, (odom.x(), odom.y(), odom.theta()), sigmas, "match")
-        batch.add(gtsam.BetweenFactorPose2(i - 1, i, odom, gtsam.noiseModel.Diagonal.Sigmas(sigmas)))
+        both.add_node((estimate.x(), estimate.y(), estimate.theta()))
+        both.add_edge(i - 1, i, (odom.x(), odom.y(), odom.theta()), sigmas, "match")
         if i >= 40 and i % 10 == 0:  # a corner seen a lap before
             rel = gtsam.Pose2(*truth[i - 40]).between(gtsam.Pose2(*truth[i]))
-            graph.add_edge(i - 40, i, (rel.x(), rel.y(), rel.theta()), loop_sigmas, "loop", kernel="huber")
-            huber = gtsam.noiseModel.mEstimator.Huber.Create(1.345)
-            noise = gtsam.noiseModel.Robust.Create(huber, gtsam.noiseModel.Diagonal.Sigmas(loop_sigmas))
-            batch.add(gtsam.BetweenFactorPose2(i - 40, i, rel, noise))
+            both.add_edge(i - 40, i, (rel.x(), rel.y(), rel.theta()), loop_sigmas, "loop", kernel="huber")
             graph.optimize()
     tight = gtsam.LevenbergMarquardtParams()
     tight.setRelativeErrorTol(1e-10)
     tight.setAbsoluteErrorTol(1e-12)
-    lm = gtsam.LevenbergMarquardtOptimizer(batch, start, tight).optimize()
+    lm = both.batch_optimum(tight)
     want = np.array([[lm.atPose2(i).x(), lm.atPose2(i).y()] for i in range(len(truth))])
     assert np.abs(graph.poses()[:, :2] - want).max() < 1e-4
     # the loops hold the square: within 10 cm where the odometry alone ends metres off
@@ -403,32 +430,19 @@ def test_a_graph_cholesky_finds_indeterminate_is_solved_by_qr():
     to QR and ends where gtsam's batch Levenberg-Marquardt puts it."""
     import gtsam
 
-    from navlog.replay.mapping.slam2d import PoseGraph
-
     free_yaw = 0.5 * 0.02**2 * np.linalg.inv(np.diag([1e4, 1e4, 0.0]) + 1e-9 * np.eye(3))
     free_yaw += np.diag(np.square([0.01, 0.01, 0.005]))
     usual = np.diag(np.square([0.02, 0.02, 0.01]))
-    graph = PoseGraph()
-    batch = gtsam.NonlinearFactorGraph()
-    batch.add(gtsam.PriorFactorPose2(0, gtsam.Pose2(), gtsam.noiseModel.Diagonal.Sigmas(np.full(3, 1e-6))))
-    start = gtsam.Values()
+    both = _GraphAndBatch()
+    graph = both.graph
     for i in range(30):
-        graph.add_node((float(i), 0.0, 0.0))
-        start.insert(i, gtsam.Pose2(float(i), 0.0, 0.0))
+        both.add_node((float(i), 0.0, 0.0))
         if i:
-            cov = free_yaw if i == 3 else usual
-            graph.add_edge(i - 1, i, (1.0, 0.0, 0.0), cov, "match")
-            batch.add(
-                gtsam.BetweenFactorPose2(i - 1, i, gtsam.Pose2(1, 0, 0), gtsam.noiseModel.Gaussian.Covariance(cov))
-            )
-    loop = (18.8, 0.1, 0.02)
-    graph.add_edge(10, 29, loop, (0.05, 0.05, 0.02), "loop", kernel="huber")
-    huber = gtsam.noiseModel.mEstimator.Huber.Create(1.345)
-    noise = gtsam.noiseModel.Robust.Create(huber, gtsam.noiseModel.Diagonal.Sigmas(np.array([0.05, 0.05, 0.02])))
-    batch.add(gtsam.BetweenFactorPose2(10, 29, gtsam.Pose2(*loop), noise))
+            both.add_edge(i - 1, i, (1.0, 0.0, 0.0), free_yaw if i == 3 else usual, "match")
+    both.add_edge(10, 29, (18.8, 0.1, 0.02), (0.05, 0.05, 0.02), "loop", kernel="huber")
     graph.optimize()
     assert graph._qr
-    lm = gtsam.LevenbergMarquardtOptimizer(batch, start).optimize()
+    lm = both.batch_optimum()
     # the free yaw turns the chain after node 2 as it likes; what the graph decides is 29 seen from 10
     got = gtsam.Pose2(*graph.pose(10)).between(gtsam.Pose2(*graph.pose(29)))
     want = lm.atPose2(10).between(lm.atPose2(29))
@@ -442,6 +456,20 @@ def test_a_graph_cholesky_finds_indeterminate_is_solved_by_qr():
     assert [e.kind for e in graph.edges].count("loop") == 1 and graph.poses().shape == (31, 3)
     step = gtsam.Pose2(*graph.pose(29)).between(gtsam.Pose2(*graph.pose(30)))
     assert np.allclose([step.x(), step.y(), step.theta()], (1.0, 0.0, 0.0), atol=1e-6)
+
+
+def test_rows_grow_past_their_capacity_and_read_as_a_view():
+    """Rows appended one at a time past the first buffer read back in order, as a view of the filled part."""
+    from navlog.replay.mapping.slam2d.rows import Rows
+
+    rows = Rows((3, 3), capacity=2)
+    for k in range(5):
+        rows.append(np.full((3, 3), float(k)))
+    assert len(rows) == 5 and rows.view().shape == (5, 3, 3)
+    assert rows.view()[:, 0, 0].tolist() == [0.0, 1.0, 2.0, 3.0, 4.0]
+    rows.view()[1] = 7.0  # a view: writes land in the rows
+    assert rows.view()[1, 2, 2] == 7.0
+    assert Rows((2,)).view().shape == (0, 2)
 
 
 def test_an_edge_weighs_its_error_in_the_frame_of_its_target():
