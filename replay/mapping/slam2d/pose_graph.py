@@ -7,9 +7,13 @@ and ``remove_last_edge`` takes back a closure the optimised graph disagrees with
 anchored by a tight prior.
 
 Nodes and edges wait until ``optimize``, which hands them to iSAM2 (Kaess et al. 2012) and updates
-until no variable moves past ``RELINEARIZE_THRESHOLD`` (at most ``MAX_UPDATES`` updates): iSAM2
-re-eliminates only the part of the graph a new edge touches, where a batch optimiser would solve the
-whole graph at every closure and its cost would grow with the travel. Between optimisations the
+until no variable is relinearised (at most ``MAX_UPDATES`` updates): iSAM2 re-eliminates only the
+part of the graph a new edge touches, where a batch optimiser would solve the whole graph at every
+closure and its cost would grow with the travel. Variables are checked for relinearisation from the
+Bayes tree's root down, and the check stops below a variable whose update stays under
+``RELINEARIZE_THRESHOLD`` (gtsam's partial check): a closure that moves a long loop does not
+relinearise every pose of it at every update. Deeper variables then keep an older linearisation
+point; the tests hold the result to gtsam's batch optimum of the same graph. Between optimisations the
 estimate of a new node is the pose it was added at. iSAM2 factorises by Cholesky; where that finds
 the system indeterminate (an edge that pins almost nothing, a yaw left free by a round room, with no
 loop around it), the graph goes whole to a new iSAM2 that factorises by QR, and stays there.
@@ -28,7 +32,8 @@ from navlog.replay.mapping.slam2d.rows import Rows
 
 EdgeKind = Literal["match", "odometry", "loop"]
 PRIOR_SIGMAS = (1e-6, 1e-6, 1e-6)
-# iSAM2 relinearises a variable whose update exceeds this (metres and radians of its tangent space)...
+# iSAM2 relinearises a variable whose update exceeds this (metres and radians of its tangent space; below
+# one that does not, the check stops)...
 RELINEARIZE_THRESHOLD = 0.001
 # ...and ``optimize`` repeats the update while any variable was relinearised, this many times at most
 MAX_UPDATES = 10
@@ -193,5 +198,6 @@ def _isam(factorization: str) -> gtsam.ISAM2:
     params = gtsam.ISAM2Params()
     params.setRelinearizeThreshold(RELINEARIZE_THRESHOLD)
     params.relinearizeSkip = 1
+    params.enablePartialRelinearizationCheck = True
     params.setFactorization(factorization)
     return gtsam.ISAM2(params)
