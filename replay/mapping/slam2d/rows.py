@@ -21,7 +21,10 @@ class Rows:
         return self._n
 
     def append(self, row) -> None:
-        """Add ``row`` (anything NumPy broadcasts to the row shape) at the end."""
+        """Add ``row`` (an array of the row shape, or a sequence NumPy reads as one) at the end; another shape
+        raises ``ValueError`` (NumPy would broadcast a (3,) row into a (3, 3) one)."""
+        if np.shape(row) != self._buffer.shape[1:]:
+            raise ValueError(f"a row of shape {self._buffer.shape[1:]} expected, got {np.shape(row)}")
         if self._n == len(self._buffer):
             self._buffer = np.concatenate([self._buffer, np.zeros_like(self._buffer)])
         self._buffer[self._n] = row
