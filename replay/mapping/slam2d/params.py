@@ -47,7 +47,15 @@ class SlamParams:
     loop_search_maximum_distance: float = 3.0  # keyframes closer than this are loop candidates
     loop_match_minimum_chain_size: int = 10  # a candidate chain needs this many keyframes
     loop_match_minimum_response_fine: float = 0.45  # a loop is accepted at or above this response
-    loop_search_space_dimension: float = 8.0  # side of the largest square searched for a loop
+    # a search wider than loop_search_space_dimension (below) keeps its best pose at or above this response
+    # before the full-resolution search around it
+    loop_match_minimum_response_coarse: float = 0.35
+    # side of the square searched for a loop on the correlation grid (correlation_search_space_resolution)
+    loop_search_space_dimension: float = 8.0
+    # navlog's: the loop search's square grows with the path's uncertainty (loop_search_path_sigmas) up to
+    # this side; a square wider than loop_search_space_dimension is searched on a correlation grid coarser in
+    # proportion, then at full resolution in a 1 m square around the pose it found
+    loop_search_maximum_dimension: float = 20.0
     # navlog's: the loop search reaches loop_search_maximum_distance plus this many standard deviations of
     # the new keyframe's position relative to an older one (the uncertainty the sequential edges between
     # them add up to: the path's own, from the matches' covariances), up to half the loop search square
@@ -56,6 +64,11 @@ class SlamParams:
     # submap does not pin the scan (a corridor). slam_toolbox's name; navlog's variance is the match's
     # Hessian's (ScanMatcher.covariance), hence the smaller default (slam_toolbox: 3.0 of its own measure)
     loop_match_maximum_variance_coarse: float = 0.01
+    # navlog's, after Karto's test of a loop's coarse covariance: the variance (m^2, worst direction) of the
+    # positions in the searched square whose score is within 0.05 of the loop's (their best over the yaws,
+    # 10 cm blocks on the correlation grid), weighted by that score, about their mean. A place elsewhere in the
+    # square that looks the same spreads it; above this the loop is refused (counted as ambiguous)
+    loop_match_maximum_spread: float = 3.0
     # navlog's: after optimising, a loop edge whose squared Mahalanobis error exceeds this is taken back
     # (the rest of the graph disagrees with it; 16.3 is chi-square's 99.9 % for three degrees of freedom)
     loop_match_maximum_chi2: float = 16.3
@@ -90,6 +103,8 @@ class SlamParams:
             "correlation_search_space_smear_deviation",
             "coarse_angle_resolution",
             "loop_search_space_dimension",
+            "loop_search_maximum_dimension",
+            "loop_match_maximum_spread",
             "map_update_interval",
             "loop_kernel_k",
             "loop_match_maximum_variance_coarse",
@@ -122,7 +137,16 @@ class SlamParams:
             raise ValueError(f"loop_kernel must be huber, cauchy or none, got {self.loop_kernel!r}")
         if self.scan_buffer_size < 1 or self.loop_match_minimum_chain_size < 1:
             raise ValueError("scan_buffer_size and loop_match_minimum_chain_size must be at least 1")
-        for name in ("link_match_minimum_response_fine", "loop_match_minimum_response_fine"):
+        if self.loop_search_maximum_dimension < self.loop_search_space_dimension:
+            raise ValueError(
+                f"loop_search_maximum_dimension ({self.loop_search_maximum_dimension}) is below "
+                f"loop_search_space_dimension ({self.loop_search_space_dimension}): the square only grows from it"
+            )
+        for name in (
+            "link_match_minimum_response_fine",
+            "loop_match_minimum_response_fine",
+            "loop_match_minimum_response_coarse",
+        ):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"{name} is a response in [0, 1], got {getattr(self, name)}")
         for name in ("match_sigmas", "odometry_sigmas", "loop_sigmas"):

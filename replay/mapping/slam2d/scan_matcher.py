@@ -25,6 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage, optimize
 
+# ScanMatcher.spread scores its candidates in chunks of about this many grid reads
+SPREAD_LOOKUPS = 1 << 20
+
 
 @dataclass(frozen=True)
 class MatchResult:
@@ -170,14 +173,19 @@ class ScanMatcher:
     ) -> MatchResult | None:
         """The best pose of the scan within ``window`` around ``prediction`` (x, y, yaw), refined; None when
         no pose reaches ``min_response`` (or either point set is empty)."""
+        grid = self.grid_around(reference, scan_points, prediction, window)
+        return None if grid is None else self.match_on(grid, scan_points, prediction, window, min_response)
+
+    def grid_around(
+        self, reference: np.ndarray, scan_points: np.ndarray, prediction, window: SearchWindow
+    ) -> LookupGrid | None:
+        """``grid`` of the reference points a scan placed in ``window`` around ``prediction`` can reach (the
+        others change no score); None when there are none (or no scan points)."""
         if len(reference) == 0 or len(scan_points) == 0:
             return None
-        # reference points no placed scan point can come within 3 sigma of change nothing: left out
         reach = float(np.hypot(scan_points[:, 0], scan_points[:, 1]).max()) + window.linear * 0.75 + 4 * self.sigma
         reference = reference[np.hypot(reference[:, 0] - prediction[0], reference[:, 1] - prediction[1]) <= reach]
-        if len(reference) == 0:
-            return None
-        return self.match_on(self.grid(reference, window), scan_points, prediction, window, min_response)
+        return self.grid(reference, window) if len(reference) else None
 
     def match_on(
         self, grid: LookupGrid, scan_points: np.ndarray, prediction, window: SearchWindow, min_response: float
@@ -195,22 +203,61 @@ class ScanMatcher:
             return None
         return MatchResult(pose, response, self._hessian(grid, scan_points, pose))
 
-    def _search(self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow, min_response: float):
-        """Branch and bound over (yaw, x, y): the best full-resolution candidate's pose, or None."""
+    def spread(
+        self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow, score: float, drop: float = 0.05
+    ) -> float:
+        """How far apart the places within ``window`` that score like the match are: over the square's
+        translations in 4 x 4-cell blocks (their pooled level-2 scores, the best over the window's yaws), the
+        variance in its worst direction (m^2) of the blocks' centres scoring at least ``score - drop``, weighted
+        by their scores, about their weighted mean. A single well-placed match keeps it to a few cm^2; a second
+        place that looks the same metres away spreads it to metres squared (Karto's coarse covariance test)."""
+        level = min(2, self._levels(window))
+        px, py, _ = (float(v) for v in prediction)
+        yaws, flat, w = self._placements(grid, points, prediction, window)
+        step = 2**level
+        offs = np.arange(0, 2 * w + 1, step)
+        oy, ox = (o.ravel() for o in np.meshgrid(offs, offs, indexing="ij"))
+        cand = oy * grid.shape[1] + ox
+        pooled = grid.pooled(level)
+        best = np.zeros(len(cand))
+        chunk = max(1, SPREAD_LOOKUPS // len(points))  # candidates scored at once: bounded work arrays
+        for row in flat:
+            for k in range(0, len(cand), chunk):
+                part = best[k : k + chunk]
+                np.maximum(part, pooled[row[None, :] + cand[k : k + chunk, None]].mean(axis=1), out=part)
+        near = best >= score - drop
+        if near.sum() < 2:
+            return 0.0
+        centres = np.stack([ox[near], oy[near]]).astype(np.float64)
+        centres = (centres + step / 2 - w) * self.res
+        cov = np.cov(centres, aweights=best[near], bias=True)
+        return float(np.linalg.eigvalsh(cov)[-1])
+
+    def _placements(
+        self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow
+    ) -> tuple[np.ndarray, np.ndarray, int]:
+        """The window's yaws, per yaw the flat canvas index of each point's cell at offset (0, 0) (the square's
+        corner; the search reads offsets 0..2w cells from there), and w."""
         px, py, pyaw = (float(v) for v in prediction)
         w = math.ceil(window.linear / 2 / self.res)  # offsets 0..2w cells cover the square
         n_ang = int(math.floor(window.angular / window.angle_step + 1e-9))
         yaws = pyaw + window.angle_step * np.arange(-n_ang, n_ang + 1)
         ny, nx = grid.shape
-        # per yaw, the flat index of each point's cell at offset (0, 0) (the square's corner)
         flat = np.empty((len(yaws), len(points)), dtype=np.int64)
         for a, yaw in enumerate(yaws.tolist()):
             xy = transform_points((px, py, yaw), points)
             cells = np.floor((xy - grid.origin) / self.res).astype(np.int64) - w
-            # a point off the canvas reads its zero border (the search reads offsets 0..2w from here)
+            # a point off the canvas reads its zero border
             np.clip(cells[:, 0], 0, nx - 1 - 2 * w, out=cells[:, 0])
             np.clip(cells[:, 1], 0, ny - 1 - 2 * w, out=cells[:, 1])
             flat[a] = cells[:, 1] * nx + cells[:, 0]
+        return yaws, flat, w
+
+    def _search(self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow, min_response: float):
+        """Branch and bound over (yaw, x, y): the best full-resolution candidate's pose, or None."""
+        px, py, _ = (float(v) for v in prediction)
+        yaws, flat, w = self._placements(grid, points, prediction, window)
+        nx = grid.shape[1]
         top = self._levels(window)
         step = 2**top
         offs = np.arange(0, 2 * w + 1, step)

@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import gtsam
@@ -57,6 +58,9 @@ from navlog.replay.mapping.slam2d.scan_matcher import (
 )
 
 ODOMETRY_WINDOW = 20  # matches the odometry's noise is estimated over
+# a loop search wider than loop_search_space_dimension ends in a full-resolution search of this square side (m)
+# and yaw either side (rad) around the pose its coarser grid found
+WIDE_REFINE = (1.0, 0.1)
 # a scan's points matched at most (that many valid beams evenly spread beyond: a 2D laser has a few thousand
 # beams; the matcher's work arrays grow with the points times the candidate poses)
 MAX_MATCH_POINTS = 8192
@@ -482,7 +486,7 @@ class Slam2D:
         reach = np.minimum(
             self.p.loop_search_maximum_distance
             + self.p.loop_search_path_sigmas * np.sqrt(self._path_variance(poses, new)[:old_end]),
-            self.p.loop_search_space_dimension / 2,
+            self.p.loop_search_maximum_dimension / 2,
         )
         near = d <= reach
         if not near.any():
@@ -498,22 +502,20 @@ class Slam2D:
         self.counts.loop_attempts += 1
         chain = list(range(lo, hi + 1))
         window = SearchWindow(
-            min(self.p.loop_search_space_dimension, 2 * float(reach[closest]) + 2.0),
+            min(self.p.loop_search_maximum_dimension, 2 * float(reach[closest]) + 2.0),
             self.p.coarse_search_angle_offset,
             self.p.coarse_angle_resolution,
         )
-        match = self.matcher.match(
-            self._points_of(chain),
-            self.keyframes[new].points,
-            poses[new],
-            window,
-            self.p.loop_match_minimum_response_fine,
-        )
-        if match is None:
+        searched = self._loop_search(self._points_of(chain), self.keyframes[new].points, poses[new], window)
+        if searched is None:
             return
+        match, spread = searched
         cov = self._match_covariance(match, self.p.loop_sigmas)
         if not self._pins(cov):
             self.counts.loops_ambiguous += 1  # the submap does not pin the scan (a corridor): no closure
+            return
+        if spread() > self.p.loop_match_maximum_spread:
+            self.counts.loops_ambiguous += 1  # a place elsewhere in the square looks the same: no closure
             return
         anchor = _pose2(poses[closest])
         rel = anchor.between(_pose2(match.pose))
@@ -538,6 +540,36 @@ class Slam2D:
             return
         self.counts.loops += 1
         self._since_loop = 0.0
+
+    def _loop_search(
+        self, reference: np.ndarray, points: np.ndarray, prediction: np.ndarray, window: SearchWindow
+    ) -> tuple[MatchResult, Callable[[], float]] | None:
+        """The scan's loop match against a chain's points in ``window`` around ``prediction``, and a function
+        giving the search's spread (``ScanMatcher.spread``, computed only if asked). A window wider than
+        ``loop_search_space_dimension`` is searched on a correlation grid coarser in proportion, for a pose
+        at ``loop_match_minimum_response_coarse`` at least, and the scan then matched at full resolution in a
+        1 m square around it (``WIDE_REFINE``). None when no pose reaches ``loop_match_minimum_response_fine``."""
+        wide = window.linear > self.p.loop_search_space_dimension
+        matcher = self.matcher
+        if wide:
+            matcher = ScanMatcher(
+                self.p.correlation_search_space_resolution * window.linear / self.p.loop_search_space_dimension,
+                self.p.correlation_search_space_smear_deviation,
+            )
+        grid = matcher.grid_around(reference, points, prediction, window)
+        if grid is None:
+            return None
+        least = self.p.loop_match_minimum_response_coarse if wide else self.p.loop_match_minimum_response_fine
+        found = matcher.match_on(grid, points, prediction, window, least)
+        if found is None:
+            return None
+        match: MatchResult | None = found
+        if wide:
+            refine = SearchWindow(WIDE_REFINE[0], WIDE_REFINE[1], self.p.coarse_angle_resolution / 2)
+            match = self.matcher.match(reference, points, found.pose, refine, self.p.loop_match_minimum_response_fine)
+        if match is None:
+            return None
+        return match, lambda: matcher.spread(grid, points, prediction, window, found.response)
 
     def _path_variance(self, poses: np.ndarray, new: int) -> np.ndarray:
         """Per keyframe i <= new: the variance, in its worst direction, of keyframe ``new``'s position

@@ -63,6 +63,27 @@ def test_matcher_recovers_a_known_offset_within_a_cell(scene):
     )
 
 
+def test_a_second_place_that_looks_the_same_spreads_the_search(scene):
+    """The room's scan from a known pose against the room alone: the places scoring within 0.05 of the match
+    lie within a few cm^2 of it. Against the room and a copy of it 15 m along x (a look-alike building
+    part), both copies score alike and the spread is that of two places 15 m apart, (7.5 m)^2."""
+    rng = np.random.default_rng(3)
+    true = np.array([0.6, -0.4, 0.3])
+    room = transform_points(true, scan_of(cast(scene, true, rng)).points(RANGE_MAX))
+    points = scan_of(cast(scene, true, rng)).points(RANGE_MAX)
+    matcher = ScanMatcher(0.1, 0.1)  # a wide search's coarser grid
+    window = SearchWindow(32.0, 0.1, 0.0349)
+    spreads = []
+    for reference in (room, np.concatenate([room, room + (15.0, 0.0)])):
+        grid = matcher.grid_around(reference, points, true, window)
+        found = matcher.match_on(grid, points, true, window, 0.5)
+        assert found is not None and found.response > 0.8
+        spreads.append(matcher.spread(grid, points, true, window, found.response))
+    alone, twice = spreads
+    assert alone < 0.05
+    assert 7.5**2 * 0.9 < twice < 7.5**2 * 1.1
+
+
 def test_every_pooled_level_bounds_the_finer_cells_it_covers():
     """Level l holds in each cell the maximum of level 0 over the 2^l x 2^l cells from it, up to the
     canvas's far edges: a branch-and-bound bound that fell short there (it read 0 where a wall 1.0 was,
@@ -166,6 +187,33 @@ def test_the_loop_search_reaches_as_far_as_the_path_is_uncertain(scene):
     assert grown.counts.loops >= 1 and err[240] < 0.02 and err[-1] < 0.1
 
 
+def test_a_loop_beyond_the_search_square_is_found_on_a_coarser_grid(scene):
+    """The odometry ends 1.03 m off at the start corner (as above). A loop search square of 1 m
+    (loop_search_space_dimension) reaches 0.5 m and never meets the corner again; allowed to grow to 4 m
+    with the path's uncertainty (loop_search_maximum_dimension), the square is searched on a grid coarser in
+    proportion, then at full resolution around what it found, and the loop closes."""
+    truth = rectangle_path()
+    odom = drifting_odometry(truth, 0.04)
+
+    def run(widest: float) -> tuple[Slam2D, np.ndarray]:
+        params = SlamParams(
+            link_match_minimum_response_fine=1.0,
+            loop_match_minimum_chain_size=4,
+            scan_buffer_size=6,
+            loop_search_maximum_distance=0.5,
+            loop_search_space_dimension=1.0,
+            loop_search_maximum_dimension=widest,
+        )
+        slam = run_slam(scene, truth, odom, params)
+        _, poses = slam.trajectory()
+        return slam, np.hypot(*(poses[:, :2] - truth[:, :2]).T)
+
+    square, err_square = run(1.0)
+    assert square.counts.loops == 0 and err_square[240] > 1.0
+    grown, err = run(4.0)
+    assert grown.counts.loops >= 1 and err[240] < 0.02 and err[-1] < 0.1
+
+
 def test_sequential_matching_keeps_the_drifting_path_and_the_map_right(scene):
     truth = rectangle_path(0.1)[:150]
     odom = drifting_odometry(truth, 0.02)
@@ -199,6 +247,10 @@ def test_bad_parameters_are_named():
         for bad in (-1.0, math.nan):
             with pytest.raises(ValueError, match=name):
                 SlamParams(**{name: bad})
+    with pytest.raises(ValueError, match=r"loop_search_maximum_dimension \(4.0\) is below loop_search_space_dimension"):
+        SlamParams(loop_search_maximum_dimension=4.0)
+    with pytest.raises(ValueError, match="loop_match_minimum_response_coarse"):
+        SlamParams(loop_match_minimum_response_coarse=1.5)
     with pytest.raises(ValueError, match="odom_frame and base_frame are both 'odom'"):
         SlamParams(base_frame="odom")
     with pytest.raises(ValueError, match="odometry pose not finite"):
