@@ -162,28 +162,28 @@ def test_a_loop_closure_removes_the_odometry_drift(scene):
     assert kinds.count("odometry") == len(slam.keyframes) - 1 and kinds.count("loop") == slam.counts.loops
 
 
-def test_the_loop_search_reaches_as_far_as_the_path_is_uncertain(scene):
-    # keyframes placed by odometry alone (0.1 m, 0.05 rad per edge) that turns 4 % too much: back at the start
-    # corner the estimate is 1.03 m off, twice the fixed search radius
+def drifted_corner_run(scene, **params) -> tuple[Slam2D, np.ndarray]:
+    """Keyframes placed by odometry alone (0.1 m, 0.05 rad per edge) that turns 4 % too much, loops searched
+    from 0.5 m with 4-keyframe chains and ``params``: the SLAM and its position error at every scan."""
     truth = rectangle_path()
     odom = drifting_odometry(truth, 0.04)
-    assert 1.0 < np.hypot(*(odom[240, :2] - truth[240, :2])) < 1.1
+    assert 1.0 < np.hypot(*(odom[240, :2] - truth[240, :2])) < 1.1  # back at the start corner, 1.03 m off
+    base = {
+        "link_match_minimum_response_fine": 1.0,
+        "loop_match_minimum_chain_size": 4,
+        "scan_buffer_size": 6,
+        "loop_search_maximum_distance": 0.5,
+    }
+    slam = run_slam(scene, truth, odom, SlamParams(**{**base, **params}))
+    _, poses = slam.trajectory()
+    return slam, np.hypot(*(poses[:, :2] - truth[:, :2]).T)
 
-    def run(sigmas: float) -> tuple[Slam2D, np.ndarray]:
-        params = SlamParams(
-            link_match_minimum_response_fine=1.0,
-            loop_match_minimum_chain_size=4,
-            scan_buffer_size=6,
-            loop_search_maximum_distance=0.5,
-            loop_search_path_sigmas=sigmas,
-        )
-        slam = run_slam(scene, truth, odom, params)
-        _, poses = slam.trajectory()
-        return slam, np.hypot(*(poses[:, :2] - truth[:, :2]).T)
 
-    fixed, err_fixed = run(0.0)  # the fixed radius alone never sees the start corner again
-    assert fixed.counts.loop_attempts == 0 and err_fixed[240] > 1.0
-    grown, err = run(3.0)  # three standard deviations of the chain's covariance reach it
+def test_the_loop_search_reaches_as_far_as_the_path_is_uncertain(scene):
+    # back at the start corner the estimate is 1.03 m off, twice the fixed search radius
+    fixed, err_fixed = drifted_corner_run(scene, loop_search_path_sigmas=0.0)
+    assert fixed.counts.loop_attempts == 0 and err_fixed[240] > 1.0  # the fixed radius never sees it again
+    grown, err = drifted_corner_run(scene, loop_search_path_sigmas=3.0)  # three std devs of the chain reach it
     assert grown.counts.loops >= 1 and err[240] < 0.02 and err[-1] < 0.1
 
 
@@ -192,25 +192,9 @@ def test_a_loop_beyond_the_search_square_is_found_on_a_coarser_grid(scene):
     (loop_search_space_dimension) reaches 0.5 m and never meets the corner again; allowed to grow to 4 m
     with the path's uncertainty (loop_search_maximum_dimension), the square is searched on a grid coarser in
     proportion, then at full resolution around what it found, and the loop closes."""
-    truth = rectangle_path()
-    odom = drifting_odometry(truth, 0.04)
-
-    def run(widest: float) -> tuple[Slam2D, np.ndarray]:
-        params = SlamParams(
-            link_match_minimum_response_fine=1.0,
-            loop_match_minimum_chain_size=4,
-            scan_buffer_size=6,
-            loop_search_maximum_distance=0.5,
-            loop_search_space_dimension=1.0,
-            loop_search_maximum_dimension=widest,
-        )
-        slam = run_slam(scene, truth, odom, params)
-        _, poses = slam.trajectory()
-        return slam, np.hypot(*(poses[:, :2] - truth[:, :2]).T)
-
-    square, err_square = run(1.0)
+    square, err_square = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=1.0)
     assert square.counts.loops == 0 and err_square[240] > 1.0
-    grown, err = run(4.0)
+    grown, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=4.0)
     assert grown.counts.loops >= 1 and err[240] < 0.02 and err[-1] < 0.1
 
 
