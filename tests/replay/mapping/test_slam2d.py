@@ -407,7 +407,9 @@ class _GraphAndBatch:
 
         self.graph.add_edge(source, target, relative, noise, kind, kernel=kernel)  # type: ignore[arg-type]
         arr = np.asarray(noise, dtype=np.float64)
-        model = gtsam.noiseModel.Gaussian.Covariance(arr) if arr.ndim == 2 else gtsam.noiseModel.Diagonal.Sigmas(arr)
+        model: gtsam.noiseModel.Base = (
+            gtsam.noiseModel.Gaussian.Covariance(arr) if arr.ndim == 2 else gtsam.noiseModel.Diagonal.Sigmas(arr)
+        )
         if kernel == "huber":
             model = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.Huber.Create(1.345), model)
         self.batch.add(gtsam.BetweenFactorPose2(source, target, gtsam.Pose2(*relative), model))
