@@ -16,6 +16,9 @@ from typing import Literal
 from navlog.replay.config import param
 from navlog.replay.limits import MAX_PERIOD_S, MIN_MAP_PERIOD_S
 
+# a square searched on the correlation grid spans at most this many of its cells per side (8 m at 0.025 m: 320)
+MAX_SEARCH_CELLS = 2000
+
 # slam_toolbox's odometry frame; a replay takes the one a navlog recording names instead (the mapping
 # pipeline's settle)
 DEFAULT_ODOM_FRAME = "odom"
@@ -137,6 +140,15 @@ class SlamParams:
             raise ValueError(f"loop_kernel must be huber, cauchy or none, got {self.loop_kernel!r}")
         if self.scan_buffer_size < 1 or self.loop_match_minimum_chain_size < 1:
             raise ValueError("scan_buffer_size and loop_match_minimum_chain_size must be at least 1")
+        for name in ("correlation_search_space_dimension", "loop_search_space_dimension"):
+            cells = getattr(self, name) / self.correlation_search_space_resolution
+            if cells > MAX_SEARCH_CELLS:
+                raise ValueError(
+                    f"{name} ({getattr(self, name)} m) spans {cells:.0f} cells of correlation_search_space_resolution "
+                    f"({self.correlation_search_space_resolution} m): at most {MAX_SEARCH_CELLS} (the grids of a "
+                    "search grow with its square; a loop search wider than loop_search_space_dimension runs on a "
+                    "coarser grid: raise loop_search_maximum_dimension instead)"
+                )
         if self.loop_search_maximum_dimension < self.loop_search_space_dimension:
             raise ValueError(
                 f"loop_search_maximum_dimension ({self.loop_search_maximum_dimension}) is below "

@@ -233,6 +233,8 @@ def test_bad_parameters_are_named():
                 SlamParams(**{name: bad})
     with pytest.raises(ValueError, match=r"loop_search_maximum_dimension \(4.0\) is below loop_search_space_dimension"):
         SlamParams(loop_search_maximum_dimension=4.0)
+    with pytest.raises(ValueError, match=r"loop_search_space_dimension \(100.0 m\) spans 4000 cells"):
+        SlamParams(loop_search_space_dimension=100.0, loop_search_maximum_dimension=100.0)
     with pytest.raises(ValueError, match="loop_match_minimum_response_coarse"):
         SlamParams(loop_match_minimum_response_coarse=1.5)
     with pytest.raises(ValueError, match="odom_frame and base_frame are both 'odom'"):
