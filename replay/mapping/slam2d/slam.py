@@ -18,9 +18,12 @@ scan's valid points in the robot frame:
 5. **close loops** (``do_loop_closing``): keyframes within ``loop_search_maximum_distance`` plus
    ``loop_search_path_sigmas`` standard deviations of the path's uncertainty since them, that are
    older than the running buffer, in a chain of at least ``loop_match_minimum_chain_size`` such
-   keyframes, form a submap; a match of the new scan against it in a
-   ``loop_search_space_dimension`` square with a response of at least
-   ``loop_match_minimum_response_fine`` adds a loop edge, and the graph is optimised (gtsam). After
+   keyframes, form a submap; a match of the new scan against it in a square as wide as that reach
+   (at most ``loop_search_maximum_dimension``; beyond ``loop_search_space_dimension`` searched on a
+   coarser grid, then at full resolution around what it found) with a response of at least
+   ``loop_match_minimum_response_fine``, that pins the scan and that no other place in the square
+   matches as well (``loop_match_maximum_spread``), adds a loop edge, and the graph is optimised
+   (gtsam). After
    a closure the next search waits until the keyframes have travelled ``loop_search_maximum_distance``
    (a closed loop stays closed; searching again at every keyframe of the same pass would only
    repeat it), and so does it after a closure the optimised graph disagreed with and that was taken
