@@ -16,8 +16,9 @@ from typing import Literal
 from navlog.replay.config import param
 from navlog.replay.limits import MAX_PERIOD_S, MIN_MAP_PERIOD_S
 
-# a square searched on the correlation grid spans at most this many of its cells per side (8 m at 0.025 m: 320)
-MAX_SEARCH_CELLS = 2000
+# a square searched on the correlation grid spans at most this many of its cells per side (8 m at 0.025 m: 320;
+# a lookup grid for 800 is ~0.3 GB of pooled levels)
+MAX_SEARCH_CELLS = 800
 
 # slam_toolbox's odometry frame; a replay takes the one a navlog recording names instead (the mapping
 # pipeline's settle)
@@ -69,7 +70,8 @@ class SlamParams:
     loop_match_maximum_variance_coarse: float = 0.01
     # navlog's, after Karto's test of a loop's coarse covariance: the variance (m^2, worst direction) of the
     # positions in the searched square whose score is within 0.05 of the loop's (their best over the yaws,
-    # 10 cm blocks on the correlation grid), weighted by that score, about their mean. A place elsewhere in the
+    # blocks of 4 x 4 cells of the search's grid: 10 cm on the correlation grid, 25 cm on a 20 m square's
+    # coarser one), weighted by that score, about their mean. A place elsewhere in the
     # square that looks the same spreads it; above this the loop is refused (counted as ambiguous)
     loop_match_maximum_spread: float = 3.0
     # navlog's: after optimising, a loop edge whose squared Mahalanobis error exceeds this is taken back
@@ -140,14 +142,17 @@ class SlamParams:
             raise ValueError(f"loop_kernel must be huber, cauchy or none, got {self.loop_kernel!r}")
         if self.scan_buffer_size < 1 or self.loop_match_minimum_chain_size < 1:
             raise ValueError("scan_buffer_size and loop_match_minimum_chain_size must be at least 1")
-        for name in ("correlation_search_space_dimension", "loop_search_space_dimension"):
+        wider = {
+            "correlation_search_space_dimension": "a coarser correlation_search_space_resolution",
+            "loop_search_space_dimension": "loop_search_maximum_dimension instead (searched on a coarser grid)",
+        }
+        for name, instead in wider.items():
             cells = getattr(self, name) / self.correlation_search_space_resolution
             if cells > MAX_SEARCH_CELLS:
                 raise ValueError(
                     f"{name} ({getattr(self, name)} m) spans {cells:.0f} cells of correlation_search_space_resolution "
-                    f"({self.correlation_search_space_resolution} m): at most {MAX_SEARCH_CELLS} (the grids of a "
-                    "search grow with its square; a loop search wider than loop_search_space_dimension runs on a "
-                    "coarser grid: raise loop_search_maximum_dimension instead)"
+                    f"({self.correlation_search_space_resolution} m): at most {MAX_SEARCH_CELLS} (a search's grids "
+                    f"grow with its square); for a wider search set {instead}"
                 )
         if self.loop_search_maximum_dimension < self.loop_search_space_dimension:
             raise ValueError(

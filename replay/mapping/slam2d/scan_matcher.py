@@ -25,8 +25,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage, optimize
 
-# ScanMatcher.spread scores its candidates in chunks of about this many grid reads
+# ScanMatcher.spread scores its candidates in chunks of about this many grid reads, with at most this many of
+# the scan's points
 SPREAD_LOOKUPS = 1 << 20
+SPREAD_POINTS = 512
 
 
 @dataclass(frozen=True)
@@ -211,9 +213,12 @@ class ScanMatcher:
         variance in its worst direction (m^2) of the blocks' centres scoring at least ``score - drop``, weighted
         by their scores, about their weighted mean. A single well-placed match keeps it to a few cm^2; a second
         place that looks the same metres away spreads it to metres squared (Karto's coarse covariance test)."""
+        if len(points) == 0:
+            return 0.0
+        if len(points) > SPREAD_POINTS:  # evenly spread beams: the blocks' scores need no more
+            points = points[np.linspace(0, len(points) - 1, SPREAD_POINTS).astype(np.int64)]
         level = min(2, self._levels(window))
-        px, py, _ = (float(v) for v in prediction)
-        yaws, flat, w = self._placements(grid, points, prediction, window)
+        _, flat, w = self._placements(grid, points, prediction, window)
         step = 2**level
         offs = np.arange(0, 2 * w + 1, step)
         oy, ox = (o.ravel() for o in np.meshgrid(offs, offs, indexing="ij"))

@@ -129,7 +129,8 @@ class SlamCounts:
     odometry_only: int = 0  # keyframes placed by odometry (no or weak match)
     loop_attempts: int = 0
     loops: int = 0
-    loops_ambiguous: int = 0  # loop matches refused: the submap leaves a direction unpinned
+    # loop matches refused: the submap leaves a direction unpinned, or another place in the square matches as well
+    loops_ambiguous: int = 0
     loops_inconsistent: int = 0  # loop edges taken back: the optimised graph disagreed with them
     empty_scans: int = 0  # scans with no valid reading (not keyframes)
     # (stamp ns, metres between the odometry's prediction and the pose found, response) of every keyframe
@@ -357,8 +358,8 @@ class Slam2D:
     def _recover(
         self, points: np.ndarray, prediction: np.ndarray, previous: np.ndarray, min_response: float, usual: float
     ) -> MatchResult | None:
-        """After a failed or weak sequential match: the scan matched against the running buffer in the loop
-        search's window (``loop_search_space_dimension``) around the odometry's prediction, then around the
+        """After a failed or weak sequential match: the scan matched against the running buffer in a
+        ``loop_search_space_dimension`` square around the odometry's prediction, then around the
         previous keyframe's position with the prediction's heading and, when the two differ by more than the
         search's fan, with the previous keyframe's own (odometry that jumped or was reset while the robot
         stood still or drove on); the first place found that (1) passes the loop's terms
@@ -551,14 +552,13 @@ class Slam2D:
         giving the search's spread (``ScanMatcher.spread``, computed only if asked). A window wider than
         ``loop_search_space_dimension`` is searched on a correlation grid coarser in proportion, for a pose
         at ``loop_match_minimum_response_coarse`` at least, and the scan then matched at full resolution in a
-        1 m square around it (``WIDE_REFINE``). None when no pose reaches ``loop_match_minimum_response_fine``."""
+        1 m square around it (``WIDE_REFINE``; eight coarse cells where they are larger). None when no pose reaches ``loop_match_minimum_response_fine``."""
         wide = window.linear > self.p.loop_search_space_dimension
         matcher = self.matcher
         if wide:
-            matcher = ScanMatcher(
-                self.p.correlation_search_space_resolution * window.linear / self.p.loop_search_space_dimension,
-                self.p.correlation_search_space_smear_deviation,
-            )
+            coarse = self.p.correlation_search_space_resolution * window.linear / self.p.loop_search_space_dimension
+            # a likelihood no sharper than the grid's cells
+            matcher = ScanMatcher(coarse, max(self.p.correlation_search_space_smear_deviation, coarse))
         grid = matcher.grid_around(reference, points, prediction, window)
         if grid is None:
             return None
@@ -568,7 +568,9 @@ class Slam2D:
             return None
         match: MatchResult | None = found
         if wide:
-            refine = SearchWindow(WIDE_REFINE[0], WIDE_REFINE[1], self.p.coarse_angle_resolution / 2)
+            # the square covers the coarse grid's cells around its pose (eight of them past a 40 m search)
+            side = max(WIDE_REFINE[0], 8 * matcher.res)
+            refine = SearchWindow(side, WIDE_REFINE[1], self.p.coarse_angle_resolution / 2)
             match = self.matcher.match(reference, points, found.pose, refine, self.p.loop_match_minimum_response_fine)
         if match is None:
             return None

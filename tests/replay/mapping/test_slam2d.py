@@ -14,6 +14,7 @@ import pytest
 
 from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow, Slam2D, SlamParams
 from navlog.replay.mapping.slam2d.scan_matcher import transform_points
+from navlog.replay.mapping.slam2d.slam import WIDE_REFINE
 from tests.replay import lidar_scene
 
 N_BEAMS = 720
@@ -194,8 +195,31 @@ def test_a_loop_beyond_the_search_square_is_found_on_a_coarser_grid(scene):
     proportion, then at full resolution around what it found, and the loop closes."""
     square, err_square = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=1.0)
     assert square.counts.loops == 0 and err_square[240] > 1.0
-    grown, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=4.0)
+    refined = []  # (coarse pose, full-resolution pose) of each wide search's last step
+    match = ScanMatcher.match
+
+    def spy(self, reference, points, prediction, window, min_response):
+        found = match(self, reference, points, prediction, window, min_response)
+        if (window.linear, window.angular) == WIDE_REFINE and found is not None:
+            refined.append((np.asarray(prediction), found.pose))
+        return found
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(ScanMatcher, "match", spy)
+        grown, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=4.0)
     assert grown.counts.loops >= 1 and err[240] < 0.02 and err[-1] < 0.1
+    assert len(refined) >= grown.counts.loops  # every closure came through the coarser grid, then full resolution
+    # the full-resolution pose lies within a cell of the coarser grid (0.1 m for the 4 m square) of its pose
+    assert all(np.hypot(*(fine[:2] - coarse[:2])) < 0.1 for coarse, fine in refined)
+
+
+def test_a_loop_where_another_place_matches_as_well_is_refused(scene, monkeypatch):
+    """The drifted corner closed through the 4 m square (above), but with every search's spread reading 10 m^2
+    (another place in the square matching as well, as ScanMatcher.spread measures it): no loop is added,
+    each refusal counted as ambiguous."""
+    monkeypatch.setattr(ScanMatcher, "spread", lambda *args, **kwargs: 10.0)
+    slam, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=4.0)
+    assert slam.counts.loops == 0 and slam.counts.loops_ambiguous >= 1 and err[240] > 1.0
 
 
 def test_sequential_matching_keeps_the_drifting_path_and_the_map_right(scene):
@@ -235,6 +259,8 @@ def test_bad_parameters_are_named():
         SlamParams(loop_search_maximum_dimension=4.0)
     with pytest.raises(ValueError, match=r"loop_search_space_dimension \(100.0 m\) spans 4000 cells"):
         SlamParams(loop_search_space_dimension=100.0, loop_search_maximum_dimension=100.0)
+    with pytest.raises(ValueError, match="spans 1000 cells .* set a coarser correlation_search_space_resolution"):
+        SlamParams(correlation_search_space_dimension=25.0)
     with pytest.raises(ValueError, match="loop_match_minimum_response_coarse"):
         SlamParams(loop_match_minimum_response_coarse=1.5)
     with pytest.raises(ValueError, match="odom_frame and base_frame are both 'odom'"):
