@@ -143,8 +143,8 @@ class PoseGraph:
     def _flush(self, remove: list[int]) -> None:
         """One iSAM2 update with the waiting nodes and edges added and the factors at ``remove`` taken out,
         then more until no variable the partial check reaches is relinearised (``MAX_UPDATES`` in all at
-        most; see the module docstring); the graph moves to QR
-        where Cholesky finds it indeterminate (gtsam raises ``RuntimeError``)."""
+        most; see the module docstring); the graph moves to QR where Cholesky finds it indeterminate (gtsam
+        raises ``RuntimeError``)."""
         try:
             self._update(remove)
         except RuntimeError:

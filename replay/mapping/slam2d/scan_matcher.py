@@ -5,16 +5,16 @@ The reference (a submap's points in the map frame) becomes a likelihood grid: ev
 distance transform). A pose's *response* is the mean likelihood at the scan's points placed by it,
 in [0, 1]; points off the reference count as zero.
 
-The search covers a square of translations and a fan of yaws around a predicted pose. It is a
-branch and bound over translations (Cartographer's): level ``l`` of the grid holds, in every cell,
-the maximum likelihood over the ``2^l x 2^l`` cells starting there (each level the maximum of four cells of the level below), so a
-candidate's score at that level bounds the score of every finer candidate inside it. Candidates are
-expanded best first and a branch is dropped once its bound cannot beat the best full-resolution
-score found. The winner is then refined below the cell by least squares on the distances of the
-scan's points to the reference, with scipy's ``least_squares`` and a soft-L1 loss, so points off
-the reference do not pull. A distance is measured to the mean of the reference points in the
-nearest occupied cell (the distance transform's feature transform finds that cell), not to the
-cell's centre, which would pull every point of a wall onto the centre line of its cells.
+The search covers a square of translations and a fan of yaws around a predicted pose. It is a branch
+and bound over translations (Cartographer's): level ``l`` of the grid holds, in every cell, the
+maximum likelihood over the ``2^l x 2^l`` cells starting there (each level the maximum of four cells
+of the level below), so a candidate's score at that level bounds the score of every finer candidate
+inside it. Candidates are expanded best first and a branch is dropped once its bound cannot beat the
+best full-resolution score found. The winner is then refined below the cell by least squares on the
+distances of the scan's points to the reference, with scipy's ``least_squares`` and a soft-L1 loss,
+so points off the reference do not pull. A distance is measured to the mean of the reference points
+in the nearest occupied cell (the distance transform's feature transform finds that cell), not to
+the cell's centre, which would pull every point of a wall onto the centre line of its cells.
 """
 
 from __future__ import annotations
@@ -220,9 +220,7 @@ class ScanMatcher:
         level = min(2, self._levels(window))
         _, flat, w = self._placements(grid, points, prediction, window)
         step = 2**level
-        offs = np.arange(0, 2 * w + 1, step)
-        oy, ox = (o.ravel() for o in np.meshgrid(offs, offs, indexing="ij"))
-        cand = oy * grid.shape[1] + ox
+        oy, ox, cand = self._offsets(w, step, grid.shape[1])
         pooled = grid.pooled(level)
         best = np.zeros(len(cand))
         chunk = max(1, SPREAD_LOOKUPS // len(points))  # candidates scored at once: bounded work arrays
@@ -237,6 +235,14 @@ class ScanMatcher:
         centres = (centres + step / 2 - w) * self.res
         cov = np.cov(centres, aweights=best[near], bias=True)
         return float(np.linalg.eigvalsh(cov)[-1])
+
+    @staticmethod
+    def _offsets(w: int, step: int, nx: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The square's offsets 0..2w cells every ``step`` cells, row-major: their rows, their columns and
+        their flat canvas offsets (``nx`` columns)."""
+        offs = np.arange(0, 2 * w + 1, step)
+        oy, ox = (o.ravel() for o in np.meshgrid(offs, offs, indexing="ij"))
+        return oy, ox, oy * nx + ox
 
     def _placements(
         self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow
@@ -264,10 +270,7 @@ class ScanMatcher:
         yaws, flat, w = self._placements(grid, points, prediction, window)
         nx = grid.shape[1]
         top = self._levels(window)
-        step = 2**top
-        offs = np.arange(0, 2 * w + 1, step)
-        oy, ox = np.meshgrid(offs, offs, indexing="ij")
-        cand = (oy * nx + ox).ravel()
+        oy, ox, cand = self._offsets(w, 2**top, nx)
         pooled = grid.pooled(top)
         scores = pooled[flat[:, None, :] + cand[None, :, None]].mean(axis=2)  # (yaws, offsets)
         order = np.argsort(-scores, axis=None, kind="stable")
@@ -275,13 +278,13 @@ class ScanMatcher:
         if top == 0:  # the window is a few cells: the top level is the full resolution
             a, c = divmod(int(order[0]), len(cand))
             if scores[a, c] > best_score:
-                best = (a, int(oy.ravel()[c]), int(ox.ravel()[c]))
+                best = (a, int(oy[c]), int(ox[c]))
             order = order[:0]
         for k in order.tolist():
             a, c = divmod(k, len(cand))
             if scores[a, c] <= best_score:
                 break
-            found = self._branch(grid, flat[a], int(oy.ravel()[c]), int(ox.ravel()[c]), top, 2 * w, nx, best_score)
+            found = self._branch(grid, flat[a], int(oy[c]), int(ox[c]), top, 2 * w, nx, best_score)
             if found is not None:
                 best_score = found[0]
                 best = (a, found[1], found[2])

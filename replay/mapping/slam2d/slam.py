@@ -194,7 +194,8 @@ class Slam2D:
         # the last matches' match - odometry prediction, in the previous keyframe's frame
         self._innovations: deque[np.ndarray] = deque(maxlen=ODOMETRY_WINDOW)
         self._travel: list[float] = [0.0]  # per keyframe: path length from the first, as estimated when added
-        # per keyframe: the covariance of its sequential edge (in its own frame, as the edge measures it; zero for the first)
+        # per keyframe: the covariance of its sequential edge (in its own frame, as the edge measures it; zero for
+        # the first)
         self._chain_cov = Rows((3, 3))
         self._chain_cov.append(np.zeros((3, 3)))
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
@@ -552,7 +553,8 @@ class Slam2D:
         giving the search's spread (``ScanMatcher.spread``, computed only if asked). A window wider than
         ``loop_search_space_dimension`` is searched on a correlation grid coarser in proportion, for a pose
         at ``loop_match_minimum_response_coarse`` at least, and the scan then matched at full resolution in a
-        1 m square around it (``WIDE_REFINE``; eight coarse cells where they are larger). None when no pose reaches ``loop_match_minimum_response_fine``."""
+        1 m square around it (``WIDE_REFINE``; eight coarse cells where they are larger). None when no pose
+        reaches ``loop_match_minimum_response_fine``."""
         wide = window.linear > self.p.loop_search_space_dimension
         matcher = self.matcher
         if wide:
