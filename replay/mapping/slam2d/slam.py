@@ -18,7 +18,10 @@ scan's valid points in the robot frame:
 5. **close loops** (``do_loop_closing``): keyframes within ``loop_search_maximum_distance`` plus
    ``loop_search_path_sigmas`` standard deviations of the path's uncertainty since them, that are
    older than the running buffer, in a chain of at least ``loop_match_minimum_chain_size`` such
-   keyframes, form a submap; a match of the new scan against it in a square as wide as that reach
+   keyframes, form a submap; a match of the new scan against it in a square as wide as the reach to
+   the closest of them — there the uncertainty is the smaller of the chain's and that along the graph's
+   shortest route, through the loops closed since (``_route_variance``): a revisit of a place already
+   tied to the path searches a small square —
    (at most ``loop_search_maximum_dimension``; beyond ``loop_search_space_dimension`` searched on a
    coarser grid, then at full resolution around what it found) with a response of at least
    ``loop_match_minimum_response_fine``, that pins the scan and that no other place in the square
@@ -46,6 +49,8 @@ from dataclasses import dataclass, field, replace
 
 import gtsam
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
 
 from navlog.replay.geometry import angle_diff, planar_matrix, remainder_angle
 from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams
@@ -198,6 +203,8 @@ class Slam2D:
         # the first)
         self._chain_cov = Rows((3, 3))
         self._chain_cov.append(np.zeros((3, 3)))
+        # per loop closure kept: (old keyframe, new keyframe, its translation variance's trace, its yaw variance)
+        self._loop_edges = Rows((4,))
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
         self._range_max: list[float] = []  # per keyframe: the longest range_max of the scans up to it
         self._link = SearchWindow(
@@ -506,6 +513,14 @@ class Slam2D:
             return
         self.counts.loop_attempts += 1
         chain = list(range(lo, hi + 1))
+        # the square searched: the reach to the closest keyframe by the smaller of two bounds of the same
+        # uncertainty (a chain with a closure across it is known no worse than by either)
+        variance = self._route_variance(poses, new, closest)
+        if variance is not None:
+            reach[closest] = min(
+                float(reach[closest]),
+                self.p.loop_search_maximum_distance + self.p.loop_search_path_sigmas * math.sqrt(variance),
+            )
         window = SearchWindow(
             min(self.p.loop_search_maximum_dimension, 2 * float(reach[closest]) + 2.0),
             self.p.coarse_search_angle_offset,
@@ -545,6 +560,7 @@ class Slam2D:
             return
         self.counts.loops += 1
         self._since_loop = 0.0
+        self._loop_edges.append((closest, new, cov[0, 0] + cov[1, 1], cov[2, 2]))
 
     def _loop_search(
         self, reference: np.ndarray, points: np.ndarray, prediction: np.ndarray, window: SearchWindow
@@ -614,6 +630,41 @@ class Slam2D:
         m = a + np.stack([np.stack([b[:, 1, 1], -b[:, 1, 0]], -1), np.stack([-b[:, 0, 1], b[:, 0, 0]], -1)], -2)
         half = 0.5 * (m[:, 0, 0] + m[:, 1, 1])
         return half + np.sqrt(np.maximum(0.25 * (m[:, 0, 0] - m[:, 1, 1]) ** 2 + m[:, 0, 1] * m[:, 1, 0], 0.0))
+
+    def _route_variance(self, poses: np.ndarray, new: int, old: int) -> float | None:
+        """The variance of keyframe ``new``'s position relative to keyframe ``old`` along the graph's route of
+        least variance, through the loop closures kept (None before the first). Each edge adds the trace of its
+        translation covariance and its yaw variance times the square of the lever arm from the edge's end on
+        ``new``'s side to ``new``: ``_path_variance``'s sum along the chain, with each matrix taken by its trace
+        (an upper bound of its worst direction), so that the sums add along any route (scipy's Dijkstra)."""
+        if not len(self._loop_edges):
+            return None
+        n = new + 1
+        cov = self._chain_cov.view()[:n]
+        lever = np.sum(np.square(poses[:n, :2] - poses[new, :2]), axis=1)
+        k = np.arange(1, n)
+        trace, yaw = cov[k, 0, 0] + cov[k, 1, 1], cov[k, 2, 2]
+        loops = self._loop_edges.view()
+        loops = loops[loops[:, 1] <= new]
+        a, b = loops[:, 0].astype(np.int64), loops[:, 1].astype(np.int64)
+        # directed: from the end nearer new (by the route) to the other, the lever arm at the nearer end
+        src = np.concatenate([k, k - 1, a, b])
+        dst = np.concatenate([k - 1, k, b, a])
+        weight = np.concatenate(
+            [
+                trace + yaw * lever[k],
+                trace + yaw * lever[k - 1],
+                loops[:, 2] + loops[:, 3] * lever[a],
+                loops[:, 2] + loops[:, 3] * lever[b],
+            ]
+        )
+        # one edge per ordered pair (a closure between neighbours, or twice between the same keyframes): the least
+        order = np.lexsort((weight, dst, src))
+        src, dst, weight = src[order], dst[order], weight[order]
+        first = np.ones(len(src), dtype=bool)
+        first[1:] = (src[1:] != src[:-1]) | (dst[1:] != dst[:-1])
+        graph = csr_matrix((weight[first] + 1e-12, (src[first], dst[first])), shape=(n, n))  # no zero: no edge
+        return float(dijkstra(graph, directed=True, indices=new)[old])
 
     # ------------------------------------------------------------ results
     def _pose(self, i: int) -> gtsam.Pose2:

@@ -188,6 +188,41 @@ def test_the_loop_search_reaches_as_far_as_the_path_is_uncertain(scene):
     assert grown.counts.loops >= 1 and err[240] < 0.02 and err[-1] < 0.1
 
 
+def test_after_a_closure_a_revisit_searches_the_square_the_closed_loop_leaves(scene):
+    """The drifted corner at the default squares: the first search spans the chain's uncertainty since the
+    start (12.4 m); once closed, the next searches go through that closure to the keyframes they revisit and
+    span about 4 m, where the chain alone would still ask for 12 m."""
+    squares = []  # (loops closed before, side of the square searched)
+    search = Slam2D._loop_search
+
+    def spy(self, reference, points, prediction, window):
+        squares.append((self.counts.loops, window.linear))
+        return search(self, reference, points, prediction, window)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Slam2D, "_loop_search", spy)
+        slam, err = drifted_corner_run(scene)
+    assert squares[0] == (0, pytest.approx(12.38, abs=0.01))
+    assert len(squares) > 10 and all(side < 5.0 for closed, side in squares if closed)
+    assert slam.counts.loops == len(squares) and err[240] < 0.02 and err[-1] < 0.1
+
+
+def test_the_route_variance_goes_through_a_closure_when_that_is_shorter():
+    """Six keyframes 1 m apart on a line, each sequential edge of translation variance 0.01 per axis, the last
+    of yaw variance 1e-4; a closure 0 -> 4 of translation trace 0.001 and yaw variance 1e-4. From keyframe 5:
+    to 0 through the closure 0.02 + 0.001 + 1e-4 (the closure's yaw swings keyframe 5, 1 m from its end 4);
+    to 2 along the chain, 0.06, shorter than through the closure (0.061 + 1e-4); no closure, no route."""
+    slam = Slam2D(SlamParams())
+    poses = np.array([(float(i), 0.0, 0.0) for i in range(6)])
+    assert slam._route_variance(poses, 5, 0) is None
+    for i in range(1, 6):
+        slam._chain_cov.append(np.diag([0.01, 0.01, 1e-4 if i == 5 else 0.0]))
+    slam._loop_edges.append((0, 4, 0.001, 1e-4))
+    assert slam._route_variance(poses, 5, 0) == pytest.approx(0.0211, abs=1e-9)
+    assert slam._route_variance(poses, 5, 2) == pytest.approx(0.06, abs=1e-9)
+    assert slam._route_variance(poses, 5, 4) == pytest.approx(0.02, abs=1e-9)  # the yaw of 4 -> 5 swings nothing
+
+
 def test_a_loop_beyond_the_search_square_is_found_on_a_coarser_grid(scene):
     """The odometry ends 1.03 m off at the start corner (as above). A loop search square of 1 m
     (loop_search_space_dimension) reaches 0.5 m and never meets the corner again; allowed to grow to 4 m
