@@ -645,7 +645,6 @@ class Slam2D:
         k = np.arange(1, n)
         trace, yaw = cov[k, 0, 0] + cov[k, 1, 1], cov[k, 2, 2]
         loops = self._loop_edges.view()
-        loops = loops[loops[:, 1] <= new]
         a, b = loops[:, 0].astype(np.int64), loops[:, 1].astype(np.int64)
         # directed: from the end nearer new (by the route) to the other, the lever arm at the nearer end
         src = np.concatenate([k, k - 1, a, b])
@@ -658,7 +657,7 @@ class Slam2D:
                 loops[:, 2] + loops[:, 3] * lever[b],
             ]
         )
-        # one edge per ordered pair (a closure between neighbours, or twice between the same keyframes): the least
+        # one edge per ordered pair, the least (two closures between the same keyframes; csr_matrix would add them)
         order = np.lexsort((weight, dst, src))
         src, dst, weight = src[order], dst[order], weight[order]
         first = np.ones(len(src), dtype=bool)

@@ -211,7 +211,8 @@ def test_the_route_variance_goes_through_a_closure_when_that_is_shorter():
     """Six keyframes 1 m apart on a line, each sequential edge of translation variance 0.01 per axis, the last
     of yaw variance 1e-4; a closure 0 -> 4 of translation trace 0.001 and yaw variance 1e-4. From keyframe 5:
     to 0 through the closure 0.02 + 0.001 + 1e-4 (the closure's yaw swings keyframe 5, 1 m from its end 4);
-    to 2 along the chain, 0.06, shorter than through the closure (0.061 + 1e-4); no closure, no route."""
+    to 2 along the chain, 0.06, shorter than through the closure (0.061 + 1e-4); no closure, no route; of two
+    closures between the same keyframes the tighter counts."""
     slam = Slam2D(SlamParams())
     poses = np.array([(float(i), 0.0, 0.0) for i in range(6)])
     assert slam._route_variance(poses, 5, 0) is None
@@ -221,6 +222,8 @@ def test_the_route_variance_goes_through_a_closure_when_that_is_shorter():
     assert slam._route_variance(poses, 5, 0) == pytest.approx(0.0211, abs=1e-9)
     assert slam._route_variance(poses, 5, 2) == pytest.approx(0.06, abs=1e-9)
     assert slam._route_variance(poses, 5, 4) == pytest.approx(0.02, abs=1e-9)  # the yaw of 4 -> 5 swings nothing
+    slam._loop_edges.append((0, 4, 0.5, 0.0))  # a second, looser closure between the same keyframes
+    assert slam._route_variance(poses, 5, 0) == pytest.approx(0.0211, abs=1e-9)
 
 
 def test_a_loop_beyond_the_search_square_is_found_on_a_coarser_grid(scene):
