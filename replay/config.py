@@ -510,13 +510,26 @@ def from_mapping(cls: type[T], data: Any, where: str = "") -> T:
 
 
 def load_config(cls: type[T], path: Path, overrides: typing.Sequence[str] = ()) -> T:
-    """Load dataclass ``cls`` from a YAML file, with ``key.path=value`` overrides; errors name the file."""
+    """Load dataclass ``cls`` from a YAML file, with ``key.path=value`` overrides; an error names the file or,
+    when the file alone is valid, the first override that makes the parameters invalid."""
     data = load_yaml(path)
-    data = apply_overrides(data if data is not None else {}, overrides)
+    base = data if data is not None else {}
+    data = apply_overrides(base, overrides)
     try:
         return from_mapping(cls, data)
     except ConfigError as exc:
-        raise ConfigError(f"{path}: {exc}") from None
+        raise ConfigError(f"{_blamed(cls, base, overrides, path)}: {exc}") from None
+
+
+def _blamed(cls: type, base: dict, overrides: typing.Sequence[str], path: Path) -> str:
+    """What a failed ``load_config`` is blamed on: the file when it is invalid alone, else the first override
+    after which the parameters are."""
+    for n in range(len(overrides) + 1):
+        try:
+            from_mapping(cls, apply_overrides(base, overrides[:n]))
+        except ConfigError:
+            return str(path) if n == 0 else f"override '{overrides[n - 1]}' (over {path})"
+    return str(path)
 
 
 def apply_overrides(data: dict, overrides: typing.Sequence[str]) -> dict:

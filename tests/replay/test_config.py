@@ -72,6 +72,18 @@ def test_file_errors_name_the_file_and_line(tmp_path):
         load_config(Outer, p, ["inner.rate"])
 
 
+def test_an_invalid_override_is_named_not_the_valid_file(tmp_path):
+    p = tmp_path / "c.yaml"
+    p.write_text("name: a\ninner: {rate: 2}\n")
+    with pytest.raises(ConfigError) as exc:
+        load_config(Outer, p, ["inner.rate=3", "inner.mode=slow", "inner.rate=4"])
+    assert str(exc.value).startswith(f"override 'inner.mode=slow' (over {p}): inner.mode: ")
+    p.write_text("name: a\ninner: {mode: slow}\n")  # the file is wrong: an override elsewhere is not blamed
+    with pytest.raises(ConfigError) as exc:
+        load_config(Outer, p, ["inner.rate=3"])
+    assert str(exc.value).startswith(f"{p}: inner.mode: ")
+
+
 def test_overrides_copy_and_hash_is_stable():
     base = {"a": {"b": 1}}
     out = apply_overrides(base, ["a.b=2", "a.c=[1, 2]"])

@@ -205,8 +205,9 @@ def test_replay_refuses_a_map_period_that_would_hang(teleop_log, tmp_path):
         timeout=300,
     )
     assert proc.returncode == 2, proc.stderr
+    assert "override 'occupancy.publish_period=0.000001' (over " in proc.stderr, proc.stderr
     assert proc.stderr.strip().endswith(
-        "mapping.yaml: occupancy.publish_period: 1e-06 is out of range: must be >= 0.05"
+        "mapping.yaml): occupancy.publish_period: 1e-06 is out of range: must be >= 0.05"
     ), proc.stderr
     assert not out.exists()
 
