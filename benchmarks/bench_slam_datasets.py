@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import tempfile
@@ -61,6 +62,7 @@ from navlog.replay.mapping.slam2d.slam import Slam2D, surface_points
 from navlog.replay.session import pipeline_params, run_replay
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
+from tests.replay.mapping.odometry_errors import ODOMETRY_ERRORS, degraded_odometry
 from tests.shared_data import default_shared_dir
 
 DATASETS = ["intel", "aces", "seattle", "fhw"]
@@ -190,12 +192,10 @@ def matched_on_reference(ref: np.ndarray, stamps: np.ndarray, scans: dict[int, t
     return out
 
 
-def slam_on_reference_odometry(
-    ref: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple], params: SlamParams
-) -> np.ndarray:
-    """The SLAM's poses when its odometry is the reference trajectory itself."""
+def slam_on_odometry(odom: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple], params: SlamParams) -> np.ndarray:
+    """The SLAM's poses (``Slam2D`` in this process) given ``odom`` as the odometry at the scan stamps."""
     slam = Slam2D(params)
-    for t, pose in zip(stamps.tolist(), ref, strict=True):
+    for t, pose in zip(stamps.tolist(), odom, strict=True):
         slam.add_scan(t, pose, LaserScan2D(*scans[t], np.eye(4)))
     placed, poses = slam.trajectory()
     if placed != stamps.tolist():
@@ -203,7 +203,23 @@ def slam_on_reference_odometry(
     return poses
 
 
-def evaluate(name: str, carmen: Path, work: Path, sets: list[str], floor: bool = False) -> None:
+def odometry_error(text: str) -> tuple[str, float]:
+    """``KIND=VALUE`` of ``--odometry-error``."""
+    kind, _, value = text.partition("=")
+    if kind not in ODOMETRY_ERRORS:
+        raise argparse.ArgumentTypeError(f"{text!r}: KIND is one of {', '.join(ODOMETRY_ERRORS)}")
+    try:
+        number = float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: VALUE is a number, e.g. {kind}=0.05") from None
+    if not (math.isfinite(number) and -0.5 < number < 0.5):
+        raise argparse.ArgumentTypeError(f"{text!r}: VALUE lies between -0.5 and 0.5")
+    return kind, number
+
+
+def evaluate(
+    name: str, carmen: Path, work: Path, sets: list[str], floor: bool = False, errors: list[tuple[str, float]] = ()
+) -> None:
     bag = carmen / name
     ref_t, ref = tum_xyt(carmen / f"{name}.reference.tum")
     scans, odom_at = read_bag(bag)
@@ -232,10 +248,14 @@ def evaluate(name: str, carmen: Path, work: Path, sets: list[str], floor: bool =
     duration = (ref_t[-1] - ref_t[0]) / 1e9
     travel = float(np.sum(np.linalg.norm(np.diff(ref[:, :2], axis=0), axis=1)))
     rows = [("slam", slam), ("odometry", odom)]
+    slam_params = pipeline_params("mapping", overrides=sets).slam  # the replay's, --set included
     if floor:
         rows.append(("on ref.", matched_on_reference(ref[keep], ts, scans)))
-        slam_params = pipeline_params("mapping", overrides=sets).slam  # the replay's, --set included
-        rows.append(("ref. odom", slam_on_reference_odometry(ref[keep], ts, scans, slam_params)))
+        rows.append(("ref. odom", slam_on_odometry(ref[keep], ts, scans, slam_params)))
+    for kind, value in errors:
+        rows.append(
+            (f"{kind} {value:g}", slam_on_odometry(degraded_odometry(odom, kind, value), ts, scans, slam_params))
+        )
     for source, est_poses in rows:
         s = score(est_poses, ref[keep], ts, scans, ref_grid)
         extra = (
@@ -265,6 +285,15 @@ def main() -> None:
     ap.add_argument(
         "--set", action="append", default=[], help="a SLAM parameter override, e.g. slam.do_loop_closing=false"
     )
+    ap.add_argument(
+        "--odometry-error",
+        action="append",
+        default=[],
+        type=odometry_error,
+        metavar="KIND=VALUE",
+        help="also score the SLAM on the bag's odometry degraded: "
+        + "; ".join(f"{k}: {v}" for k, v in ODOMETRY_ERRORS.items()),
+    )
     args = ap.parse_args()
     carmen = args.shared / "external-data" / "carmen"
     print(f"machine: {os.cpu_count()} cores, load average {load()}")
@@ -273,7 +302,7 @@ def main() -> None:
     )
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.names:
-            evaluate(name, carmen, Path(tmp), args.set, args.floor)
+            evaluate(name, carmen, Path(tmp), args.set, args.floor, args.odometry_error)
 
 
 if __name__ == "__main__":

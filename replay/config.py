@@ -518,17 +518,18 @@ def load_config(cls: type[T], path: Path, overrides: typing.Sequence[str] = ()) 
     try:
         return from_mapping(cls, data)
     except ConfigError as exc:
-        raise ConfigError(f"{_blamed(cls, base, overrides, path)}: {exc}") from None
+        raise ConfigError(f"{_blamed(cls, base, overrides, path, str(exc))}: {exc}") from None
 
 
-def _blamed(cls: type, base: dict, overrides: typing.Sequence[str], path: Path) -> str:
-    """What a failed ``load_config`` is blamed on: the file when it is invalid alone, else the first override
-    after which the parameters are."""
+def _blamed(cls: type, base: dict, overrides: typing.Sequence[str], path: Path, error: str) -> str:
+    """What ``error`` of a failed ``load_config`` is blamed on: the file when the file alone fails with it, else
+    the first override after which the parameters fail with it (the file when none does: the overrides together)."""
     for n in range(len(overrides) + 1):
         try:
             from_mapping(cls, apply_overrides(base, overrides[:n]))
-        except ConfigError:
-            return str(path) if n == 0 else f"override '{overrides[n - 1]}' (over {path})"
+        except Exception as exc:  # any failure but this error blames nothing yet
+            if str(exc) == error:
+                return str(path) if n == 0 else f"override '{overrides[n - 1]}' (over {path})"
     return str(path)
 
 

@@ -78,10 +78,16 @@ def test_an_invalid_override_is_named_not_the_valid_file(tmp_path):
     with pytest.raises(ConfigError) as exc:
         load_config(Outer, p, ["inner.rate=3", "inner.mode=slow", "inner.rate=4"])
     assert str(exc.value).startswith(f"override 'inner.mode=slow' (over {p}): inner.mode: ")
+    with pytest.raises(ConfigError) as exc:  # an override set right again is not what the error is about
+        load_config(Outer, p, ["inner.mode=slow", "inner.mode=fast", "inner.rate=x"])
+    assert str(exc.value).startswith(f"override 'inner.rate=x' (over {p}): inner.rate: ")
     p.write_text("name: a\ninner: {mode: slow}\n")  # the file is wrong: an override elsewhere is not blamed
     with pytest.raises(ConfigError) as exc:
         load_config(Outer, p, ["inner.rate=3"])
     assert str(exc.value).startswith(f"{p}: inner.mode: ")
+    with pytest.raises(ConfigError) as exc:  # ... but one that is wrong too is, once the file is set right
+        load_config(Outer, p, ["inner.mode=fast", "inner.rate=x"])
+    assert str(exc.value).startswith(f"override 'inner.rate=x' (over {p}): inner.rate: ")
 
 
 def test_overrides_copy_and_hash_is_stable():

@@ -634,36 +634,30 @@ class Slam2D:
     def _route_variance(self, poses: np.ndarray, new: int, old: int) -> float | None:
         """The variance of keyframe ``new``'s position relative to keyframe ``old`` along the graph's route of
         least variance, through the loop closures kept (None before the first). Each edge adds the trace of its
-        translation covariance and its yaw variance times the square of the lever arm from the edge's end on
-        ``new``'s side to ``new``: ``_path_variance``'s sum along the chain, with each matrix taken by its trace
-        (an upper bound of its worst direction), so that the sums add along any route (scipy's Dijkstra)."""
+        translation covariance and its yaw variance times the square of the lever arm from the edge's target to
+        ``new`` (an edge's noise is in its target's frame: a yaw error there swings ``new`` about the target,
+        whichever way the route crosses the edge): ``_path_variance``'s sum along the chain, with each matrix
+        taken by its trace (an upper bound of its worst direction), so that the sums add along any route
+        (scipy's Dijkstra)."""
         if not len(self._loop_edges):
             return None
         n = new + 1
         cov = self._chain_cov.view()[:n]
         lever = np.sum(np.square(poses[:n, :2] - poses[new, :2]), axis=1)
-        k = np.arange(1, n)
-        trace, yaw = cov[k, 0, 0] + cov[k, 1, 1], cov[k, 2, 2]
         loops = self._loop_edges.view()
-        a, b = loops[:, 0].astype(np.int64), loops[:, 1].astype(np.int64)
-        # directed: from the end nearer new (by the route) to the other, the lever arm at the nearer end
-        src = np.concatenate([k, k - 1, a, b])
-        dst = np.concatenate([k - 1, k, b, a])
+        k = np.arange(1, n)  # sequential edge k: keyframe k - 1 -> k
+        a, b = loops[:, 0].astype(np.int64), loops[:, 1].astype(np.int64)  # loop edge: a -> b
+        src, dst = np.concatenate([k - 1, a]), np.concatenate([k, b])
         weight = np.concatenate(
-            [
-                trace + yaw * lever[k],
-                trace + yaw * lever[k - 1],
-                loops[:, 2] + loops[:, 3] * lever[a],
-                loops[:, 2] + loops[:, 3] * lever[b],
-            ]
+            [cov[k, 0, 0] + cov[k, 1, 1] + cov[k, 2, 2] * lever[k], loops[:, 2] + loops[:, 3] * lever[b]]
         )
-        # one edge per ordered pair, the least (two closures between the same keyframes; csr_matrix would add them)
+        # one edge per pair, the least (two closures between the same keyframes; csr_matrix would add them)
         order = np.lexsort((weight, dst, src))
         src, dst, weight = src[order], dst[order], weight[order]
         first = np.ones(len(src), dtype=bool)
         first[1:] = (src[1:] != src[:-1]) | (dst[1:] != dst[:-1])
         graph = csr_matrix((weight[first] + 1e-12, (src[first], dst[first])), shape=(n, n))  # no zero: no edge
-        return float(dijkstra(graph, directed=True, indices=new)[old])
+        return float(dijkstra(graph, directed=False, indices=new)[old])
 
     # ------------------------------------------------------------ results
     def _pose(self, i: int) -> gtsam.Pose2:

@@ -226,6 +226,29 @@ def test_the_route_variance_goes_through_a_closure_when_that_is_shorter():
     assert slam._route_variance(poses, 5, 0) == pytest.approx(0.0211, abs=1e-9)
 
 
+def test_an_edge_crossed_either_way_swings_the_new_keyframe_about_its_target():
+    """Keyframes at x = 0, 1, 5 m; edge 0 -> 1 of yaw variance 0.01 (and translation 0.001 per axis), edge
+    1 -> 2 loose (1 m^2 per axis), a tight closure 0 -> 2. From keyframe 2 to 1 the route goes through the
+    closure to 0, then forward over 0 -> 1: its yaw error swings keyframe 2 about keyframe 1, 4 m away
+    (0.01 * 16), not about keyframe 0, 5 m away. Then a closure crossed from its old end to its new one: from
+    keyframe 4 (at (0, 4)) to 2 (at (3, 0)) through a tight closure 1 -> 4, edge 0 -> 1 backwards (0.002) and
+    a closure 0 -> 2 of yaw variance 0.01, which swings keyframe 4 about keyframe 2, 5 m away."""
+    slam = Slam2D(SlamParams())
+    poses = np.array([(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (5.0, 0.0, 0.0)])
+    slam._chain_cov.append(np.diag([0.001, 0.001, 0.01]))
+    slam._chain_cov.append(np.diag([1.0, 1.0, 0.0]))
+    slam._loop_edges.append((0, 2, 1e-4, 0.0))
+    assert slam._route_variance(poses, 2, 1) == pytest.approx(1e-4 + 0.002 + 0.16, abs=1e-9)
+    slam = Slam2D(SlamParams())
+    poses = np.array([(0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (3.0, 0.0, 0.0), (3.0, 3.0, 0.0), (0.0, 4.0, 0.0)])
+    slam._chain_cov.append(np.diag([0.001, 0.001, 0.0]))
+    for _ in range(3):
+        slam._chain_cov.append(np.diag([1.0, 1.0, 0.0]))  # the rest of the chain loose: the route takes the closures
+    slam._loop_edges.append((1, 4, 1e-4, 0.0))
+    slam._loop_edges.append((0, 2, 1e-4, 0.01))
+    assert slam._route_variance(poses, 4, 2) == pytest.approx(1e-4 + 0.002 + 1e-4 + 0.25, abs=1e-9)
+
+
 def test_a_loop_beyond_the_search_square_is_found_on_a_coarser_grid(scene):
     """The odometry ends 1.03 m off at the start corner (as above). A loop search square of 1 m
     (loop_search_space_dimension) reaches 0.5 m and never meets the corner again; allowed to grow to 4 m

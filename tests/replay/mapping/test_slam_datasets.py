@@ -28,8 +28,8 @@ def planar(path: Path) -> tuple[np.ndarray, np.ndarray]:
 
 
 # name, ATE bound (m), relative error over 1 m bound (m), the odometry's relative error over 1 m,
-# loops at least; measured (bench_slam_datasets.py): seattle ATE 0.061 m, RE 1 m 0.0239 m, 24 loops;
-# aces (big loops, long corridors) ATE 0.084 m, RE 1 m 0.046 m, 19 loops
+# loops at least; measured (bench_slam_datasets.py): seattle ATE 0.062 m, RE 1 m 0.0243 m, 27 loops;
+# aces (big loops, long corridors) ATE 0.083 m, RE 1 m 0.047 m, 23 loops
 CASES = [("seattle", 0.07, 0.0245, 0.0250, 12), ("aces", 0.12, 0.055, 0.090, 10)]
 
 
