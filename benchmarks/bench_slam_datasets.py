@@ -60,16 +60,20 @@ from scipy.spatial import cKDTree
 
 from navlog.analysis.metrics import align_planar, planar_relative_error
 from navlog.replay.geometry import planar_matrix
-from navlog.replay.io.formats import open_log
-from navlog.replay.io.tum import read_tum
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow, SlamParams
 from navlog.replay.mapping.slam2d.scan_matcher import transform_points
-from navlog.replay.mapping.slam2d.slam import Slam2D, surface_points
+from navlog.replay.mapping.slam2d.slam import surface_points
 from navlog.replay.session import pipeline_params, run_replay
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
-from tests.replay.mapping.odometry_errors import ODOMETRY_ERRORS, degraded_odometry
+from tests.replay.mapping.odometry_errors import (
+    ODOMETRY_ERRORS,
+    degraded_odometry,
+    planar_tum,
+    read_bag,
+    slam_on_odometry,
+)
 from tests.shared_data import default_shared_dir
 
 DATASETS = ["intel", "aces", "seattle", "fhw"]
@@ -78,41 +82,6 @@ WALL_REACH = 0.10  # m
 
 def load() -> str:
     return " ".join(f"{v:.2f}" for v in os.getloadavg())
-
-
-def tum_xyt(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """(stamps ns, (n, 3) x y yaw) of a TUM file."""
-    t = read_tum(path)
-    q = t.quaternions
-    yaw = np.arctan2(2 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2))
-    return t.times_ns, np.column_stack([t.positions[:, :2], yaw])
-
-
-def read_bag(bag: Path) -> tuple[dict[int, tuple], dict[int, np.ndarray]]:
-    """Scans by stamp (angles, ranges, range_min, range_max) and the odometry pose at each scan stamp."""
-    scans: dict[int, tuple] = {}
-    odom_t: list[int] = []
-    odom_p: list[np.ndarray] = []
-    with open_log(bag) as reader:
-        for env in reader.messages(["/scan", "/odom"]):
-            m = env.msg
-            stamp = m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec
-            if env.topic == "/scan":
-                r = np.asarray(m.ranges, dtype=np.float64)
-                a = m.angle_min + m.angle_increment * np.arange(len(r))
-                scans[stamp] = (a, r, float(m.range_min), float(m.range_max))
-            else:
-                p, q = m.pose.pose.position, m.pose.pose.orientation
-                yaw = float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2)))
-                odom_t.append(stamp)
-                odom_p.append(np.array([p.x, p.y, yaw]))
-    ts = np.asarray(odom_t)
-    ps = np.asarray(odom_p)
-    odom = {}
-    for stamp in scans:
-        i = int(np.clip(np.searchsorted(ts, stamp), 1, len(ts) - 1))
-        odom[stamp] = ps[i] if abs(ts[i] - stamp) < abs(ts[i - 1] - stamp) else ps[i - 1]
-    return scans, odom
 
 
 def draw(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> OccupancyGrid2D:
@@ -199,17 +168,6 @@ def matched_on_reference(ref: np.ndarray, stamps: np.ndarray, scans: dict[int, t
     return out
 
 
-def slam_on_odometry(odom: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple], params: SlamParams) -> np.ndarray:
-    """The SLAM's poses (``Slam2D`` in this process) given ``odom`` as the odometry at the scan stamps."""
-    slam = Slam2D(params)
-    for t, pose in zip(stamps.tolist(), odom, strict=True):
-        slam.add_scan(t, pose, LaserScan2D(*scans[t], np.eye(4)))
-    placed, poses = slam.trajectory()
-    if placed != stamps.tolist():
-        raise RuntimeError("a scan was left unplaced")
-    return poses
-
-
 def odometry_error(text: str) -> tuple[str, float]:
     """``KIND=VALUE`` of ``--odometry-error``."""
     kind, _, value = text.partition("=")
@@ -228,7 +186,7 @@ def evaluate(
     name: str, carmen: Path, work: Path, sets: list[str], floor: bool = False, errors: list[tuple[str, float]] = ()
 ) -> None:
     bag = carmen / name
-    ref_t, ref = tum_xyt(carmen / f"{name}.reference.tum")
+    ref_t, ref = planar_tum(carmen / f"{name}.reference.tum")
     scans, odom_at = read_bag(bag)
     ref_grid = draw(ref, ref_t, scans)
     out = work / name
@@ -244,7 +202,7 @@ def evaluate(
     )
     wall = time.perf_counter() - start
     cpu = time.process_time() - cpu
-    est_t, est = tum_xyt(out / "trajectory.tum")
+    est_t, est = planar_tum(out / "trajectory.tum")
     where = {t: i for i, t in enumerate(est_t.tolist())}
     keep = np.array([t in where for t in ref_t.tolist()])
     ts = ref_t[keep]

@@ -47,8 +47,9 @@ from navlog.replay.runtime.progress import Progress
 from navlog.replay.session import run_replay
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests/ holds the log builder
-from benchmarks.bench_slam_datasets import load, tum_xyt
+from benchmarks.bench_slam_datasets import load
 from tests.replay.mapping.lap_logs import LapTime, write_laps
+from tests.replay.mapping.odometry_errors import planar_tum
 from tests.shared_data import default_shared_dir
 
 SOURCE = "intel"
@@ -116,7 +117,7 @@ def main() -> None:
         work = Path(tmp) if args.keep is None else args.keep
         if args.keep is not None:
             work.mkdir(parents=True, exist_ok=False)  # a new folder: nothing of another run mixed in
-        ref_t, ref = tum_xyt(carmen / f"{SOURCE}.reference.tum")
+        ref_t, ref = planar_tum(carmen / f"{SOURCE}.reference.tum")
         back = None
         if args.forward:
             back = np.linalg.inv(planar_matrix(*ref[-1])) @ planar_matrix(*ref[0])
@@ -152,7 +153,7 @@ def main() -> None:
                 if t in ref_at:
                     rt.append(when(t))
                     rp.append(ref_at[t])
-        est_t, est = tum_xyt(out / "trajectory.tum")
+        est_t, est = planar_tum(out / "trajectory.tum")
         where = {t: i for i, t in enumerate(est_t.tolist())}
         keep = [i for i, t in enumerate(rt) if t in where]
         ref_poses = np.array([rp[i] for i in keep])

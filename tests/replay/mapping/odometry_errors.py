@@ -1,16 +1,23 @@
 """Wheel odometry made worse than a log's own, for measuring how the SLAM copes with it.
 
-``degraded_odometry`` takes the odometry poses at a log's scan stamps, degrades each increment between
-them in the robot's frame (``ODOMETRY_ERRORS``: turns or step lengths scaled, a heading drift per metre,
-seeded Gaussian noise) and composes them again from the first pose. Used by
-``benchmarks/bench_slam_datasets.py --odometry-error`` and ``tests/replay/mapping/test_odometry_errors.py``.
+``planar_tum`` reads a trajectory file as planar poses; ``read_bag`` reads a 2D log's scans and its odometry at their stamps; ``degraded_odometry`` degrades each
+increment of that odometry in the robot's frame (``ODOMETRY_ERRORS``: turns or step lengths scaled, a
+heading drift per metre, seeded Gaussian noise) and composes them again from the first pose;
+``slam_on_odometry`` runs the SLAM (``Slam2D``, in this process) on the scans with any such odometry. Used
+by ``benchmarks/bench_slam_datasets.py`` and ``tests/replay/mapping/test_odometry_errors.py``.
 """
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
+
+from navlog.replay.io.formats import open_log
+from navlog.replay.io.tum import read_tum
+from navlog.replay.mapping.slam2d import LaserScan2D, SlamParams
+from navlog.replay.mapping.slam2d.slam import Slam2D
 
 ODOMETRY_ERRORS = {
     "turn": "every turn scaled by 1 + VALUE (each step keeps its direction in the robot's frame)",
@@ -46,3 +53,49 @@ def degraded_odometry(odom: np.ndarray, kind: str, value: float) -> np.ndarray:
         co, so = math.cos(o[2]), math.sin(o[2])
         out.append(np.array([o[0] + co * lx - so * ly, o[1] + so * lx + co * ly, o[2] + turn]))
     return np.array(out)
+
+
+def read_bag(bag: Path) -> tuple[dict[int, tuple], dict[int, np.ndarray]]:
+    """Scans by stamp (angles, ranges, range_min, range_max) and the odometry pose at each scan stamp."""
+    scans: dict[int, tuple] = {}
+    odom_t: list[int] = []
+    odom_p: list[np.ndarray] = []
+    with open_log(bag) as reader:
+        for env in reader.messages(["/scan", "/odom"]):
+            m = env.msg
+            stamp = m.header.stamp.sec * 1_000_000_000 + m.header.stamp.nanosec
+            if env.topic == "/scan":
+                r = np.asarray(m.ranges, dtype=np.float64)
+                a = m.angle_min + m.angle_increment * np.arange(len(r))
+                scans[stamp] = (a, r, float(m.range_min), float(m.range_max))
+            else:
+                p, q = m.pose.pose.position, m.pose.pose.orientation
+                yaw = float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2)))
+                odom_t.append(stamp)
+                odom_p.append(np.array([p.x, p.y, yaw]))
+    ts = np.asarray(odom_t)
+    ps = np.asarray(odom_p)
+    odom = {}
+    for stamp in scans:
+        i = int(np.clip(np.searchsorted(ts, stamp), 1, len(ts) - 1))
+        odom[stamp] = ps[i] if abs(ts[i] - stamp) < abs(ts[i - 1] - stamp) else ps[i - 1]
+    return scans, odom
+
+
+def slam_on_odometry(odom: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple], params: SlamParams) -> np.ndarray:
+    """The SLAM's poses (``Slam2D`` in this process) given ``odom`` as the odometry at the scan stamps."""
+    slam = Slam2D(params)
+    for t, pose in zip(stamps.tolist(), odom, strict=True):
+        slam.add_scan(t, pose, LaserScan2D(*scans[t], np.eye(4)))
+    placed, poses = slam.trajectory()
+    if placed != stamps.tolist():
+        raise RuntimeError("a scan was left unplaced")
+    return poses
+
+
+def planar_tum(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """(stamps ns, (n, 3) x y yaw) of a TUM trajectory file."""
+    t = read_tum(path)
+    q = t.quaternions
+    yaw = np.arctan2(2 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2))
+    return t.times_ns, np.column_stack([t.positions[:, :2], yaw])

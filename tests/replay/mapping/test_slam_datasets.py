@@ -8,23 +8,15 @@ the odometry figures are the same benchmark's, for the bag's own wheel odometry 
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from navlog.analysis.metrics import align_planar, planar_relative_error
-from navlog.replay.io.tum import read_tum
 from navlog.replay.session import run_replay
+from tests.replay.mapping.odometry_errors import planar_tum
 
 pytestmark = pytest.mark.slow
-
-
-def planar(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    t = read_tum(path)
-    q = t.quaternions
-    yaw = np.arctan2(2 * (q[:, 3] * q[:, 2] + q[:, 0] * q[:, 1]), 1 - 2 * (q[:, 1] ** 2 + q[:, 2] ** 2))
-    return t.times_ns, np.column_stack([t.positions[:, :2], yaw])
 
 
 # name, ATE bound (m), relative error over 1 m bound (m), the odometry's relative error over 1 m,
@@ -41,8 +33,8 @@ def test_slam_on_a_real_building_beats_its_odometry(
     if not (carmen / name).is_dir():
         pytest.skip(f"{carmen / name}: not in the external data")
     run_replay(carmen / name, "mapping", tmp_path, overrides=["pose_source=slam", "lidar_mapper=off"], progress=False)
-    ref_t, ref = planar(carmen / f"{name}.reference.tum")
-    est_t, est = planar(tmp_path / "trajectory.tum")
+    ref_t, ref = planar_tum(carmen / f"{name}.reference.tum")
+    est_t, est = planar_tum(tmp_path / "trajectory.tum")
     assert np.array_equal(est_t, ref_t)  # every scan placed
     aligned = align_planar(est, ref)
     ate = float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
