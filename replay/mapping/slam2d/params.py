@@ -92,6 +92,9 @@ class SlamParams:
     # and odometry (no less than a quarter of odometry_sigmas). Off by default: on the CARMEN datasets it
     # helps where the odometry is good (seattle ATE 0.058 -> 0.052 m) and hurts where it slips (aces 0.090 -> 0.121 m)
     estimate_odometry_noise: bool = False
+    # navlog's: the odometry's increments are scaled, in length and in turn, by how the last 50 matches that pinned
+    # a keyframe measured them against it (wheels whose radius or track is a few per cent off)
+    calibrate_odometry: bool = True
     # a loop closure, the same way (its covariance also decides loop_match_maximum_variance_coarse)
     loop_sigmas: tuple[float, float, float] = (0.05, 0.05, 0.02)
     # the robust kernel of the loop edges in the graph: huber (measured best on the CARMEN datasets), cauchy,

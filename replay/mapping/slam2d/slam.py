@@ -66,6 +66,12 @@ from navlog.replay.mapping.slam2d.scan_matcher import (
 )
 
 ODOMETRY_WINDOW = 20  # matches the odometry's noise is estimated over
+# calibrate_odometry: the odometry's scale is measured over the last CALIBRATION_WINDOW steps (or turns) that a
+# match pinned, once CALIBRATION_WINDOW / 2 are in; steps shorter (turns smaller) than CALIBRATION_LEAST tell
+# nothing of it, and a scale outside CALIBRATION_BOUNDS is not a wheel's calibration (slip): the nearer bound holds
+CALIBRATION_WINDOW = 50
+CALIBRATION_LEAST = (0.2, 0.1)  # m, rad
+CALIBRATION_BOUNDS = (0.8, 1.25)
 # a loop search wider than loop_search_space_dimension ends in a full-resolution search of this square side (m)
 # and yaw either side (rad) around the pose its coarser grid found
 WIDE_REFINE = (1.0, 0.1)
@@ -198,6 +204,9 @@ class Slam2D:
         self._odometry_steps: deque[float] = deque(maxlen=ODOMETRY_WINDOW + 1)
         # the last matches' match - odometry prediction, in the previous keyframe's frame
         self._innovations: deque[np.ndarray] = deque(maxlen=ODOMETRY_WINDOW)
+        # calibrate_odometry: (matched, odometry) step lengths, and (matched, odometry) turns signed by the odometry's
+        self._lengths: deque[tuple[float, float]] = deque(maxlen=CALIBRATION_WINDOW)
+        self._turns: deque[tuple[float, float]] = deque(maxlen=CALIBRATION_WINDOW)
         self._travel: list[float] = [0.0]  # per keyframe: path length from the first, as estimated when added
         # per keyframe: the covariance of its sequential edge (in its own frame, as the edge measures it; zero for
         # the first)
@@ -256,7 +265,7 @@ class Slam2D:
         last = self.keyframes[-1]
         base = self._pose(last.index)
         _, anchor_odom, anchor_rel = self._anchor
-        rel = anchor_rel.compose(anchor_odom.between(odom))
+        rel = anchor_rel.compose(self._calibrated(anchor_odom.between(odom)))
         pose = _xyt(base.compose(rel))
         if points is not None and len(points):
             match = self.matcher.match_on(
@@ -296,7 +305,36 @@ class Slam2D:
         if not self.keyframes:
             return odom  # the map frame starts where the odometry frame is
         last = self.keyframes[-1]
-        return self._pose(last.index).compose(last.odom.between(odom))
+        return self._pose(last.index).compose(self._calibrated(last.odom.between(odom)))
+
+    def _calibration_sample(self, matched: gtsam.Pose2, odometry: gtsam.Pose2) -> None:
+        """A keyframe's step as a match that pinned it measured it and as the odometry did (both in the previous
+        keyframe's frame), for ``calibrate_odometry``."""
+        length = math.hypot(odometry.x(), odometry.y())
+        if length >= CALIBRATION_LEAST[0]:
+            self._lengths.append((math.hypot(matched.x(), matched.y()), length))
+        if abs(odometry.theta()) >= CALIBRATION_LEAST[1]:
+            sign = 1.0 if odometry.theta() > 0 else -1.0
+            self._turns.append((sign * matched.theta(), sign * odometry.theta()))
+
+    def _calibrated(self, step: gtsam.Pose2) -> gtsam.Pose2:
+        """An odometry increment with its length and its turn scaled by the odometry's measured scales
+        (``calibrate_odometry``: over the last ``CALIBRATION_WINDOW`` keyframe steps, and turns, a match pinned:
+        the matched sum over the odometry's; 1 until ``CALIBRATION_WINDOW / 2`` are in): wheels whose radius or
+        track is off by a few per cent, which a match corrects where it pins the pose but not along a
+        corridor's axis, where the odometry decides."""
+        if not self.p.calibrate_odometry:
+            return step
+        scales = []
+        for samples in (self._lengths, self._turns):
+            if len(samples) < CALIBRATION_WINDOW // 2:
+                scales.append(1.0)
+            else:
+                matched, odometry = (sum(v) for v in zip(*samples, strict=True))
+                scales.append(min(max(matched / odometry, CALIBRATION_BOUNDS[0]), CALIBRATION_BOUNDS[1]))
+        if scales == [1.0, 1.0]:
+            return step
+        return gtsam.Pose2(scales[0] * step.x(), scales[0] * step.y(), scales[1] * step.theta())
 
     def _travelled(self, odom: gtsam.Pose2) -> bool:
         d = self.keyframes[-1].odom.between(odom)
@@ -341,6 +379,7 @@ class Slam2D:
                     innovation = rot.T @ (match.pose - pose)
                     innovation[2] = remainder_angle(float(innovation[2]))
                     self._innovations.append(innovation)
+                    self._calibration_sample(prev.between(_pose2(match.pose)), step)
                 pose, cov = self._fuse(pose, prev.theta(), match)
                 self.counts.matched += 1
                 kind, response = "match", match.response

@@ -8,14 +8,16 @@ from __future__ import annotations
 
 import math
 
+import gtsam
 import numpy as np
 import open3d as o3d
 import pytest
 
 from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow, Slam2D, SlamParams
 from navlog.replay.mapping.slam2d.scan_matcher import transform_points
-from navlog.replay.mapping.slam2d.slam import WIDE_REFINE
+from navlog.replay.mapping.slam2d.slam import CALIBRATION_WINDOW, WIDE_REFINE
 from tests.replay import lidar_scene
+from tests.replay.mapping.odometry_errors import degraded_odometry
 
 N_BEAMS = 720
 RANGE_MAX = 8.0
@@ -439,6 +441,35 @@ def test_a_corridor_match_falls_back_to_odometry_along_its_axis():
     # across the corridor and in yaw the walls pin the pose: the odometry's turn error is gone
     assert np.abs(poses[:, 1] - truth[:, 1]).max() < 0.03
     assert np.abs(np.remainder(poses[:, 2] - truth[:, 2] + np.pi, 2 * np.pi) - np.pi).max() < 0.01
+
+
+def test_the_matches_measure_the_odometry_s_scale_in_length_and_in_turn(scene):
+    """Two laps of a 2 m circle driven in the room (0.1 m steps, heading along it) on odometry whose steps are
+    8 % long and whose turns are 5 % too large (every match pins the pose there): the calibration finds
+    both, 1 / 1.08 and 1 / 1.05, within 1 %."""
+    a = np.arange(252) * 0.05
+    truth = np.column_stack([2.0 * np.cos(a), 2.0 * np.sin(a), a + math.pi / 2])
+    odom = degraded_odometry(degraded_odometry(truth, "length", 0.08), "turn", 0.05)
+    slam = run_slam(scene, truth, odom, SlamParams(do_loop_closing=False))
+    scaled = slam._calibrated(gtsam.Pose2(1.0, 0.0, 1.0))
+    assert scaled.x() == pytest.approx(1 / 1.08, rel=0.01) and scaled.theta() == pytest.approx(1 / 1.05, rel=0.01)
+    assert len(slam._lengths) >= CALIBRATION_WINDOW // 2 and len(slam._turns) >= CALIBRATION_WINDOW // 2
+
+
+def test_calibration_waits_for_its_samples_and_keeps_to_its_bounds():
+    slam = Slam2D(SlamParams())
+    step = gtsam.Pose2(1.0, 0.0, 0.5)
+    for _ in range(CALIBRATION_WINDOW // 2 - 1):
+        slam._calibration_sample(gtsam.Pose2(0.5, 0.0, 0.6), step)  # half the length, a fifth more turn
+    assert slam._calibrated(step).equals(step, 1e-12)  # not enough samples yet: the odometry as it is
+    slam._calibration_sample(gtsam.Pose2(0.5, 0.0, 0.6), step)
+    scaled = slam._calibrated(step)
+    assert scaled.x() == pytest.approx(0.8) and scaled.theta() == pytest.approx(0.6)  # 0.5 held to the bound 0.8
+    slam._calibration_sample(gtsam.Pose2(0.02, 0.0, -0.15), gtsam.Pose2(0.05, 0.0, -0.15))  # too short, turn kept
+    assert len(slam._lengths) == CALIBRATION_WINDOW // 2 and len(slam._turns) == CALIBRATION_WINDOW // 2 + 1
+    off = Slam2D(SlamParams(calibrate_odometry=False))
+    off._lengths, off._turns = slam._lengths, slam._turns
+    assert off._calibrated(step).equals(step, 1e-12)
 
 
 def test_an_ambiguous_corridor_loop_is_refused():

@@ -20,8 +20,8 @@ pytestmark = pytest.mark.slow
 
 
 # name, ATE bound (m), relative error over 1 m bound (m), the odometry's relative error over 1 m,
-# loops at least; measured (bench_slam_datasets.py): seattle ATE 0.062 m, RE 1 m 0.0243 m, 27 loops;
-# aces (big loops, long corridors) ATE 0.083 m, RE 1 m 0.047 m, 23 loops
+# loops at least; measured (bench_slam_datasets.py): seattle ATE 0.053 m, RE 1 m 0.0243 m, 27 loops;
+# aces (big loops, long corridors) ATE 0.090 m, RE 1 m 0.045 m, 23 loops
 CASES = [("seattle", 0.07, 0.0245, 0.0250, 12), ("aces", 0.12, 0.055, 0.090, 10)]
 
 
