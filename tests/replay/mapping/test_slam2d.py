@@ -467,6 +467,8 @@ def test_calibration_waits_for_its_samples_and_keeps_to_its_bounds():
     assert scaled.x() == pytest.approx(0.8) and scaled.theta() == pytest.approx(0.6)  # 0.5 held to the bound 0.8
     slam._calibration_sample(gtsam.Pose2(0.02, 0.0, -0.15), gtsam.Pose2(0.05, 0.0, -0.15))  # too short, turn kept
     assert len(slam._lengths) == CALIBRATION_WINDOW // 2 and len(slam._turns) == CALIBRATION_WINDOW // 2 + 1
+    slam._calibration_sample(gtsam.Pose2(-0.4, 0.0, 0.2), gtsam.Pose2(-0.5, 0.0, 0.2))  # driven backwards: no sample
+    assert len(slam._lengths) == CALIBRATION_WINDOW // 2 and len(slam._turns) == CALIBRATION_WINDOW // 2 + 1
     off = Slam2D(SlamParams(calibrate_odometry=False))
     off._lengths, off._turns = slam._lengths, slam._turns
     assert off._calibrated(step).equals(step, 1e-12)
