@@ -32,7 +32,7 @@ does.
 
 With ``--odometry-error KIND=VALUE`` (repeatable) a row per error, **KIND VALUE**: the same SLAM (in this
 process, as the fourth row) given the bag's own odometry at the scan stamps degraded
-(``tests/replay/mapping/odometry_errors.py``: ``turn=0.05`` every turn 5 % too large, ``length=0.1`` every
+(``tests/replay/mapping/planar_logs.py``: ``turn=0.05`` every turn 5 % too large, ``length=0.1`` every
 step 10 % too long, ``drift=0.02`` 0.02 rad of heading gained per metre, ``noise=0.05`` seeded Gaussian
 noise of 5 % on every step): how the defaults fare on a robot whose wheels are worse than the dataset's.
 
@@ -67,7 +67,7 @@ from navlog.replay.mapping.slam2d.slam import surface_points
 from navlog.replay.session import pipeline_params, run_replay
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
-from tests.replay.mapping.odometry_errors import (
+from tests.replay.mapping.planar_logs import (
     ODOMETRY_ERRORS,
     degraded_odometry,
     planar_tum,

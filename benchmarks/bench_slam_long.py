@@ -49,7 +49,7 @@ from navlog.replay.session import run_replay
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests/ holds the log builder
 from benchmarks.bench_slam_datasets import load
 from tests.replay.mapping.lap_logs import LapTime, write_laps
-from tests.replay.mapping.odometry_errors import planar_tum
+from tests.replay.mapping.planar_logs import planar_tum
 from tests.shared_data import default_shared_dir
 
 SOURCE = "intel"

@@ -207,6 +207,7 @@ class Slam2D:
         # calibrate_odometry: (matched, odometry) step lengths, and (matched, odometry) turns signed by the odometry's
         self._lengths: deque[tuple[float, float]] = deque(maxlen=CALIBRATION_WINDOW)
         self._turns: deque[tuple[float, float]] = deque(maxlen=CALIBRATION_WINDOW)
+        self._scales = (1.0, 1.0)  # the length and turn scales those measure (see _calibration_sample)
         self._travel: list[float] = [0.0]  # per keyframe: path length from the first, as estimated when added
         # per keyframe: the covariance of its sequential edge (in its own frame, as the edge measures it; zero for
         # the first)
@@ -320,6 +321,15 @@ class Slam2D:
         if abs(odometry.theta()) >= CALIBRATION_LEAST[1]:
             sign = 1.0 if odometry.theta() > 0 else -1.0
             self._turns.append((sign * matched.theta(), sign * odometry.theta()))
+        # per kind, the matched sum over the odometry's, held within the bounds; 1 until CALIBRATION_WINDOW / 2 are in
+        scales = []
+        for samples in (self._lengths, self._turns):
+            if len(samples) < CALIBRATION_WINDOW // 2:
+                scales.append(1.0)
+            else:
+                matched_sum, odometry_sum = (sum(v) for v in zip(*samples, strict=True))
+                scales.append(min(max(matched_sum / odometry_sum, CALIBRATION_BOUNDS[0]), CALIBRATION_BOUNDS[1]))
+        self._scales = (scales[0], scales[1])
 
     def _calibrated(self, step: gtsam.Pose2) -> gtsam.Pose2:
         """An odometry increment with its length and its turn scaled by the odometry's measured scales
@@ -327,18 +337,10 @@ class Slam2D:
         the matched sum over the odometry's; 1 until ``CALIBRATION_WINDOW / 2`` are in): wheels whose radius or
         track is off by a few per cent, which a match corrects where it pins the pose but not along a
         corridor's axis, where the odometry decides."""
-        if not self.p.calibrate_odometry:
+        length, turn = self._scales
+        if not self.p.calibrate_odometry or (length, turn) == (1.0, 1.0):
             return step
-        scales = []
-        for samples in (self._lengths, self._turns):
-            if len(samples) < CALIBRATION_WINDOW // 2:
-                scales.append(1.0)
-            else:
-                matched, odometry = (sum(v) for v in zip(*samples, strict=True))
-                scales.append(min(max(matched / odometry, CALIBRATION_BOUNDS[0]), CALIBRATION_BOUNDS[1]))
-        if scales == [1.0, 1.0]:
-            return step
-        return gtsam.Pose2(scales[0] * step.x(), scales[0] * step.y(), scales[1] * step.theta())
+        return gtsam.Pose2(length * step.x(), length * step.y(), turn * step.theta())
 
     def _travelled(self, odom: gtsam.Pose2) -> bool:
         d = self.keyframes[-1].odom.between(odom)
@@ -558,14 +560,14 @@ class Slam2D:
         chain = list(range(lo, hi + 1))
         # the square searched: the reach to the closest keyframe by the smaller of two bounds of the same
         # uncertainty (a chain with a closure across it is known no worse than by either)
+        square_reach = float(reach[closest])
         variance = self._route_variance(poses, new, closest)
         if variance is not None:
-            reach[closest] = min(
-                float(reach[closest]),
-                self.p.loop_search_maximum_distance + self.p.loop_search_path_sigmas * math.sqrt(variance),
+            square_reach = min(
+                square_reach, self.p.loop_search_maximum_distance + self.p.loop_search_path_sigmas * math.sqrt(variance)
             )
         window = SearchWindow(
-            min(self.p.loop_search_maximum_dimension, 2 * float(reach[closest]) + 2.0),
+            min(self.p.loop_search_maximum_dimension, 2 * square_reach + 2.0),
             self.p.coarse_search_angle_offset,
             self.p.coarse_angle_resolution,
         )

@@ -17,7 +17,7 @@ from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow,
 from navlog.replay.mapping.slam2d.scan_matcher import transform_points
 from navlog.replay.mapping.slam2d.slam import CALIBRATION_WINDOW, WIDE_REFINE
 from tests.replay import lidar_scene
-from tests.replay.mapping.odometry_errors import degraded_odometry
+from tests.replay.mapping.planar_logs import degraded_odometry
 
 N_BEAMS = 720
 RANGE_MAX = 8.0
@@ -470,7 +470,7 @@ def test_calibration_waits_for_its_samples_and_keeps_to_its_bounds():
     slam._calibration_sample(gtsam.Pose2(-0.4, 0.0, 0.2), gtsam.Pose2(-0.5, 0.0, 0.2))  # driven backwards: no sample
     assert len(slam._lengths) == CALIBRATION_WINDOW // 2 and len(slam._turns) == CALIBRATION_WINDOW // 2 + 1
     off = Slam2D(SlamParams(calibrate_odometry=False))
-    off._lengths, off._turns = slam._lengths, slam._turns
+    off._lengths, off._turns, off._scales = slam._lengths, slam._turns, slam._scales  # scales of 0.8 and 1.2
     assert off._calibrated(step).equals(step, 1e-12)
 
 

@@ -14,7 +14,7 @@ import pytest
 
 from navlog.analysis.metrics import align_planar, planar_relative_error
 from navlog.replay.session import run_replay
-from tests.replay.mapping.odometry_errors import planar_tum
+from tests.replay.mapping.planar_logs import planar_tum
 
 pytestmark = pytest.mark.slow
 

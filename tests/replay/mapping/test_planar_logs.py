@@ -1,5 +1,5 @@
-"""The degraded odometry the SLAM benchmark measures against: each kind of error does what it says, and the
-SLAM keeps a real building on it."""
+"""The degraded odometry of ``planar_logs`` the SLAM benchmark measures against: each kind of error does what
+it says, and the SLAM keeps a real building on it."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import pytest
 
 from navlog.analysis.metrics import align_planar, planar_relative_error
 from navlog.replay.session import pipeline_params
-from tests.replay.mapping.odometry_errors import (
+from tests.replay.mapping.planar_logs import (
     ODOMETRY_ERRORS,
     degraded_odometry,
     planar_tum,

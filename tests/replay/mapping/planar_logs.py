@@ -1,10 +1,12 @@
-"""Wheel odometry made worse than a log's own, for measuring how the SLAM copes with it.
+"""2D logs read as planar poses, for measuring the SLAM on real buildings: their scans and odometry, their
+trajectories, and their odometry made worse than their own.
 
-``planar_tum`` reads a trajectory file as planar poses; ``read_bag`` reads a 2D log's scans and its odometry at their stamps; ``degraded_odometry`` degrades each
-increment of that odometry in the robot's frame (``ODOMETRY_ERRORS``: turns or step lengths scaled, a
-heading drift per metre, seeded Gaussian noise) and composes them again from the first pose;
-``slam_on_odometry`` runs the SLAM (``Slam2D``, in this process) on the scans with any such odometry. Used
-by ``benchmarks/bench_slam_datasets.py`` and ``tests/replay/mapping/test_odometry_errors.py``.
+``read_bag`` reads a 2D log's scans and its odometry at their stamps; ``planar_tum`` reads a trajectory
+file as planar poses; ``degraded_odometry`` degrades each increment of an odometry in the robot's frame
+(``ODOMETRY_ERRORS``: turns or step lengths scaled, a heading drift per metre, seeded Gaussian noise) and
+composes them again from the first pose; ``slam_on_odometry`` runs the SLAM (``Slam2D``, in this process)
+on the scans with any such odometry. Used by ``benchmarks/bench_slam_datasets.py``,
+``benchmarks/bench_slam_long.py`` and the tests of ``tests/replay/mapping/``.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from navlog.replay.io.formats import open_log
 from navlog.replay.io.tum import read_tum
 from navlog.replay.mapping.slam2d import LaserScan2D, SlamParams
 from navlog.replay.mapping.slam2d.slam import Slam2D
+from tests.replay.mapping.lap_logs import yaw_of
 
 ODOMETRY_ERRORS = {
     "turn": "every turn scaled by 1 + VALUE (each step keeps its direction in the robot's frame)",
@@ -69,10 +72,9 @@ def read_bag(bag: Path) -> tuple[dict[int, tuple], dict[int, np.ndarray]]:
                 a = m.angle_min + m.angle_increment * np.arange(len(r))
                 scans[stamp] = (a, r, float(m.range_min), float(m.range_max))
             else:
-                p, q = m.pose.pose.position, m.pose.pose.orientation
-                yaw = float(np.arctan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2)))
+                p = m.pose.pose.position
                 odom_t.append(stamp)
-                odom_p.append(np.array([p.x, p.y, yaw]))
+                odom_p.append(np.array([p.x, p.y, yaw_of(m.pose.pose.orientation)]))
     ts = np.asarray(odom_t)
     ps = np.asarray(odom_p)
     odom = {}
