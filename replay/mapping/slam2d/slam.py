@@ -78,6 +78,14 @@ WIDE_REFINE = (1.0, 0.1)
 # a scan's points matched at most (that many valid beams evenly spread beyond: a 2D laser has a few thousand
 # beams; the matcher's work arrays grow with the points times the candidate poses)
 MAX_MATCH_POINTS = 8192
+# match_in_sight: a scan taken REVERSING or more away from where its laser looks since the last keyframe, more
+# than UNSEEN_SHARE of whose points lie out of the running buffer's sight (driving back with a forward-facing
+# laser: a fifth to a quarter of a scan), is matched again on the points in sight; a point up to SIGHT_MARGIN
+# beyond where a buffer scan's beam ended is in its sight; a fan of FULL_FAN or more looks all round
+REVERSING = 0.05  # m
+UNSEEN_SHARE = 0.2
+SIGHT_MARGIN = 1.0  # m
+FULL_FAN = math.radians(300.0)
 
 
 @dataclass(frozen=True)
@@ -102,6 +110,49 @@ class LaserScan2D:
         a, rr = self.angles[ok], self.ranges[ok]
         local = np.stack([rr * np.cos(a), rr * np.sin(a), np.zeros_like(rr)], axis=1)
         return local @ self.mount[:2, :3].T + self.mount[:2, 3]
+
+    def facing(self) -> np.ndarray | None:
+        """The unit vector (robot frame) the middle of the fan of beams points along; None for a fan of
+        ``FULL_FAN`` or more, which looks all round."""
+        if len(self.angles) < 2 or abs(float(self.angles[-1] - self.angles[0])) >= FULL_FAN:
+            return None
+        middle = 0.5 * float(self.angles[0] + self.angles[-1])
+        look = self.mount[:2, :2] @ np.array([math.cos(middle), math.sin(middle)])
+        norm = float(np.hypot(*look))
+        return look / norm if norm > 1e-9 else None
+
+    def sees(self, pose, xy: np.ndarray, margin: float) -> np.ndarray:
+        """Per map-frame point of ``xy`` (N, 2): whether this scan, its robot at planar ``pose``, had it in
+        sight: inside its fan of beams, and no farther than ``margin`` beyond where the nearest beam (or a
+        neighbour of it) ended -- at its reading, at ``range_max`` for no return (+inf, REP 117), nowhere for
+        an invalid reading. A point out of every earlier scan's sight cannot be matched against them: at
+        its true place it scores nothing, and a pose that moves it onto a surface they saw scores more."""
+        n = len(self.angles)
+        out = np.zeros(len(xy), dtype=bool)
+        mount = self.mount[:2, :2]
+        if n < 2 or abs(float(np.linalg.det(mount))) < 1e-6:
+            return out
+        step = float(self.angles[-1] - self.angles[0]) / (n - 1)
+        if not math.isfinite(step) or step == 0.0:
+            return out
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        dx, dy = xy[:, 0] - pose[0], xy[:, 1] - pose[1]
+        robot = np.stack([c * dx + s * dy, -s * dx + c * dy]) - self.mount[:2, 3:4]
+        lx, ly = np.linalg.solve(mount, robot)
+        # the beam nearest each point's bearing, the bearing taken round the circle from the first beam
+        turn = np.mod((np.arctan2(ly, lx) - float(self.angles[0])) * math.copysign(1.0, step), 2 * math.pi)
+        beam = np.floor(turn / abs(step) + 0.5).astype(np.int64)
+        if n * abs(step) >= 2 * math.pi - abs(step) / 2:  # a full circle: past the last beam is the first
+            beam %= n
+        r = self.ranges
+        ended = np.where(np.isfinite(r) & (r > self.range_min), np.minimum(r, self.range_max), 0.0)
+        ended[np.isposinf(r)] = self.range_max
+        widest = ended.copy()
+        widest[1:] = np.maximum(widest[1:], ended[:-1])
+        widest[:-1] = np.maximum(widest[:-1], ended[1:])
+        inside = beam < n
+        out[inside] = np.hypot(lx[inside], ly[inside]) <= widest[beam[inside]] + margin
+        return out
 
 
 def surface_points(points: np.ndarray, spacing: float, max_gap: float) -> np.ndarray:
@@ -243,10 +294,11 @@ class Slam2D:
             points = scan.points(self.p.max_laser_range, valid)
             if len(points) > MAX_MATCH_POINTS:
                 points = points[np.linspace(0, len(points) - 1, MAX_MATCH_POINTS).astype(np.int64)]
+        reversing = bool(self.keyframes) and self._reversing(scan, self.keyframes[-1].odom.between(odom))
         if not keyframe:
-            return self._between_keyframes(stamp, odom, points)
+            return self._between_keyframes(stamp, odom, points, reversing)
         assert points is not None
-        pose = self._add_keyframe(stamp, odom, points, scan, prediction)
+        pose = self._add_keyframe(stamp, odom, points, scan, prediction, reversing)
         if self.p.do_loop_closing:
             self._close_loop()
         self._scans.append((stamp, len(self.keyframes) - 1, gtsam.Pose2()))
@@ -258,7 +310,9 @@ class Slam2D:
         ``minimum_time_interval`` since the last keyframe or scan a match was tried for)."""
         return self.p.match_between_keyframes and stamp - self._anchor[0] >= self.p.minimum_time_interval * 1e9
 
-    def _between_keyframes(self, stamp: int, odom: gtsam.Pose2, points: np.ndarray | None) -> np.ndarray:
+    def _between_keyframes(
+        self, stamp: int, odom: gtsam.Pose2, points: np.ndarray | None, reversing: bool
+    ) -> np.ndarray:
         """A scan that is no keyframe: placed by the odometry since the last keyframe or scan a match was tried
         for (its *anchor*) or,
         given its points, matched against the running buffer and weighted against that odometry; kept as
@@ -269,9 +323,7 @@ class Slam2D:
         rel = anchor_rel.compose(self._calibrated(anchor_odom.between(odom)))
         pose = _xyt(base.compose(rel))
         if points is not None and len(points):
-            match = self.matcher.match_on(
-                self._between_grid(base), points, pose, self._link, self.p.link_match_minimum_response_fine
-            )
+            match = self._sequential_match(self._between_grid(base), points, pose, base, reversing)
             if match is not None:
                 pose, _ = self._fuse(pose, base.theta(), match)
                 rel = base.between(_pose2(pose))
@@ -350,16 +402,21 @@ class Slam2D:
         )
 
     def _add_keyframe(
-        self, stamp: int, odom: gtsam.Pose2, points: np.ndarray, scan: LaserScan2D, prediction: gtsam.Pose2
+        self,
+        stamp: int,
+        odom: gtsam.Pose2,
+        points: np.ndarray,
+        scan: LaserScan2D,
+        prediction: gtsam.Pose2,
+        reversing: bool,
     ) -> np.ndarray:
         i = len(self.keyframes)
         pose = _xyt(prediction)
         if i == 0:
             self.graph.add_node(pose)
         else:
-            match = self.matcher.match(
-                self._buffer_points(prediction), points, pose, self._link, self.p.link_match_minimum_response_fine
-            )
+            grid = self.matcher.grid_around(self._buffer_points(prediction), points, pose, self._link)
+            match = self._sequential_match(grid, points, pose, prediction, reversing)
             prev = self._pose(i - 1)
             rot = _rotation(prev.theta())
             recovered = None
@@ -503,17 +560,63 @@ class Slam2D:
         pose[2] = remainder_angle(float(pose[2]))
         return pose, 0.5 * (cov + cov.T)
 
-    def _buffer_points(self, around: gtsam.Pose2) -> np.ndarray:
-        """The running buffer's points in the map frame (keyframes within the buffer distance)."""
+    def _buffer(self, around: gtsam.Pose2) -> list[int]:
+        """The running buffer: the last ``scan_buffer_size`` keyframes within the buffer distance of ``around``."""
         recent = self.keyframes[-self.p.scan_buffer_size :]
         centre = np.array([around.x(), around.y()])
-        return self._points_of(
-            [
-                k.index
-                for k in recent
-                if np.linalg.norm(self._pose_xy(k.index) - centre) <= self.p.scan_buffer_maximum_scan_distance
-            ]
-        )
+        return [
+            k.index
+            for k in recent
+            if np.linalg.norm(self._pose_xy(k.index) - centre) <= self.p.scan_buffer_maximum_scan_distance
+        ]
+
+    def _buffer_points(self, around: gtsam.Pose2) -> np.ndarray:
+        """The running buffer's points in the map frame."""
+        return self._points_of(self._buffer(around))
+
+    def _reversing(self, scan: LaserScan2D, step: gtsam.Pose2) -> bool:
+        """Whether odometry ``step`` (since the last keyframe, robot frame) took the robot ``REVERSING`` or more
+        away from where ``scan``'s laser looks (``match_in_sight``; never for a laser that looks all round)."""
+        look = scan.facing() if self.p.match_in_sight else None
+        return look is not None and float(look[0] * step.x() + look[1] * step.y()) <= -REVERSING
+
+    def _sequential_match(
+        self, grid: LookupGrid | None, points: np.ndarray, pose: np.ndarray, around: gtsam.Pose2, reversing: bool
+    ) -> MatchResult | None:
+        """A scan matched in the sequential window around ``pose`` against the running buffer around ``around``
+        (its lookup ``grid``): None when no pose reaches ``link_match_minimum_response_fine``. A scan taken
+        ``reversing`` (``_reversing``) whose points at the pose found lie too much out of the buffer's sight
+        (``_in_sight``) is matched again, around that pose, on the points in sight; the response stays the
+        whole scan's (how well it fits)."""
+        if grid is None:
+            return None
+        least = self.p.link_match_minimum_response_fine
+        match = self.matcher.match_on(grid, points, pose, self._link, least)
+        if match is None:
+            return None
+        sighted = self._in_sight(points, match.pose, around) if reversing else points
+        if len(sighted) == len(points):
+            return match
+        again = self.matcher.match_on(grid, sighted, match.pose, self._link, least)
+        fit = 0.0 if again is None else grid.response(again.pose, points)
+        return match if again is None or fit < least else replace(again, response=fit)
+
+    def _in_sight(self, points: np.ndarray, pose: np.ndarray, around: gtsam.Pose2) -> np.ndarray:
+        """The scan's points to match against the running buffer around ``around``: with more than
+        ``UNSEEN_SHARE`` of them out of the buffer's sight when placed at ``pose`` (``LaserScan2D.sees``), those
+        in sight -- a scan matched with many points its reference never had in sight is pulled towards poses
+        that put them on its surfaces: a laser facing forward on a robot driving back measures every step
+        short; else, or when fewer than a tenth are in sight, all of them."""
+        if len(points) == 0:
+            return points
+        xy = transform_points(pose, points)
+        seen = np.zeros(len(points), dtype=bool)
+        for i in self._buffer(around):
+            seen |= self.keyframes[i].scan.sees(self.graph.pose(i), xy, SIGHT_MARGIN)
+        share = float(seen.mean())
+        if share >= 1.0 - UNSEEN_SHARE or share < 0.1:
+            return points
+        return points[seen]
 
     def _points_of(self, indices: list[int]) -> np.ndarray:
         """The keyframes' surfaces in the map frame, at their current poses."""

@@ -474,6 +474,79 @@ def test_calibration_waits_for_its_samples_and_keeps_to_its_bounds():
     assert off._calibrated(step).equals(step, 1e-12)
 
 
+def _toward(pose, bearing_deg: float, distance: float) -> list[float]:
+    a = pose[2] + math.radians(bearing_deg)
+    return [pose[0] + distance * math.cos(a), pose[1] + distance * math.sin(a)]
+
+
+def test_a_scan_has_in_sight_what_its_beams_reached():
+    # a 180-degree fan at 1 degree, every reading 2 m but no return (+inf) at 10-20 degrees and none at all at
+    # 0 degrees; its robot at (1, 1) facing +y; 1 m of margin
+    angles = np.radians(np.arange(-90.0, 90.5, 1.0))
+    ranges = np.full(len(angles), 2.0)
+    ranges[100:111] = np.inf
+    ranges[90] = np.nan
+    scan = LaserScan2D(angles, ranges, 0.1, 5.0, np.eye(4))
+    pose = (1.0, 1.0, math.pi / 2)
+    points = [(0, 1.5), (45, 2.9), (45, 3.5), (180, 1.0), (15, 4.5), (15, 6.5)]
+    xy = np.array([_toward(pose, b, d) for b, d in points])
+    # ahead on an invalid beam: its neighbours reached 2 m; within / beyond the margin past 2 m; behind the fan;
+    # no return: free to range_max (5 m) and the margin
+    assert scan.sees(pose, xy, 1.0).tolist() == [True, True, False, False, True, False]
+    # a laser 0.3 m ahead of the base facing backwards sees behind the robot, not ahead
+    mount = np.eye(4)
+    mount[0, 3], mount[:2, :2] = 0.3, [[-1.0, 0.0], [0.0, -1.0]]
+    back = LaserScan2D(angles, np.full(len(angles), 2.0), 0.1, 5.0, mount)
+    assert back.sees(pose, np.array([_toward(pose, 180, 1.0), _toward(pose, 0, 1.0)]), 0.5).tolist() == [True, False]
+    # a full circle from 0 to 359 degrees: just below 0 is its first beam
+    full = LaserScan2D(np.radians(np.arange(0.0, 360.0, 1.0)), np.full(360, 2.0), 0.1, 5.0, np.eye(4))
+    origin = (0.0, 0.0, 0.0)
+    xy = np.array([_toward(origin, -0.4, 1.0), _toward(origin, 359.8, 2.5), _toward(origin, 200, 3.1)])
+    assert full.sees(origin, xy, 1.0).tolist() == [True, True, False]
+    # a fan of one beam, or of beams all at one angle, has nothing in sight
+    assert not LaserScan2D(np.zeros(3), np.ones(3), 0.1, 5.0, np.eye(4)).sees(origin, xy, 1.0).any()
+    # where each looks: ahead, behind the robot, all round
+    assert np.allclose(scan.facing(), [1.0, 0.0]) and np.allclose(back.facing(), [-1.0, 0.0])
+    assert full.facing() is None
+
+
+def driven(scene, path: np.ndarray, in_sight: bool, laser_yaw: float = 0.0) -> tuple[float, float]:
+    """A robot driving ``path`` (backwards, where it heads against its steps) with a 180-degree laser (the front
+    half of the 720 beams) turned ``laser_yaw`` from its heading, exact odometry: (the keyframes' matched travel
+    over the true, the largest position error)."""
+    rng = np.random.default_rng(3)
+    front = slice(N_BEAMS // 4, 3 * N_BEAMS // 4)
+    mount = np.eye(4)
+    mount[:2, :2] = [[math.cos(laser_yaw), -math.sin(laser_yaw)], [math.sin(laser_yaw), math.cos(laser_yaw)]]
+    slam = Slam2D(SlamParams(do_loop_closing=False, match_in_sight=in_sight))
+    for i, t in enumerate(path):
+        ranges = cast(scene, t + np.array([0.0, 0.0, laser_yaw]), rng)[front]
+        slam.add_scan(i * 100_000_000, t, LaserScan2D(ANGLES[front], ranges, 0.05, RANGE_MAX, mount))
+    _, poses = slam.trajectory()
+    placed = np.array([slam.graph.pose(k.index)[:2] for k in slam.keyframes])
+    true = path[[k.stamp // 100_000_000 for k in slam.keyframes], :2]
+    travel = np.linalg.norm(np.diff(placed, axis=0), axis=1).sum() / np.linalg.norm(np.diff(true, axis=0), axis=1).sum()
+    return float(travel), float(np.hypot(*(poses[:, :2] - path[:, :2]).T).max())
+
+
+def test_driving_away_from_where_the_laser_looks_is_matched_on_what_the_buffer_saw(scene):
+    # driving back, a scan sees beside the robot what the keyframes ahead of it never had in sight: matched with
+    # those points it is pulled forward, onto the surfaces they saw (each step measured short); matched again on
+    # the points in sight it is not
+    along_x = np.array([(3.5 - 0.1 * i, -1.0, 0.0) for i in range(71)])
+    along_y = np.array([(1.0, 3.5 - 0.1 * i, math.pi / 2) for i in range(71)])
+    for path in (along_x, along_y):
+        travel, error = driven(scene, path, in_sight=True)
+        assert abs(travel - 1.0) < 0.006 and error < 0.04
+        short, worse = driven(scene, path, in_sight=False)
+        assert short < travel and worse > 0.05
+    # a laser facing backwards on a robot driving on is the same case; a forward-facing one driving on is not
+    ahead = along_x[::-1]
+    (travel, error), (short, worse) = driven(scene, ahead, True, math.pi), driven(scene, ahead, False, math.pi)
+    assert short < travel < 1.0 and error < worse - 0.01
+    assert driven(scene, ahead, True) == driven(scene, ahead, False)
+
+
 def test_an_ambiguous_corridor_loop_is_refused():
     # on the way back every old keyframe of the corridor matches the scan equally well at any x: a
     # closure would pin the along-axis drift to whatever the search returned
