@@ -96,8 +96,8 @@ class SlamParams:
     # a keyframe measured them against it (wheels whose radius or track is a few per cent off)
     calibrate_odometry: bool = True
     # navlog's: a scan taken driving away from where the laser looks (a forward-facing laser on a robot driving
-    # back), a fifth or more of which the running buffer never had in sight, is matched again on the part it had:
-    # its steps are measured short otherwise
+    # back), more than a fifth of which the running buffer never had in sight, is matched again on the part it
+    # had: its steps are measured short otherwise
     match_in_sight: bool = True
     # a loop closure, the same way (its covariance also decides loop_match_maximum_variance_coarse)
     loop_sigmas: tuple[float, float, float] = (0.05, 0.05, 0.02)

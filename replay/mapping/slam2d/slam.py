@@ -13,7 +13,8 @@ scan's valid points in the robot frame:
    error since its keyframe (a robot turning on the spot on slipping wheels);
 3. **match** the scan against the running buffer (the last ``scan_buffer_size`` keyframes' points)
    in a ``correlation_search_space_dimension`` square around the prediction; a response below
-   ``link_match_minimum_response_fine`` falls back to odometry;
+   ``link_match_minimum_response_fine`` falls back to odometry; a scan taken driving away from where its
+   laser looks is matched again on the points the buffer had in sight (``match_in_sight``);
 4. **add** the keyframe to the pose graph with an edge from the previous one;
 5. **close loops** (``do_loop_closing``): keyframes within ``loop_search_maximum_distance`` plus
    ``loop_search_path_sigmas`` standard deviations of the path's uncertainty since them, that are
@@ -79,12 +80,13 @@ WIDE_REFINE = (1.0, 0.1)
 # beams; the matcher's work arrays grow with the points times the candidate poses)
 MAX_MATCH_POINTS = 8192
 # match_in_sight: a scan taken REVERSING or more away from where its laser looks since the last keyframe, more
-# than UNSEEN_SHARE of whose points lie out of the running buffer's sight (driving back with a forward-facing
-# laser: a fifth to a quarter of a scan), is matched again on the points in sight; a point up to SIGHT_MARGIN
-# beyond where a buffer scan's beam ended is in its sight; a fan of FULL_FAN or more looks all round
+# than UNSEEN_SHARE of whose points lie out of the running buffer's sight, is matched again on the points in
+# sight (unless fewer than LEAST_IN_SIGHT of them are); a point SIGHT_MARGIN inside a buffer scan's fan, up to
+# SIGHT_MARGIN beyond where its beam ended, is in its sight; a fan of FULL_FAN or more looks all round
 REVERSING = 0.05  # m
 UNSEEN_SHARE = 0.2
-SIGHT_MARGIN = 1.0  # m
+LEAST_IN_SIGHT = 0.1
+SIGHT_MARGIN = 0.3  # m
 FULL_FAN = math.radians(300.0)
 
 
@@ -121,16 +123,20 @@ class LaserScan2D:
         norm = float(np.hypot(*look))
         return look / norm if norm > 1e-9 else None
 
-    def sees(self, pose, xy: np.ndarray, margin: float) -> np.ndarray:
+    def sees(self, pose, xy: np.ndarray, margin: float, max_range: float) -> np.ndarray:
         """Per map-frame point of ``xy`` (N, 2): whether this scan, its robot at planar ``pose``, had it in
-        sight: inside its fan of beams, and no farther than ``margin`` beyond where the nearest beam (or a
-        neighbour of it) ended -- at its reading, at ``range_max`` for no return (+inf, REP 117), nowhere for
-        an invalid reading. A point out of every earlier scan's sight cannot be matched against them: at
-        its true place it scores nothing, and a pose that moves it onto a surface they saw scores more."""
+        sight: ``margin`` or more inside the edges of its fan of beams (a fan of ``FULL_FAN`` or more has
+        none; a point near an edge goes in and out of sight with the pose's error), and no farther than
+        ``margin`` beyond where the nearest beam (or a neighbour of it) ended: at its reading, or at
+        ``range_max`` for no return (+inf, REP 117, or a reading at ``range_max`` or beyond), and never past
+        ``max_range`` (the map keeps no surface beyond); a beam with an invalid reading (NaN, -inf, below
+        ``range_min``) has nothing in sight. A point out of every earlier scan's sight cannot be matched
+        against them: at its true place it scores nothing, and a pose that moves it onto a surface they saw
+        scores more."""
         n = len(self.angles)
         out = np.zeros(len(xy), dtype=bool)
         mount = self.mount[:2, :2]
-        if n < 2 or abs(float(np.linalg.det(mount))) < 1e-6:
+        if n < 2 or len(xy) == 0 or abs(float(np.linalg.det(mount))) < 1e-6:
             return out
         step = float(self.angles[-1] - self.angles[0]) / (n - 1)
         if not math.isfinite(step) or step == 0.0:
@@ -139,19 +145,27 @@ class LaserScan2D:
         dx, dy = xy[:, 0] - pose[0], xy[:, 1] - pose[1]
         robot = np.stack([c * dx + s * dy, -s * dx + c * dy]) - self.mount[:2, 3:4]
         lx, ly = np.linalg.solve(mount, robot)
-        # the beam nearest each point's bearing, the bearing taken round the circle from the first beam
-        turn = np.mod((np.arctan2(ly, lx) - float(self.angles[0])) * math.copysign(1.0, step), 2 * math.pi)
+        distance = np.hypot(lx, ly)
+        # each point's bearing from the first beam, round the circle from half a beam before it, and its beam
+        half = abs(step) / 2
+        turn = np.mod((np.arctan2(ly, lx) - float(self.angles[0])) * math.copysign(1.0, step) + half, 2 * math.pi)
+        turn -= half
         beam = np.floor(turn / abs(step) + 0.5).astype(np.int64)
-        if n * abs(step) >= 2 * math.pi - abs(step) / 2:  # a full circle: past the last beam is the first
-            beam %= n
-        r = self.ranges
-        ended = np.where(np.isfinite(r) & (r > self.range_min), np.minimum(r, self.range_max), 0.0)
-        ended[np.isposinf(r)] = self.range_max
+        r = np.asarray(self.ranges, dtype=np.float64)
+        reach = min(float(self.range_max), max_range)
+        ended = np.where(np.isfinite(r) & (r > self.range_min), np.minimum(r, reach), 0.0)
+        ended[np.isposinf(r)] = reach
         widest = ended.copy()
         widest[1:] = np.maximum(widest[1:], ended[:-1])
         widest[:-1] = np.maximum(widest[:-1], ended[1:])
-        inside = beam < n
-        out[inside] = np.hypot(lx[inside], ly[inside]) <= widest[beam[inside]] + margin
+        if n * abs(step) >= 2 * math.pi - half:  # a full circle: past the last beam is the first
+            beam %= n
+            widest[0], widest[-1] = max(widest[0], ended[-1]), max(widest[-1], ended[0])
+        span = (n - 1) * abs(step)
+        edge = 0.0 if span >= FULL_FAN else np.minimum(margin / np.maximum(distance, 1e-9), span / 2 + half)
+        inside = (turn >= edge - half) & (turn <= span + half - edge) & (beam >= 0) & (beam < n)
+        ends = widest[beam[inside]]
+        out[inside] = (ends > 0) & (distance[inside] <= ends + margin)
         return out
 
 
@@ -363,8 +377,7 @@ class Slam2D:
     def _calibration_sample(self, matched: gtsam.Pose2, odometry: gtsam.Pose2) -> None:
         """A keyframe's step as a match that pinned it measured it and as the odometry did (both in the previous
         keyframe's frame), for ``calibrate_odometry``. A step driven backwards is no sample: a laser facing
-        forward measures it short (on a log driven back over its path, 0.89-0.93 of the odometry where the
-        forward steps measure 0.96)."""
+        forward measures it short, a little even matched on what the buffer had in sight (``_in_sight``)."""
         length = math.hypot(odometry.x(), odometry.y())
         if odometry.x() < -CALIBRATION_LEAST[0] / 4:
             return
@@ -586,8 +599,10 @@ class Slam2D:
         """A scan matched in the sequential window around ``pose`` against the running buffer around ``around``
         (its lookup ``grid``): None when no pose reaches ``link_match_minimum_response_fine``. A scan taken
         ``reversing`` (``_reversing``) whose points at the pose found lie too much out of the buffer's sight
-        (``_in_sight``) is matched again, around that pose, on the points in sight; the response stays the
-        whole scan's (how well it fits)."""
+        (``_in_sight``) is matched again, around that pose, on the points in sight: that match, its Hessian
+        the points in sight pin, with the whole scan's response at its pose (how well the scan fits there);
+        the first match when the second finds no pose or the whole scan fits it below
+        ``link_match_minimum_response_fine``."""
         if grid is None:
             return None
         least = self.p.link_match_minimum_response_fine
@@ -606,15 +621,15 @@ class Slam2D:
         ``UNSEEN_SHARE`` of them out of the buffer's sight when placed at ``pose`` (``LaserScan2D.sees``), those
         in sight -- a scan matched with many points its reference never had in sight is pulled towards poses
         that put them on its surfaces: a laser facing forward on a robot driving back measures every step
-        short; else, or when fewer than a tenth are in sight, all of them."""
+        short; else, or when fewer than ``LEAST_IN_SIGHT`` of them are in sight, all of them."""
         if len(points) == 0:
             return points
         xy = transform_points(pose, points)
         seen = np.zeros(len(points), dtype=bool)
         for i in self._buffer(around):
-            seen |= self.keyframes[i].scan.sees(self.graph.pose(i), xy, SIGHT_MARGIN)
+            seen |= self.keyframes[i].scan.sees(self.graph.pose(i), xy, SIGHT_MARGIN, self.p.max_laser_range)
         share = float(seen.mean())
-        if share >= 1.0 - UNSEEN_SHARE or share < 0.1:
+        if share >= 1.0 - UNSEEN_SHARE or share < LEAST_IN_SIGHT:
             return points
         return points[seen]
 

@@ -481,33 +481,89 @@ def _toward(pose, bearing_deg: float, distance: float) -> list[float]:
 
 def test_a_scan_has_in_sight_what_its_beams_reached():
     # a 180-degree fan at 1 degree, every reading 2 m but no return (+inf) at 10-20 degrees and none at all at
-    # 0 degrees; its robot at (1, 1) facing +y; 1 m of margin
+    # 0 degrees; its robot at (1, 1) facing +y; a margin of 0.2 m
     angles = np.radians(np.arange(-90.0, 90.5, 1.0))
     ranges = np.full(len(angles), 2.0)
     ranges[100:111] = np.inf
     ranges[90] = np.nan
     scan = LaserScan2D(angles, ranges, 0.1, 5.0, np.eye(4))
     pose = (1.0, 1.0, math.pi / 2)
-    points = [(0, 1.5), (45, 2.9), (45, 3.5), (180, 1.0), (15, 4.5), (15, 6.5)]
+    points = [
+        (0, 1.5),
+        (45, 2.15),
+        (45, 2.3),
+        (180, 1.0),
+        (15, 4.5),
+        (15, 5.3),
+        (75, 1.0),
+        (85, 1.0),
+        (-75, 1),
+        (-85, 1),
+    ]
     xy = np.array([_toward(pose, b, d) for b, d in points])
     # ahead on an invalid beam: its neighbours reached 2 m; within / beyond the margin past 2 m; behind the fan;
-    # no return: free to range_max (5 m) and the margin
-    assert scan.sees(pose, xy, 1.0).tolist() == [True, True, False, False, True, False]
-    # a laser 0.3 m ahead of the base facing backwards sees behind the robot, not ahead
+    # no return: free to range_max (5 m) and the margin; 1 m away, 15 degrees (0.26 m) inside either edge of the
+    # fan and 5 degrees (0.09 m) inside it
+    expected = [True, True, False, False, True, False, True, False, True, False]
+    assert scan.sees(pose, xy, 0.2, 20.0).tolist() == expected
+    # the same fan listed the other way round (a negative angle_increment) has the same in sight
+    reverse = LaserScan2D(angles[::-1], ranges[::-1], 0.1, 5.0, np.eye(4))
+    assert reverse.sees(pose, xy, 0.2, 20.0).tolist() == expected
+    # no return is free only to the map's range; an invalid reading has nothing in sight, not even near the laser
+    assert scan.sees(pose, xy[4:6], 0.2, 3.0).tolist() == [False, False]
+    blind = LaserScan2D(angles, np.full(len(angles), np.nan), 0.1, 5.0, np.eye(4))
+    assert not blind.sees(pose, np.array([_toward(pose, 0, 0.5)]), 0.2, 20.0).any()
+    # a laser 0.3 m ahead of the base facing backwards sees behind the robot, not ahead; its 2.5 m reach
+    # (2 m and the margin) is measured from the laser
     mount = np.eye(4)
     mount[0, 3], mount[:2, :2] = 0.3, [[-1.0, 0.0], [0.0, -1.0]]
     back = LaserScan2D(angles, np.full(len(angles), 2.0), 0.1, 5.0, mount)
-    assert back.sees(pose, np.array([_toward(pose, 180, 1.0), _toward(pose, 0, 1.0)]), 0.5).tolist() == [True, False]
-    # a full circle from 0 to 359 degrees: just below 0 is its first beam
-    full = LaserScan2D(np.radians(np.arange(0.0, 360.0, 1.0)), np.full(360, 2.0), 0.1, 5.0, np.eye(4))
+    xy = np.array([_toward(pose, 180, 1.0), _toward(pose, 0, 1.0), _toward(pose, 180, 2.1), _toward(pose, 180, 2.35)])
+    assert back.sees(pose, xy, 0.5, 20.0).tolist() == [True, False, True, False]
+    # a laser turned a quarter to the left reading 1 m on its right half and 3 m on its left: its right half
+    # looks ahead of the robot, its left half behind it; one upside down (rolled half a turn) sees its right
+    # half on the robot's left
+    mount = np.eye(4)
+    mount[:2, :2] = [[0.0, -1.0], [1.0, 0.0]]
+    halves = np.where(angles < 0, 1.0, 3.0)
+    left = LaserScan2D(angles, halves, 0.1, 5.0, mount)
     origin = (0.0, 0.0, 0.0)
+    xy = np.array(
+        [_toward(origin, 30, 0.9), _toward(origin, 30, 1.5), _toward(origin, 170, 2.5), _toward(origin, -45, 1)]
+    )
+    assert left.sees(origin, xy, 0.2, 20.0).tolist() == [True, False, True, False]
+    rolled = LaserScan2D(angles, halves, 0.1, 5.0, np.diag([1.0, -1.0, -1.0, 1.0]))
+    xy = np.array([_toward(origin, 45, 0.9), _toward(origin, 45, 1.5), _toward(origin, -45, 2.5)])
+    assert rolled.sees(origin, xy, 0.2, 20.0).tolist() == [True, False, True]
+    # a full circle from 0 to 359 degrees, its first two readings invalid: just below 0 is its first beam, whose
+    # neighbours are the second and the last
+    ring = np.full(360, 2.0)
+    ring[:2] = np.nan
+    full = LaserScan2D(np.radians(np.arange(0.0, 360.0, 1.0)), ring, 0.1, 5.0, np.eye(4))
     xy = np.array([_toward(origin, -0.4, 1.0), _toward(origin, 359.8, 2.5), _toward(origin, 200, 3.1)])
-    assert full.sees(origin, xy, 1.0).tolist() == [True, True, False]
+    assert full.sees(origin, xy, 1.0, 20.0).tolist() == [True, True, False]
     # a fan of one beam, or of beams all at one angle, has nothing in sight
-    assert not LaserScan2D(np.zeros(3), np.ones(3), 0.1, 5.0, np.eye(4)).sees(origin, xy, 1.0).any()
-    # where each looks: ahead, behind the robot, all round
+    assert not LaserScan2D(np.zeros(3), np.ones(3), 0.1, 5.0, np.eye(4)).sees(origin, xy, 1.0, 20.0).any()
+    # where each looks: ahead, behind the robot, to its left, all round
     assert np.allclose(scan.facing(), [1.0, 0.0]) and np.allclose(back.facing(), [-1.0, 0.0])
-    assert full.facing() is None
+    assert np.allclose(left.facing(), [0.0, 1.0]) and full.facing() is None
+
+
+def test_a_scan_is_matched_on_its_points_in_sight_only_when_many_are_out_of_it():
+    # one keyframe at the origin, its laser reading 2 m over the 180 degrees ahead: of ten points, those ahead
+    # within reach are in its sight, those behind are not
+    angles = np.radians(np.arange(-90.0, 90.5, 1.0))
+    slam = Slam2D(SlamParams(do_loop_closing=False))
+    slam.add_scan(0, (0.0, 0.0, 0.0), LaserScan2D(angles, np.full(len(angles), 2.0), 0.1, 5.0, np.eye(4)))
+    origin = np.zeros(3)
+    ahead, behind = np.array([[1.0, 0.1 * k] for k in range(10)]), np.array([[-1.0, 0.1 * k] for k in range(10)])
+    centre = gtsam.Pose2()
+    # a tenth out of sight: all of them; half: the half in sight; none in sight: all of them
+    one_out = np.concatenate([ahead[:9], behind[:1]])
+    assert slam._in_sight(one_out, origin, centre) is one_out
+    half = np.concatenate([ahead[:5], behind[:5]])
+    assert np.array_equal(slam._in_sight(half, origin, centre), ahead[:5])
+    assert slam._in_sight(behind, origin, centre) is behind
 
 
 def driven(scene, path: np.ndarray, in_sight: bool, laser_yaw: float = 0.0) -> tuple[float, float]:
@@ -537,9 +593,9 @@ def test_driving_away_from_where_the_laser_looks_is_matched_on_what_the_buffer_s
     along_y = np.array([(1.0, 3.5 - 0.1 * i, math.pi / 2) for i in range(71)])
     for path in (along_x, along_y):
         travel, error = driven(scene, path, in_sight=True)
-        assert abs(travel - 1.0) < 0.006 and error < 0.04
+        assert abs(travel - 1.0) < 0.01 and error < 0.04
         short, worse = driven(scene, path, in_sight=False)
-        assert short < travel and worse > 0.05
+        assert short < travel and error < worse - 0.015
     # a laser facing backwards on a robot driving on is the same case; a forward-facing one driving on is not
     ahead = along_x[::-1]
     (travel, error), (short, worse) = driven(scene, ahead, True, math.pi), driven(scene, ahead, False, math.pi)
