@@ -36,11 +36,15 @@ process, as the fourth row) given the bag's own odometry at the scan stamps degr
 step 10 % too long, ``drift=0.02`` 0.02 rad of heading gained per metre, ``noise=0.05`` seeded Gaussian
 noise of 5 % on every step): how the defaults fare on a robot whose wheels are worse than the dataset's.
 
+With ``--driven-back`` a row **driven back**: the same SLAM (in this process) on the log driven back over its
+path (``planar_logs.driven_back``: its scans and odometry poses in reverse order, a robot reversing with
+its forward-facing laser), scored against the reference reversed.
+
 Nothing is asserted; the issue's targets are ATE <= 0.10 m, RE 1 m <= 0.03 m and never above
 odometry, walls >= 0.9, >= 10x real time.
 
     .venv/bin/python benchmarks/bench_slam_datasets.py [NAME ...] [--shared DIR] [--set KEY=VALUE ...] [--floor]
-        [--odometry-error KIND=VALUE ...]
+        [--odometry-error KIND=VALUE ...] [--driven-back]
 """
 
 from __future__ import annotations
@@ -70,6 +74,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: 
 from tests.replay.mapping.planar_logs import (
     ODOMETRY_ERRORS,
     degraded_odometry,
+    driven_back,
     planar_tum,
     read_bag,
     slam_on_odometry,
@@ -183,7 +188,13 @@ def odometry_error(text: str) -> tuple[str, float]:
 
 
 def evaluate(
-    name: str, carmen: Path, work: Path, sets: list[str], floor: bool = False, errors: list[tuple[str, float]] = ()
+    name: str,
+    carmen: Path,
+    work: Path,
+    sets: list[str],
+    floor: bool = False,
+    errors: list[tuple[str, float]] = (),
+    back: bool = False,
 ) -> None:
     bag = carmen / name
     ref_t, ref = planar_tum(carmen / f"{name}.reference.tum")
@@ -221,20 +232,25 @@ def evaluate(
         rows.append(
             (f"{kind} {value:g}", slam_on_odometry(degraded_odometry(odom, kind, value), ts, scans, slam_params))
         )
-    for source, est_poses in rows:
-        s = score(est_poses, ref[keep], ts, scans, ref_grid)
+    scored = [(source, poses, ref[keep], ts, scans) for source, poses in rows]
+    if back:
+        back_ts, back_scans, back_odom = driven_back(ts, scans, odom)
+        back_poses = slam_on_odometry(back_odom, back_ts, back_scans, slam_params)
+        scored.append(("driven back", back_poses, ref[keep][::-1], back_ts, back_scans))
+    for source, est_poses, truth, stamps, logged in scored:
+        s = score(est_poses, truth, stamps, logged, ref_grid)
         extra = (
             f"{loops:>6} {wall:>7.1f} {duration / wall:>8.1f}x {duration / cpu:>8.1f}x"
             if source == "slam"
             else f"{'-':>6} {'-':>7} {'-':>9} {'-':>9}"
         )
         print(
-            f"{name if source == 'slam' else '':<8} {source:<9} {s['ate']:>7.3f} {s['re1']:>7.3f} {s['re5']:>7.3f}"
+            f"{name if source == 'slam' else '':<8} {source:<11} {s['ate']:>7.3f} {s['re1']:>7.3f} {s['re5']:>7.3f}"
             f" {s['walls']:>6.2f} {s['overlap']:>7.2f} {extra}",
             flush=True,
         )
     reference = overlap(ref[keep], ts, scans)
-    print(f"{'':<8} {'reference':<9} {'-':>7} {'-':>7} {'-':>7} {'-':>6} {reference:>7.2f}", flush=True)
+    print(f"{'':<8} {'reference':<11} {'-':>7} {'-':>7} {'-':>7} {'-':>6} {reference:>7.2f}", flush=True)
     print(f"{'':<8} ({len(ts)}/{len(ref_t)} scans placed, {travel:.0f} m, load {before} -> {load()})", flush=True)
 
 
@@ -259,15 +275,18 @@ def main() -> None:
         help="also score the SLAM on the bag's odometry degraded: "
         + "; ".join(f"{k}: {v}" for k, v in ODOMETRY_ERRORS.items()),
     )
+    ap.add_argument(
+        "--driven-back", action="store_true", help="also score the SLAM on the log driven back over its path"
+    )
     args = ap.parse_args()
     carmen = args.shared / "external-data" / "carmen"
     print(f"machine: {os.cpu_count()} cores, load average {load()}")
     print(
-        f"{'dataset':<8} {'source':<9} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'overlap':>7} {'loops':>6} {'wall s':>7} {'x real':>9} {'x (CPU)':>9}"
+        f"{'dataset':<8} {'source':<11} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'overlap':>7} {'loops':>6} {'wall s':>7} {'x real':>9} {'x (CPU)':>9}"
     )
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.names:
-            evaluate(name, carmen, Path(tmp), args.set, args.floor, args.odometry_error)
+            evaluate(name, carmen, Path(tmp), args.set, args.floor, args.odometry_error, args.driven_back)
 
 
 if __name__ == "__main__":

@@ -599,10 +599,10 @@ class Slam2D:
         """A scan matched in the sequential window around ``pose`` against the running buffer around ``around``
         (its lookup ``grid``): None when no pose reaches ``link_match_minimum_response_fine``. A scan taken
         ``reversing`` (``_reversing``) whose points at the pose found lie too much out of the buffer's sight
-        (``_in_sight``) is matched again, around that pose, on the points in sight: that match, its Hessian
-        the points in sight pin, with the whole scan's response at its pose (how well the scan fits there);
-        the first match when the second finds no pose or the whole scan fits it below
-        ``link_match_minimum_response_fine``."""
+        (``_in_sight``) is matched again, around that pose, on the points in sight: that match, its response
+        and Hessian those of the points in sight (the whole scan, part of it out of sight, fits less, and a
+        weak response sends the scan looking for another place: ``_recover``), provided the whole scan fits
+        it at ``link_match_minimum_response_fine`` or more; else the first match."""
         if grid is None:
             return None
         least = self.p.link_match_minimum_response_fine
@@ -614,7 +614,7 @@ class Slam2D:
             return match
         again = self.matcher.match_on(grid, sighted, match.pose, self._link, least)
         fit = 0.0 if again is None else grid.response(again.pose, points)
-        return match if again is None or fit < least else replace(again, response=fit)
+        return match if again is None or fit < least else again
 
     def _in_sight(self, points: np.ndarray, pose: np.ndarray, around: gtsam.Pose2) -> np.ndarray:
         """The scan's points to match against the running buffer around ``around``: with more than

@@ -4,7 +4,8 @@ trajectories, and their odometry made worse than their own.
 ``read_bag`` reads a 2D log's scans and its odometry at their stamps; ``planar_tum`` reads a trajectory
 file as planar poses; ``degraded_odometry`` degrades each increment of an odometry in the robot's frame
 (``ODOMETRY_ERRORS``: turns or step lengths scaled, a heading drift per metre, seeded Gaussian noise) and
-composes them again from the first pose; ``slam_on_odometry`` runs the SLAM (``Slam2D``, in this process)
+composes them again from the first pose; ``driven_back`` reverses a log (a robot reversing over its path);
+``slam_on_odometry`` runs the SLAM (``Slam2D``, in this process)
 on the scans with any such odometry. Used by ``benchmarks/bench_slam_datasets.py``,
 ``benchmarks/bench_slam_long.py`` and the tests of ``tests/replay/mapping/``.
 """
@@ -82,6 +83,17 @@ def read_bag(bag: Path) -> tuple[dict[int, tuple], dict[int, np.ndarray]]:
         i = int(np.clip(np.searchsorted(ts, stamp), 1, len(ts) - 1))
         odom[stamp] = ps[i] if abs(ts[i] - stamp) < abs(ts[i - 1] - stamp) else ps[i - 1]
     return scans, odom
+
+
+def driven_back(
+    stamps: np.ndarray, scans: dict[int, tuple], odom: np.ndarray
+) -> tuple[np.ndarray, dict[int, tuple], np.ndarray]:
+    """A 2D log driven back over its path: its scans and odometry poses (at ``stamps``) in reverse order, one
+    scan a second from its first stamp: a robot reversing with the same laser. A trajectory at ``stamps``
+    reversed (``poses[::-1]``) is its trajectory."""
+    back = stamps[0] + np.arange(len(stamps), dtype=np.int64) * 1_000_000_000
+    reversed_scans = {int(t): scans[int(s)] for t, s in zip(back.tolist(), stamps[::-1].tolist(), strict=True)}
+    return back, reversed_scans, odom[::-1].copy()
 
 
 def slam_on_odometry(odom: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple], params: SlamParams) -> np.ndarray:
