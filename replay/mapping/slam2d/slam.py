@@ -84,6 +84,7 @@ MAX_MATCH_POINTS = 8192
 # sight (unless fewer than LEAST_IN_SIGHT of them are); a point SIGHT_MARGIN inside a buffer scan's fan, up to
 # SIGHT_MARGIN beyond where its beam ended, is in its sight; a fan of FULL_FAN or more looks all round
 REVERSING = 0.05  # m
+SIGHT_ROUNDS = 2  # the points in sight are judged again at the pose their match found, this many times at most
 UNSEEN_SHARE = 0.2
 LEAST_IN_SIGHT = 0.1
 SIGHT_MARGIN = 0.3  # m
@@ -599,22 +600,30 @@ class Slam2D:
         """A scan matched in the sequential window around ``pose`` against the running buffer around ``around``
         (its lookup ``grid``): None when no pose reaches ``link_match_minimum_response_fine``. A scan taken
         ``reversing`` (``_reversing``) whose points at the pose found lie too much out of the buffer's sight
-        (``_in_sight``) is matched again, around that pose, on the points in sight: that match, its response
-        and Hessian those of the points in sight (the whole scan, part of it out of sight, fits less, and a
-        weak response sends the scan looking for another place: ``_recover``), provided the whole scan fits
-        it at ``link_match_minimum_response_fine`` or more; else the first match."""
+        (``_in_sight``) is matched again, around that pose, on the points in sight, and again on the points in
+        sight at the pose that found (the first pose, pulled towards the surfaces the buffer saw, keeps some of
+        the points it pulled there in sight), ``SIGHT_ROUNDS`` times at most, until they no longer change: the
+        last match, its response and Hessian those of its points in sight (the whole scan, part of it out of
+        sight, fits less, and a weak response sends the scan looking for another place: ``_recover``), as
+        long as the whole scan fits it at ``link_match_minimum_response_fine`` or more."""
         if grid is None:
             return None
         least = self.p.link_match_minimum_response_fine
         match = self.matcher.match_on(grid, points, pose, self._link, least)
         if match is None:
             return None
-        sighted = self._in_sight(points, match.pose, around) if reversing else points
-        if len(sighted) == len(points):
+        if not reversing:
             return match
-        again = self.matcher.match_on(grid, sighted, match.pose, self._link, least)
-        fit = 0.0 if again is None else grid.response(again.pose, points)
-        return match if again is None or fit < least else again
+        found, previous = match, None
+        for _ in range(SIGHT_ROUNDS):
+            sighted = self._in_sight(points, found.pose, around)
+            if len(sighted) == len(points) or (previous is not None and np.array_equal(sighted, previous)):
+                break
+            again = self.matcher.match_on(grid, sighted, found.pose, self._link, least)
+            if again is None or grid.response(again.pose, points) < least:
+                break
+            found, previous = again, sighted
+        return found
 
     def _in_sight(self, points: np.ndarray, pose: np.ndarray, around: gtsam.Pose2) -> np.ndarray:
         """The scan's points to match against the running buffer around ``around``: with more than
