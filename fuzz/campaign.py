@@ -12,12 +12,14 @@ process under a time limit. Its outcome is
 - ``CLEAN_ERROR``: it raised a ``NavlogError`` (or the CLI exited non-zero with one line);
 - ``COUNTED_SKIP``: it returned, and the reader's report counts skipped messages or a truncation;
 - ``TRACEBACK``: any other exception -- a defect;
-- ``HANG``: the call outlived ``--timeout`` seconds -- a defect.
+- ``HANG``: the call outlived ``--timeout`` seconds -- a defect;
+- ``CRASH``: the worker process died inside the call (a signal: a segfault, the kernel's out-of-memory
+  killer) -- a defect.
 
 Generation is hypothesis's own, in runs of ``BLOCK`` examples seeded with ``@seed`` from the campaign seed
 and the block number, without its example database and without shrinking, so the recipe of case ``I``
 depends only on the seed, ``I`` and the hypothesis version: a run is repeatable whatever the number of workers, and one case re-runs by itself (``--case I``, which prints the
-full traceback). Every TRACEBACK or HANG saves a reproducer under ``OUT/repro/``: the mutated files,
+full traceback). Every TRACEBACK, HANG or CRASH saves a reproducer under ``OUT/repro/``: the mutated files,
 ``case.json`` (the recipe, the call and its arguments) and the traceback; ``--repro FOLDER`` re-runs it.
 
     python fuzz/campaign.py --cases 10000 --seed 1 --out /tmp/fuzz-out
@@ -62,7 +64,8 @@ from hypothesis import strategies as st
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
 from tests.shared_data import REPO, default_shared_dir
 
-OUTCOMES = ("OK", "CLEAN_ERROR", "COUNTED_SKIP", "TRACEBACK", "HANG")
+OUTCOMES = ("OK", "CLEAN_ERROR", "COUNTED_SKIP", "TRACEBACK", "HANG", "CRASH")
+FAILURES = ("TRACEBACK", "HANG", "CRASH")
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 # A short teleop drive: about 0.5 s of every sensor, recorded once per output folder, and the scenario
@@ -1978,7 +1981,7 @@ def worker(seed: int, seeds_dir: str, shared: str, timeout: float, out: str, con
         if case is None:
             return
         outcome, text, built = run_case(case, seeds, timeout)
-        if outcome in ("TRACEBACK", "HANG"):
+        if outcome in FAILURES:
             save_repro(case, built, outcome, text, Path(out), seed)
         mutation, call = (built.mutation, built.call) if built else ("?", "?")
         conn.send((case.index, (case.kind, mutation, call, outcome, text.strip().splitlines()[-1:] or [""])))
@@ -2047,7 +2050,7 @@ def run_campaign(
     def record(index: int, kind: str, mutation: str, call: str, outcome: str, last: list[str]) -> None:
         result.by_kind.setdefault(kind, Counter())[outcome] += 1
         result.cases += 1
-        if outcome in ("TRACEBACK", "HANG"):
+        if outcome in FAILURES:
             result.failures.append(
                 {"index": index, "kind": kind, "mutation": mutation, "call": call, "outcome": outcome, "error": last[0]}
             )
@@ -2062,9 +2065,18 @@ def run_campaign(
             if case is None:
                 idle.append(slot)
             elif conn.poll(0.005):
-                got, info = conn.recv()
-                record(got, *info)
-                procs[slot] = (p, conn, None, 0.0)
+                try:
+                    got, info = conn.recv()
+                except EOFError:  # the worker died inside the call (a signal): save, go on
+                    p.join()
+                    built = build(case, seeds)
+                    how = f"worker died (exit code {p.exitcode})"
+                    save_repro(case, built, "CRASH", how, out, seed)
+                    record(case.index, case.kind, built.mutation, built.call, "CRASH", [how])
+                    spawn(slot)
+                else:
+                    record(got, *info)
+                    procs[slot] = (p, conn, None, 0.0)
                 idle.append(slot)
             elif time.perf_counter() - started > timeout + 15:  # inside C code: kill, save, go on
                 p.kill()
@@ -2118,7 +2130,7 @@ def rerun(case: Case, seeds: Seeds, timeout: float) -> int:
         print(f"{built.mutation} -> {built.call} {built.args}")
     print(outcome)
     print(text, end="")
-    return 1 if outcome in ("TRACEBACK", "HANG") else 0
+    return 1 if outcome in FAILURES else 0
 
 
 def main(argv: list[str] | None = None) -> int:

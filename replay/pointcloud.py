@@ -22,15 +22,24 @@ VELODYNE_POINT_STEP = 22
 
 
 def cloud_dtype(fields: Any, point_step: int, big_endian: bool = False) -> np.dtype:
-    """Structured dtype for a PointCloud2's `fields` (count > 1 becomes a sub-array)."""
+    """Structured dtype for a PointCloud2's `fields` (count > 1 becomes a sub-array). A field that does not
+    lie inside `point_step` bytes raises ValueError naming it (numpy itself lets an offset near 2^31 past
+    its check, and reading such a field reads outside the buffer); an unknown datatype raises KeyError."""
     order = ">" if big_endian else "<"
+    step = int(point_step)
     names, formats, offsets = [], [], []
     for f in fields:
         base = order + _DTYPES[int(f.datatype)]
+        count, offset = max(1, int(f.count)), int(f.offset)
+        if not 0 <= offset <= step - count * np.dtype(base).itemsize:
+            raise ValueError(
+                f"PointField {f.name!r}: {count} x {np.dtype(base).name} at offset {offset} lies outside "
+                f"point_step {step}"
+            )
         names.append(f.name)
-        formats.append((base, (int(f.count),)) if int(f.count) > 1 else base)
-        offsets.append(int(f.offset))
-    return np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": int(point_step)})
+        formats.append((base, (count,)) if count > 1 else base)
+        offsets.append(offset)
+    return np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": step})
 
 
 def read_points(msg: Any, fields: tuple[str, ...] | None = None) -> np.ndarray:

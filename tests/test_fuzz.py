@@ -49,13 +49,38 @@ def test_seeded_subset_has_no_traceback_and_no_hang(campaign_and_seeds, shared_d
     campaign, _, folder = campaign_and_seeds
     result = campaign.run_campaign(200, EVERY_KIND_SEED, folder, shared=shared_dir, workers=2, timeout=20.0)
     totals = result.totals
-    assert totals["TRACEBACK"] == 0 and totals["HANG"] == 0, result.failures
+    assert totals["TRACEBACK"] == 0 and totals["HANG"] == 0 and totals["CRASH"] == 0, result.failures
     assert sum(totals.values()) == result.cases == 200
     # the oracle tells outcomes apart: mutated inputs are refused cleanly, corrupt messages are counted
     assert totals["CLEAN_ERROR"] > 50 and totals["OK"] > 50 and totals["COUNTED_SKIP"] > 0
     assert set(result.by_kind) == set(campaign.KINDS)  # every kind drawn, record and replay runs too
     summary = json.loads((folder / "summary.json").read_text())
     assert summary["cases"] == summary["drawn"] == 200 and summary["outcomes"] == dict(sorted(totals.items()))
+
+
+def test_a_case_that_kills_its_worker_is_a_crash_and_the_campaign_goes_on(
+    campaign_and_seeds, monkeypatch, shared_dir: Path
+) -> None:
+    # case 2 dies of a signal inside its call (as a segfault in C code does): the campaign records a CRASH with
+    # a reproducer, starts another worker and runs the other cases
+    import os
+    import signal
+
+    campaign, _, folder = campaign_and_seeds
+    run_case = campaign.run_case
+
+    def dying(case, seeds, timeout):
+        if case.index == 2:
+            os.kill(os.getpid(), signal.SIGSEGV)
+        return run_case(case, seeds, timeout)
+
+    monkeypatch.setattr(campaign, "run_case", dying)  # the workers are forked after this
+    out = folder / "crash"
+    result = campaign.run_campaign(6, EVERY_KIND_SEED, out, shared=shared_dir, workers=2, timeout=20.0)
+    assert result.cases == 6 and result.totals["CRASH"] == 1
+    assert [(f["index"], f["outcome"]) for f in result.failures] == [(2, "CRASH")]
+    assert "exit code -11" in result.failures[0]["error"]
+    assert [p.name.split("-")[0] for p in (out / "repro").iterdir()] == ["000002"]
 
 
 def text(case) -> str:
