@@ -62,7 +62,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from navlog.analysis.metrics import align_planar, planar_relative_error
+from navlog.analysis.metrics import align_planar, planar_ate, planar_relative_error
 from navlog.replay.geometry import planar_matrix
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow, SlamParams
@@ -137,9 +137,8 @@ def overlap(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> f
 
 def score(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid) -> dict[str, float]:
     aligned = align_planar(est, ref)
-    ate = float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
     return {
-        "ate": ate,
+        "ate": planar_ate(est, ref),
         "re1": planar_relative_error(est, ref, 1.0),
         "re5": planar_relative_error(est, ref, 5.0),
         "walls": wall_agreement(draw(aligned, stamps, scans), ref_grid),

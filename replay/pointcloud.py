@@ -30,11 +30,10 @@ def cloud_dtype(fields: Any, point_step: int, big_endian: bool = False) -> np.dt
     names, formats, offsets = [], [], []
     for f in fields:
         base = order + _DTYPES[int(f.datatype)]
-        count, offset = max(1, int(f.count)), int(f.offset)
-        if not 0 <= offset <= step - count * np.dtype(base).itemsize:
+        count, offset, single = max(1, int(f.count)), int(f.offset), np.dtype(base)
+        if not 0 <= offset <= step - count * single.itemsize:
             raise ValueError(
-                f"PointField {f.name!r}: {count} x {np.dtype(base).name} at offset {offset} lies outside "
-                f"point_step {step}"
+                f"PointField {f.name!r}: {count} x {single.name} at offset {offset} lies outside point_step {step}"
             )
         names.append(f.name)
         formats.append((base, (count,)) if count > 1 else base)

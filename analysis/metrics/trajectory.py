@@ -512,6 +512,13 @@ def align_planar(est: np.ndarray, ref: np.ndarray) -> np.ndarray:
     return out
 
 
+def planar_ate(est: np.ndarray, ref: np.ndarray) -> float:
+    """Absolute trajectory error of (N, 3) planar poses ``est`` against ``ref`` (the same instants): the RMSE
+    of the positions after ``align_planar``."""
+    aligned = align_planar(est, ref)
+    return float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
+
+
 def planar_relative_error(est: np.ndarray, ref: np.ndarray, travel: float) -> float:
     """Mean translational relative error over ``travel`` metres (Kuemmerle et al. 2009): for every pose i
     the first later j with at least ``travel`` of reference path since i; the norm of the difference of

@@ -309,7 +309,10 @@ class Slam2D:
             points = scan.points(self.p.max_laser_range, valid)
             if len(points) > MAX_MATCH_POINTS:
                 points = points[np.linspace(0, len(points) - 1, MAX_MATCH_POINTS).astype(np.int64)]
-        reversing = bool(self.keyframes) and self._reversing(scan, self.keyframes[-1].odom.between(odom))
+        # matched (points given) driving away from where the laser looks
+        reversing = (
+            points is not None and bool(self.keyframes) and self._reversing(scan, self.keyframes[-1].odom.between(odom))
+        )
         if not keyframe:
             return self._between_keyframes(stamp, odom, points, reversing)
         assert points is not None

@@ -148,6 +148,17 @@ def test_planar_trajectory_aligns_with_proper_rotation():
     assert res.translation.rmse < 1e-9
 
 
+def test_planar_ate_is_the_error_no_rigid_motion_in_the_plane_removes():
+    # eight poses on a circle of 2 m, estimated on one of 2.1 m, turned and moved: no rotation or translation
+    # takes one circle onto the other, and the best (the circles' centres together) leaves 0.1 m everywhere
+    s = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+    ref = np.stack([2.0 * np.cos(s), 2.0 * np.sin(s), s + np.pi / 2], axis=1)
+    c, d = np.cos(0.7), np.sin(0.7)
+    est = np.stack([2.1 * (c * np.cos(s) - d * np.sin(s)) + 3.0, 2.1 * (d * np.cos(s) + c * np.sin(s)) - 1.0, s], 1)
+    assert tr.planar_ate(est, ref) == pytest.approx(0.1, abs=1e-12)
+    assert tr.planar_ate(ref + [3.0, -1.0, 0.2], ref) == pytest.approx(0.0, abs=1e-12)
+
+
 # ---------------------------------------------------------------- RPE
 
 

@@ -9,7 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from navlog.analysis.metrics import align_planar, planar_relative_error
+from navlog.analysis.metrics import planar_ate, planar_relative_error
 from navlog.replay.session import pipeline_params
 from tests.replay.mapping.planar_logs import (
     ODOMETRY_ERRORS,
@@ -78,12 +78,7 @@ def test_the_slam_keeps_a_real_building_on_odometry_worse_than_its_own(shared_di
     stamps, ref = planar_tum(carmen / "seattle.reference.tum")
     odom = degraded_odometry(np.array([odom_at[t] for t in stamps.tolist()]), kind, value)
     est = slam_on_odometry(odom, stamps, scans, pipeline_params("mapping").slam)  # raises if a scan is unplaced
-
-    def ate(poses: np.ndarray) -> float:
-        aligned = align_planar(poses, ref)
-        return float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
-
-    assert ate(est) < max_ate < 1.0 < ate(odom)
+    assert planar_ate(est, ref) < max_ate < 1.0 < planar_ate(odom, ref)
     assert planar_relative_error(est, ref, 1.0) < min(0.03, planar_relative_error(odom, ref, 1.0))
 
 
@@ -105,9 +100,7 @@ def test_a_real_building_driven_back_with_a_forward_facing_laser(shared_dir):
     results = []
     for in_sight in (True, False):
         est = slam_on_odometry(odom, back, reversed_scans, replace(params, match_in_sight=in_sight))
-        aligned = align_planar(est, ref)
-        ate = float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
-        results.append((ate, planar_relative_error(est, ref, 1.0)))
+        results.append((planar_ate(est, ref), planar_relative_error(est, ref, 1.0)))
     (ate, re1), (ate_all, re1_all) = results
     assert ate < 0.08 < 1.2 < ate_all
     assert re1 < 0.035 < 0.15 < re1_all
