@@ -17,3 +17,7 @@ class LogError(NavlogError):
 
 class TruncatedLogError(LogError):
     """A log ends before its summary: it was cut off while being written."""
+
+
+class SimulationError(NavlogError):
+    """The simulation cannot go on: its physics diverged."""

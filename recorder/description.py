@@ -140,6 +140,24 @@ def _text(el: ET.Element | None, tag: str, default: str | None = None) -> str | 
     return child.text.strip() if child is not None and child.text is not None else default
 
 
+INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+
+
+def _inertial(mass: float, pose: Pose, inertia: tuple[float, ...], where: str) -> Inertial:
+    """A link's inertial, checked: a mass of zero or more, a positive semi-definite inertia."""
+    if mass < 0:
+        raise ConfigError(f"{where}: <mass> must be zero or more, got {mass:g}")
+    out = Inertial(mass, pose, inertia)  # type: ignore[arg-type]
+    smallest = float(out.principal_moments()[0])
+    if mass > 0 and smallest < -1e-9 * max(abs(v) for v in inertia):
+        values = " ".join(f'{k}="{v:g}"' for k, v in zip(INERTIA_KEYS, inertia, strict=True))
+        raise ConfigError(
+            f"{where}: <inertia {values}> is no rigid body's (a principal moment of {smallest:.3g}); "
+            "give the link's inertia about its centre of mass, ixx iyy izz positive"
+        )
+    return out
+
+
 def _number(el: ET.Element | None, tags: Sequence[str], where: str, default: float | None = None) -> float | None:
     """The first of ``tags`` under ``el`` as a number."""
     for tag in tags:
@@ -289,9 +307,9 @@ def _parse_urdf(root: ET.Element, reader: _Reader) -> _Parsed:
             mass_el = ie.find("mass")
             i_el = ie.find("inertia")
             ia = i_el.attrib if i_el is not None else {}
-            inertia = tuple(float(ia.get(k, "0")) for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz"))
-            mass = float(mass_el.get("value", "0")) if mass_el is not None else 0.0
-            inertial = Inertial(mass, _pose(pose), inertia)  # type: ignore[arg-type]
+            inertia = tuple(_floats(ia.get(k), 1, f"{where}: <inertia {k}>", (0.0,))[0] for k in INERTIA_KEYS)
+            mass = _floats(mass_el.get("value") if mass_el is not None else None, 1, f"{where}: <mass>", (0.0,))[0]
+            inertial = _inertial(mass, _pose(pose), inertia, where)
         link = Link(name, inertial=inertial, collisions=collisions)
         if name in joints:
             j, parent = joints[name]
@@ -436,10 +454,9 @@ def _parse_sdf(root: ET.Element, reader: _Reader) -> _Parsed:
         ie = el.find("inertial")
         if ie is not None:
             i_el = ie.find("inertia")
-            inertia = tuple(
-                float(_number(i_el, [k], where, 0.0) or 0.0) for k in ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
-            )
-            inertial = Inertial(float(_number(ie, ["mass"], where, 0.0) or 0.0), _pose(_sdf_pose(ie, where)), inertia)  # type: ignore[arg-type]
+            inertia = tuple(float(_number(i_el, [k], where, 0.0) or 0.0) for k in INERTIA_KEYS)
+            mass = float(_number(ie, ["mass"], where, 0.0) or 0.0)
+            inertial = _inertial(mass, _pose(_sdf_pose(ie, where)), inertia, where)
         link = Link(name, _pose(in_model[name]), inertial=inertial, collisions=collisions)
         if name in joints and joints[name][1] in elements:
             j, parent, model_frame = joints[name]

@@ -130,6 +130,12 @@ class RecordSetup:
         out = [f"robot from {m.source}: drive {self.robot.drive.type} from {m.drive_plugin or 'the --drive option'}"]
         if m.other_sensors:
             out.append(f"{len(m.other_sensors)} sensor(s) not simulated: {', '.join(m.other_sensors)}")
+        unbalanced = [link.name for link in m.links if link.inertial is not None and link.inertial.unbalanced]
+        if unbalanced:
+            out.append(
+                f"{len(unbalanced)} link(s) whose inertia no rigid body has (a principal moment above the sum of the "
+                f"other two), evened out: {', '.join(unbalanced)}"
+            )
         return out
 
     def metadata(self) -> dict[str, str]:

@@ -163,6 +163,7 @@ def add_bodies(spec, model: RobotModel, root_body, wheel_kv: float | None) -> No
     import mujoco
 
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    spec.compiler.balanceinertia = True  # an inertia no rigid body has (``Inertial.unbalanced``) is evened out
     wheels = model.wheel_joints or ()
     resting = resting_geoms(model)
     bodies = {model.root: root_body}

@@ -48,6 +48,18 @@ class Inertial:
     pose: Pose  # the centre of mass and the inertia's axes, in the link's frame
     inertia: tuple[float, float, float, float, float, float]  # ixx, iyy, izz, ixy, ixz, iyz
 
+    def principal_moments(self) -> np.ndarray:
+        """The inertia's principal moments, smallest first."""
+        ixx, iyy, izz, ixy, ixz, iyz = self.inertia
+        return np.linalg.eigvalsh(np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]]))
+
+    @property
+    def unbalanced(self) -> bool:
+        """The largest principal moment exceeds the sum of the other two (no rigid body has such an inertia;
+        the simulator evens it out, as MuJoCo's ``balanceinertia`` does)."""
+        a, b, c = self.principal_moments()
+        return bool(a + b < c * (1 - 1e-9))
+
 
 @dataclass(frozen=True)
 class Link:

@@ -55,6 +55,7 @@ from typing import Literal
 
 import numpy as np
 
+from navlog.errors import ConfigError, SimulationError
 from navlog.recorder import sensors
 from navlog.recorder.range_sensors import (
     LIDAR,
@@ -79,6 +80,7 @@ from navlog.replay.pointcloud import make_cloud
 from navlog.replay.runtime.executor import Deferred, Node
 
 mujoco = import_mujoco()
+_DIVERGED = int(mujoco.mjtWarning.mjWARN_BADQACC)  # MuJoCo reset the state: the physics diverged
 
 TICK_NS = 5_000_000  # 200 Hz
 EVENTS_TOPIC = "/navlog/events"
@@ -169,7 +171,12 @@ class SimNode(Node):
         try:
             spec = build_spec(world)
             add_to_spec(spec, robot, options.start)
-            self.model = spec.compile()
+            try:
+                self.model = spec.compile()
+            except ValueError as exc:  # MuJoCo's compiler names the element at fault
+                source = robot.model.source if robot.model is not None else f"robot '{robot.name}'"
+                detail = " ".join(str(exc).split())
+                raise ConfigError(f"MuJoCo cannot build {source} in world '{world.name}': {detail}") from None
         except BaseException:
             self.close()  # the worker ends with the simulator that could not be built
             raise
@@ -366,6 +373,20 @@ class SimNode(Node):
             ctrl[self._act["left"]] = (vx - wz * half) / r_true
             ctrl[self._act["right"]] = (vx + wz * half) / r_true
 
+    def _divergence(self, t_ns: int) -> str:
+        """What a diverged physics step found, where, and what to check."""
+        m = self.model
+        dof = int(self.data.warning[_DIVERGED].lastinfo)
+        body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.dof_bodyid[dof])) or f"body {m.dof_bodyid[dof]}"
+        joint = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, int(m.dof_jntid[dof]))
+        at = f"joint '{joint}' of link '{body}'" if joint else f"the free joint of '{body}'"
+        source = self.robot.model.source if self.robot.model is not None else f"robot '{self.robot.name}'"
+        return (
+            f"the simulation diverged at t = {t_ns / 1e9:.3f} s (MuJoCo: an acceleration of {at} not finite or "
+            f"huge): the robot's masses, inertias or drive gains are out of proportion; check the <inertial> of "
+            f"'{body}' and of the links beside it in {source}"
+        )
+
     def _yaw(self) -> float:
         m = self.data.xmat[self._bid]
         return math.atan2(m[3], m[0])
@@ -378,6 +399,8 @@ class SimNode(Node):
                 mujoco.mj_step(self.model, self.data)
                 if lpf is not None:
                     lpf.add(self.data.sensordata)
+            if self.data.warning[_DIVERGED].number:
+                raise SimulationError(self._divergence(t_ns))
             if lpf is not None:
                 lpf.tick()
             mujoco.mj_kinematics(self.model, self.data)

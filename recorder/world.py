@@ -20,6 +20,7 @@ the ground-truth grid (``occupancy``) and clearance checks (``clearance``) are c
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import sys
@@ -35,6 +36,8 @@ from navlog.errors import ConfigError
 from navlog.recorder.solids import Solid
 from navlog.replay.config import load_config, named_config, to_mapping
 from navlog.replay.geometry import cell_to_world, se2_compose
+
+log = logging.getLogger(__name__)
 
 SDF_SUFFIXES = (".sdf", ".world")  # a Gazebo SDF world, also with .xacro after it
 
@@ -266,18 +269,24 @@ def import_mujoco():
     Importing MuJoCo loads an OpenGL context library (GLFW: about 0.5 s of searching) for its
     renderer, which the simulator never uses; with ``MUJOCO_GL`` unset it is imported with
     ``MUJOCO_GL=disable`` (the variable is restored after). Set ``MUJOCO_GL`` (e.g. ``egl``), or
-    import MuJoCo first, to render in the same process.
+    import MuJoCo first, to render in the same process. MuJoCo's warnings go to this module's logger
+    (unless a handler of MuJoCo's is already set), not to ``MUJOCO_LOG.TXT`` in the working folder.
     """
     if "mujoco" in sys.modules or "MUJOCO_GL" in os.environ:
         import mujoco
-
-        return mujoco
-    os.environ["MUJOCO_GL"] = "disable"
-    try:
-        import mujoco
-    finally:
-        del os.environ["MUJOCO_GL"]
+    else:
+        os.environ["MUJOCO_GL"] = "disable"
+        try:
+            import mujoco
+        finally:
+            del os.environ["MUJOCO_GL"]
+    if mujoco.get_mju_user_warning() is None:  # MuJoCo's warnings to the log, not to a file in the working folder
+        mujoco.set_mju_user_warning(_mujoco_warning)
     return mujoco
+
+
+def _mujoco_warning(text: str) -> None:
+    log.warning("MuJoCo: %s", text.strip())
 
 
 def import_open3d():

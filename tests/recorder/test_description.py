@@ -417,3 +417,64 @@ def test_an_axis_expressed_in_the_model_is_the_declaring_models_frame(tmp_path, 
     link = next(link for link in describe(robot_file).model.links if link.name == "lidar::link")
     assert link.joint_type == "revolute"
     assert link.axis == pytest.approx((1.0, 0.0, 0.0), abs=1e-6)
+
+
+def _wheely(tmp_path: Path, base_inertial: str) -> Path:
+    """The two-wheeled robot of ``test_robot_odometry`` with its base link's ``<inertial>`` replaced."""
+    from tests.recorder.test_robot_odometry import GZ_PLUGIN, ROBOT
+
+    base = '<inertial><mass value="4.0"/><inertia ixx="0.03" iyy="0.04" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial>'
+    assert base in ROBOT
+    path = tmp_path / "wheely.urdf"
+    path.write_text(ROBOT.replace("PLUGIN", GZ_PLUGIN).replace(base, base_inertial))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("inertial", "named"),
+    [
+        ('<inertial><mass value="four"/></inertial>', "<mass>"),
+        ('<inertial><mass value="-4"/></inertial>', "<mass> must be zero or more"),
+        ('<inertial><mass value="4"/><inertia ixx="nan" iyy="0.04" izz="0.05"/></inertial>', "<inertia ixx>"),
+        (
+            '<inertial><mass value="4"/><inertia ixx="0.03" iyy="0.04" izz="0.05" ixy="0.2"/></inertial>',
+            "no rigid body",
+        ),
+    ],
+)
+def test_an_inertial_no_body_has_names_the_link_and_the_value(tmp_path, capsys, inertial, named):
+    code, out = _record(tmp_path, _wheely(tmp_path, inertial))
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert "wheely.urdf: link 'base_link'" in err and named in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_an_inertia_above_the_triangle_inequality_is_evened_out_and_reported(tmp_path):
+    # izz = 0.1 > ixx + iyy = 0.07: what CAD exports after rounding; Gazebo loads it, MuJoCo refuses it as it is
+    urdf = _wheely(tmp_path, '<inertial><mass value="4.0"/><inertia ixx="0.03" iyy="0.04" izz="0.1"/></inertial>')
+    robot = describe(urdf)
+    assert robot.model is not None
+    base = robot.model.link("base_link").inertial
+    assert base is not None and base.unbalanced
+    assert np.allclose(base.principal_moments(), [0.03, 0.04, 0.1])
+    assert not any(link.inertial.unbalanced for link in robot.model.links[1:] if link.inertial is not None)
+    setup = prepare("indoor_room", str(urdf), "teleop")
+    assert any("evened out: base_link" in note for note in setup.notes())
+    res = record(setup, tmp_path / "even.mcap", progress=False, sensor_worker=False)
+    assert res.sim_s > 1.0 and any("evened out: base_link" in note for note in res.notes)
+
+
+def test_a_robot_whose_physics_diverges_stops_the_recording_naming_the_link(tmp_path, capsys, monkeypatch):
+    # a 1e9 kg base with the inertia of a gram: the wheel servos' gain follows the mass, the first step explodes
+    monkeypatch.chdir(tmp_path)
+    urdf = _wheely(tmp_path, '<inertial><mass value="1e9"/><inertia ixx="1e-6" iyy="1e-6" izz="1e-6"/></inertial>')
+    out = tmp_path / "out.mcap"
+    code = main(
+        ["-q", "record", "--robot", str(urdf), "--world", "indoor_room", "--scenario", "teleop", "-o", str(out)]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists() and not list(tmp_path.glob("out.mcap*"))
+    line = next(line for line in err.splitlines() if "error:" in line)
+    assert "diverged at t = 0.005 s" in line and "link 'base_link'" in line and "wheely.urdf" in line
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()  # MuJoCo's warning went to the log, not to a file here
