@@ -5,7 +5,8 @@ world; a file whose name ends in ``.xacro`` is expanded first, with ``args`` as 
 values (``NAME:=VALUE`` on the command line of ``ros2 launch``) and ``$(find PKG)`` along the package
 path of ``navlog.recorder.resources`` (``search_paths`` first) instead of the ament index. A xacro
 error becomes a ConfigError naming the file (the included file where the error is) and, where it can
-be found, the line: ``FILE:LINE: xacro error: MESSAGE``.
+be found, the line: ``FILE:LINE: xacro error: MESSAGE``. A xacro file is expanded in a child process
+held to ``XACRO_SECONDS`` of CPU, ``XACRO_MEMORY`` and ``XACRO_OUTPUT``: past them it is a ConfigError.
 """
 
 from __future__ import annotations
@@ -80,13 +81,78 @@ def read_description(
             return path.read_text()
         except (OSError, UnicodeDecodeError) as exc:
             raise ConfigError(f"{path}: cannot read ({exc})") from None
+    return _expand_bounded(path, dict(args or {}), [str(p) for p in search_paths])
+
+
+def expand(path: Path, args: Mapping[str, str], search_paths: Sequence[Path | str]) -> str:
+    """The xacro expansion of ``path`` in this process, unbounded (``read_description`` bounds it)."""
     import xacro
 
     try:
         with _find_along(search_paths, path.parent):
-            doc = xacro.process_file(str(path), mappings=dict(args or {}))
+            doc = xacro.process_file(str(path), mappings=dict(args))
     except ConfigError as exc:  # a $(find PKG) that is nowhere on the package path
         raise ConfigError(f"{path}: xacro error: {exc}") from None
     except Exception as exc:  # xacro raises its own, XML parser, evaluation and lookup errors
         raise _xacro_error(path, exc) from None
     return str(doc.toxml())
+
+
+# a xacro file is a program: a macro that calls itself twice expands 2^n times, ${10**10**9} never ends. It is
+# expanded in a child process (``navlog.replay.workers.child``) held to these (a robot's file takes well under
+# a second and a few MB)
+XACRO_SECONDS = 10
+XACRO_MEMORY = 2 << 30  # bytes of address space
+XACRO_OUTPUT = 64 << 20  # bytes of expanded XML
+
+_CHILD = """
+import json, resource, sys
+request = json.loads(sys.argv[1])
+resource.setrlimit(resource.RLIMIT_AS, (request["memory"], request["memory"]))
+resource.setrlimit(resource.RLIMIT_CPU, (request["seconds"], request["seconds"] + 1))
+from pathlib import Path
+from navlog.errors import ConfigError
+from navlog.recorder.xacro_files import expand
+try:
+    reply = b"T" + expand(Path(request["path"]), request["args"], request["search"]).encode()
+except ConfigError as exc:
+    reply = b"E" + str(exc).encode()
+except MemoryError:
+    reply = b"M"
+sys.stdout.buffer.write(reply[: request["output"] + 2])
+"""
+
+
+def _expand_bounded(path: Path, args: dict[str, str], search_paths: list[str]) -> str:
+    import json
+    import subprocess
+
+    from navlog.replay.workers.child import start_python
+
+    request = {"path": str(path), "args": args, "search": search_paths, "memory": XACRO_MEMORY}
+    request |= {"seconds": XACRO_SECONDS, "output": XACRO_OUTPUT}
+    try:
+        process = start_python(_CHILD, args=[json.dumps(request)])
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot start the xacro expansion ({exc})") from None
+    limits = f"{XACRO_SECONDS} s and {XACRO_MEMORY >> 30} GiB"
+    try:
+        reply, _ = process.communicate(timeout=XACRO_SECONDS + 5)
+    except subprocess.TimeoutExpired:
+        reply = b""
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    if reply[:1] == b"T":
+        if len(reply) > XACRO_OUTPUT + 1:
+            raise ConfigError(
+                f"{path}: xacro expands to more than {XACRO_OUTPUT >> 20} MB of XML: a macro that expands without end?"
+            )
+        return reply[1:].decode()
+    if reply[:1] == b"E":
+        raise ConfigError(reply[1:].decode(errors="replace"))
+    raise ConfigError(
+        f"{path}: the xacro expansion did not end within {limits} "
+        f"(exit code {process.returncode}): a macro that expands without end, or an expression too large?"
+    )
