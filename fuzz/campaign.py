@@ -105,6 +105,8 @@ KINDS: dict[str, int] = {
     "schema-crafted": 6,
     "yaml-bomb": 3,
     "two-writers": 3,
+    # robot description files (URDF, SDF, xacro)
+    "description": 6,
 }
 
 
@@ -146,6 +148,8 @@ class Seeds:
     bags: dict[str, Path]  # rosbag2 folders
     configs: dict[str, list[Path]]  # kind -> YAML files
     map_yaml: Path
+    # name -> (file name, XML text, package folders, --drive) of the robot description files
+    descriptions: dict[str, tuple[str, str, list[str], str]] = field(default_factory=dict)
 
 
 def build_seed_log(folder: Path) -> Path:
@@ -260,6 +264,15 @@ def load_seeds(folder: Path, shared: Path) -> Seeds:
             *(external / "params").glob("*.yaml"),
         ]
     )
+    descriptions = {
+        "urdf": ("robot.urdf", ROBOT_URDF, [], ""),
+        "sdf": ("robot.sdf", ROBOT_SDF, [], ""),
+        "xacro": ("robot.urdf.xacro", ROBOT_XACRO, [], ""),
+    }
+    nav2_sim = external / "nav2_sim"
+    waffle = nav2_sim / "nav2_minimal_tb3_sim/urdf/turtlebot3_waffle.urdf"
+    if waffle.is_file():
+        descriptions["waffle"] = ("turtlebot3_waffle.urdf", waffle.read_text(), [str(nav2_sim)], "diff_drive")
     return Seeds(
         folder=folder,
         logs=logs,
@@ -268,6 +281,7 @@ def load_seeds(folder: Path, shared: Path) -> Seeds:
         bags=bags,
         configs=configs,
         map_yaml=folder / "map.yaml",
+        descriptions=descriptions,
     )
 
 
@@ -899,6 +913,151 @@ HOLDING_RUNS = [
 ]
 
 
+ROBOT_URDF = """<?xml version="1.0"?>
+<robot name="wheely">
+  <link name="base_link">
+    <inertial><mass value="4.0"/><inertia ixx="0.03" iyy="0.04" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.07"/><geometry><box size="0.3 0.24 0.08"/></geometry></collision>
+  </link>
+  <link name="wheel_left">
+    <inertial><mass value="0.3"/><inertia ixx="0.0002" iyy="0.0002" izz="0.0004" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin rpy="1.5708 0 0"/><geometry><cylinder radius="0.05" length="0.03"/></geometry></collision>
+  </link>
+  <joint name="wheel_left_joint" type="continuous">
+    <parent link="base_link"/><child link="wheel_left"/><origin xyz="0 0.14 0.05"/><axis xyz="0 1 0"/>
+  </joint>
+  <link name="wheel_right">
+    <inertial><mass value="0.3"/><inertia ixx="0.0002" iyy="0.0002" izz="0.0004" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin rpy="1.5708 0 0"/><geometry><cylinder radius="0.05" length="0.03"/></geometry></collision>
+  </link>
+  <joint name="wheel_right_joint" type="continuous">
+    <parent link="base_link"/><child link="wheel_right"/><origin xyz="0 -0.14 0.05"/><axis xyz="0 1 0"/>
+  </joint>
+  <link name="caster"><collision><geometry><sphere radius="0.025"/></geometry></collision></link>
+  <joint name="caster_joint" type="fixed">
+    <parent link="base_link"/><child link="caster"/><origin xyz="-0.12 0 0.025"/>
+  </joint>
+  <link name="laser"/>
+  <joint name="laser_joint" type="fixed"><parent link="base_link"/><child link="laser"/><origin xyz="0 0 0.15"/></joint>
+  <gazebo reference="laser">
+    <sensor name="lidar" type="gpu_lidar">
+      <update_rate>10</update_rate><topic>scan</topic><gz_frame_id>laser</gz_frame_id>
+      <lidar><scan><horizontal><samples>90</samples><min_angle>-3.14159</min_angle>
+      <max_angle>3.07178</max_angle></horizontal></scan><range><min>0.1</min><max>8.0</max></range></lidar>
+    </sensor>
+    <sensor name="imu" type="imu"><update_rate>50</update_rate><topic>imu</topic></sensor>
+  </gazebo>
+  <gazebo>
+    <plugin filename="gz-sim-diff-drive-system" name="gz::sim::systems::DiffDrive">
+      <left_joint>wheel_left_joint</left_joint><right_joint>wheel_right_joint</right_joint>
+      <wheel_separation>0.28</wheel_separation><wheel_radius>0.05</wheel_radius>
+      <max_linear_velocity>0.5</max_linear_velocity><topic>cmd_vel</topic><odom_topic>odom</odom_topic>
+      <frame_id>odom</frame_id><child_frame_id>base_footprint</child_frame_id>
+    </plugin>
+  </gazebo>
+</robot>
+"""
+ROBOT_SDF = """<?xml version="1.0"?>
+<sdf version="1.9">
+  <model name="boxy">
+    <link name="base_link">
+      <inertial><mass>4.0</mass><inertia><ixx>0.03</ixx><iyy>0.04</iyy><izz>0.05</izz></inertia></inertial>
+      <collision name="body"><pose>0 0 0.07 0 0 0</pose><geometry><box><size>0.3 0.24 0.08</size></box></geometry></collision>
+    </link>
+    <link name="wheel_left">
+      <pose>0 0.14 0.05 -1.5708 0 0</pose>
+      <inertial><mass>0.3</mass><inertia><ixx>0.0002</ixx><iyy>0.0002</iyy><izz>0.0004</izz></inertia></inertial>
+      <collision name="tyre"><geometry><cylinder><radius>0.05</radius><length>0.03</length></cylinder></geometry></collision>
+    </link>
+    <joint name="wheel_left_joint" type="revolute">
+      <parent>base_link</parent><child>wheel_left</child><axis><xyz>0 0 1</xyz></axis>
+    </joint>
+    <link name="wheel_right">
+      <pose>0 -0.14 0.05 -1.5708 0 0</pose>
+      <inertial><mass>0.3</mass><inertia><ixx>0.0002</ixx><iyy>0.0002</iyy><izz>0.0004</izz></inertia></inertial>
+      <collision name="tyre"><geometry><cylinder><radius>0.05</radius><length>0.03</length></cylinder></geometry></collision>
+    </link>
+    <joint name="wheel_right_joint" type="revolute">
+      <parent>base_link</parent><child>wheel_right</child><axis><xyz>0 0 1</xyz></axis>
+    </joint>
+    <model name="head">
+      <pose>0 0 0.2 0 0 0</pose>
+      <link name="scanner">
+        <sensor name="lidar" type="gpu_lidar">
+          <update_rate>10</update_rate><topic>scan</topic>
+          <lidar><scan><horizontal><samples>90</samples><min_angle>-1.5</min_angle><max_angle>1.5</max_angle>
+          </horizontal></scan><range><min>0.1</min><max>8.0</max></range></lidar>
+        </sensor>
+      </link>
+    </model>
+    <joint name="head_joint" type="fixed"><parent>base_link</parent><child>head::scanner</child></joint>
+    <plugin filename="gz-sim-diff-drive-system" name="gz::sim::systems::DiffDrive">
+      <left_joint>wheel_left_joint</left_joint><right_joint>wheel_right_joint</right_joint>
+      <wheel_separation>0.28</wheel_separation><wheel_radius>0.05</wheel_radius>
+    </plugin>
+  </model>
+</sdf>
+"""
+ROBOT_XACRO = """<?xml version="1.0"?>
+<robot name="xwheely" xmlns:xacro="http://www.ros.org/wiki/xacro">
+  <xacro:arg name="prefix" default=""/>
+  <xacro:property name="radius" value="0.05"/>
+  <xacro:property name="track" value="0.28"/>
+  <link name="base_link">
+    <inertial><mass value="4.0"/><inertia ixx="0.03" iyy="0.04" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.07"/><geometry><box size="0.3 0.24 0.08"/></geometry></collision>
+  </link>
+  <xacro:macro name="wheel" params="side y">
+    <link name="wheel_${side}">
+      <inertial><mass value="0.3"/><inertia ixx="0.0002" iyy="0.0002" izz="0.0004" ixy="0" ixz="0" iyz="0"/></inertial>
+      <collision><origin rpy="${pi/2} 0 0"/><geometry><cylinder radius="${radius}" length="0.03"/></geometry></collision>
+    </link>
+    <joint name="wheel_${side}_joint" type="continuous">
+      <parent link="base_link"/><child link="wheel_${side}"/><origin xyz="0 ${y} ${radius}"/><axis xyz="0 1 0"/>
+    </joint>
+  </xacro:macro>
+  <xacro:wheel side="left" y="${track/2}"/>
+  <xacro:wheel side="right" y="${-track/2}"/>
+  <gazebo>
+    <plugin filename="libgazebo_ros_diff_drive.so" name="diff_drive">
+      <left_joint>wheel_left_joint</left_joint><right_joint>wheel_right_joint</right_joint>
+      <wheel_separation>${track}</wheel_separation><wheel_diameter>${2*radius}</wheel_diameter>
+    </plugin>
+  </gazebo>
+</robot>
+"""
+XML_VALUES = ["nan", "inf", "-inf", "-1", "0", "1e308", "-1e308", "5e-324", "", " ", "abc", "1 2", "0 0 0"]
+XML_VALUES += ["1 2 3 4", "${undefined}", "${1/0}", "${10**400}", "package://nope/m.stl", "model://nope", "/dev/zero"]
+XML_VALUES += ["../../../../etc/passwd", "base_link", "wheel_left", "head::scanner", "fixed", "floating", "ball"]
+XML_TAGS = ["link", "joint", "parent", "child", "origin", "inertial", "inertia", "mass", "collision", "geometry"]
+XML_TAGS += ["mesh", "box", "cylinder", "sphere", "plugin", "sensor", "model", "include", "pose", "axis", "uri"]
+XML_OPS = ["attribute", "attribute", "text", "text", "delete", "duplicate", "move", "retag", "truncate", "junk"]
+
+
+@st.composite
+def description(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """A robot description file (a small URDF, SDF or xacro, or Nav2's TurtleBot3 Waffle URDF) with its XML
+    mutated: an attribute or a text set to a drawn value, an element deleted, duplicated, moved under
+    another or renamed, the file cut or junk put in; read by ``describe`` or recorded for 0.5 s."""
+    op = st.fixed_dictionaries(
+        {
+            "op": st.sampled_from(XML_OPS),
+            "element": INDEX,
+            "other": INDEX,
+            "attribute": INDEX,
+            "value": st.one_of(st.sampled_from(XML_VALUES), ARGV_TEXT),
+            "tag": st.sampled_from(XML_TAGS),
+            "at": AT,
+            "junk": st.binary(max_size=32).map(bytes.hex),
+        }
+    )
+    return {
+        "seed": draw(st.sampled_from(sorted(seeds.descriptions))),
+        "ops": draw(st.lists(op, min_size=1, max_size=3)),
+        "call": draw(st.sampled_from(["describe", "describe", "record"])),
+    }
+
+
 MORE_KINDS: dict[str, Callable[[Seeds], Any]] = {
     "mcap-times": mcap_times,
     "mcap-claims": mcap_claims,
@@ -909,6 +1068,7 @@ MORE_KINDS: dict[str, Callable[[Seeds], Any]] = {
     "two-writers": two_writers,
     "params-extreme": params_extreme,
     "outputs-special": outputs_special,
+    "description": description,
 }
 
 
@@ -1727,7 +1887,63 @@ def build_two_writers(r: dict[str, Any], seeds: Seeds) -> Built:
     return Built(f"two-writers:{r['argv'][0]}", "two-writers", {"argv": r["argv"]}, built.files, built.links)
 
 
+def mutate_xml(ops: list[dict[str, Any]], text: str) -> tuple[str, str]:
+    """(what was done, the text) of XML ``text`` with ``ops`` (``description``'s) applied in turn."""
+    import xml.etree.ElementTree as ET
+
+    ET.register_namespace("xacro", "http://www.ros.org/wiki/xacro")
+    root = ET.fromstring(text)
+    done = []
+    for o in ops:
+        o = {**o, "value": "".join(c for c in o["value"] if c in "\t\n\r" or ord(c) >= 0x20)}  # XML's characters
+        elements = list(root.iter())
+        parents = {child: parent for parent in elements for child in parent}
+        el = elements[o["element"] % len(elements)]
+        op = o["op"]
+        if op == "attribute" and el.attrib:
+            key = sorted(el.attrib)[o["attribute"] % len(el.attrib)]
+            el.set(key, o["value"])
+            done.append(f"{el.tag}@{key}={o['value']!r}")
+        elif op in ("text", "attribute"):
+            el.text = o["value"]
+            done.append(f"{el.tag}.text={o['value']!r}")
+        elif op == "retag":
+            done.append(f"retag {el.tag}->{o['tag']}")
+            el.tag = o["tag"]
+        elif el in parents and op in ("delete", "duplicate", "move"):
+            parent = parents[el]
+            if op == "delete":
+                parent.remove(el)
+            elif op == "duplicate":
+                parent.append(ET.fromstring(ET.tostring(el)))
+            else:
+                below = set(el.iter())
+                targets = [e for e in elements if e not in below]
+                parent.remove(el)
+                targets[o["other"] % len(targets)].append(el)
+            done.append(f"{op} {el.tag}")
+    out = ET.tostring(root, encoding="unicode")
+    for o in ops:
+        at = o["at"] * len(out) >> 32
+        if o["op"] == "truncate":
+            out = out[:at]
+            done.append(f"truncate@{at}")
+        elif o["op"] == "junk":
+            out = out[:at] + bytes.fromhex(o["junk"]).decode("latin-1") + out[at:]
+            done.append(f"junk@{at}")
+    return ";".join(done) or "unchanged", out
+
+
+def build_description(r: dict[str, Any], seeds: Seeds) -> Built:
+    name, text, packages, drive = seeds.descriptions[r["seed"]]
+    mutation, data = mutate_xml(r["ops"], text)
+    args = {"path": name, "packages": packages, "drive": drive}
+    files = {name: data.encode("utf-8", errors="surrogateescape"), "TINY.yaml": TINY_SCENARIO.encode()}
+    return Built(f"{r['seed']}:{mutation}", f"description-{r['call']}", args, files)
+
+
 BUILDERS: dict[str, Callable[[dict[str, Any], Seeds], Built]] = {
+    "description": build_description,
     "mcap-times": build_times,
     "mcap-claims": build_claims,
     "mcap-crc": build_crc,
@@ -1900,6 +2116,17 @@ def call_case(built: Built, folder: Path, seeds: Seeds) -> str:
         return run_cli(["view", a["log"], "--save", "view.rrd"], folder, seeds)
     if built.call == "cli-export":
         return run_cli(["export", a["log"], "--to", "rosbag2", "-o", "exported"], folder, seeds)
+    if built.call == "description-describe":
+        from navlog.recorder.description import describe
+
+        describe(folder / a["path"], package_paths=a["packages"], drive=a["drive"] or None)
+        return "OK"
+    if built.call == "description-record":
+        argv = ["record", "--robot", a["path"], "--world", "indoor_room", "--scenario", "TINY", "-o", "out.mcap"]
+        argv += ["--drive", a["drive"]] if a["drive"] else []
+        for package in a["packages"]:
+            argv += ["--package-path", package]
+        return run_cli(argv, folder, seeds)
     if built.call == "two-writers":  # the output is held, as by a run in another process
         from navlog.replay.io.atomic import hold_output
 

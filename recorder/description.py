@@ -230,10 +230,11 @@ class _Reader:
             if kind == "box":
                 return Geometry("box", size=tuple(_floats(a.get("size"), 3, f"{where} box size")))  # type: ignore[arg-type]
             if kind in ("cylinder", "capsule"):
-                r, length = float(a.get("radius", "nan")), float(a.get("length", "nan"))
+                r = _floats(a.get("radius"), 1, f"{where} {kind} radius", (math.nan,))[0]
+                length = _floats(a.get("length"), 1, f"{where} {kind} length", (math.nan,))[0]
                 return Geometry(kind, radius=r, length=length)  # type: ignore[arg-type]
             if kind == "sphere":
-                return Geometry("sphere", radius=float(a.get("radius", "nan")))
+                return Geometry("sphere", radius=_floats(a.get("radius"), 1, f"{where} sphere radius", (math.nan,))[0])
             if kind == "mesh":
                 uri, scale = a.get("filename", ""), a.get("scale")
                 file = self.mesh(uri, link, visual=False)

@@ -89,10 +89,12 @@ def _add_link(
         body.mass = MIN_MASS
         body.inertia = [MIN_INERTIA] * 3
     wheel = link.joint in wheels
+    names = [c.name for c in link.collisions]
     for k, c in enumerate(link.collisions):
         g = c.geometry
         kw: dict = dict(
-            name=f"{link.name}/{c.name}",
+            # a URDF may name two collisions of a link alike; MuJoCo's geoms need names of their own
+            name=f"{link.name}/{c.name}" if names.count(c.name) == 1 else f"{link.name}/{c.name}#{k}",
             pos=list(c.pose[:3]),
             quat=_wxyz(c.pose[3:]),
             contype=ROBOT_CONTYPE,

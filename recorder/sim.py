@@ -170,10 +170,10 @@ class SimNode(Node):
         self._ranges = ranges
         try:
             spec = build_spec(world)
-            add_to_spec(spec, robot, options.start)
             try:
+                add_to_spec(spec, robot, options.start)
                 self.model = spec.compile()
-            except ValueError as exc:  # MuJoCo's compiler names the element at fault
+            except ValueError as exc:  # MuJoCo's model editing and compiler name the element at fault
                 source = robot.model.source if robot.model is not None else f"robot '{robot.name}'"
                 detail = " ".join(str(exc).split())
                 raise ConfigError(f"MuJoCo cannot build {source} in world '{world.name}': {detail}") from None

@@ -478,3 +478,30 @@ def test_a_robot_whose_physics_diverges_stops_the_recording_naming_the_link(tmp_
     line = next(line for line in err.splitlines() if "error:" in line)
     assert "diverged at t = 0.005 s" in line and "link 'base_link'" in line and "wheely.urdf" in line
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()  # MuJoCo's warning went to the log, not to a file here
+
+
+def test_a_cylinder_radius_that_is_no_number_names_the_collision(tmp_path, capsys):
+    robot = _wheely(tmp_path, "").read_text().replace('radius="0.05" length="0.03"', 'radius="wide" length="0.03"', 1)
+    (tmp_path / "wheely.urdf").write_text(robot)
+    code, out = _record(tmp_path, tmp_path / "wheely.urdf")
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert "link 'wheel_left'" in err and "cylinder radius" in err and "'wide'" in err
+
+
+def test_two_collisions_of_a_link_named_alike_are_both_simulated(tmp_path):
+    box = '<collision name="c"><origin xyz="0 0 0.07"/><geometry><box size="0.3 0.24 0.08"/></geometry></collision>'
+    roof = '<collision name="c"><origin xyz="0 0 0.2"/><geometry><box size="0.1 0.1 0.1"/></geometry></collision>'
+    urdf = _wheely(
+        tmp_path,
+        '<inertial><mass value="4.0"/><inertia ixx="0.03" iyy="0.04" izz="0.05"/></inertial>' + box + roof,
+    )
+    setup = prepare("indoor_room", str(urdf), "teleop")
+    from navlog.recorder.sim import SimNode, SimOptions
+
+    sim = SimNode(setup.world, setup.robot, SimOptions(sensor_worker=False))
+    try:
+        names = [sim.model.geom(i).name for i in range(sim.model.ngeom)]
+    finally:
+        sim.close()
+    assert {"base_link/c#0", "base_link/c#1"} <= set(names)
