@@ -148,7 +148,7 @@ class Seeds:
     bags: dict[str, Path]  # rosbag2 folders
     configs: dict[str, list[Path]]  # kind -> YAML files
     map_yaml: Path
-    # name -> (file name, XML text, package folders, --drive) of the robot description files
+    # name -> (file name, XML text, package or resource folders, --drive or "world") of the description files
     descriptions: dict[str, tuple[str, str, list[str], str]] = field(default_factory=dict)
 
 
@@ -265,6 +265,7 @@ def load_seeds(folder: Path, shared: Path) -> Seeds:
         ]
     )
     descriptions = {
+        "world": ("world.sdf", WORLD_SDF, ["models"], "world"),
         "urdf": ("robot.urdf", ROBOT_URDF, [], ""),
         "sdf": ("robot.sdf", ROBOT_SDF, [], ""),
         "xacro": ("robot.urdf.xacro", ROBOT_XACRO, [], ""),
@@ -1026,6 +1027,39 @@ ROBOT_XACRO = """<?xml version="1.0"?>
   </gazebo>
 </robot>
 """
+WORLD_SDF = """<?xml version="1.0"?>
+<sdf version="1.9">
+  <world name="w">
+    <model name="ground"><static>true</static><link name="l"><collision name="c"><geometry>
+      <plane><normal>0 0 1</normal><size>20 20</size></plane></geometry></collision></link></model>
+    <model name="outer">
+      <static>true</static>
+      <pose>3 0 0 0 0 1.5707963</pose>
+      <frame name="corner"><pose>0 2 0 0 0 0</pose></frame>
+      <model name="inner"><pose>1 0 0 0 0 0</pose>
+        <link name="l"><pose>0 1 0 0 0 0</pose>
+          <collision name="post"><pose>0 0 1 0 0 0</pose>
+            <geometry><cylinder><radius>0.1</radius><length>2</length></cylinder></geometry></collision>
+        </link>
+      </model>
+      <link name="l2">
+        <collision name="rel"><pose relative_to="corner">0 0 0.25 0 0 0</pose>
+          <geometry><box><size>0.5 0.5 0.5</size></box></geometry></collision>
+        <collision name="ball"><pose>0 0 0.5 0 0 0</pose><geometry><sphere><radius>0.5</radius></sphere></geometry></collision>
+        <collision name="pen"><pose>0 -3 0 0 0 0</pose><geometry>
+          <polyline><point>-1.5 -1</point><point>1.5 -1</point><point>1.5 1</point><point>-1.5 1</point>
+          <height>0.8</height></polyline></geometry></collision>
+      </link>
+      <include><uri>model://crate</uri><name>crate_1</name><pose>0 4 0 0 0 0</pose></include>
+    </model>
+  </world>
+</sdf>
+"""
+CRATE_SDF = """<?xml version="1.0"?>
+<sdf version="1.9"><model name="crate"><static>true</static><link name="l">
+  <collision name="c"><pose>0 0 0.3 0 0 0</pose><geometry><box><size>0.6 0.6 0.6</size></box></geometry></collision>
+</link></model></sdf>
+"""
 XML_VALUES = ["nan", "inf", "-inf", "-1", "0", "1e308", "-1e308", "5e-324", "", " ", "abc", "1 2", "0 0 0"]
 XML_VALUES += ["1 2 3 4", "${undefined}", "${1/0}", "${10**400}", "package://nope/m.stl", "model://nope", "/dev/zero"]
 XML_VALUES += ["../../../../etc/passwd", "base_link", "wheel_left", "head::scanner", "fixed", "floating", "ball"]
@@ -1036,9 +1070,10 @@ XML_OPS = ["attribute", "attribute", "text", "text", "delete", "duplicate", "mov
 
 @st.composite
 def description(draw: Any, seeds: Seeds) -> dict[str, Any]:
-    """A robot description file (a small URDF, SDF or xacro, or Nav2's TurtleBot3 Waffle URDF) with its XML
-    mutated: an attribute or a text set to a drawn value, an element deleted, duplicated, moved under
-    another or renamed, the file cut or junk put in; read by ``describe`` or recorded for 0.5 s."""
+    """A description file (a small URDF, SDF or xacro robot, Nav2's TurtleBot3 Waffle URDF, a small Gazebo
+    world with nested models, a polyline and an include) with its XML mutated: an attribute or a text set
+    to a drawn value, an element deleted, duplicated, moved under another or renamed, the file cut or junk
+    put in; read (``describe``, ``load_world``) or recorded in for 0.5 s."""
     op = st.fixed_dictionaries(
         {
             "op": st.sampled_from(XML_OPS),
@@ -1939,6 +1974,9 @@ def build_description(r: dict[str, Any], seeds: Seeds) -> Built:
     mutation, data = mutate_xml(r["ops"], text)
     args = {"path": name, "packages": packages, "drive": drive}
     files = {name: data.encode("utf-8", errors="surrogateescape"), "TINY.yaml": TINY_SCENARIO.encode()}
+    if drive == "world":
+        files["models/crate/model.config"] = b'<model><sdf version="1.9">model.sdf</sdf></model>'
+        files["models/crate/model.sdf"] = CRATE_SDF.encode()
     return Built(f"{r['seed']}:{mutation}", f"description-{r['call']}", args, files)
 
 
@@ -2116,11 +2154,19 @@ def call_case(built: Built, folder: Path, seeds: Seeds) -> str:
         return run_cli(["view", a["log"], "--save", "view.rrd"], folder, seeds)
     if built.call == "cli-export":
         return run_cli(["export", a["log"], "--to", "rosbag2", "-o", "exported"], folder, seeds)
+    if built.call == "description-describe" and a["drive"] == "world":
+        from navlog.recorder.world import load_world
+
+        load_world(str(folder / a["path"]), resource_paths=[folder / p for p in a["packages"]])
+        return "OK"
     if built.call == "description-describe":
         from navlog.recorder.description import describe
 
         describe(folder / a["path"], package_paths=a["packages"], drive=a["drive"] or None)
         return "OK"
+    if built.call == "description-record" and a["drive"] == "world":
+        argv = ["record", "--world", a["path"], "--robot", "simple_robot", "--scenario", "TINY", "-o", "out.mcap"]
+        return run_cli([*argv, "--resource-path", "models"], folder, seeds)
     if built.call == "description-record":
         argv = ["record", "--robot", a["path"], "--world", "indoor_room", "--scenario", "TINY", "-o", "out.mcap"]
         argv += ["--drive", a["drive"]] if a["drive"] else []

@@ -200,6 +200,15 @@ def load_sdf_world(path: Path, resource_paths: Sequence[Path | str] = (), args: 
     if not path.is_file():
         raise ConfigError(f"{path}: no such world file")
     sdf = read_sdf_world(path, resource_paths, args)
+    seen: set[str] = set()
+    for solid in sdf.solids:
+        if solid.name in seen:  # sdformat refuses siblings of one name; two MuJoCo geoms cannot share one
+            model, _, collision = solid.name.rpartition("/")
+            raise ConfigError(
+                f"{path}: two collisions named '{solid.name}' (model or link '{model}' twice, or two collisions "
+                f"'{collision}' in it): give models, links and collisions names unique among their siblings"
+            )
+        seen.add(solid.name)
     spec = WorldSpec(sdf_stem(path), description=f"SDF world {path.name}", floor=True)
     notes = sdf.notes() + ([] if sdf.ground else ["no ground plane in the file: a floor at z = 0 added"])
     return World(spec, sdf.solids, path, notes)

@@ -325,3 +325,12 @@ def test_a_polyline_with_two_points_names_the_fix(tmp_path):
     )
     with pytest.raises(ConfigError, match=r"pen\.sdf: link 'pen/l' collision 'ell' <polyline>: .*3 <point>.*got 2"):
         load_world(str(_write(tmp_path / "pen.sdf", bad)))
+
+
+def test_a_model_included_twice_under_one_name_is_an_error_naming_it(capsys, small_world, tmp_path):
+    twice = small_world.read_text().replace(
+        "</include>", "</include>\n      <include><uri>model://crate</uri><name>crate_1</name></include>", 1
+    )
+    _write(small_world, twice)
+    err = _fails(capsys, tmp_path, str(small_world), "--resource-path", str(tmp_path / "models"))
+    assert "two collisions named 'outer/crate_1/" in err and "unique among their siblings" in err
