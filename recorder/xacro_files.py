@@ -125,25 +125,16 @@ sys.stdout.buffer.write(reply[: request["output"] + 2])
 
 def _expand_bounded(path: Path, args: dict[str, str], search_paths: list[str]) -> str:
     import json
-    import subprocess
 
-    from navlog.replay.workers.child import start_python
+    from navlog.replay.workers.child import run_python
 
     request = {"path": str(path), "args": args, "search": search_paths, "memory": XACRO_MEMORY}
     request |= {"seconds": XACRO_SECONDS, "output": XACRO_OUTPUT}
     try:
-        process = start_python(_CHILD, args=[json.dumps(request)])
+        reply, code = run_python(_CHILD, args=[json.dumps(request)], timeout=XACRO_SECONDS + 5)
     except OSError as exc:
         raise ConfigError(f"{path}: cannot start the xacro expansion ({exc})") from None
     limits = f"{XACRO_SECONDS} s and {XACRO_MEMORY >> 30} GiB"
-    try:
-        reply, _ = process.communicate(timeout=XACRO_SECONDS + 5)
-    except subprocess.TimeoutExpired:
-        reply = b""
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
     if reply[:1] == b"T":
         if len(reply) > XACRO_OUTPUT + 1:
             raise ConfigError(
@@ -154,5 +145,5 @@ def _expand_bounded(path: Path, args: dict[str, str], search_paths: list[str]) -
         raise ConfigError(reply[1:].decode(errors="replace"))
     raise ConfigError(
         f"{path}: the xacro expansion did not end within {limits} "
-        f"(exit code {process.returncode}): a macro that expands without end, or an expression too large?"
+        f"(exit code {code}): a macro that expands without end, or an expression too large?"
     )

@@ -54,6 +54,7 @@ __all__ = [
     "pack",
     "read_exactly",
     "read_frame",
+    "run_python",
     "serve",
     "start_python",
     "unpack",
@@ -93,6 +94,22 @@ def start_python(
         except OSError:  # not allowed here: the sides then wait sooner for each other
             pass
     return process
+
+
+def run_python(code: str, *, args: Sequence[str] = (), timeout: float) -> tuple[bytes, int]:
+    """``python -c code *args`` (``start_python``, its input closed at once) run to its end: what it wrote to
+    its output and its exit code; killed once it outlives ``timeout`` seconds (its output then is empty and
+    its code negative: the signal). Raises ``OSError`` when no child can be started."""
+    process = start_python(code, args=args)
+    try:
+        out, _ = process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        out = b""
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+    return out, process.returncode
 
 
 def end_process(process: subprocess.Popen) -> None:

@@ -101,3 +101,17 @@ def test_a_request_after_the_child_failed_raises_its_error_not_a_broken_pipe():
     finally:
         child.close()
     assert child.process is None
+
+
+def test_a_python_run_to_its_end_gives_its_output_and_code_and_is_killed_past_its_time():
+    import time
+
+    from navlog.replay.workers.child import run_python
+
+    out, code = run_python(
+        "import sys; sys.stdout.buffer.write(sys.argv[1].encode()); sys.exit(3)", args=["hi"], timeout=30
+    )
+    assert (out, code) == (b"hi", 3)
+    start = time.monotonic()
+    out, code = run_python("import sys, time; sys.stdout.buffer.write(b'x'); time.sleep(60)", timeout=1.0)
+    assert out == b"" and code < 0 and time.monotonic() - start < 10
