@@ -21,6 +21,13 @@ with the wheel odometry alone (the bag's odom -> base_footprint at the same stam
   and the log's duration over it (with the load average: the machine is shared); **x (CPU)**: the
   log's duration over the CPU time of the replay.
 
+Below each dataset, **own RE 1 m**: each of the reference, the SLAM and the odometry's own RMS error over 1 m
+of travel, from the three compared with each other (``navlog.analysis.metrics.own_relative_errors``, the
+three-cornered hat: their errors taken as independent). The reference is itself an estimate: against it, a
+SLAM without error would score the reference's own error. With ``--reference-noise SIGMA`` the same with
+seeded noise added to the reference's positions, a check of the method on the data: the reference's own
+figure should grow to sqrt(own^2 + 4 SIGMA^2) (two positions per move, two axes), the others' stay.
+
 With ``--floor`` a third row, **matched on the reference**: every scan matched alone (navlog's
 correlative matcher, default parameters) against the previous ``scan_buffer_size`` scans placed at
 their reference poses, from its own reference pose: how far the scans themselves place a pose from
@@ -44,7 +51,7 @@ Nothing is asserted; the issue's targets are ATE <= 0.10 m, RE 1 m <= 0.03 m and
 odometry, walls >= 0.9, >= 10x real time.
 
     .venv/bin/python benchmarks/bench_slam_datasets.py [NAME ...] [--shared DIR] [--set KEY=VALUE ...] [--floor]
-        [--odometry-error KIND=VALUE ...] [--driven-back]
+        [--odometry-error KIND=VALUE ...] [--driven-back] [--reference-noise SIGMA]
 """
 
 from __future__ import annotations
@@ -62,7 +69,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from navlog.analysis.metrics import align_planar, planar_ate, planar_relative_error
+from navlog.analysis.metrics import align_planar, own_relative_errors, planar_ate, planar_relative_error
 from navlog.replay.geometry import planar_matrix
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow, SlamParams
@@ -194,6 +201,7 @@ def evaluate(
     floor: bool = False,
     errors: list[tuple[str, float]] = (),
     back: bool = False,
+    reference_noise: float = 0.0,
 ) -> None:
     bag = carmen / name
     ref_t, ref = planar_tum(carmen / f"{name}.reference.tum")
@@ -250,6 +258,15 @@ def evaluate(
         )
     reference = overlap(ref[keep], ts, scans)
     print(f"{'':<8} {'reference':<11} {'-':>7} {'-':>7} {'-':>7} {'-':>6} {reference:>7.2f}", flush=True)
+    for sigma in (0.0, *([reference_noise] if reference_noise else [])):
+        noisy = ref[keep].copy()
+        noisy[:, :2] += np.random.default_rng(0).normal(0.0, sigma, (len(noisy), 2))
+        own = own_relative_errors(noisy, slam, odom, 1.0)
+        print(
+            f"{'':<8} own RE 1 m (RMS; reference{f' + {sigma:g} m noise' if sigma else ''}, SLAM and odometry "
+            f"against each other): reference {own[0]:.3f}, SLAM {own[1]:.3f}, odometry {own[2]:.3f}",
+            flush=True,
+        )
     print(f"{'':<8} ({len(ts)}/{len(ref_t)} scans placed, {travel:.0f} m, load {before} -> {load()})", flush=True)
 
 
@@ -277,6 +294,14 @@ def main() -> None:
     ap.add_argument(
         "--driven-back", action="store_true", help="also score the SLAM on the log driven back over its path"
     )
+    ap.add_argument(
+        "--reference-noise",
+        type=float,
+        default=0.0,
+        metavar="SIGMA",
+        help="also measure the own RE 1 m with seeded noise of SIGMA m (each axis) added to the reference's "
+        "positions: its own error should grow to sqrt(own^2 + 4 SIGMA^2), the others' stay",
+    )
     args = ap.parse_args()
     carmen = args.shared / "external-data" / "carmen"
     print(f"machine: {os.cpu_count()} cores, load average {load()}")
@@ -285,7 +310,16 @@ def main() -> None:
     )
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.names:
-            evaluate(name, carmen, Path(tmp), args.set, args.floor, args.odometry_error, args.driven_back)
+            evaluate(
+                name,
+                carmen,
+                Path(tmp),
+                args.set,
+                args.floor,
+                args.odometry_error,
+                args.driven_back,
+                args.reference_noise,
+            )
 
 
 if __name__ == "__main__":

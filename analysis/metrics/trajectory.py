@@ -18,6 +18,7 @@ Times are integer nanoseconds; positions (N, 3) metres; quaternions (N, 4) in x,
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -519,19 +520,39 @@ def planar_ate(est: np.ndarray, ref: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((aligned[:, :2] - ref[:, :2]) ** 2, axis=1))))
 
 
-def planar_relative_error(est: np.ndarray, ref: np.ndarray, travel: float) -> float:
-    """Mean translational relative error over ``travel`` metres (Kuemmerle et al. 2009): for every pose i
-    the first later j with at least ``travel`` of reference path since i; the norm of the difference of
-    j's position in i's frame, estimated minus reference. NaN when the path is shorter than ``travel``."""
+def _planar_moves(ref: np.ndarray, travel: float, *trajectories: np.ndarray) -> list[np.ndarray]:
+    """For every pose i of ``ref`` the first later j with at least ``travel`` of ``ref``'s path since i:
+    j's position in i's frame, (M, 2), in each of ``trajectories`` (planar poses at the same instants)."""
     cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(ref[:, :2], axis=0), axis=1))])
     i = np.arange(len(ref))
     j = np.searchsorted(cum, cum + travel)
     i, j = i[j < len(ref)], j[j < len(ref)]
-    if len(i) == 0:
-        return float("nan")
-    local = []
-    for p in (est, ref):
+    out = []
+    for p in trajectories:
         c, s = np.cos(p[i, 2]), np.sin(p[i, 2])
         dx, dy = (p[j, :2] - p[i, :2]).T
-        local.append(np.stack([c * dx + s * dy, -s * dx + c * dy], axis=1))
-    return float(np.mean(np.linalg.norm(local[0] - local[1], axis=1)))
+        out.append(np.stack([c * dx + s * dy, -s * dx + c * dy], axis=1))
+    return out
+
+
+def planar_relative_error(est: np.ndarray, ref: np.ndarray, travel: float) -> float:
+    """Mean translational relative error over ``travel`` metres (Kuemmerle et al. 2009): for every pose i
+    the first later j with at least ``travel`` of reference path since i; the norm of the difference of
+    j's position in i's frame, estimated minus reference. NaN when the path is shorter than ``travel``."""
+    e, r = _planar_moves(ref, travel, est, ref)
+    return float(np.mean(np.linalg.norm(e - r, axis=1))) if len(r) else float("nan")
+
+
+def own_relative_errors(a: np.ndarray, b: np.ndarray, c: np.ndarray, travel: float) -> tuple[float, float, float]:
+    """Each trajectory's own RMS translational error over ``travel`` metres, from three planar trajectories of
+    the same instants whose errors are independent, none of them the truth (the three-cornered hat of clock
+    comparisons): with d_xy the RMS of the difference of x's and y's moves (``planar_relative_error``'s pairs,
+    taken along ``a``), a's own mean square is (d_ab^2 + d_ac^2 - d_bc^2) / 2, and so on round. A reference
+    that is itself an estimate scores a perfect one at its own error. A mean square that comes out negative
+    (errors correlated, or too few pairs) is NaN; all NaN when the path is shorter than ``travel``."""
+    ma, mb, mc = _planar_moves(a, travel, a, b, c)
+    if not len(ma):
+        return (float("nan"),) * 3
+    ab, ac, bc = (float(np.mean(np.sum((x - y) ** 2, axis=1))) for x, y in ((ma, mb), (ma, mc), (mb, mc)))
+    own = ((ab + ac - bc) / 2, (ab + bc - ac) / 2, (ac + bc - ab) / 2)
+    return tuple(math.sqrt(v) if v >= 0 else float("nan") for v in own)  # type: ignore[return-value]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -157,6 +159,36 @@ def test_planar_ate_is_the_error_no_rigid_motion_in_the_plane_removes():
     est = np.stack([2.1 * (c * np.cos(s) - d * np.sin(s)) + 3.0, 2.1 * (d * np.cos(s) + c * np.sin(s)) - 1.0, s], 1)
     assert tr.planar_ate(est, ref) == pytest.approx(0.1, abs=1e-12)
     assert tr.planar_ate(ref + [3.0, -1.0, 0.2], ref) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_three_trajectories_give_each_ones_own_relative_error():
+    # a 2.5 km straight run of 0.5 m steps; three estimates, each the truth with seeded position noise of its
+    # own (1, 2 and 3 cm per axis): a move over 1 m (two steps) differs by two noises, RMS 2 x sigma x sqrt(2)
+    n = 5000
+    truth = np.stack([np.arange(n) * 0.5, np.zeros(n), np.zeros(n)], axis=1)
+    rng = np.random.default_rng(7)
+    noisy = []
+    for sigma in (0.01, 0.02, 0.03):
+        t = truth.copy()
+        t[:, :2] += rng.normal(0.0, sigma, (n, 2))
+        noisy.append(t)
+    own = tr.own_relative_errors(*noisy, travel=1.0)
+    assert own == pytest.approx([2 * 0.01, 2 * 0.02, 2 * 0.03], rel=0.06)
+    # what the reference-based figure says of the best of them against the worst: both errors together
+    rmse = math.sqrt(np.mean(np.sum(np.square(np.diff(noisy[0][::2, :2] - noisy[2][::2, :2], axis=0)), axis=1)))
+    assert rmse == pytest.approx(math.hypot(own[0], own[2]), rel=0.06)
+
+
+def test_two_equal_trajectories_leave_the_third_all_the_difference():
+    s = np.linspace(0, 4 * np.pi, 200)
+    a = np.stack([5 * np.cos(s), 5 * np.sin(s), s + np.pi / 2], axis=1)
+    c = a.copy()
+    c[:, :2] += 0.05 * np.stack([np.cos(3 * s), np.sin(5 * s)], axis=1)
+    own = tr.own_relative_errors(a, a, c, travel=1.0)
+    moves = [tr._planar_moves(a, 1.0, x)[0] for x in (a, c)]
+    assert own[0] == own[1] == 0.0
+    assert own[2] == pytest.approx(math.sqrt(np.mean(np.sum((moves[0] - moves[1]) ** 2, axis=1))), rel=1e-12)
+    assert all(math.isnan(v) for v in tr.own_relative_errors(a[:2], a[:2], a[:2], travel=100.0))
 
 
 # ---------------------------------------------------------------- RPE
