@@ -62,6 +62,7 @@ from hypothesis import seed as hypothesis_seed
 from hypothesis import strategies as st
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests.shared_data
+from tests.recorder.descriptions import GZ_PLUGIN, MODEL_SDF, POLYLINE_WORLD, ROBOT, WORLD_SDF
 from tests.shared_data import REPO, default_shared_dir
 
 OUTCOMES = ("OK", "CLEAN_ERROR", "COUNTED_SKIP", "TRACEBACK", "HANG", "CRASH")
@@ -266,7 +267,8 @@ def load_seeds(folder: Path, shared: Path) -> Seeds:
     )
     descriptions = {
         "world": ("world.sdf", WORLD_SDF, ["models"], "world"),
-        "urdf": ("robot.urdf", ROBOT_URDF, [], ""),
+        "world-polyline": ("world.sdf", POLYLINE_WORLD, ["models"], "world"),
+        "urdf": ("robot.urdf", ROBOT.replace("PLUGIN", GZ_PLUGIN), [], ""),
         "sdf": ("robot.sdf", ROBOT_SDF, [], ""),
         "xacro": ("robot.urdf.xacro", ROBOT_XACRO, [], ""),
     }
@@ -914,50 +916,6 @@ HOLDING_RUNS = [
 ]
 
 
-ROBOT_URDF = """<?xml version="1.0"?>
-<robot name="wheely">
-  <link name="base_link">
-    <inertial><mass value="4.0"/><inertia ixx="0.03" iyy="0.04" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial>
-    <collision><origin xyz="0 0 0.07"/><geometry><box size="0.3 0.24 0.08"/></geometry></collision>
-  </link>
-  <link name="wheel_left">
-    <inertial><mass value="0.3"/><inertia ixx="0.0002" iyy="0.0002" izz="0.0004" ixy="0" ixz="0" iyz="0"/></inertial>
-    <collision><origin rpy="1.5708 0 0"/><geometry><cylinder radius="0.05" length="0.03"/></geometry></collision>
-  </link>
-  <joint name="wheel_left_joint" type="continuous">
-    <parent link="base_link"/><child link="wheel_left"/><origin xyz="0 0.14 0.05"/><axis xyz="0 1 0"/>
-  </joint>
-  <link name="wheel_right">
-    <inertial><mass value="0.3"/><inertia ixx="0.0002" iyy="0.0002" izz="0.0004" ixy="0" ixz="0" iyz="0"/></inertial>
-    <collision><origin rpy="1.5708 0 0"/><geometry><cylinder radius="0.05" length="0.03"/></geometry></collision>
-  </link>
-  <joint name="wheel_right_joint" type="continuous">
-    <parent link="base_link"/><child link="wheel_right"/><origin xyz="0 -0.14 0.05"/><axis xyz="0 1 0"/>
-  </joint>
-  <link name="caster"><collision><geometry><sphere radius="0.025"/></geometry></collision></link>
-  <joint name="caster_joint" type="fixed">
-    <parent link="base_link"/><child link="caster"/><origin xyz="-0.12 0 0.025"/>
-  </joint>
-  <link name="laser"/>
-  <joint name="laser_joint" type="fixed"><parent link="base_link"/><child link="laser"/><origin xyz="0 0 0.15"/></joint>
-  <gazebo reference="laser">
-    <sensor name="lidar" type="gpu_lidar">
-      <update_rate>10</update_rate><topic>scan</topic><gz_frame_id>laser</gz_frame_id>
-      <lidar><scan><horizontal><samples>90</samples><min_angle>-3.14159</min_angle>
-      <max_angle>3.07178</max_angle></horizontal></scan><range><min>0.1</min><max>8.0</max></range></lidar>
-    </sensor>
-    <sensor name="imu" type="imu"><update_rate>50</update_rate><topic>imu</topic></sensor>
-  </gazebo>
-  <gazebo>
-    <plugin filename="gz-sim-diff-drive-system" name="gz::sim::systems::DiffDrive">
-      <left_joint>wheel_left_joint</left_joint><right_joint>wheel_right_joint</right_joint>
-      <wheel_separation>0.28</wheel_separation><wheel_radius>0.05</wheel_radius>
-      <max_linear_velocity>0.5</max_linear_velocity><topic>cmd_vel</topic><odom_topic>odom</odom_topic>
-      <frame_id>odom</frame_id><child_frame_id>base_footprint</child_frame_id>
-    </plugin>
-  </gazebo>
-</robot>
-"""
 ROBOT_SDF = """<?xml version="1.0"?>
 <sdf version="1.9">
   <model name="boxy">
@@ -1027,39 +985,6 @@ ROBOT_XACRO = """<?xml version="1.0"?>
   </gazebo>
 </robot>
 """
-WORLD_SDF = """<?xml version="1.0"?>
-<sdf version="1.9">
-  <world name="w">
-    <model name="ground"><static>true</static><link name="l"><collision name="c"><geometry>
-      <plane><normal>0 0 1</normal><size>20 20</size></plane></geometry></collision></link></model>
-    <model name="outer">
-      <static>true</static>
-      <pose>3 0 0 0 0 1.5707963</pose>
-      <frame name="corner"><pose>0 2 0 0 0 0</pose></frame>
-      <model name="inner"><pose>1 0 0 0 0 0</pose>
-        <link name="l"><pose>0 1 0 0 0 0</pose>
-          <collision name="post"><pose>0 0 1 0 0 0</pose>
-            <geometry><cylinder><radius>0.1</radius><length>2</length></cylinder></geometry></collision>
-        </link>
-      </model>
-      <link name="l2">
-        <collision name="rel"><pose relative_to="corner">0 0 0.25 0 0 0</pose>
-          <geometry><box><size>0.5 0.5 0.5</size></box></geometry></collision>
-        <collision name="ball"><pose>0 0 0.5 0 0 0</pose><geometry><sphere><radius>0.5</radius></sphere></geometry></collision>
-        <collision name="pen"><pose>0 -3 0 0 0 0</pose><geometry>
-          <polyline><point>-1.5 -1</point><point>1.5 -1</point><point>1.5 1</point><point>-1.5 1</point>
-          <height>0.8</height></polyline></geometry></collision>
-      </link>
-      <include><uri>model://crate</uri><name>crate_1</name><pose>0 4 0 0 0 0</pose></include>
-    </model>
-  </world>
-</sdf>
-"""
-CRATE_SDF = """<?xml version="1.0"?>
-<sdf version="1.9"><model name="crate"><static>true</static><link name="l">
-  <collision name="c"><pose>0 0 0.3 0 0 0</pose><geometry><box><size>0.6 0.6 0.6</size></box></geometry></collision>
-</link></model></sdf>
-"""
 XML_VALUES = ["nan", "inf", "-inf", "-1", "0", "1e308", "-1e308", "5e-324", "", " ", "abc", "1 2", "0 0 0"]
 XML_VALUES += ["1 2 3 4", "${undefined}", "${1/0}", "${10**400}", "package://nope/m.stl", "model://nope", "/dev/zero"]
 XML_VALUES += ["../../../../etc/passwd", "base_link", "wheel_left", "head::scanner", "fixed", "floating", "ball"]
@@ -1071,7 +996,7 @@ XML_OPS = ["attribute", "attribute", "text", "text", "delete", "duplicate", "mov
 @st.composite
 def description(draw: Any, seeds: Seeds) -> dict[str, Any]:
     """A description file (a small URDF, SDF or xacro robot, Nav2's TurtleBot3 Waffle URDF, a small Gazebo
-    world with nested models, a polyline and an include) with its XML mutated: an attribute or a text set
+    world with nested models, a frame and an include, one of polyline walls) with its XML mutated: an attribute or a text set
     to a drawn value, an element deleted, duplicated, moved under another or renamed, the file cut or junk
     put in; read (``describe``, ``load_world``) or recorded in for 0.5 s."""
     op = st.fixed_dictionaries(
@@ -1976,7 +1901,7 @@ def build_description(r: dict[str, Any], seeds: Seeds) -> Built:
     files = {name: data.encode("utf-8", errors="surrogateescape"), "TINY.yaml": TINY_SCENARIO.encode()}
     if drive == "world":
         files["models/crate/model.config"] = b'<model><sdf version="1.9">model.sdf</sdf></model>'
-        files["models/crate/model.sdf"] = CRATE_SDF.encode()
+        files["models/crate/model.sdf"] = MODEL_SDF.encode()
     return Built(f"{r['seed']}:{mutation}", f"description-{r['call']}", args, files)
 
 

@@ -864,6 +864,11 @@ def _robot(
     max_v, min_v, max_w, acc_v, acc_w = d.limits
     if d.kind == "diff_drive":
         assert d.wheels is not None and d.radius is not None and d.separation is not None
+        if not (d.radius > 0 and abs(d.separation) > 0):
+            raise ConfigError(
+                f"{src}: the diff drive's wheel radius ({d.radius:g} m) and separation ({d.separation:g} m) "
+                f"must not be zero or negative (from {d.plugin or 'the wheel joints'})"
+            )
         drive_cfg = DriveConfig(
             "diff_drive",
             max_vx=max_v,

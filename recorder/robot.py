@@ -155,6 +155,8 @@ class DriveConfig:
             raise ValueError("drive limits must be positive")
         if self.type == "diff_drive" and self.max_vy != 0:
             raise ValueError("a diff_drive cannot move sideways: set max_vy to 0")
+        if self.type == "diff_drive" and not (self.wheel_radius > 0 and self.wheel_separation != 0):
+            raise ValueError("a diff_drive needs a positive wheel_radius and a wheel_separation other than 0")
 
 
 @dataclass(frozen=True)

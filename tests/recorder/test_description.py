@@ -16,6 +16,7 @@ from navlog.recorder.description import describe, load_robot
 from navlog.recorder.record import prepare, record
 from navlog.recorder.robot_model import pose_matrix
 from navlog.replay.io import open_log
+from tests.recorder.descriptions import GZ_PLUGIN, ROBOT
 
 
 @pytest.fixture(scope="module")
@@ -420,9 +421,7 @@ def test_an_axis_expressed_in_the_model_is_the_declaring_models_frame(tmp_path, 
 
 
 def _wheely(tmp_path: Path, base_inertial: str) -> Path:
-    """The two-wheeled robot of ``test_robot_odometry`` with its base link's ``<inertial>`` replaced."""
-    from tests.recorder.test_robot_odometry import GZ_PLUGIN, ROBOT
-
+    """The two-wheeled robot of ``tests.recorder.descriptions`` with its base link's ``<inertial>`` replaced."""
     base = '<inertial><mass value="4.0"/><inertia ixx="0.03" iyy="0.04" izz="0.05" ixy="0" ixz="0" iyz="0"/></inertial>'
     assert base in ROBOT
     path = tmp_path / "wheely.urdf"
@@ -505,3 +504,14 @@ def test_two_collisions_of_a_link_named_alike_are_both_simulated(tmp_path):
     finally:
         sim.close()
     assert {"base_link/c#0", "base_link/c#1"} <= set(names)
+
+
+def test_a_drive_with_wheels_of_no_size_is_an_error_naming_the_plugin(tmp_path, capsys):
+    robot = _wheely(tmp_path, "").read_text()
+    (tmp_path / "wheely.urdf").write_text(
+        robot.replace("<wheel_radius>0.05</wheel_radius>", "<wheel_radius>0</wheel_radius>")
+    )
+    code, out = _record(tmp_path, tmp_path / "wheely.urdf")
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert "wheely.urdf: the diff drive's wheel radius (0 m)" in err and "gz-sim-diff-drive-system" in err

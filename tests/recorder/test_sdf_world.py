@@ -13,6 +13,7 @@ from navlog.cli import main
 from navlog.errors import ConfigError
 from navlog.recorder.world import build_spec, clearance, import_mujoco, load_world, world_mesh
 from navlog.replay.io.map_server import load_map
+from tests.recorder.descriptions import MODEL_SDF, POLYLINE_WORLD, WORLD_SDF
 
 INCH = 0.0254  # the unit of the sandbox's DAE files (<unit meter="0.0254">)
 
@@ -141,43 +142,6 @@ def test_world_map_of_the_sandbox_agrees_with_nav2s_map(tmp_path, tb3_sim, share
 # ---------------------------------------------------------------- poses and includes
 
 
-MODEL_SDF = """<?xml version="1.0"?>
-<sdf version="1.9">
-  <model name="crate">
-    <link name="base"><pose>1 0 0 0 0 0</pose>
-      <collision name="c"><pose>0 0 0.5 0 0 0</pose><geometry><box><size>1 2 1</size></box></geometry></collision>
-      <visual name="v"><geometry><mesh><uri>meshes/gone.dae</uri></mesh></geometry></visual>
-    </link>
-  </model>
-</sdf>
-"""
-
-WORLD_SDF = """<?xml version="1.0"?>
-<sdf version="1.9">
-  <world name="w">
-    <light name="sun" type="directional"/>
-    <model name="outer">
-      <static>true</static>
-      <pose>10 0 0 0 0 1.5707963267948966</pose>
-      <frame name="corner"><pose>0 2 0 0 0 0</pose></frame>
-      <model name="inner"><pose>1 0 0 0 0 0</pose>
-        <link name="l"><pose>0 1 0 0 0 0</pose>
-          <collision name="post"><pose>0 0 1 0 0 0</pose>
-            <geometry><cylinder><radius>0.1</radius><length>2</length></cylinder></geometry></collision>
-        </link>
-      </model>
-      <link name="l2">
-        <collision name="rel"><pose relative_to="corner">0 0 0.25 0 0 0</pose>
-          <geometry><box><size>0.5 0.5 0.5</size></box></geometry></collision>
-        <collision name="ball"><pose>0 0 3 0 0 0</pose><geometry><sphere><radius>0.5</radius></sphere></geometry></collision>
-      </link>
-      <include><uri>model://crate</uri><name>crate_1</name><pose>0 0 0 0 0 0</pose></include>
-    </model>
-  </world>
-</sdf>
-"""
-
-
 def _write(path: Path, text: str) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
@@ -263,26 +227,6 @@ def test_unknown_uri_scheme_in_a_mesh_is_an_error():
 
     with pytest.raises(ConfigError, match="cannot resolve https://example.com/m.dae"):
         resolve_uri("https://example.com/m.dae", Path("."), [])
-
-
-POLYLINE_WORLD = """<?xml version="1.0"?>
-<sdf version="1.9"><world name="w">
-  <model name="ground"><static>true</static><link name="l"><collision name="c"><geometry>
-    <plane><normal>0 0 1</normal><size>20 20</size></plane></geometry></collision></link></model>
-  <model name="pen"><static>true</static><pose>2 1 0 0 0 1.5707963</pose><link name="l">
-    <collision name="walls"><pose>0 0 0.1 0 0 0</pose><geometry>
-      <polyline><point>-1.5 -1</point><point>1.5 -1</point><point>1.5 1</point><point>-1.5 1</point>
-        <height>0.8</height></polyline>
-      <polyline><point>-1.2 -0.7</point><point>1.2 -0.7</point><point>1.2 0.7</point><point>-1.2 0.7</point>
-        <height>0.8</height></polyline>
-    </geometry></collision>
-    <collision name="ell"><pose>0 3 0 0 0 -1.5707963</pose><geometry>
-      <polyline><point>0 0</point><point>1 0</point><point>1 0.4</point><point>0.4 0.4</point>
-        <point>0.4 1</point><point>0 1</point><height>0.5</height></polyline>
-    </geometry></collision>
-  </link></model>
-</world></sdf>
-"""
 
 
 def test_polyline_walls_are_extruded_with_their_holes_and_poses(tmp_path):
