@@ -107,12 +107,13 @@ XACRO_OUTPUT = 64 << 20  # bytes of expanded XML
 
 _CHILD = """
 import json, resource, sys
-request = json.loads(sys.argv[1])
-resource.setrlimit(resource.RLIMIT_AS, (request["memory"], request["memory"]))
-resource.setrlimit(resource.RLIMIT_CPU, (request["seconds"], request["seconds"] + 1))
 from pathlib import Path
+import xacro
 from navlog.errors import ConfigError
 from navlog.recorder.xacro_files import expand
+request = json.loads(sys.argv[1])
+resource.setrlimit(resource.RLIMIT_AS, (request["memory"], request["memory"]))  # the expansion's, after the imports
+resource.setrlimit(resource.RLIMIT_CPU, (request["seconds"], request["seconds"] + 1))
 try:
     reply = b"T" + expand(Path(request["path"]), request["args"], request["search"]).encode()
 except ConfigError as exc:
