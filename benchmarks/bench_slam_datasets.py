@@ -28,6 +28,9 @@ SLAM without error would score the reference's own error. With ``--reference-noi
 seeded noise added to the reference's positions, a check of the method on the data: the reference's own
 figure should grow to sqrt(own^2 + 4 SIGMA^2) (two positions per move, two axes), the others' stay.
 
+With ``--maps DIR``, ``DIR/NAME-maps.png``: the walls of the map drawn from the reference and of the one drawn
+from the SLAM side by side, in the 16 m square centred where the SLAM is farthest from the reference.
+
 With ``--floor`` a third row, **matched on the reference**: every scan matched alone (navlog's
 correlative matcher, default parameters) against the previous ``scan_buffer_size`` scans placed at
 their reference poses, from its own reference pose: how far the scans themselves place a pose from
@@ -52,6 +55,7 @@ odometry, walls >= 0.9, >= 10x real time.
 
     .venv/bin/python benchmarks/bench_slam_datasets.py [NAME ...] [--shared DIR] [--set KEY=VALUE ...] [--floor]
         [--odometry-error KIND=VALUE ...] [--driven-back] [--reference-noise SIGMA]
+        [--maps DIR]
 """
 
 from __future__ import annotations
@@ -142,6 +146,40 @@ def overlap(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> f
     return 100 * float(np.mean(medians)) if medians else float("nan")
 
 
+MAP_WINDOW = 16.0  # m: the side of the square ``--maps`` shows
+
+
+def plot_maps(path: Path, name: str, est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid) -> None:
+    """``path`` (PNG): the walls of the map drawn from the reference and of the one drawn from ``est`` (aligned
+    onto it) side by side, in the ``MAP_WINDOW`` square centred where ``est`` is farthest from the reference."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    aligned = align_planar(est, ref)
+    worst = int(np.argmax(np.linalg.norm(aligned[:, :2] - ref[:, :2], axis=1)))
+    lo = ref[worst, :2] - MAP_WINDOW / 2
+    fig, axes = plt.subplots(1, 2, figsize=(12, 6.4), sharex=True, sharey=True)
+    for ax, grid, colour, title in (
+        (axes[0], ref_grid, "tab:red", "drawn from the reference"),
+        (axes[1], draw(aligned, stamps, scans), "tab:blue", "drawn from the SLAM"),
+    ):
+        xy = occupied_xy(grid)
+        inside = np.all((xy >= lo) & (xy <= lo + MAP_WINDOW), axis=1)
+        ax.scatter(xy[inside, 0], xy[inside, 1], s=1.5, c=colour, linewidths=0, marker="s")
+        ax.set_title(f"{name}: walls {title}")
+        ax.set_aspect("equal")
+        ax.grid(True, linewidth=0.3)
+        ax.set_xlabel("x (m)")
+    axes[0].set_ylabel("y (m)")
+    axes[0].set_xlim(lo[0], lo[0] + MAP_WINDOW)
+    axes[0].set_ylim(lo[1], lo[1] + MAP_WINDOW)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
 def score(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid) -> dict[str, float]:
     aligned = align_planar(est, ref)
     return {
@@ -202,6 +240,7 @@ def evaluate(
     errors: list[tuple[str, float]] = (),
     back: bool = False,
     reference_noise: float = 0.0,
+    maps: Path | None = None,
 ) -> None:
     bag = carmen / name
     ref_t, ref = planar_tum(carmen / f"{name}.reference.tum")
@@ -256,6 +295,9 @@ def evaluate(
             f" {s['walls']:>6.2f} {s['overlap']:>7.2f} {extra}",
             flush=True,
         )
+    if maps is not None:
+        maps.mkdir(parents=True, exist_ok=True)
+        plot_maps(maps / f"{name}-maps.png", name, slam, ref[keep], ts, scans, ref_grid)
     reference = overlap(ref[keep], ts, scans)
     print(f"{'':<8} {'reference':<11} {'-':>7} {'-':>7} {'-':>7} {'-':>6} {reference:>7.2f}", flush=True)
     for sigma in (0.0, *([reference_noise] if reference_noise else [])):
@@ -302,6 +344,13 @@ def main() -> None:
         help="also measure the own RE 1 m with seeded noise of SIGMA m (each axis) added to the reference's "
         "positions: its own error should grow to sqrt(own^2 + 4 SIGMA^2), the others' stay",
     )
+    ap.add_argument(
+        "--maps",
+        type=Path,
+        metavar="DIR",
+        help="write NAME-maps.png there: the walls drawn from the reference and from the SLAM, side by side, "
+        f"in the {MAP_WINDOW:g} m square around the SLAM's largest error",
+    )
     args = ap.parse_args()
     carmen = args.shared / "external-data" / "carmen"
     print(f"machine: {os.cpu_count()} cores, load average {load()}")
@@ -319,6 +368,7 @@ def main() -> None:
                 args.odometry_error,
                 args.driven_back,
                 args.reference_noise,
+                args.maps,
             )
 
 
