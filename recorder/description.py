@@ -213,10 +213,11 @@ class _Reader:
                 return None
             raise ConfigError(f"{self.path}: link '{link}': collision mesh {uri}: {exc}") from None
         if not found.is_file():
+            what = "is not a regular file" if found.exists() else "is missing"  # a FIFO, a device, a folder
             if visual:
-                log.warning("%s: link '%s': visual mesh %s is missing (%s)", self.path, link, uri, found)
+                log.warning("%s: link '%s': visual mesh %s %s (%s)", self.path, link, uri, what, found)
                 return None
-            raise ConfigError(f"{self.path}: link '{link}': collision mesh {uri} is missing ({found})")
+            raise ConfigError(f"{self.path}: link '{link}': collision mesh {uri} {what} ({found})")
         return str(found)
 
     def geometry(self, g: ET.Element | None, link: str, where: str, urdf: bool) -> Geometry | None:

@@ -215,6 +215,36 @@ def test_a_missing_collision_mesh_names_the_file_and_the_link(tmp_path, capsys):
     assert len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize(
+    ("content", "said"),
+    [
+        (b"", "has no volume (0 vertices)"),  # an empty STL
+        (
+            b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 nan\nendloop\nendfacet\nendsolid\n",
+            "cannot be read",
+        ),
+        (b"\0" * 80 + (2**31 - 1).to_bytes(4, "little") + b"\0" * 50, "has no volume"),  # claims 2^31 triangles
+        ("fifo", "is not a regular file"),
+    ],
+)
+def test_a_collision_mesh_that_is_no_mesh_names_the_file_and_the_link(tmp_path, capsys, content, said):
+    mesh = tmp_path / "meshes" / "body.stl"
+    mesh.parent.mkdir()
+    if content == "fifo":
+        os.mkfifo(mesh)
+    else:
+        mesh.write_bytes(content)
+    urdf = tmp_path / "bad.urdf"
+    urdf.write_text(
+        URDF_HEAD + '<link name="base_link"><collision><geometry><mesh filename="meshes/body.stl"/></geometry>'
+        "</collision></link>\n</robot>\n"
+    )
+    code, out = _record(tmp_path, urdf, "--drive", "omni")
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert "link 'base_link'" in err and "body.stl" in err and said in err
+
+
 def test_a_xacro_error_names_the_file_and_the_line(tmp_path, capsys):
     xacro = tmp_path / "bad.urdf.xacro"
     xacro.write_text(
