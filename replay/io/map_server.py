@@ -9,6 +9,7 @@ occupied 0, unknown 205 -- with thresholds chosen so the file reloads exactly as
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ import numpy as np
 from navlog.errors import ConfigError
 from navlog.replay.config import load_yaml, suggest
 from navlog.replay.io.atomic import WriteError, write_file
+from navlog.replay.limits import MAX_GRID_CELLS
 from navlog.replay.occupancy_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 
 # Pixel values written by the trinary saver.
@@ -46,7 +48,15 @@ def _read_image(path: Path) -> np.ndarray:
     try:
         from PIL import Image
 
-        with Image.open(path) as img:
+        with warnings.catch_warnings():  # the bound below is navlog's, not the image library's warning
+            warnings.simplefilter("ignore", Image.DecompressionBombWarning)
+            img = Image.open(path)
+        with img:
+            if img.width * img.height > MAX_GRID_CELLS:  # checked before the pixels are read
+                raise ConfigError(
+                    f"{path}: the map image is {img.width} x {img.height} pixels, above the bound of "
+                    f"{MAX_GRID_CELLS:.0e} cells (a 500 m square at 5 cm); is its header right?"
+                )
             img.load()
             if img.mode in ("I;16", "I;16B", "I;16L", "I"):
                 arr = np.asarray(img, dtype=np.float64)
@@ -54,7 +64,7 @@ def _read_image(path: Path) -> np.ndarray:
                 return arr / maxval
             shades = img if img.mode in ("L", "RGB") else img.convert("RGBA" if "A" in img.mode else "RGB")
             arr = np.asarray(shades, dtype=np.float64)
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, Image.DecompressionBombError) as exc:
         raise ConfigError(f"{path}: cannot read map image: {exc}") from None
     if arr.ndim == 3:
         arr = arr[:, :, :3].mean(axis=2)  # shade = mean of RGB, alpha ignored

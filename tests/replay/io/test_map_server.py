@@ -139,6 +139,20 @@ def test_bad_map_yaml_names_file_and_key(tmp_path, text, words):
         assert word in message
 
 
+@pytest.mark.parametrize(
+    ("size", "said"),
+    [
+        ("60000 60000", "cannot read map image"),  # 3.6e9 pixels: the image library's own bomb guard
+        ("11000 11000", "11000 x 11000 pixels, above the bound"),  # 1.21e8: below its guard, above navlog's
+    ],
+)
+def test_a_map_image_whose_header_claims_billions_of_pixels_is_refused_before_reading(tmp_path, size, said):
+    (tmp_path / "m.pgm").write_bytes(b"P5\n" + size.encode() + b"\n255\n" + b"\xfe" * 1000)
+    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n")
+    with pytest.raises(ConfigError, match=said):
+        load_map(tmp_path / "m.yaml")
+
+
 def test_msg_round_trip_through_cdr():
     grid = _grid()
     msg = grid.to_msg(1_500_000_000)
