@@ -106,8 +106,9 @@ KINDS: dict[str, int] = {
     "schema-crafted": 6,
     "yaml-bomb": 3,
     "two-writers": 3,
-    # robot description files (URDF, SDF, xacro)
+    # robot description files (URDF, SDF, xacro), map_server maps
     "description": 6,
+    "map": 4,
 }
 
 
@@ -1018,6 +1019,29 @@ def description(draw: Any, seeds: Seeds) -> dict[str, Any]:
     }
 
 
+PGM_HEADERS = ["60000 60000", "11000 11000", "0 0", "1 0", "-5 10", "abc", "100000000 1", "3 3\n0", "3 3\n65535"]
+MAP_CALLS = ["load", "load", "cli-record", "cli-plan", "cli-world-map"]
+
+
+@st.composite
+def map_image(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """A map_server map (the seed's YAML and PGM): its YAML mutated, or its image's header given another size
+    or maximum, cut, or its bits flipped; loaded, recorded in (``--world map.yaml``), planned on, or read by
+    ``world-map``."""
+    r: dict[str, Any] = {
+        "part": draw(st.sampled_from(["yaml", "header", "cut", "flip"])),
+        "call": draw(st.sampled_from(MAP_CALLS)),
+    }
+    if r["part"] == "yaml":
+        r["yaml"] = draw(yaml_mutation())
+    elif r["part"] == "header":
+        r["header"] = draw(st.one_of(st.sampled_from(PGM_HEADERS), ARGV_TEXT))
+    else:
+        r["at"] = draw(AT)
+        r["flips"] = draw(st.lists(st.tuples(AT, st.integers(0, 7)), min_size=1, max_size=8))
+    return r
+
+
 MORE_KINDS: dict[str, Callable[[Seeds], Any]] = {
     "mcap-times": mcap_times,
     "mcap-claims": mcap_claims,
@@ -1029,6 +1053,7 @@ MORE_KINDS: dict[str, Callable[[Seeds], Any]] = {
     "params-extreme": params_extreme,
     "outputs-special": outputs_special,
     "description": description,
+    "map": map_image,
 }
 
 
@@ -1905,8 +1930,33 @@ def build_description(r: dict[str, Any], seeds: Seeds) -> Built:
     return Built(f"{r['seed']}:{mutation}", f"description-{r['call']}", args, files)
 
 
+def build_map(r: dict[str, Any], seeds: Seeds) -> Built:
+    text = seeds.map_yaml.read_text()
+    image = seeds.map_yaml.with_suffix(".pgm").read_bytes()
+    mutation = r["part"]
+    yaml_bytes = text.encode()
+    if r["part"] == "yaml":
+        mutation, yaml_bytes = mutate_yaml(r["yaml"], text)
+    elif r["part"] == "header":  # P5, its width and height, its maximum; then the pixels as they were
+        lines = image.split(b"\n", 3)
+        image = b"P5\n" + r["header"].encode("utf-8", errors="surrogateescape") + b"\n255\n" + lines[3]
+        mutation = f"header {r['header']!r}"
+    elif r["part"] == "cut":
+        at = r["at"] * len(image) >> 32
+        image, mutation = image[:at], f"cut@{at}"
+    else:
+        data = bytearray(image)
+        for at, bit in r["flips"]:
+            data[at * len(data) >> 32] ^= 1 << bit
+        image, mutation = bytes(data), f"flip x{len(r['flips'])}"
+    name = seeds.map_yaml.name
+    files = {name: yaml_bytes, seeds.map_yaml.with_suffix(".pgm").name: image, "TINY.yaml": TINY_SCENARIO.encode()}
+    return Built(f"map:{mutation}", f"map-{r['call']}", {"path": name}, files)
+
+
 BUILDERS: dict[str, Callable[[dict[str, Any], Seeds], Built]] = {
     "description": build_description,
+    "map": build_map,
     "mcap-times": build_times,
     "mcap-claims": build_claims,
     "mcap-crc": build_crc,
@@ -2079,6 +2129,20 @@ def call_case(built: Built, folder: Path, seeds: Seeds) -> str:
         return run_cli(["view", a["log"], "--save", "view.rrd"], folder, seeds)
     if built.call == "cli-export":
         return run_cli(["export", a["log"], "--to", "rosbag2", "-o", "exported"], folder, seeds)
+    if built.call == "map-load":
+        from navlog.replay.io.map_server import load_map
+
+        load_map(folder / a["path"])
+        return "OK"
+    if built.call == "map-cli-record":
+        argv = ["record", "--world", a["path"], "--robot", "simple_robot", "--scenario", "TINY", "-o", "out.mcap"]
+        return run_cli(argv, folder, seeds)
+    if built.call == "map-cli-plan":
+        return run_cli(
+            ["plan", "--map", a["path"], "--start=0,0,0", "--goal=0.5,0,0", "--png", "plan.png"], folder, seeds
+        )
+    if built.call == "map-cli-world-map":
+        return run_cli(["world-map", a["path"], "-o", "copy.yaml"], folder, seeds)
     if built.call == "description-describe" and a["drive"] == "world":
         from navlog.recorder.world import load_world
 

@@ -9,6 +9,7 @@ occupied 0, unknown 205 -- with thresholds chosen so the file reloads exactly as
 
 from __future__ import annotations
 
+import math
 import warnings
 from pathlib import Path
 
@@ -77,8 +78,8 @@ def _number(doc: dict, key: str, path: Path, default: float | None = None) -> fl
             raise ConfigError(f"{path}: missing key '{key}'")
         return default
     value = doc[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ConfigError(f"{path}: key '{key}' must be a number, got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ConfigError(f"{path}: key '{key}' must be a finite number, got {value!r}")
     return float(value)
 
 
@@ -105,9 +106,9 @@ def load_map(yaml_path: str | Path) -> OccupancyMap:
     if (
         not isinstance(origin, list)
         or len(origin) != 3
-        or any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in origin)
+        or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in origin)
     ):
-        raise ConfigError(f"{path}: key 'origin' must be [x, y, yaw], got {origin!r}")
+        raise ConfigError(f"{path}: key 'origin' must be [x, y, yaw], finite numbers, got {origin!r}")
     free = _number(doc, "free_thresh", path, DEFAULT_FREE_THRESH)
     occupied = _number(doc, "occupied_thresh", path, DEFAULT_OCCUPIED_THRESH)
     if not 0.0 <= free < occupied <= 1.0:
