@@ -93,6 +93,8 @@ KINDS: dict[str, int] = {
     "config-pipelines": 3,
     "config-nav2": 6,
     "config-suites": 4,
+    "config-goals": 2,
+    "config-campaigns": 3,
     "cli": 8,
     "cli-record": 5,
     "cli-replay": 5,
@@ -259,6 +261,8 @@ def load_seeds(folder: Path, shared: Path) -> Seeds:
         for kind in ("worlds", "robots", "scenarios", "pipelines", "suites")
     }
     configs["suites"] = [p for p in configs["suites"] if "cases:" in p.read_text()]  # a suite, not its params
+    configs["goals"] = sorted((REPO / "config" / "goals").glob("*.yaml"))
+    configs["campaigns"] = sorted((REPO / "examples" / "campaigns").glob("*.yaml"))
     configs["nav2"] = sorted(
         [
             *(REPO / "tests/replay/nav2/data").glob("*.yaml"),
@@ -890,7 +894,7 @@ BOMB_FORMS = ["laughs", "deep-flow-list", "deep-flow-map", "deep-block", "self-a
 @st.composite
 def yaml_bomb(draw: Any, seeds: Seeds) -> dict[str, Any]:
     """YAML alias bombs (billion laughs) and deep nesting, in place of a config file of any kind."""
-    kind = draw(st.sampled_from(["pipelines", "nav2", "scenarios", "worlds", "robots", "suites"]))
+    kind = draw(st.sampled_from(["pipelines", "nav2", "scenarios", "worlds", "robots", "suites", "goals", "campaigns"]))
     return {
         "config": kind,
         "file": draw(st.sampled_from([str(p) for p in seeds.configs[kind]])),
@@ -1633,6 +1637,8 @@ CONFIG_CALLS = {
     "pipelines": "pipeline",
     "nav2": "nav2",
     "suites": "suite",
+    "goals": "goals",
+    "campaigns": "campaign",
 }
 
 
@@ -2098,6 +2104,16 @@ def call_case(built: Built, folder: Path, seeds: Seeds) -> str:
 
         scenario = load_scenario(str(folder / a["path"]))
         check_scenario(scenario, load_robot("go2"), load_world(scenario.world or "indoor_room"))
+        return "OK"
+    if built.call == "goals":
+        from navlog.replay.pipelines.planner import load_goals
+
+        load_goals(str(folder / a["path"]))
+        return "OK"
+    if built.call == "campaign":
+        from navlog.campaign.spec import load_campaign
+
+        load_campaign(folder / a["path"])
         return "OK"
     if built.call == "suite":
         from navlog.analysis.ci.suite import load_suite

@@ -41,21 +41,26 @@ def campaign_and_seeds(tmp_path_factory, shared_dir):
     return campaign, campaign.load_seeds(folder / "seeds", shared_dir), folder
 
 
-EVERY_KIND_SEED = 54  # its first 200 cases draw every kind of ``KINDS``
+EVERY_KIND_SEED = 63  # its first ``EVERY_KIND_CASES`` cases draw every kind of ``KINDS``
+EVERY_KIND_CASES = 250
 
 
 @pytest.mark.slow
 def test_seeded_subset_has_no_traceback_and_no_hang(campaign_and_seeds, shared_dir: Path) -> None:
     campaign, _, folder = campaign_and_seeds
-    result = campaign.run_campaign(200, EVERY_KIND_SEED, folder, shared=shared_dir, workers=2, timeout=20.0)
+    result = campaign.run_campaign(
+        EVERY_KIND_CASES, EVERY_KIND_SEED, folder, shared=shared_dir, workers=2, timeout=20.0
+    )
     totals = result.totals
     assert totals["TRACEBACK"] == 0 and totals["HANG"] == 0 and totals["CRASH"] == 0, result.failures
-    assert sum(totals.values()) == result.cases == 200
+    assert sum(totals.values()) == result.cases == EVERY_KIND_CASES
     # the oracle tells outcomes apart: mutated inputs are refused cleanly, corrupt messages are counted
     assert totals["CLEAN_ERROR"] > 50 and totals["OK"] > 50 and totals["COUNTED_SKIP"] > 0
     assert set(result.by_kind) == set(campaign.KINDS)  # every kind drawn, record and replay runs too
     summary = json.loads((folder / "summary.json").read_text())
-    assert summary["cases"] == summary["drawn"] == 200 and summary["outcomes"] == dict(sorted(totals.items()))
+    assert summary["cases"] == summary["drawn"] == EVERY_KIND_CASES and summary["outcomes"] == dict(
+        sorted(totals.items())
+    )
 
 
 def test_a_case_that_kills_its_worker_is_a_crash_and_the_campaign_goes_on(
@@ -117,7 +122,7 @@ def test_case_i_depends_only_on_the_seed_and_i(campaign_and_seeds, shared_dir: P
 
 def test_a_recipe_applies_to_the_same_bytes_every_time(campaign_and_seeds) -> None:
     campaign, seeds, _ = campaign_and_seeds
-    drawn = collect(campaign, seeds, 200)  # every kind among them
+    drawn = collect(campaign, seeds, EVERY_KIND_CASES)  # every kind among them
     for kind in campaign.KINDS:
         case = next(c for c in drawn if c.kind == kind)
         a, b = campaign.build(case, seeds), campaign.build(case, seeds)
