@@ -72,7 +72,7 @@ def read_controller_server(r: SectionReader, params: dict, path: tuple) -> Contr
     listed = set()
     handlers = params.get("path_handler_plugins", [])
     for name in handlers if isinstance(handlers, list) else []:
-        if isinstance(params.get(name), dict):
+        if isinstance(name, str) and isinstance(params.get(name), dict):
             plugin = params[name].get("plugin", "?")
             r.add(
                 NOTE,

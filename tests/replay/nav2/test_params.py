@@ -305,3 +305,13 @@ def test_a_file_read_again_gives_its_own_document_and_an_edited_file_its_new_val
     assert again.raw["global_costmap"]["global_costmap"]["ros__parameters"]["robot_radius"] == radius
     path.write_text(path.read_text().replace(f"robot_radius: {radius}", "robot_radius: 0.4"))
     assert load_nav2_params(path).global_costmap.robot_radius == 0.4
+
+
+def test_a_path_handler_list_holding_a_mapping_is_read_without_failing():
+    # a mapping where a plugin name belongs (a fuzzed file): no name to look up, nothing noted for it
+    p = parse_nav2_text(
+        "controller_server:\n  ros__parameters:\n    path_handler_plugins: [{a: 1}, 'PathHandler']\n"
+        "    PathHandler:\n      plugin: 'nav2_controller::FeasiblePathHandler'\n"
+    )
+    notes = _messages(p, "note")
+    assert any("path handler 'nav2_controller::FeasiblePathHandler'" in m for m in notes.values())
