@@ -303,7 +303,7 @@ def evaluate(
     for sigma in (0.0, *([reference_noise] if reference_noise else [])):
         noisy = ref[keep].copy()
         noisy[:, :2] += np.random.default_rng(0).normal(0.0, sigma, (len(noisy), 2))
-        own = own_relative_errors(noisy, slam, odom, 1.0)
+        own = own_relative_errors(noisy, slam, odom, 1.0, along=ref[keep])  # the same moves with or without noise
         print(
             f"{'':<8} own RE 1 m (RMS; reference{f' + {sigma:g} m noise' if sigma else ''}, SLAM and odometry "
             f"against each other): reference {own[0]:.3f}, SLAM {own[1]:.3f}, odometry {own[2]:.3f}",

@@ -867,8 +867,8 @@ def _robot(
         assert d.wheels is not None and d.radius is not None and d.separation is not None
         if not (d.radius > 0 and abs(d.separation) > 0):
             raise ConfigError(
-                f"{src}: the diff drive's wheel radius ({d.radius:g} m) and separation ({d.separation:g} m) "
-                f"must not be zero or negative (from {d.plugin or 'the wheel joints'})"
+                f"{src}: the diff drive's wheel radius ({d.radius:g} m) must be positive and its separation "
+                f"({d.separation:g} m) not zero (from {d.plugin or 'the wheel joints'})"
             )
         drive_cfg = DriveConfig(
             "diff_drive",

@@ -130,7 +130,9 @@ class RecordSetup:
         out = [f"robot from {m.source}: drive {self.robot.drive.type} from {m.drive_plugin or 'the --drive option'}"]
         if m.other_sensors:
             out.append(f"{len(m.other_sensors)} sensor(s) not simulated: {', '.join(m.other_sensors)}")
-        unbalanced = [link.name for link in m.links if link.inertial is not None and link.inertial.unbalanced]
+        unbalanced = [
+            k.name for k in m.links if k.inertial is not None and k.inertial.mass > 0 and k.inertial.unbalanced
+        ]
         if unbalanced:
             out.append(
                 f"{len(unbalanced)} link(s) whose inertia no rigid body has (a principal moment above the sum of the "

@@ -89,12 +89,15 @@ def _add_link(
         body.mass = MIN_MASS
         body.inertia = [MIN_INERTIA] * 3
     wheel = link.joint in wheels
-    names = [c.name for c in link.collisions]
+    # a URDF may name two collisions of a link alike; MuJoCo's geoms and meshes need names of their own: when
+    # two are alike, every collision of the link is numbered
+    names = [f"{link.name}/{c.name}" for c in link.collisions]
+    if len(set(names)) < len(names):
+        names = [f"{name}#{k}" for k, name in enumerate(names)]
     for k, c in enumerate(link.collisions):
         g = c.geometry
         kw: dict = dict(
-            # a URDF may name two collisions of a link alike; MuJoCo's geoms need names of their own
-            name=f"{link.name}/{c.name}" if names.count(c.name) == 1 else f"{link.name}/{c.name}#{k}",
+            name=names[k],
             pos=list(c.pose[:3]),
             quat=_wxyz(c.pose[3:]),
             contype=ROBOT_CONTYPE,
@@ -116,7 +119,7 @@ def _add_link(
             body.add_geom(type=G.mjGEOM_CAPSULE, size=[g.radius, g.length / 2, 0], **kw)
         else:
             vertices, faces = mesh_data(g.mesh, link.name)
-            mesh_name = f"mesh:{link.name}/{c.name}"
+            mesh_name = f"mesh:{names[k]}"
             spec.add_mesh(
                 name=mesh_name,
                 uservert=(vertices * np.asarray(g.scale)).ravel().tolist(),

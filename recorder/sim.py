@@ -80,7 +80,14 @@ from navlog.replay.pointcloud import make_cloud
 from navlog.replay.runtime.executor import Deferred, Node
 
 mujoco = import_mujoco()
-_DIVERGED = int(mujoco.mjtWarning.mjWARN_BADQACC)  # MuJoCo reset the state: the physics diverged
+# the warnings on which MuJoCo resets the state (the physics diverged), with what each found not finite or huge;
+# the last one's count survives the reset it makes
+_DIVERGED = {
+    int(mujoco.mjtWarning.mjWARN_BADQACC): "an acceleration",
+    int(mujoco.mjtWarning.mjWARN_BADQVEL): "a velocity",
+    int(mujoco.mjtWarning.mjWARN_BADQPOS): "a position",
+}
+_QPOS = int(mujoco.mjtWarning.mjWARN_BADQPOS)  # its index is into qpos, the others' into the velocities
 
 TICK_NS = 5_000_000  # 200 Hz
 EVENTS_TOPIC = "/navlog/events"
@@ -373,16 +380,25 @@ class SimNode(Node):
             ctrl[self._act["left"]] = (vx - wz * half) / r_true
             ctrl[self._act["right"]] = (vx + wz * half) / r_true
 
-    def _divergence(self, t_ns: int) -> str:
+    def _diverged(self) -> int | None:
+        """The warning of ``_DIVERGED`` MuJoCo reset the state on in the steps since the last call, or None."""
+        return next((w for w in _DIVERGED if self.data.warning[w].number), None)
+
+    def _divergence(self, t_ns: int, warning: int) -> str:
         """What a diverged physics step found, where, and what to check."""
         m = self.model
-        dof = int(self.data.warning[_DIVERGED].lastinfo)
-        body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, int(m.dof_bodyid[dof])) or f"body {m.dof_bodyid[dof]}"
-        joint = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, int(m.dof_jntid[dof]))
+        index = int(self.data.warning[warning].lastinfo)
+        if warning == _QPOS:  # the joint whose coordinates hold that index
+            jnt = int(np.searchsorted(m.jnt_qposadr, index, side="right")) - 1
+        else:
+            jnt = int(m.dof_jntid[index])
+        bid = int(m.jnt_bodyid[jnt])
+        body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, bid) or f"body {bid}"
+        joint = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, jnt)
         at = f"joint '{joint}' of link '{body}'" if joint else f"the free joint of '{body}'"
         source = self.robot.model.source if self.robot.model is not None else f"robot '{self.robot.name}'"
         return (
-            f"the simulation diverged at t = {t_ns / 1e9:.3f} s (MuJoCo: an acceleration of {at} not finite or "
+            f"the simulation diverged at t = {t_ns / 1e9:.3f} s (MuJoCo: {_DIVERGED[warning]} of {at} not finite or "
             f"huge): the robot's masses, inertias or drive gains are out of proportion; check the <inertial> of "
             f"'{body}' and of the links beside it in {source}"
         )
@@ -399,8 +415,9 @@ class SimNode(Node):
                 mujoco.mj_step(self.model, self.data)
                 if lpf is not None:
                     lpf.add(self.data.sensordata)
-            if self.data.warning[_DIVERGED].number:
-                raise SimulationError(self._divergence(t_ns))
+            warning = self._diverged()
+            if warning is not None:
+                raise SimulationError(self._divergence(t_ns, warning))
             if lpf is not None:
                 lpf.tick()
             mujoco.mj_kinematics(self.model, self.data)

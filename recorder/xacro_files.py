@@ -94,6 +94,14 @@ def expand(path: Path, args: Mapping[str, str], search_paths: Sequence[Path | st
     except ConfigError as exc:  # a $(find PKG) that is nowhere on the package path
         raise ConfigError(f"{path}: xacro error: {exc}") from None
     except Exception as exc:  # xacro raises its own, XML parser, evaluation and lookup errors
+        cause: BaseException | None = exc
+        while cause is not None and not isinstance(cause, MemoryError):
+            cause = cause.__cause__ or cause.__context__
+        if cause is not None:  # xacro wraps the MemoryError of an expression too large
+            raise ConfigError(
+                f"{path}: the xacro expansion needs more memory than it may have ({XACRO_MEMORY >> 30} GiB): "
+                "an expression too large?"
+            ) from None
         raise _xacro_error(path, exc) from None
     return str(doc.toxml())
 
@@ -106,20 +114,17 @@ XACRO_MEMORY = 2 << 30  # bytes of address space
 XACRO_OUTPUT = 64 << 20  # bytes of expanded XML
 
 _CHILD = """
-import json, resource, sys
+import json, sys, traceback
 from pathlib import Path
-import xacro
 from navlog.errors import ConfigError
 from navlog.recorder.xacro_files import expand
 request = json.loads(sys.argv[1])
-resource.setrlimit(resource.RLIMIT_AS, (request["memory"], request["memory"]))  # the expansion's, after the imports
-resource.setrlimit(resource.RLIMIT_CPU, (request["seconds"], request["seconds"] + 1))
 try:
-    reply = b"T" + expand(Path(request["path"]), request["args"], request["search"]).encode()
+    reply = b"T" + expand(Path(request["path"]), request["args"], request["search"]).encode(errors="surrogateescape")
 except ConfigError as exc:
-    reply = b"E" + str(exc).encode()
-except MemoryError:
-    reply = b"M"
+    reply = b"E" + str(exc).encode(errors="replace")
+except BaseException as exc:  # anything else: its last line, for the parent's error
+    reply = b"X" + traceback.format_exception_only(exc)[-1].strip().encode(errors="replace")
 sys.stdout.buffer.write(reply[: request["output"] + 2])
 """
 
@@ -129,10 +134,15 @@ def _expand_bounded(path: Path, args: dict[str, str], search_paths: list[str]) -
 
     from navlog.replay.workers.child import run_python
 
-    request = {"path": str(path), "args": args, "search": search_paths, "memory": XACRO_MEMORY}
-    request |= {"seconds": XACRO_SECONDS, "output": XACRO_OUTPUT}
+    request = {"path": str(path), "args": args, "search": search_paths, "output": XACRO_OUTPUT}
     try:
-        reply, code = run_python(_CHILD, args=[json.dumps(request)], timeout=XACRO_SECONDS + 5)
+        reply, code = run_python(
+            _CHILD,
+            args=[json.dumps(request)],
+            timeout=XACRO_SECONDS + 5,
+            cpu_seconds=XACRO_SECONDS,
+            memory=XACRO_MEMORY,
+        )
     except OSError as exc:
         raise ConfigError(f"{path}: cannot start the xacro expansion ({exc})") from None
     limits = f"{XACRO_SECONDS} s and {XACRO_MEMORY >> 30} GiB"
@@ -141,9 +151,11 @@ def _expand_bounded(path: Path, args: dict[str, str], search_paths: list[str]) -
             raise ConfigError(
                 f"{path}: xacro expands to more than {XACRO_OUTPUT >> 20} MB of XML: a macro that expands without end?"
             )
-        return reply[1:].decode()
+        return reply[1:].decode(errors="surrogateescape")
     if reply[:1] == b"E":
         raise ConfigError(reply[1:].decode(errors="replace"))
+    if reply[:1] == b"X":
+        raise ConfigError(f"{path}: the xacro expansion failed: {reply[1:].decode(errors='replace')}")
     raise ConfigError(
         f"{path}: the xacro expansion did not end within {limits} "
         f"(exit code {code}): a macro that expands without end, or an expression too large?"

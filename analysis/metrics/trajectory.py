@@ -543,14 +543,16 @@ def planar_relative_error(est: np.ndarray, ref: np.ndarray, travel: float) -> fl
     return float(np.mean(np.linalg.norm(e - r, axis=1))) if len(r) else float("nan")
 
 
-def own_relative_errors(a: np.ndarray, b: np.ndarray, c: np.ndarray, travel: float) -> tuple[float, float, float]:
+def own_relative_errors(
+    a: np.ndarray, b: np.ndarray, c: np.ndarray, travel: float, along: np.ndarray | None = None
+) -> tuple[float, float, float]:
     """Each trajectory's own RMS translational error over ``travel`` metres, from three planar trajectories of
     the same instants whose errors are independent, none of them the truth (the three-cornered hat of clock
     comparisons): with d_xy the RMS of the difference of x's and y's moves (``planar_relative_error``'s pairs,
-    taken along ``a``), a's own mean square is (d_ab^2 + d_ac^2 - d_bc^2) / 2, and so on round. A reference
+    taken along ``along``, by default ``a``: pairs taken along a noisier path are shorter moves), a's own mean square is (d_ab^2 + d_ac^2 - d_bc^2) / 2, and so on round. A reference
     that is itself an estimate scores a perfect one at its own error. A mean square that comes out negative
     (errors correlated, or too few pairs) is NaN; all NaN when the path is shorter than ``travel``."""
-    ma, mb, mc = _planar_moves(a, travel, a, b, c)
+    ma, mb, mc = _planar_moves(a if along is None else along, travel, a, b, c)
     if not len(ma):
         return (float("nan"),) * 3
     ab, ac, bc = (float(np.mean(np.sum((x - y) ** 2, axis=1))) for x, y in ((ma, mb), (ma, mc), (mb, mc)))

@@ -65,11 +65,21 @@ def _read_image(path: Path) -> np.ndarray:
                 return arr / maxval
             shades = img if img.mode in ("L", "RGB") else img.convert("RGBA" if "A" in img.mode else "RGB")
             arr = np.asarray(shades, dtype=np.float64)
-    except (OSError, ValueError, Image.DecompressionBombError) as exc:
+    except (OSError, ValueError, MemoryError, Image.DecompressionBombError) as exc:
         raise ConfigError(f"{path}: cannot read map image: {exc}") from None
     if arr.ndim == 3:
         arr = arr[:, :, :3].mean(axis=2)  # shade = mean of RGB, alpha ignored
     return arr / 255.0
+
+
+def _finite_number(value) -> bool:
+    """A YAML number (not a bool) that is a finite float (an integer of 400 digits is none)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 def _number(doc: dict, key: str, path: Path, default: float | None = None) -> float:
@@ -78,7 +88,7 @@ def _number(doc: dict, key: str, path: Path, default: float | None = None) -> fl
             raise ConfigError(f"{path}: missing key '{key}'")
         return default
     value = doc[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+    if not _finite_number(value):
         raise ConfigError(f"{path}: key '{key}' must be a finite number, got {value!r}")
     return float(value)
 
@@ -103,11 +113,7 @@ def load_map(yaml_path: str | Path) -> OccupancyMap:
     origin = doc.get("origin")
     if origin is None:
         raise ConfigError(f"{path}: missing key 'origin'")
-    if (
-        not isinstance(origin, list)
-        or len(origin) != 3
-        or any(isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) for v in origin)
-    ):
+    if not isinstance(origin, list) or len(origin) != 3 or not all(_finite_number(v) for v in origin):
         raise ConfigError(f"{path}: key 'origin' must be [x, y, yaw], finite numbers, got {origin!r}")
     free = _number(doc, "free_thresh", path, DEFAULT_FREE_THRESH)
     occupied = _number(doc, "occupied_thresh", path, DEFAULT_OCCUPIED_THRESH)

@@ -96,10 +96,33 @@ def start_python(
     return process
 
 
-def run_python(code: str, *, args: Sequence[str] = (), timeout: float) -> tuple[bytes, int]:
+_LIMITS = """import resource as _r
+def _cap(kind, value):
+    soft, hard = _r.getrlimit(kind)
+    value = value if hard == _r.RLIM_INFINITY else min(value, hard)
+    _r.setrlimit(kind, (value, hard))
+_cap(_r.RLIMIT_CPU, {cpu}); _cap(_r.RLIMIT_AS, {memory}); del _r, _cap
+"""
+
+
+def run_python(
+    code: str, *, args: Sequence[str] = (), timeout: float, cpu_seconds: int | None = None, memory: int | None = None
+) -> tuple[bytes, int]:
     """``python -c code *args`` (``start_python``, its input closed at once) run to its end: what it wrote to
-    its output and its exit code; killed once it outlives ``timeout`` seconds (its output then is empty and
-    its code negative: the signal). Raises ``OSError`` when no child can be started."""
+    its output and its exit code; killed once it outlives ``timeout`` seconds of wall time (its output then is
+    empty and its code negative: the signal). With ``cpu_seconds`` and ``memory`` (bytes of address space) the
+    child is held to them from its first statement (never above the limits this process already has): past
+    the CPU time it is killed by a signal, past the memory its allocations fail (``MemoryError``). Raises
+    ``OSError`` when no child can be started."""
+    if cpu_seconds is not None or memory is not None:
+        infinity = "_r.RLIM_INFINITY"
+        code = (
+            _LIMITS.format(
+                cpu=int(cpu_seconds) if cpu_seconds is not None else infinity,
+                memory=int(memory) if memory is not None else infinity,
+            )
+            + code
+        )
     process = start_python(code, args=args)
     try:
         out, _ = process.communicate(timeout=timeout)
@@ -109,6 +132,9 @@ def run_python(code: str, *, args: Sequence[str] = (), timeout: float) -> tuple[
         if process.poll() is None:
             process.kill()
             process.wait()
+        for stream in (process.stdin, process.stdout):
+            if stream is not None and not stream.closed:
+                stream.close()
     return out, process.returncode
 
 

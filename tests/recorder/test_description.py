@@ -544,4 +544,51 @@ def test_a_drive_with_wheels_of_no_size_is_an_error_naming_the_plugin(tmp_path, 
     code, out = _record(tmp_path, tmp_path / "wheely.urdf")
     err = capsys.readouterr().err
     assert code == 2 and not out.exists()
-    assert "wheely.urdf: the diff drive's wheel radius (0 m)" in err and "gz-sim-diff-drive-system" in err
+    assert (
+        "wheely.urdf: the diff drive's wheel radius (0 m) must be positive" in err and "gz-sim-diff-drive-system" in err
+    )
+
+
+@pytest.mark.parametrize(
+    ("spoil", "found"),
+    [
+        (lambda d: d.qvel.__setitem__(slice(None), 1e11), "a velocity"),  # MuJoCo's BADQVEL
+        (lambda d: d.qpos.__setitem__(7, math.nan), "a position of joint 'wheel_left_joint'"),  # BADQPOS
+    ],
+)
+def test_every_kind_of_divergence_mujoco_resets_on_stops_the_simulation(tmp_path, spoil, found):
+    from navlog.errors import SimulationError
+    from navlog.recorder.sim import SimNode, SimOptions
+
+    setup = prepare("indoor_room", str(_wheely(tmp_path, "")), "teleop")
+    sim = SimNode(setup.world, setup.robot, SimOptions(sensor_worker=False))
+    try:
+        spoil(sim.data)
+        with pytest.raises(SimulationError, match=found):
+            sim._tick(5_000_000)
+    finally:
+        sim.close()
+
+
+def test_two_mesh_collisions_of_a_link_named_alike_are_both_simulated(tmp_path):
+    import trimesh
+
+    trimesh.creation.box(extents=(0.1, 0.1, 0.1)).export(tmp_path / "box.stl")
+    mesh = '<collision name="m"><origin xyz="0 0 {z}"/><geometry><mesh filename="box.stl"/></geometry></collision>'
+    urdf = _wheely(
+        tmp_path,
+        '<inertial><mass value="4.0"/><inertia ixx="0.03" iyy="0.04" izz="0.05"/></inertial>'
+        + mesh.format(z=0.15)
+        + mesh.format(z=0.3),
+    )
+    setup = prepare("indoor_room", str(urdf), "teleop")
+    from navlog.recorder.sim import SimNode, SimOptions
+
+    sim = SimNode(setup.world, setup.robot, SimOptions(sensor_worker=False))
+    try:
+        names = [sim.model.geom(i).name for i in range(sim.model.ngeom)]
+        meshes = [sim.model.mesh(i).name for i in range(sim.model.nmesh)]
+    finally:
+        sim.close()
+    assert {"base_link/m#0", "base_link/m#1"} <= set(names)
+    assert {"mesh:base_link/m#0", "mesh:base_link/m#1"} <= set(meshes)

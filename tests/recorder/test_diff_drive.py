@@ -36,3 +36,12 @@ def test_simple_robot_turns_with_prefixed_frames():
     assert not got["/scan"]
     static = got["/tf_static"][0][1]
     assert "simple_robot/base_link/lidar" in {t.child_frame_id for t in static.transforms}
+
+
+def test_a_drive_whose_wheels_have_no_size_is_refused():
+    from navlog.recorder.robot import DriveConfig
+
+    for bad in ({"wheel_radius": 0.0}, {"wheel_separation": 0.0}, {"wheel_radius_error": -1.0}):
+        with pytest.raises(ValueError):
+            DriveConfig("diff_drive", max_vx=0.5, max_wz=1.0, **bad)
+    assert DriveConfig("diff_drive", max_vx=0.5, max_wz=1.0, wheel_radius_error=-0.5).wheel_radius == 0.1

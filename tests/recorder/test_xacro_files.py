@@ -47,5 +47,14 @@ def test_an_expansion_larger_than_the_bound_is_an_error(tmp_path, monkeypatch):
 def test_an_expression_too_large_for_memory_names_the_file(tmp_path):
     big = tmp_path / "big.urdf.xacro"
     big.write_text(HEAD + "  <link name=\"${'x' * (10**10)}\"/>\n</robot>\n")  # 10 GB of name
-    with pytest.raises(ConfigError, match=r"big.urdf.xacro"):
+    with pytest.raises(
+        ConfigError, match=r"big.urdf.xacro: the xacro expansion needs more memory than it may have \(2 GiB\)"
+    ):
         read_description(big)
+
+
+def test_an_expression_no_text_can_hold_is_an_error_naming_the_file(tmp_path):
+    odd = tmp_path / "odd.urdf.xacro"
+    odd.write_text(HEAD + "  <link name=\"${'\\ud800'}\"/>\n</robot>\n")  # a lone surrogate: no UTF-8 for it
+    with pytest.raises(ConfigError, match=r"odd.urdf.xacro: the xacro expansion failed: UnicodeEncodeError"):
+        read_description(odd)

@@ -174,6 +174,10 @@ def test_three_trajectories_give_each_ones_own_relative_error():
         noisy.append(t)
     own = tr.own_relative_errors(*noisy, travel=1.0)
     assert own == pytest.approx([2 * 0.01, 2 * 0.02, 2 * 0.03], rel=0.06)
+    # the pairs taken along the truth's path: the same answer (the smallest figure, a difference of larger ones,
+    # carries the most sampling noise)
+    along = tr.own_relative_errors(*noisy, travel=1.0, along=truth)
+    assert along == pytest.approx([2 * 0.01, 2 * 0.02, 2 * 0.03], rel=0.08)
     # what the reference-based figure says of the best of them against the worst: both errors together
     rmse = math.sqrt(np.mean(np.sum(np.square(np.diff(noisy[0][::2, :2] - noisy[2][::2, :2], axis=0)), axis=1)))
     assert rmse == pytest.approx(math.hypot(own[0], own[2]), rel=0.06)

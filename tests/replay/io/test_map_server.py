@@ -129,6 +129,8 @@ def test_load_rgb_png_uses_mean_shade(tmp_path):
         ("image: m.pgm\nresolution: 0.1: 2\norigin: [0, 0, 0]\n", ["m.yaml", "line 2"]),
         ("image: m.pgm\nresolution: 0.1\norigin: [.nan, 0, 0]\n", ["'origin'", "finite"]),
         ("image: m.pgm\nresolution: .inf\norigin: [0, 0, 0]\n", ["'resolution'", "finite"]),
+        ("image: m.pgm\nresolution: 1" + "0" * 400 + "\norigin: [0, 0, 0]\n", ["'resolution'", "finite"]),
+        ("image: m.pgm\nresolution: 0.1\norigin: [0, 1" + "0" * 400 + ", 0]\n", ["'origin'", "finite"]),
     ],
 )
 def test_bad_map_yaml_names_file_and_key(tmp_path, text, words):

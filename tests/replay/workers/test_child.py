@@ -115,3 +115,17 @@ def test_a_python_run_to_its_end_gives_its_output_and_code_and_is_killed_past_it
     start = time.monotonic()
     out, code = run_python("import sys, time; sys.stdout.buffer.write(b'x'); time.sleep(60)", timeout=1.0)
     assert out == b"" and code < 0 and time.monotonic() - start < 10
+
+
+def test_a_python_run_is_held_to_its_cpu_time_and_memory():
+    import signal
+    import time
+
+    from navlog.replay.workers.child import run_python
+
+    start = time.monotonic()
+    out, code = run_python("while True: pass", timeout=30, cpu_seconds=1)
+    assert code == -signal.SIGXCPU and time.monotonic() - start < 10
+    grab = "import sys\ntry:\n    b = bytearray(1 << 30)\nexcept MemoryError:\n    sys.stdout.write('refused')"
+    assert run_python(grab, timeout=30, memory=512 << 20) == (b"refused", 0)
+    assert run_python(grab.replace("1 << 30", "1 << 20"), timeout=30, memory=512 << 20) == (b"", 0)
