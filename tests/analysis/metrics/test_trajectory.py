@@ -321,3 +321,48 @@ def test_from_tum_reads_the_file_and_normalises_quaternions(tmp_path):
     path.write_text("1.0 1 2 3 0 0 0 1\n2.0 1 2 3 0 0 1\n")
     with pytest.raises(NavlogError, match=r"t\.tum:2: expected 8 numbers"):
         Trajectory.from_tum(path)
+
+
+@pytest.mark.slow
+def test_three_cornered_hat_on_a_slam_run_whose_truth_is_known(tmp_path):
+    """navlog's mapping tour (kibot, its wheel odometry drifting, no localiser) and the SLAM's replay of it: the
+    SLAM's and the odometry's errors over 1 m hardly correlate, and the comparison of a reference made of the
+    truth plus known noise with the SLAM and the odometry finds that noise and the odometry's own error."""
+    from navlog.recorder.record import prepare, record
+    from navlog.replay.io.formats import open_log
+    from navlog.replay.session import run_replay
+    from tests.replay.mapping.lap_logs import yaw_of
+    from tests.replay.mapping.planar_logs import planar_tum
+
+    log = tmp_path / "mapping.mcap"
+    record(prepare("indoor_room", "kibot", "mapping", localization="none"), log, progress=False, sensor_worker=False)
+    run_replay(log, "mapping", tmp_path / "out", overrides=["pose_source=slam", "lidar_mapper=off"], progress=False)
+    stamps, slam = planar_tum(tmp_path / "out" / "trajectory.tum")
+    series: dict[str, tuple[list, list]] = {"/odom": ([], []), "/odom/ground_truth": ([], [])}
+    with open_log(log) as reader:
+        for env in reader.messages(list(series)):
+            m = env.msg
+            series[env.topic][0].append(m.header.stamp.sec * 10**9 + m.header.stamp.nanosec)
+            p = m.pose.pose.position
+            series[env.topic][1].append([p.x, p.y, yaw_of(m.pose.pose.orientation)])
+
+    def at_stamps(topic: str) -> np.ndarray:
+        times, poses = np.array(series[topic][0]), np.array(series[topic][1])
+        i = np.clip(np.searchsorted(times, stamps), 0, len(times) - 1)
+        assert np.all(np.abs(times[i] - stamps) < 30_000_000)  # odometry at 50 Hz, scans at 10 Hz
+        return poses[i]
+
+    truth, odom = at_stamps("/odom/ground_truth"), at_stamps("/odom")
+    true_moves, slam_moves, odom_moves = tr._planar_moves(truth, 1.0, truth, slam, odom)
+    e_slam, e_odom = slam_moves - true_moves, odom_moves - true_moves
+    own_slam, own_odom = (math.sqrt(np.mean(np.sum(e**2, axis=1))) for e in (e_slam, e_odom))
+    assert own_odom > 2 * own_slam > 0  # the wheels drift; the laser holds the SLAM
+    assert abs(np.mean(np.sum(e_slam * e_odom, axis=1))) < 0.15 * own_slam * own_odom
+    # the truth itself as the reference: nothing of its own, and the other two their true figures
+    ref_own, slam_own, odom_own = tr.own_relative_errors(truth, slam, odom, 1.0)
+    assert ref_own < 0.1 * own_slam + 0.001
+    assert slam_own == pytest.approx(own_slam, rel=0.25) and odom_own == pytest.approx(own_odom, rel=0.1)
+    noisy = truth.copy()
+    noisy[:, :2] += np.random.default_rng(0).normal(0.0, 0.02, (len(truth), 2))
+    ref_own, _, _ = tr.own_relative_errors(noisy, slam, odom, 1.0, along=truth)
+    assert ref_own == pytest.approx(0.04, rel=0.1)  # 2 cm on each axis of both ends of a move
