@@ -865,21 +865,19 @@ def _robot(
     max_v, min_v, max_w, acc_v, acc_w = d.limits
     if d.kind == "diff_drive":
         assert d.wheels is not None and d.radius is not None and d.separation is not None
-        if not (d.radius > 0 and abs(d.separation) > 0):
-            raise ConfigError(
-                f"{src}: the diff drive's wheel radius ({d.radius:g} m) must be positive and its separation "
-                f"({d.separation:g} m) not zero (from {d.plugin or 'the wheel joints'})"
+        try:
+            drive_cfg = DriveConfig(
+                "diff_drive",
+                max_vx=max_v,
+                max_wz=max_w,
+                min_vx=min_v,
+                response_time=0.0,
+                max_accel=(acc_v, 0.0, acc_w),
+                wheel_radius=d.radius,
+                wheel_separation=d.separation,
             )
-        drive_cfg = DriveConfig(
-            "diff_drive",
-            max_vx=max_v,
-            max_wz=max_w,
-            min_vx=min_v,
-            response_time=0.0,
-            max_accel=(acc_v, 0.0, acc_w),
-            wheel_radius=d.radius,
-            wheel_separation=d.separation,
-        )
+        except ValueError as exc:  # the drive's own checks (wheels of no size)
+            raise ConfigError(f"{src}: {exc} (from {d.plugin or 'the wheel joints'})") from None
     else:
         no_gait = GaitConfig(0.25, 0.0, 0.0, 0.0)
         drive_cfg = DriveConfig(

@@ -156,7 +156,10 @@ class DriveConfig:
         if self.type == "diff_drive" and self.max_vy != 0:
             raise ValueError("a diff_drive cannot move sideways: set max_vy to 0")
         if self.type == "diff_drive" and not (self.wheel_radius > 0 and self.wheel_separation != 0):
-            raise ValueError("a diff_drive needs a positive wheel_radius and a wheel_separation other than 0")
+            raise ValueError(
+                f"the diff drive's wheel radius ({self.wheel_radius:g} m) must be positive and its separation "
+                f"({self.wheel_separation:g} m) not zero"
+            )
         if not self.wheel_radius_error > -1:
             raise ValueError("wheel_radius_error must be above -1 (the true radius is nominal x (1 + error))")
 

@@ -159,6 +159,11 @@ def _period_ns(rate: float) -> int:
     return int(round(1e9 / rate / TICK_NS)) * TICK_NS or TICK_NS
 
 
+def _source(robot: RobotSpec) -> str:
+    """Where an error about ``robot``'s build sends the user: its description file, else its name."""
+    return robot.model.source if robot.model is not None else f"robot '{robot.name}'"
+
+
 class SimNode(Node):
     name = "sim"
 
@@ -181,9 +186,8 @@ class SimNode(Node):
                 add_to_spec(spec, robot, options.start)
                 self.model = spec.compile()
             except ValueError as exc:  # MuJoCo's model editing and compiler name the element at fault
-                source = robot.model.source if robot.model is not None else f"robot '{robot.name}'"
                 detail = " ".join(str(exc).split())
-                raise ConfigError(f"MuJoCo cannot build {source} in world '{world.name}': {detail}") from None
+                raise ConfigError(f"MuJoCo cannot build {_source(robot)} in world '{world.name}': {detail}") from None
         except BaseException:
             self.close()  # the worker ends with the simulator that could not be built
             raise
@@ -396,11 +400,10 @@ class SimNode(Node):
         body = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_BODY, bid) or f"body {bid}"
         joint = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, jnt)
         at = f"joint '{joint}' of link '{body}'" if joint else f"the free joint of '{body}'"
-        source = self.robot.model.source if self.robot.model is not None else f"robot '{self.robot.name}'"
         return (
             f"the simulation diverged at t = {t_ns / 1e9:.3f} s (MuJoCo: {_DIVERGED[warning]} of {at} not finite or "
             f"huge): the robot's masses, inertias or drive gains are out of proportion; check the <inertial> of "
-            f"'{body}' and of the links beside it in {source}"
+            f"'{body}' and of the links beside it in {_source(self.robot)}"
         )
 
     def _yaw(self) -> float:
