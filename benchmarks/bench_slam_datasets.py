@@ -149,9 +149,10 @@ def overlap(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> f
 MAP_WINDOW = 16.0  # m: the side of the square ``--maps`` shows
 
 
-def plot_maps(path: Path, name: str, est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid) -> None:
-    """``path`` (PNG): the walls of the map drawn from the reference and of the one drawn from ``est`` (aligned
-    onto it) side by side, in the ``MAP_WINDOW`` square centred where ``est`` is farthest from the reference."""
+def plot_maps(path: Path, name: str, est: np.ndarray, ref: np.ndarray, est_grid, ref_grid) -> None:
+    """``path`` (PNG): the walls of the map drawn from the reference and of ``est_grid``, the one drawn from
+    ``est`` aligned onto it (``estimate_grid``), side by side, in the ``MAP_WINDOW`` square centred where
+    ``est`` is farthest from the reference."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -163,7 +164,7 @@ def plot_maps(path: Path, name: str, est: np.ndarray, ref: np.ndarray, stamps: n
     fig, axes = plt.subplots(1, 2, figsize=(12, 6.4), sharex=True, sharey=True)
     for ax, grid, colour, title in (
         (axes[0], ref_grid, "tab:red", "drawn from the reference"),
-        (axes[1], draw(aligned, stamps, scans), "tab:blue", "drawn from the SLAM"),
+        (axes[1], est_grid, "tab:blue", "drawn from the SLAM"),
     ):
         xy = occupied_xy(grid)
         inside = np.all((xy >= lo) & (xy <= lo + MAP_WINDOW), axis=1)
@@ -180,13 +181,20 @@ def plot_maps(path: Path, name: str, est: np.ndarray, ref: np.ndarray, stamps: n
     plt.close(fig)
 
 
-def score(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid) -> dict[str, float]:
-    aligned = align_planar(est, ref)
+def estimate_grid(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans) -> OccupancyGrid2D:
+    """The map drawn from the scans at ``est``'s poses aligned onto the reference."""
+    return draw(align_planar(est, ref), stamps, scans)
+
+
+def score(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid, est_grid=None) -> dict[str, float]:
+    """The figures of the module docstring; ``est_grid``: ``estimate_grid``'s map, drawn when not given."""
+    if est_grid is None:
+        est_grid = estimate_grid(est, ref, stamps, scans)
     return {
         "ate": planar_ate(est, ref),
         "re1": planar_relative_error(est, ref, 1.0),
         "re5": planar_relative_error(est, ref, 5.0),
-        "walls": wall_agreement(draw(aligned, stamps, scans), ref_grid),
+        "walls": wall_agreement(est_grid, ref_grid),
         "overlap": overlap(est, stamps, scans),
     }
 
@@ -283,8 +291,9 @@ def evaluate(
         back_ts, back_scans, back_odom = driven_back(ts, scans, odom)
         back_poses = slam_on_odometry(back_odom, back_ts, back_scans, slam_params)
         scored.append(("driven back", back_poses, ref[keep][::-1], back_ts, back_scans))
+    slam_grid = estimate_grid(slam, ref[keep], ts, scans)  # scored below, and drawn by --maps
     for source, est_poses, truth, stamps, logged in scored:
-        s = score(est_poses, truth, stamps, logged, ref_grid)
+        s = score(est_poses, truth, stamps, logged, ref_grid, slam_grid if source == "slam" else None)
         extra = (
             f"{loops:>6} {wall:>7.1f} {duration / wall:>8.1f}x {duration / cpu:>8.1f}x"
             if source == "slam"
@@ -297,7 +306,7 @@ def evaluate(
         )
     if maps is not None:
         maps.mkdir(parents=True, exist_ok=True)
-        plot_maps(maps / f"{name}-maps.png", name, slam, ref[keep], ts, scans, ref_grid)
+        plot_maps(maps / f"{name}-maps.png", name, slam, ref[keep], slam_grid, ref_grid)
     reference = overlap(ref[keep], ts, scans)
     print(f"{'':<8} {'reference':<11} {'-':>7} {'-':>7} {'-':>7} {'-':>6} {reference:>7.2f}", flush=True)
     for sigma in (0.0, *([reference_noise] if reference_noise else [])):
