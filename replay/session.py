@@ -26,7 +26,7 @@ from navlog.replay.io import cdr_decode, json_text
 from navlog.replay.io.atomic import WriteError, hold_output, remove_stale, replace_output, write_error
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
-from navlog.replay.io.reader import LogReader
+from navlog.replay.io.reader import MAX_LOG_TIME_JUMP_NS, LogReader
 from navlog.replay.pipelines import pipeline_spec
 from navlog.replay.runtime.executor import Envelope, Executor
 from navlog.replay.runtime.heap import HeapTrim, steady_heap
@@ -282,8 +282,13 @@ def _run(
     to_log = {ours: theirs for theirs, ours in log_to.items()}
     ex.add_source(stream({to_log.get(t, t) for t in ex.light_topics()}))
     _check_types(reader.path, ex, reader, wanted, log_to)
+    first = ex.next_source_ns()
+    if first is not None and first - reader.start_ns > MAX_LOG_TIME_JUMP_NS:
+        # the reader kept a later run than the log's first messages (their log times corrupt): the replay
+        # starts at the first message it delivers, not after years of timers firing on nothing
+        ex.begin_at(first)
     start = time.perf_counter()
-    t0 = reader.start_ns
+    t0 = ex.now
     with (
         Progress(reader.duration_ns / 1e9, f"replay {pipe.name}", "log s", enabled=progress) as bar,
         McapLogWriter(

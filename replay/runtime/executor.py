@@ -196,6 +196,20 @@ class Executor:
     def add_sink(self, sink: Sink) -> None:
         self._sinks.append(sink)
 
+    def next_source_ns(self) -> int | None:
+        """The time of the next recorded message waiting to be delivered (None when no source has one)."""
+        times = [event[0] for event in self._queue if event[3] == "source"]
+        return min(times) if times else None
+
+    def begin_at(self, t_ns: int) -> None:
+        """Before the first run: start at ``t_ns`` instead (when later than ``now``); timers due before it
+        begin there, in their order."""
+        if t_ns <= self.now:
+            return
+        self.now = int(t_ns)
+        self._queue = [(max(e[0], self.now), *e[1:]) if e[3] == "timer" else e for e in self._queue]
+        heapq.heapify(self._queue)
+
     def subscribe(self, topic: str, callback: Callback, types: tuple[str, ...] = (), *, light: bool = False) -> None:
         self._subs.setdefault(topic, []).append(callback)
         self._light[topic] = self._light.get(topic, True) and light

@@ -398,3 +398,22 @@ def test_an_envelope_is_a_frozen_dataclass():
     )
     with pytest.raises(dataclasses.FrozenInstanceError):
         env.time_ns = 6  # type: ignore[misc]
+
+
+def test_a_run_begun_later_starts_its_timers_there_and_its_sources_where_they_are():
+    log: list = []
+    ex = Executor(start_ns=0)
+
+    class Timed(Node):
+        def setup(self):
+            self.subscribe("/a", lambda m, t: log.append(("a", t, m)))
+            self.create_timer(100, lambda t: log.append(("timer", t)))
+
+    ex.add_node(Timed())
+    ex.add_source([Envelope("/a", "x", 1_000, 1), Envelope("/a", "x", 1_150, 2)])
+    assert ex.next_source_ns() == 1_000
+    ex.begin_at(1_000)
+    ex.begin_at(500)  # never back
+    ex.run()
+    assert ex.now == 1_150
+    assert log == [("a", 1_000, 1), ("timer", 1_000), ("timer", 1_100), ("a", 1_150, 2)]
