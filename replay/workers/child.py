@@ -96,12 +96,11 @@ def start_python(
     return process
 
 
-_LIMITS = """import resource as _r
+# held to a limit in the child: never above the hard limit it inherits
+_CAP = """import resource as _r
 def _cap(kind, value):
-    soft, hard = _r.getrlimit(kind)
-    value = value if hard == _r.RLIM_INFINITY else min(value, hard)
-    _r.setrlimit(kind, (value, hard))
-_cap(_r.RLIMIT_CPU, {cpu}); _cap(_r.RLIMIT_AS, {memory}); del _r, _cap
+    hard = _r.getrlimit(kind)[1]
+    _r.setrlimit(kind, (value if hard == _r.RLIM_INFINITY else min(value, hard), hard))
 """
 
 
@@ -111,18 +110,13 @@ def run_python(
     """``python -c code *args`` (``start_python``, its input closed at once) run to its end: what it wrote to
     its output and its exit code; killed once it outlives ``timeout`` seconds of wall time (its output then is
     empty and its code negative: the signal). With ``cpu_seconds`` and ``memory`` (bytes of address space) the
-    child is held to them from its first statement (never above the limits this process already has): past
-    the CPU time it is killed by a signal, past the memory its allocations fail (``MemoryError``). Raises
-    ``OSError`` when no child can be started."""
-    if cpu_seconds is not None or memory is not None:
-        infinity = "_r.RLIM_INFINITY"
-        code = (
-            _LIMITS.format(
-                cpu=int(cpu_seconds) if cpu_seconds is not None else infinity,
-                memory=int(memory) if memory is not None else infinity,
-            )
-            + code
-        )
+    child is held to them from its first statement (never above the limits this process already has; a limit
+    not given is left as it is): past the CPU time it is killed by a signal, past the memory its allocations
+    fail (``MemoryError``). Raises ``OSError`` when no child can be started."""
+    limits = {"RLIMIT_CPU": cpu_seconds, "RLIMIT_AS": memory}
+    caps = [f"_cap(_r.{kind}, {int(value)})" for kind, value in limits.items() if value is not None]
+    if caps:
+        code = _CAP + "; ".join(caps) + "; del _r, _cap\n" + code
     process = start_python(code, args=args)
     try:
         out, _ = process.communicate(timeout=timeout)

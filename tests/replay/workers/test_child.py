@@ -129,3 +129,19 @@ def test_a_python_run_is_held_to_its_cpu_time_and_memory():
     grab = "import sys\ntry:\n    b = bytearray(1 << 30)\nexcept MemoryError:\n    sys.stdout.write('refused')"
     assert run_python(grab, timeout=30, memory=512 << 20) == (b"refused", 0)
     assert run_python(grab.replace("1 << 30", "1 << 20"), timeout=30, memory=512 << 20) == (b"", 0)
+
+
+def test_a_limit_not_asked_for_is_left_as_inherited_even_below_infinity():
+    from navlog.replay.workers.child import run_python
+
+    # a parent whose address space has a finite hard limit asks its child for a CPU limit only
+    parent = (
+        "import resource, sys\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (8 << 30, 8 << 30))\n"
+        "from navlog.replay.workers.child import run_python\n"
+        "out, code = run_python('import resource; print(resource.getrlimit(resource.RLIMIT_AS)[0])', "
+        "timeout=30, cpu_seconds=5)\n"
+        "sys.stdout.buffer.write(out + str(code).encode())"
+    )
+    out, code = run_python(parent, timeout=60)
+    assert (out, code) == (f"{8 << 30}\n0".encode(), 0)
