@@ -32,7 +32,10 @@ def recompressed(src: Path, out: Path, compression: CompressionType, seconds: fl
         w.start(profile="ros2", library="test")
         sids: dict[int, int] = {}
         cids: dict[int, int] = {}
-        for schema, channel, message in reader.iter_messages(end_time=stats.message_start_time + int(seconds * 1e9)):
+        end = stats.message_start_time + int(seconds * 1e9)
+        for schema, channel, message in reader.iter_messages():  # in log-time order
+            if message.log_time >= end:
+                break
             if schema is not None and schema.id not in sids:
                 sids[schema.id] = w.register_schema(schema.name, schema.encoding, schema.data)
             if channel.id not in cids:
