@@ -175,7 +175,8 @@ class OccupancyMapperNode(Node):
             self.skipped[f"{self.p.scan_topic}: pose not finite at the scan's stamp"] += 1
             return
         if self._last_pose is not None and self.p.minimum_travel_distance > 0:
-            moved = np.linalg.norm(pose[:2, 3] - self._last_pose[:2, 3])
+            with np.errstate(over="ignore"):  # a pose far off (finite, but beyond 1e154 m) moved infinitely far
+                moved = np.linalg.norm(pose[:2, 3] - self._last_pose[:2, 3])
             turned = abs(yaw_from_matrix(pose) - yaw_from_matrix(self._last_pose))
             turned = min(turned, 2 * math.pi - turned)
             if moved < self.p.minimum_travel_distance and turned < self.p.minimum_travel_heading:
