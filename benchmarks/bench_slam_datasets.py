@@ -290,21 +290,21 @@ def evaluate(
     if floor:
         rows.append(("on ref.", matched_on_reference(ref[keep], ts, scans)))
         rows.append(("ref. odom", slam_on_odometry(ref[keep], ts, scans, slam_params)))
+    averaged = {"slam"}  # the rows whose ATE evaluate returns
     for kind, value in errors:
-        rows.append(
-            (f"{kind} {value:g}", slam_on_odometry(degraded_odometry(odom, kind, value), ts, scans, slam_params))
-        )
+        label = f"{kind} {value:g}"
+        averaged.add(label)
+        rows.append((label, slam_on_odometry(degraded_odometry(odom, kind, value), ts, scans, slam_params)))
     scored = [(source, poses, ref[keep], ts, scans) for source, poses in rows]
     if back:
         back_ts, back_scans, back_odom = driven_back(ts, scans, odom)
         back_poses = slam_on_odometry(back_odom, back_ts, back_scans, slam_params)
         scored.append(("driven back", back_poses, ref[keep][::-1], back_ts, back_scans))
     slam_grid = estimate_grid(slam, ref[keep], ts, scans)  # scored below, and drawn by --maps
-    degraded = {f"{kind} {value:g}" for kind, value in errors}
     ates = []
     for source, est_poses, truth, stamps, logged in scored:
         s = score(est_poses, truth, stamps, logged, ref_grid, slam_grid if source == "slam" else None)
-        if source == "slam" or source in degraded:
+        if source in averaged:
             ates.append(s["ate"])
         extra = (
             f"{loops:>6} {wall:>7.1f} {duration / wall:>8.1f}x {duration / cpu:>8.1f}x"
