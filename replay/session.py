@@ -42,12 +42,18 @@ def pipeline_params(name: str, params_file: Path | None = None, overrides: Seque
 
     A pipeline that takes a foreign parameter file (the planner takes a Nav2 ``nav2_params.yaml``)
     names the key that holds its path (``PipelineSpec.params_file_key``); ``params_file`` then fills
-    that key and the pipeline's own YAML still supplies the rest.
+    that key and the pipeline's own YAML still supplies the rest. A pipeline that reads the file of the
+    ROS tool it stands in for (``PipelineSpec.foreign_overrides``: slam_toolbox's for the mapping
+    pipeline) takes its values over its own YAML's, and ``overrides`` over both.
     """
     spec = pipeline_spec(name)
     key = spec.params_file_key
     if params_file is not None and key:
         overrides = [f"{key}={Path(params_file).resolve()}", *overrides]
+        params_file = None
+    foreign = spec.foreign_overrides(Path(params_file)) if params_file is not None else None
+    if foreign is not None:  # a ROS tool's file (slam_toolbox's): its values, then the command line's
+        overrides = [*foreign, *overrides]
         params_file = None
     path = Path(params_file) if params_file is not None else find_config("pipelines", name)
     if path is not None:

@@ -18,6 +18,7 @@ def register(sub) -> None:
         epilog="examples:\n  navlog replay run.mcap --pipeline mapping -o out/\n"
         "  navlog replay run.mcap --pipeline mapping --set pose_source=odom -o out-odom/\n"
         "  navlog replay bag_dir --pipeline mapping --remap /scan=/stable_scan -o out/\n"
+        "  navlog replay bag_dir --pipeline mapping --params mapper_params_online_async.yaml -o slam/\n"
         "  navlog replay nav.mcap --pipeline navigation --set goals=indoor_room_waypoints -o out-nav/\n"
         "  navlog replay logs/ --pipeline mapping -o fleet/ --workers 4\n"
         "  navlog replay 'logs/2026-*.mcap' --list more.txt --pipeline mapping -o fleet/ --retries 1\n"
@@ -35,7 +36,12 @@ def register(sub) -> None:
     )
     p.add_argument("--pipeline", required=True, help=f"pipeline name ({', '.join(pipeline_names())})")
     p.add_argument("-o", "--output", type=Path, required=True, help="output folder")
-    p.add_argument("--params", type=Path, help="pipeline parameter YAML (default: config/pipelines/NAME.yaml)")
+    p.add_argument(
+        "--params",
+        type=Path,
+        help="pipeline parameter YAML (default: config/pipelines/NAME.yaml); a Nav2 file for the pipelines that "
+        "run Nav2 nodes; for mapping, slam_toolbox's own file (mapper_params_online_async.yaml) too",
+    )
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override a parameter (repeatable)")
     p.add_argument(
         "--remap",

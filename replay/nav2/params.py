@@ -21,6 +21,8 @@ node's parameters; each plugin section is read by its registered plugin's parame
   parameters, goal and progress checkers: ``controllers.registry``);
 - velocity_smoother: ``velocity_smoother.read_velocity_smoother``;
 - collision_monitor: ``collision_monitor.read_collision_monitor``;
+- a node beside Nav2's that a caller implements (the mapping pipeline's ``slam_toolbox``): the reader the
+  caller gives (``parse_nav2_params``'s ``readers``), with its result in ``Nav2Params.others``;
 - amcl: ``amcl.read_amcl``;
 - bt_navigator, waypoint_follower: ``navigator.read_bt_navigator``, ``navigator.read_waypoint_follower``
   (navlog runs the default trees' behaviour, not tree XML: bt_navigator is also listed as not implemented);
@@ -34,7 +36,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -103,8 +105,10 @@ READ_ONLY_NODES = (
     "/**",
 )
 
+# a reader of one node's ros__parameters: (reader, the mapping, its key path) -> what it makes of them
+NodeReader = Callable[[SectionReader, dict, tuple], Any]
 # node -> the reader of its ros__parameters (the costmaps, one level deeper, are read apart)
-NODE_READERS: dict[str, Callable[[SectionReader, dict, tuple], Any]] = {
+NODE_READERS: dict[str, NodeReader] = {
     "planner_server": read_planner_server,
     "controller_server": read_controller_server,
     "velocity_smoother": read_velocity_smoother,
@@ -165,6 +169,8 @@ class Nav2Params:
     behavior_server: BehaviorServerParams | None = None
     waypoint_follower: WaypointFollowerParams | None = None
     not_implemented: tuple[str, ...] = ()  # node blocks read but not implemented
+    # node -> what the caller's reader of that node made of its block (``parse_nav2_params``'s ``readers``)
+    others: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     problems: tuple[Problem, ...] = ()
 
     @property
@@ -175,21 +181,32 @@ class Nav2Params:
     def warnings(self) -> list[Problem]:
         return [p for p in self.problems if p.severity == WARNING]
 
+    def _tools(self, problems: Sequence[Problem]) -> list[str]:
+        """Whose parameters each problem is in: Nav2's, or a node a caller's reader read (``others``)."""
+        return [p.path.split(".", 1)[0] if p.path.split(".", 1)[0] in self.others else "Nav2" for p in problems]
+
     def require_valid(self, prefixes: Sequence[str] = ()) -> Nav2Params:
         """Raise one ConfigError listing every error (under ``prefixes`` if given)."""
         errors = [p for p in self.errors if not prefixes or any(p.path.startswith(x) for x in prefixes)]
         if errors:
             lines = "\n  ".join(p.format(self.source) for p in errors)
             raise ConfigError(
-                f"{self.source}: {len(errors)} error(s) in the Nav2 parameters "
+                f"{self.source}: {len(errors)} error(s) in the {' and '.join(dict.fromkeys(self._tools(errors)))} "
+                "parameters "
                 f"(run `navlog check-config {self.source}`):\n  {lines}"
             )
         return self
 
 
-def load_nav2_params(path: str | Path, overrides: Sequence[str] = (), *, distro: str = "jazzy") -> Nav2Params:
+def load_nav2_params(
+    path: str | Path,
+    overrides: Sequence[str] = (),
+    *,
+    distro: str = "jazzy",
+    readers: Mapping[str, NodeReader] | None = None,
+) -> Nav2Params:
     """Read a Nav2 parameter file (YAML syntax errors raise ConfigError with the line), checked as a
-    file for Nav2 ``distro`` (``DISTROS``)."""
+    file for Nav2 ``distro`` (``DISTROS``); ``readers`` as for ``parse_nav2_params``."""
     path = Path(path)
     parsed, lines = _parsed(read_yaml_text(path), str(path))
     doc, lines = copy.deepcopy(parsed), dict(lines)  # the kept parse is never handed out
@@ -197,7 +214,7 @@ def load_nav2_params(path: str | Path, overrides: Sequence[str] = (), *, distro:
     missing = _missing_sections(doc, lines)  # of the file as written, before any override
     if overrides:
         doc = apply_nav2_overrides(doc if isinstance(doc, dict) else {}, overrides, source=str(path))
-    params = parse_nav2_params(doc, source=str(path), lines=lines, distro=distro)
+    params = parse_nav2_params(doc, source=str(path), lines=lines, distro=distro, readers=readers)
     return dataclasses.replace(params, problems=params.problems + missing) if missing else params
 
 
@@ -289,10 +306,19 @@ def _ros_params(r: SectionReader, node_block: Any, path: tuple) -> dict | None:
 
 
 def parse_nav2_params(
-    doc: Any, source: str = "<string>", lines: dict | None = None, *, distro: str = "jazzy"
+    doc: Any,
+    source: str = "<string>",
+    lines: dict | None = None,
+    *,
+    distro: str = "jazzy",
+    readers: Mapping[str, NodeReader] | None = None,
 ) -> Nav2Params:
     """Read a parsed Nav2 parameter document (``lines``: YAML key path -> line, for the problems), as a
-    file for Nav2 ``distro``."""
+    file for Nav2 ``distro``.
+
+    ``readers`` reads the ``ros__parameters`` of nodes beside Nav2's that a caller implements (the mapping
+    pipeline's ``slam_toolbox``), with the same reader and reports; what each returns is in ``others``.
+    """
     if distro not in DISTROS:
         raise ConfigError(f"Nav2 distro {distro!r}: choose one of {', '.join(DISTROS)}{suggest(distro, DISTROS)}")
     r = SectionReader(lines or {})
@@ -302,11 +328,18 @@ def parse_nav2_params(
     if not isinstance(doc, dict):
         raise ConfigError(f"{source}: a Nav2 parameter file is a mapping of node names, got {type(doc).__name__}")
     out: dict[str, Any] = {}
+    others: dict[str, Any] = {}
     read_only: list[str] = []
     for node, block in doc.items():
         node = str(node)
         path = (node,)
-        if node in ("global_costmap", "local_costmap"):
+        if readers and node in readers:
+            params = _ros_params(r, block, path)
+            if params is not None:
+                r.tool = node
+                others[node] = readers[node](r, params, path + ("ros__parameters",))
+                r.tool = SectionReader.tool
+        elif node in ("global_costmap", "local_costmap"):
             if isinstance(block, dict) and "ros__parameters" in block:
                 params = _ros_params(r, block, path)
                 cpath: tuple[str, ...] = path + ("ros__parameters",)
@@ -353,5 +386,6 @@ def parse_nav2_params(
         raw=doc,
         not_implemented=tuple(read_only),
         problems=tuple(r.problems),
+        others=others,
         **out,
     )

@@ -56,6 +56,7 @@ class SectionReader(ParamReader):
 
     strict = False
     distro = "jazzy"
+    tool = "Nav2"  # who reads the section, in the reports (a caller's reader of another node names that node)
 
     def prepare(self, value: Any, tp: Any, path: tuple) -> Any:
         """A list of names given as one string is split; a polygon given as a list is refused, or, in
@@ -84,7 +85,7 @@ class SectionReader(ParamReader):
 
     def refused(self, err: ParamError, value: Any, tp: Any, path: tuple) -> None:
         if err.mismatch:
-            self.add(ERROR, path, f"expected {describe(tp)}, got {value!r}; Nav2 would refuse it (default used)")
+            self.add(ERROR, path, f"expected {describe(tp)}, got {value!r}; {self.tool} would refuse it (default used)")
         else:
             self.add(ERROR, err.path, err.message)
 
@@ -95,6 +96,6 @@ class SectionReader(ParamReader):
         hint = suggest(key, known)
         what = "section" if is_section else "parameter"
         if hint:
-            self.add(ERROR, kpath, f"unknown {what} '{key}'{hint}; Nav2 would ignore it silently")
+            self.add(ERROR, kpath, f"unknown {what} '{key}'{hint}; {self.tool} would ignore it silently")
         else:
-            self.add(WARNING, kpath, f"unknown {what} '{key}': Nav2 does not declare it and ignores it")
+            self.add(WARNING, kpath, f"unknown {what} '{key}': {self.tool} does not declare it and ignores it")

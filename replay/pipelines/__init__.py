@@ -77,6 +77,13 @@ class PipelineSpec:
     world_map_key: ClassVar[str | None] = None
 
     @classmethod
+    def foreign_overrides(cls, params_file: Path) -> list[str] | None:
+        """For a pipeline whose ``--params`` is its own YAML: when ``params_file`` is instead a file of the
+        ROS tool it stands in for (the mapping pipeline's: slam_toolbox's parameter file), the ``KEY=VALUE``
+        overrides of its own YAML that file's values amount to; None when it is the pipeline's own YAML."""
+        return None
+
+    @classmethod
     def settle(cls, params: Any, reader: LogReader, log_to: dict[str, str]) -> Any:
         """Before replaying: the parameters with their ``auto`` values decided from the log's content
         (``log_to``: the remaps, log topic -> pipeline topic). By default they are taken as they are."""

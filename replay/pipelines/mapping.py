@@ -10,14 +10,18 @@ pose_graph.json its keyframes and edges.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 from navlog.errors import ConfigError
+from navlog.replay.config import load_yaml
 from navlog.replay.io.map_server import save_map
 from navlog.replay.io.tum import write_poses
 from navlog.replay.mapping.slam2d.params import DEFAULT_ODOM_FRAME, SlamParams
+from navlog.replay.mapping.slam2d.toolbox import TOOLBOX_NODE, read_slam_toolbox
+from navlog.replay.nav2 import load_nav2_params
 from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams, settle_lidar
 from navlog.replay.nodes.occupancy_mapper import DEFAULT_POSE_TOPICS, OccupancyMapperNode, OccupancyMapperParams
 from navlog.replay.pipelines import PipelineSpec, log_odometry, register
@@ -184,6 +188,10 @@ class Mapping(PipelineSpec):
     scored_by_metrics = True
 
     @classmethod
+    def foreign_overrides(cls, params_file: Path) -> list[str] | None:
+        return slam_toolbox_overrides(params_file)
+
+    @classmethod
     def settle(cls, params: Params, reader: Any, log_to: dict[str, str]) -> Params:
         return settle(params, reader, log_to)
 
@@ -194,6 +202,17 @@ class Mapping(PipelineSpec):
     @classmethod
     def map_resolution(cls, params: Params) -> float:
         return float(params.occupancy.grid.resolution)
+
+
+def slam_toolbox_overrides(path: Path) -> list[str] | None:
+    """The values of a slam_toolbox parameter file (its ``slam_toolbox: ros__parameters:`` block, alone or in
+    a Nav2 file) as ``KEY=VALUE`` overrides of this pipeline's YAML (``navlog.replay.mapping.slam2d.toolbox``);
+    None for a file without that block. Its errors raise one ConfigError listing each with its line."""
+    doc = load_yaml(path)
+    if not isinstance(doc, dict) or TOOLBOX_NODE not in doc:
+        return None
+    nav2 = load_nav2_params(path, readers={TOOLBOX_NODE: read_slam_toolbox}).require_valid((TOOLBOX_NODE,))
+    return [f"{key}={json.dumps(value)}" for key, value in nav2.others.get(TOOLBOX_NODE, {}).items()]
 
 
 def slam_node(params: Params) -> SlamNode:
