@@ -21,7 +21,6 @@ from navlog.replay.io.map_server import save_map
 from navlog.replay.io.tum import write_poses
 from navlog.replay.mapping.slam2d.params import DEFAULT_ODOM_FRAME, SlamParams
 from navlog.replay.mapping.slam2d.toolbox import TOOLBOX_NODE, read_slam_toolbox
-from navlog.replay.nav2 import load_nav2_params
 from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams, settle_lidar
 from navlog.replay.nodes.occupancy_mapper import DEFAULT_POSE_TOPICS, OccupancyMapperNode, OccupancyMapperParams
 from navlog.replay.pipelines import PipelineSpec, log_odometry, register
@@ -211,6 +210,8 @@ def slam_toolbox_overrides(path: Path) -> list[str] | None:
     doc = load_yaml(path)
     if not isinstance(doc, dict) or TOOLBOX_NODE not in doc:
         return None
+    from navlog.replay.nav2 import load_nav2_params  # (here: Nav2's readers load scipy, which mapping does not need)
+
     nav2 = load_nav2_params(path, readers={TOOLBOX_NODE: read_slam_toolbox}).require_valid((TOOLBOX_NODE,))
     return [f"{key}={json.dumps(value)}" for key, value in nav2.others.get(TOOLBOX_NODE, {}).items()]
 
