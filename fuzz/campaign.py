@@ -268,6 +268,7 @@ def load_seeds(folder: Path, shared: Path) -> Seeds:
             *(REPO / "tests/replay/nav2/data").glob("*.yaml"),
             *(REPO / "config/nav2").glob("*.yaml"),
             *(external / "params").glob("*.yaml"),
+            REPO / "tests/replay/mapping/data/mapper_params_online_async.yaml",  # a slam_toolbox block
         ]
     )
     descriptions = {
@@ -2083,9 +2084,12 @@ def call_case(built: Built, folder: Path, seeds: Seeds) -> str:
         recover_mcap(folder / a["log"], folder / "recovered.mcap")
         return read_all(folder / "recovered.mcap", recover=False)
     if built.call == "nav2":
+        from navlog.replay.mapping.slam2d.toolbox import TOOLBOX_NODE, read_slam_toolbox
         from navlog.replay.nav2.params import load_nav2_params
+        from navlog.replay.pipelines.mapping import slam_toolbox_overrides
 
-        load_nav2_params(folder / a["path"])
+        load_nav2_params(folder / a["path"], readers={TOOLBOX_NODE: read_slam_toolbox})
+        slam_toolbox_overrides(folder / a["path"])  # a slam_toolbox block as the mapping pipeline takes it
         return "OK"
     if built.call == "world":
         from navlog.recorder.world import load_world

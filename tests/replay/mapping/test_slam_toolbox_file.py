@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 import yaml
 
@@ -12,60 +14,9 @@ from navlog.replay.mapping.slam2d.params import SlamParams
 from navlog.replay.mapping.slam2d.toolbox import NOT_USED
 from navlog.replay.session import pipeline_params, run_replay
 
-# the keys and values of slam_toolbox's mapper_params_online_async.yaml (Rolling), as a user's copy holds them
-ONLINE_ASYNC = {
-    "solver_plugin": "solver_plugins::CeresSolver",
-    "ceres_linear_solver": "SPARSE_NORMAL_CHOLESKY",
-    "ceres_preconditioner": "SCHUR_JACOBI",
-    "ceres_trust_strategy": "LEVENBERG_MARQUARDT",
-    "ceres_dogleg_type": "TRADITIONAL_DOGLEG",
-    "ceres_loss_function": "None",
-    "odom_frame": "odom",
-    "map_frame": "map",
-    "base_frame": "base_footprint",
-    "scan_topic": "/scan",
-    "use_map_saver": True,
-    "mode": "mapping",
-    "debug_logging": False,
-    "throttle_scans": 1,
-    "transform_publish_period": 0.02,
-    "map_update_interval": 5.0,
-    "resolution": 0.05,
-    "max_laser_range": 20.0,
-    "minimum_time_interval": 0.5,
-    "transform_timeout": 0.2,
-    "tf_buffer_duration": 30.0,
-    "stack_size_to_use": 40000000,
-    "enable_interactive_mode": True,
-    "use_scan_matching": True,
-    "use_scan_barycenter": True,
-    "minimum_travel_distance": 0.5,
-    "minimum_travel_heading": 0.5,
-    "scan_buffer_size": 10,
-    "scan_buffer_maximum_scan_distance": 10.0,
-    "link_match_minimum_response_fine": 0.1,
-    "link_scan_maximum_distance": 1.5,
-    "loop_search_maximum_distance": 3.0,
-    "do_loop_closing": True,
-    "loop_match_minimum_chain_size": 10,
-    "loop_match_maximum_variance_coarse": 3.0,
-    "loop_match_minimum_response_coarse": 0.35,
-    "loop_match_minimum_response_fine": 0.45,
-    "correlation_search_space_dimension": 0.5,
-    "correlation_search_space_resolution": 0.01,
-    "correlation_search_space_smear_deviation": 0.1,
-    "loop_search_space_dimension": 8.0,
-    "loop_search_space_resolution": 0.05,
-    "loop_search_space_smear_deviation": 0.03,
-    "distance_variance_penalty": 0.5,
-    "angle_variance_penalty": 1.0,
-    "fine_search_angle_offset": 0.00349,
-    "coarse_search_angle_offset": 0.349,
-    "coarse_angle_resolution": 0.0349,
-    "minimum_angle_penalty": 0.9,
-    "minimum_distance_penalty": 0.5,
-    "use_response_expansion": True,
-}
+# slam_toolbox's mapper_params_online_async.yaml (Rolling), as a user's copy holds it
+ONLINE_ASYNC_FILE = Path(__file__).parent / "data" / "mapper_params_online_async.yaml"
+ONLINE_ASYNC = yaml.safe_load(ONLINE_ASYNC_FILE.read_text())["slam_toolbox"]["ros__parameters"]
 
 
 def _file(tmp_path, params: dict, name: str = "mapper_params_online_async.yaml", beside: dict | None = None):
