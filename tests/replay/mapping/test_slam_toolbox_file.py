@@ -49,7 +49,8 @@ def test_slam_toolbox_s_own_file_is_read_key_by_key_and_the_command_line_wins(tm
     noted = {
         line.split("slam_toolbox.ros__parameters.")[1].split(":")[0] for line in out.splitlines() if "note:" in line
     }
-    assert noted == {k for k in ONLINE_ASYNC if k in NOT_USED}
+    assert noted == {k for k in ONLINE_ASYNC if k in NOT_USED} | {"correlation_search_space_resolution"}
+    assert "correlation_search_space_resolution: taken: the searches cover 6.2 times the cells" in out
     assert "loop_match_maximum_variance_coarse: read, not used: slam_toolbox measures this variance otherwise" in out
 
 
