@@ -11,6 +11,7 @@ pose_graph.json its keyframes and edges.
 from __future__ import annotations
 
 import json
+import logging
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -29,6 +30,8 @@ from navlog.replay.runtime.pipeline import Pipeline
 
 if TYPE_CHECKING:
     from navlog.replay.nodes.slam import SlamNode
+
+logger = logging.getLogger("navlog")
 
 
 @dataclass(frozen=True)
@@ -221,4 +224,11 @@ def slam_node(params: Params) -> SlamNode:
     (imported here: gtsam loads only when SLAM runs)."""
     from navlog.replay.nodes.slam import SlamNode, slam_node_params
 
+    grid, default = params.slam.correlation_search_space_resolution, SlamParams.correlation_search_space_resolution
+    if grid < default:  # slam_toolbox's own default is 0.01 m
+        logger.warning(
+            f"slam.correlation_search_space_resolution {grid} m: the SLAM's searches cover {(default / grid) ** 2:.1f} "
+            f"times the cells of navlog's default {default} m, whose refinement finds the pose between cells "
+            f"(--set slam.correlation_search_space_resolution={default} for navlog's)"
+        )
     return SlamNode(slam_node_params(params.slam, params.occupancy))

@@ -12,6 +12,7 @@ from navlog.cli import main
 from navlog.errors import ConfigError
 from navlog.replay.mapping.slam2d.params import SlamParams
 from navlog.replay.mapping.slam2d.toolbox import NOT_USED
+from navlog.replay.pipelines.mapping import slam_node
 from navlog.replay.session import pipeline_params, run_replay
 
 # slam_toolbox's mapper_params_online_async.yaml (Rolling), as a user's copy holds it
@@ -25,11 +26,19 @@ def _file(tmp_path, params: dict, name: str = "mapper_params_online_async.yaml",
     return path
 
 
-def test_slam_toolbox_s_own_file_is_read_key_by_key_and_the_command_line_wins(tmp_path, capsys):
+def test_slam_toolbox_s_own_file_is_read_key_by_key_and_the_command_line_wins(tmp_path, capsys, caplog):
     mine = {**ONLINE_ASYNC, "resolution": 0.1, "max_laser_range": 12.0, "scan_topic": "/base_scan"}
     mine |= {"map_frame": "world", "odom_frame": "wheel_odom", "minimum_travel_distance": 0.3}
     path = _file(tmp_path, mine)
     p = pipeline_params("mapping", path, ["slam.minimum_travel_distance=0.4"])
+    # slam_toolbox's finer correlation grid is taken; the SLAM warns of it when it runs, not before
+    assert caplog.text == ""
+    slam_node(p)
+    assert "correlation_search_space_resolution 0.01 m: the SLAM's searches cover 6.2 times the cells" in caplog.text
+    assert "--set slam.correlation_search_space_resolution=0.025 for navlog's" in caplog.text
+    caplog.clear()
+    slam_node(pipeline_params("mapping", path, ["slam.correlation_search_space_resolution=0.025"]))
+    assert caplog.text == ""
     assert (p.slam.resolution, p.slam.max_laser_range, p.slam.odom_frame) == (0.1, 12.0, "wheel_odom")
     assert p.slam.correlation_search_space_resolution == 0.01  # slam_toolbox's own value, taken as it means the same
     assert p.slam.minimum_travel_distance == 0.4  # --set over the file
@@ -54,10 +63,11 @@ def test_slam_toolbox_s_own_file_is_read_key_by_key_and_the_command_line_wins(tm
     assert "loop_match_maximum_variance_coarse: read, not used: slam_toolbox measures this variance otherwise" in out
 
 
-def test_a_slam_toolbox_block_beside_nav2_s_nodes_is_read_and_nav2_s_left_to_their_pipelines(tmp_path):
+def test_a_slam_toolbox_block_beside_nav2_s_nodes_is_read_and_nav2_s_left_to_their_pipelines(tmp_path, caplog):
     beside = {"amcl": {"ros__parameters": {"max_particles": "many"}}}  # an error the mapping pipeline never reads
     path = _file(tmp_path, {"resolution": 0.1}, "nav2_params.yaml", beside=beside)
     assert pipeline_params("mapping", path).slam.resolution == 0.1
+    assert caplog.text == ""  # navlog's own correlation grid: nothing to warn of
 
 
 def test_a_mapping_yaml_of_navlog_s_own_is_still_read_as_one(tmp_path):
