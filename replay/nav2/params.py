@@ -182,8 +182,9 @@ class Nav2Params:
         return [p for p in self.problems if p.severity == WARNING]
 
     def _tools(self, problems: Sequence[Problem]) -> list[str]:
-        """Whose parameters each problem is in: Nav2's, or a node a caller's reader read (``others``)."""
-        return [p.path.split(".", 1)[0] if p.path.split(".", 1)[0] in self.others else "Nav2" for p in problems]
+        """Whose parameters the problems are in, each named once: Nav2's, or a node a caller's reader read (``others``)."""
+        nodes = (p.path.split(".", 1)[0] for p in problems)
+        return list(dict.fromkeys(node if node in self.others else "Nav2" for node in nodes))
 
     def require_valid(self, prefixes: Sequence[str] = ()) -> Nav2Params:
         """Raise one ConfigError listing every error (under ``prefixes`` if given)."""
@@ -191,7 +192,7 @@ class Nav2Params:
         if errors:
             lines = "\n  ".join(p.format(self.source) for p in errors)
             raise ConfigError(
-                f"{self.source}: {len(errors)} error(s) in the {' and '.join(dict.fromkeys(self._tools(errors)))} "
+                f"{self.source}: {len(errors)} error(s) in the {' and '.join(self._tools(errors))} "
                 "parameters "
                 f"(run `navlog check-config {self.source}`):\n  {lines}"
             )

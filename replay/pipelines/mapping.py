@@ -20,7 +20,7 @@ from navlog.errors import ConfigError
 from navlog.replay.config import load_yaml
 from navlog.replay.io.map_server import save_map
 from navlog.replay.io.tum import write_poses
-from navlog.replay.mapping.slam2d.params import DEFAULT_ODOM_FRAME, SlamParams
+from navlog.replay.mapping.slam2d.params import DEFAULT_ODOM_FRAME, SlamParams, finer_grid_cost
 from navlog.replay.mapping.slam2d.toolbox import TOOLBOX_NODE, read_slam_toolbox
 from navlog.replay.nodes.lidar_mapper import LidarMapperNode, LidarMapperParams, settle_lidar
 from navlog.replay.nodes.occupancy_mapper import DEFAULT_POSE_TOPICS, OccupancyMapperNode, OccupancyMapperParams
@@ -224,11 +224,12 @@ def slam_node(params: Params) -> SlamNode:
     (imported here: gtsam loads only when SLAM runs)."""
     from navlog.replay.nodes.slam import SlamNode, slam_node_params
 
-    grid, default = params.slam.correlation_search_space_resolution, SlamParams.correlation_search_space_resolution
-    if grid < default:  # slam_toolbox's own default is 0.01 m
+    grid = params.slam.correlation_search_space_resolution
+    cost = finer_grid_cost(grid)
+    if cost:
+        default = SlamParams.correlation_search_space_resolution
         logger.warning(
-            f"slam.correlation_search_space_resolution {grid} m: the SLAM's searches cover {(default / grid) ** 2:.1f} "
-            f"times the cells of navlog's default {default} m, whose refinement finds the pose between cells "
+            f"slam.correlation_search_space_resolution {grid} m: {cost} "
             f"(--set slam.correlation_search_space_resolution={default} for navlog's)"
         )
     return SlamNode(slam_node_params(params.slam, params.occupancy))

@@ -25,6 +25,18 @@ MAX_SEARCH_CELLS = 800
 DEFAULT_ODOM_FRAME = "odom"
 
 
+def finer_grid_cost(resolution: float) -> str | None:
+    """What a correlation grid finer than navlog's default costs, said once for the check and the run (slam_toolbox's
+    own default, 0.01 m, is one); None for the default or coarser."""
+    default = SlamParams.correlation_search_space_resolution
+    if not 0 < resolution < default:
+        return None
+    return (
+        f"the SLAM's searches cover {(default / resolution) ** 2:.1f} times the cells of navlog's default {default} m, "
+        "whose refinement finds the pose between cells"
+    )
+
+
 @dataclass(frozen=True)
 class SlamParams:
     resolution: float = 0.05  # of the published occupancy grid

@@ -21,7 +21,7 @@ import math
 from typing import Any
 
 from navlog.replay.config import ERROR, NOTE, ParamReader
-from navlog.replay.mapping.slam2d.params import SlamParams
+from navlog.replay.mapping.slam2d.params import SlamParams, finer_grid_cost
 
 TOOLBOX_NODE = "slam_toolbox"
 
@@ -123,14 +123,10 @@ def read_slam_toolbox(r: ParamReader, params: dict, path: tuple) -> dict[str, An
         name, kpath = str(key), path + (key,)
         if name in _SLAM_KEYS:
             slam[name] = value
-            grid = SlamParams.correlation_search_space_resolution
-            if name == "correlation_search_space_resolution" and isinstance(value, (int, float)) and 0 < value < grid:
-                r.add(
-                    NOTE,
-                    kpath,
-                    f"taken: the searches cover {(grid / value) ** 2:.1f} times the cells of navlog's default {grid} m, "
-                    "whose refinement finds the pose between cells (see the SLAM guide for what it costs)",
-                )
+            grid = name == "correlation_search_space_resolution" and isinstance(value, (int, float))
+            cost = finer_grid_cost(value) if grid else None
+            if cost:
+                r.add(NOTE, kpath, f"taken: {cost} (see the SLAM guide for what it costs)")
         elif name in OCCUPANCY_KEYS:
             timeout = name == "transform_timeout"
             ok, out = r.convert(value, float if timeout else str, kpath, {"ge": 0.0} if timeout else None)

@@ -59,7 +59,7 @@ def test_slam_toolbox_s_own_file_is_read_key_by_key_and_the_command_line_wins(tm
         line.split("slam_toolbox.ros__parameters.")[1].split(":")[0] for line in out.splitlines() if "note:" in line
     }
     assert noted == {k for k in ONLINE_ASYNC if k in NOT_USED} | {"correlation_search_space_resolution"}
-    assert "correlation_search_space_resolution: taken: the searches cover 6.2 times the cells" in out
+    assert "correlation_search_space_resolution: taken: the SLAM's searches cover 6.2 times the cells" in out
     assert "loop_match_maximum_variance_coarse: read, not used: slam_toolbox measures this variance otherwise" in out
 
 
@@ -104,6 +104,9 @@ def test_bad_keys_and_values_are_named_with_their_lines_and_nothing_runs(tmp_pat
     )
     assert "7 error(s)" in out
     with pytest.raises(ConfigError, match=r"7 error\(s\) in the slam_toolbox parameters \(run `navlog check-config"):
+        pipeline_params("mapping", path)
+    path.write_text("slam_toolbox:\n  ros__parameters:\n    correlation_search_space_resolution: fast\n")
+    with pytest.raises(ConfigError, match="correlation_search_space_resolution: expected a number, got 'fast'"):
         pipeline_params("mapping", path)
     path.write_text("slam_toolbox:\n  ros_parameters:\n    resolution: 0.1\n")
     with pytest.raises(ConfigError, match="'ros_parameters' should be 'ros__parameters' \\(two underscores\\)"):
