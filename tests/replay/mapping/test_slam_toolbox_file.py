@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import pytest
@@ -30,6 +31,7 @@ def test_slam_toolbox_s_own_file_is_read_key_by_key_and_the_command_line_wins(tm
     mine = {**ONLINE_ASYNC, "resolution": 0.1, "max_laser_range": 12.0, "scan_topic": "/base_scan"}
     mine |= {"map_frame": "world", "odom_frame": "wheel_odom", "minimum_travel_distance": 0.3}
     path = _file(tmp_path, mine)
+    caplog.set_level(logging.WARNING, logger="navlog")  # whatever level an earlier `navlog -q` left the root at
     p = pipeline_params("mapping", path, ["slam.minimum_travel_distance=0.4"])
     # slam_toolbox's finer correlation grid is taken; the SLAM warns of it when it runs, not before
     assert caplog.text == ""
@@ -66,6 +68,7 @@ def test_slam_toolbox_s_own_file_is_read_key_by_key_and_the_command_line_wins(tm
 def test_a_slam_toolbox_block_beside_nav2_s_nodes_is_read_and_nav2_s_left_to_their_pipelines(tmp_path, caplog):
     beside = {"amcl": {"ros__parameters": {"max_particles": "many"}}}  # an error the mapping pipeline never reads
     path = _file(tmp_path, {"resolution": 0.1}, "nav2_params.yaml", beside=beside)
+    caplog.set_level(logging.WARNING, logger="navlog")
     assert pipeline_params("mapping", path).slam.resolution == 0.1
     assert caplog.text == ""  # navlog's own correlation grid: nothing to warn of
 
