@@ -171,6 +171,8 @@ class Nav2Params:
     not_implemented: tuple[str, ...] = ()  # node blocks read but not implemented
     # node -> what the caller's reader of that node made of its block (``parse_nav2_params``'s ``readers``)
     others: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    # the nodes of the file a caller's reader was given, whether or not their block could be read
+    foreign: tuple[str, ...] = ()
     problems: tuple[Problem, ...] = ()
 
     @property
@@ -182,9 +184,9 @@ class Nav2Params:
         return [p for p in self.problems if p.severity == WARNING]
 
     def _tools(self, problems: Sequence[Problem]) -> list[str]:
-        """Whose parameters the problems are in, each named once: Nav2's, or a node a caller's reader read (``others``)."""
+        """Whose parameters the problems are in, each named once: Nav2's, or a node given to a caller's reader."""
         nodes = (p.path.split(".", 1)[0] for p in problems)
-        return list(dict.fromkeys(node if node in self.others else "Nav2" for node in nodes))
+        return list(dict.fromkeys(node if node in self.foreign else "Nav2" for node in nodes))
 
     def require_valid(self, prefixes: Sequence[str] = ()) -> Nav2Params:
         """Raise one ConfigError listing every error (under ``prefixes`` if given)."""
@@ -330,11 +332,13 @@ def parse_nav2_params(
         raise ConfigError(f"{source}: a Nav2 parameter file is a mapping of node names, got {type(doc).__name__}")
     out: dict[str, Any] = {}
     others: dict[str, Any] = {}
+    foreign: list[str] = []
     read_only: list[str] = []
     for node, block in doc.items():
         node = str(node)
         path = (node,)
         if readers and node in readers:
+            foreign.append(node)
             params = _ros_params(r, block, path)
             if params is not None:
                 r.tool = node
@@ -388,5 +392,6 @@ def parse_nav2_params(
         not_implemented=tuple(read_only),
         problems=tuple(r.problems),
         others=others,
+        foreign=tuple(foreign),
         **out,
     )

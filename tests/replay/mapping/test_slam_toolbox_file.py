@@ -111,9 +111,15 @@ def test_bad_keys_and_values_are_named_with_their_lines_and_nothing_runs(tmp_pat
     path.write_text("slam_toolbox:\n  ros__parameters:\n    correlation_search_space_resolution: fast\n")
     with pytest.raises(ConfigError, match="correlation_search_space_resolution: expected a number, got 'fast'"):
         pipeline_params("mapping", path)
+    # a block that is not one is slam_toolbox's error, not Nav2's
     path.write_text("slam_toolbox:\n  ros_parameters:\n    resolution: 0.1\n")
-    with pytest.raises(ConfigError, match="'ros_parameters' should be 'ros__parameters' \\(two underscores\\)"):
+    with pytest.raises(ConfigError, match="error\\(s\\) in the slam_toolbox parameters") as raised:
         pipeline_params("mapping", path)
+    assert "'ros_parameters' should be 'ros__parameters' (two underscores)" in str(raised.value)
+    path.write_text("slam_toolbox: 3\n")
+    with pytest.raises(ConfigError, match="1 error\\(s\\) in the slam_toolbox parameters") as raised:
+        pipeline_params("mapping", path)
+    assert f"{path}:1: error: slam_toolbox: expected a mapping with 'ros__parameters', got 3" in str(raised.value)
 
 
 @pytest.mark.slow
