@@ -53,6 +53,9 @@ class SlamParams:
     # the last matched one. Off: every scan between keyframes follows the odometry from its keyframe
     match_between_keyframes: bool = True
     minimum_time_interval: float = 0.5  # s: scans between keyframes are matched at most this often
+    # only every this-many-th scan of the log (and the first) may become a keyframe or be matched; the others
+    # follow the odometry from the last one that was (slam_toolbox's name and meaning)
+    throttle_scans: int = param(1, ge=1)
     link_match_minimum_response_fine: float = 0.1  # below it a sequential match is not trusted (odometry used)
     correlation_search_space_dimension: float = 0.5  # side of the square searched around the prediction
     correlation_search_space_resolution: float = 0.025  # cell of the correlation grid (slam_toolbox: 0.01)
@@ -159,8 +162,9 @@ class SlamParams:
             )
         if self.loop_kernel not in ("huber", "cauchy", "none"):
             raise ValueError(f"loop_kernel must be huber, cauchy or none, got {self.loop_kernel!r}")
-        if self.scan_buffer_size < 1 or self.loop_match_minimum_chain_size < 1:
-            raise ValueError("scan_buffer_size and loop_match_minimum_chain_size must be at least 1")
+        for name in ("scan_buffer_size", "loop_match_minimum_chain_size", "throttle_scans"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be at least 1, got {getattr(self, name)}")
         wider = {
             "correlation_search_space_dimension": "a coarser correlation_search_space_resolution",
             "loop_search_space_dimension": "loop_search_maximum_dimension instead (searched on a coarser grid)",

@@ -297,7 +297,9 @@ class Slam2D:
         self.counts.scans += 1
         odom = _pose2(odom_pose)
         prediction = self._predict(odom)
-        keyframe = not self.keyframes or self._travelled(odom)
+        # throttle_scans: a scan it passes over is placed like a scan between keyframes that no match is due for
+        processed = not self.keyframes or self.counts.scans % self.p.throttle_scans == 0
+        keyframe = not self.keyframes or (processed and self._travelled(odom))
         valid = scan.valid(self.p.max_laser_range)
         points = None
         if not valid.any():
@@ -305,7 +307,7 @@ class Slam2D:
             if not self.keyframes:
                 return None
             keyframe = False
-        elif keyframe or self._match_due(stamp):
+        elif keyframe or (processed and self._match_due(stamp)):
             points = scan.points(self.p.max_laser_range, valid)
             if len(points) > MAX_MATCH_POINTS:
                 points = points[np.linspace(0, len(points) - 1, MAX_MATCH_POINTS).astype(np.int64)]

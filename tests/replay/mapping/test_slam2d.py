@@ -970,6 +970,19 @@ def test_scans_between_keyframes_are_matched_at_most_once_per_minimum_time_inter
     assert 0.005 < err.max() < 0.06  # five steps of 0.01 rad extra turn, and the match's own error
 
 
+def test_throttle_scans_processes_every_nth_scan_and_the_rest_follow_the_odometry(scene):
+    # slam_toolbox's throttle_scans 3: of 126 scans the 1st and every 3rd (1-based) may be keyframes or be matched
+    slam, truth = turn_on_the_spot(scene, 1_000_000_000, SlamParams(do_loop_closing=False, throttle_scans=3))
+    counts = [k.stamp // 1_000_000_000 + 1 for k in slam.keyframes]
+    assert counts[0] == 1 and all(c % 3 == 0 for c in counts[1:]) and len(counts) == 14
+    assert slam.counts.matched_between == 126 // 3 - (len(counts) - 1)
+    # a scan passed over carries the odometry's 0.01 rad extra turn a step since the last processed one
+    err = yaw_errors(slam, truth)
+    assert err[2::3].max() < 0.01 < err.max() < 0.03
+    with pytest.raises(ValueError, match="throttle_scans must be at least 1, got 0"):
+        SlamParams(throttle_scans=0)
+
+
 def test_a_scan_of_more_beams_than_the_match_takes_is_thinned_and_still_placed(scene, monkeypatch):
     from navlog.replay.mapping.slam2d import slam as slam_module
 
