@@ -28,7 +28,7 @@ from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import MAX_LOG_TIME_JUMP_NS, LogReader
 from navlog.replay.pipelines import pipeline_spec
-from navlog.replay.runtime.executor import Envelope, Executor
+from navlog.replay.runtime.executor import Envelope, Executor, Published
 from navlog.replay.runtime.heap import HeapTrim, steady_heap
 from navlog.replay.runtime.pipeline import Pipeline
 from navlog.replay.runtime.progress import Progress, format_table
@@ -92,15 +92,16 @@ _UNSET = object()
 
 
 class _OutputSink:
-    """Writes the pipeline's output topics (only) to the replay log; the types with a fast CDR encoder
-    (``cdr_decode.encoder``: Twist) are serialized by it, the same bytes."""
+    """Writes the pipeline's output topics (only) to the replay log, and on its ``published`` topics the messages
+    its nodes published (not the log's); the types with a fast CDR encoder (``cdr_decode.encoder``: Twist) are
+    serialized by it, the same bytes."""
 
-    def __init__(self, writer: McapLogWriter, topics: set[str]) -> None:
-        self.writer, self.topics = writer, topics
+    def __init__(self, writer: McapLogWriter, topics: set[str], published: set[str] = frozenset()) -> None:
+        self.writer, self.topics, self.published = writer, topics, published
         self._encoders: dict[str, Any] = {}  # type name -> its fast encoder or None
 
     def write(self, env: Envelope) -> None:
-        if env.topic not in self.topics:
+        if env.topic not in self.topics and not (env.topic in self.published and isinstance(env, Published)):
             return
         encode = self._encoders.get(env.typename, _UNSET)
         if encode is _UNSET:
@@ -303,7 +304,7 @@ def _run(
             background=True,  # serialising, compressing and writing on the second core (the same bytes)
         ) as writer,
     ):
-        ex.add_sink(_OutputSink(writer, set(pipe.outputs)))
+        ex.add_sink(_OutputSink(writer, set(pipe.outputs), set(pipe.published_outputs)))
         chunk = 1_000_000_000
         t = t0
         trim = HeapTrim()  # the resident size follows what is in use (navlog.replay.runtime.heap)

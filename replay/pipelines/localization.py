@@ -17,8 +17,8 @@ when ``set_initial_pose`` is true, else ground truth when the log has it, else /
 filter's random numbers come from ``seed`` (``numpy.random.SeedSequence``): the same log, map,
 parameters and seed give the same bytes.
 
-Outputs: /amcl_pose and /particle_cloud in replay.mcap (map -> odom goes on /tf to the other
-nodes but is not recorded, since the log's /tf would be recorded beside it); trajectory.tum (the
+Outputs: /amcl_pose, /particle_cloud and AMCL's map -> odom on /tf in replay.mcap (the log's own /tf is not
+recorded again); trajectory.tum (the
 pose of ``trajectory_frame`` in the map frame at every scan, as AMCL's TF gives it) and
 localization.json (updates, resamples, particles, the first update's and the last estimate).
 """
@@ -127,7 +127,7 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
         "nav2_params": source,
         "map": params.map,
         "motion_model": amcl.robot_model_type,
-        "map_to_odom": "the log's map -> odom is ignored; AMCL's goes on /tf (not recorded)",
+        "map_to_odom": "the log's map -> odom is ignored; AMCL's goes on /tf (recorded)",
     }
     return LocalizationRun(params, amcl, source, mode, node, inputs, optional, info)
 
@@ -146,7 +146,15 @@ class LocalizationRun(Pipeline):
         optional: list[str],
         info: dict[str, str],
     ) -> None:
-        super().__init__("localization", [node], inputs, optional, ["/amcl_pose", "/particle_cloud"], info=info)
+        super().__init__(
+            "localization",
+            [node],
+            inputs,
+            optional,
+            ["/amcl_pose", "/particle_cloud"],
+            published_outputs=["/tf"],
+            info=info,
+        )
         self.params, self.amcl, self.source, self.mode, self.node = params, amcl, source, mode, node
 
     def report(self) -> dict[str, Any]:

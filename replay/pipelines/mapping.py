@@ -4,8 +4,8 @@
 Outputs: /map (OccupancyGrid), /Odometry, /cloud_registered (throttled) and /lidar_mapper/path in
 replay.mcap; map.yaml + map.pgm (map_server), map.pcd (binary float32), trajectory.tum.
 With ``pose_source: slam`` (what ``auto`` picks on a log without ground truth) the 2D map comes from
-the SLAM node (``navlog.replay.nodes.slam``): trajectory.tum is then its pose at every scan, and
-pose_graph.json its keyframes and edges.
+the SLAM node (``navlog.replay.nodes.slam``): trajectory.tum is then its pose at every scan,
+pose_graph.json its keyframes and edges, and replay.mcap's /tf its map -> odom at every scan it placed.
 """
 
 from __future__ import annotations
@@ -137,7 +137,9 @@ class MappingRun(Pipeline):
         outputs: list[str],
         info: dict[str, str],
     ) -> None:
-        super().__init__("mapping", nodes, inputs, optional, outputs, info=info)
+        # the SLAM's map -> odom goes on the log's /tf: recorded, the log's own transforms not again
+        published = ["/tf"] if slam is not None else []
+        super().__init__("mapping", nodes, inputs, optional, outputs, published_outputs=published, info=info)
         self.params, self.source = params, source
         self.occ, self.lidar, self.slam, self.occupancy_on = occ, lidar, slam, occupancy_on
 

@@ -49,6 +49,13 @@ class Envelope:
         d["topic"], d["typename"], d["time_ns"], d["msg"] = topic, typename, time_ns, msg
 
 
+class Published(Envelope):
+    """A message a node published (``Node.publish``, ``Node.defer``), not one read from a log: a sink that records
+    a topic carrying both (the nodes' map -> odom on a log's /tf) tells them apart by this class."""
+
+    __slots__ = ()
+
+
 class Deferred:
     """A node's outputs of one instant, filled later (on any thread) and written to the sinks in the
     place ``Node.defer`` took for them (see the module docstring)."""
@@ -123,7 +130,7 @@ class Node:
         self.executor.subscribe(topic, callback, types, light=light)
 
     def publish(self, topic: str, typename: str, msg: Any) -> None:
-        self.executor.publish(Envelope(topic, typename, self.executor.now, msg), self.rank)
+        self.executor.publish(Published(topic, typename, self.executor.now, msg), self.rank)
 
     def publish_cdr(self, topic: str, typename: str, data: bytes) -> None:
         """Publish a message given as its CDR bytes: the bytes when only sinks see ``topic``, the message
@@ -283,7 +290,7 @@ class Executor:
         """A message, or a closed ``Deferred``'s messages at its time, to every sink."""
         if isinstance(item, Deferred):
             published = self.stats.published
-            envs = [Envelope(topic, typename, item.time_ns, msg) for topic, typename, msg in item.outputs]
+            envs = [Published(topic, typename, item.time_ns, msg) for topic, typename, msg in item.outputs]
             for env in envs:
                 published[env.topic] = published.get(env.topic, 0) + 1
         else:

@@ -25,6 +25,8 @@ class Pipeline:
     - ``inputs``: topics that must be in the log; ``optional_inputs``: read when present;
     - ``outputs``: topics recorded into replay.mcap (never also read: a topic the pipeline regenerates
       is not streamed from the log, or the nodes would see each message twice);
+    - ``published_outputs``: topics read from the log that the nodes publish on too (the SLAM's map -> odom
+      on /tf): only the nodes' messages on them are recorded, not the log's own again;
     - ``info``: facts the pipeline decided from the log (e.g. the pose source it chose), for the manifest;
     - ``commands``: for a pipeline that filters velocity commands, (the topic it takes them on, the
       topic it gives them on): run live, the scenario publishes on the first and the robot drives on
@@ -39,6 +41,7 @@ class Pipeline:
         optional_inputs: Sequence[str] = (),
         outputs: Sequence[str] = (),
         *,
+        published_outputs: Sequence[str] = (),
         info: dict[str, str] | None = None,
         commands: tuple[str, str] | None = None,
     ) -> None:
@@ -47,6 +50,7 @@ class Pipeline:
         self.inputs = list(inputs)
         self.optional_inputs = list(optional_inputs)
         self.outputs = list(outputs)
+        self.published_outputs = list(published_outputs)
         self.info = info if info is not None else {}
         self.commands = commands
         both = sorted(set(self.inputs + self.optional_inputs) & set(self.outputs))

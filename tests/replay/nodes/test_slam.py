@@ -77,12 +77,41 @@ def test_slam_maps_the_unlocalised_log_within_centimetres(unlocalised_log, tmp_p
         assert again.manifest["outputs"][name]["sha256"] == out["sha256"], name
 
 
+def recorded_transforms(out) -> list[tuple[str, str]]:
+    """(parent, child) of every transform on /tf in a replay's replay.mcap."""
+    with open_log(out / "replay.mcap") as reader:
+        return [
+            (ts.header.frame_id, ts.child_frame_id) for env in reader.messages(["/tf"]) for ts in env.msg.transforms
+        ]
+
+
+def placed_scans(out) -> int:
+    """The scans a SLAM replay placed: the poses of its trajectory.tum."""
+    return sum(not line.startswith("#") for line in (out / "trajectory.tum").read_text().splitlines())
+
+
 def test_a_logged_map_to_odom_is_ignored_and_counted(teleop_log, tmp_path):
     res = run_replay(
         teleop_log, "mapping", tmp_path / "out", overrides=["pose_source=slam", "lidar_mapper=off"], progress=False
     )
     assert res.manifest["skipped"][ODOM_PARENTS_FROM_LOG] > 100
     assert compute_metrics(teleop_log, tmp_path / "out")["trajectory"]["ate"]["translation_m"]["rmse"] < 0.03
+    # replay.mcap's /tf holds the SLAM's map -> odom, one for every scan placed, and none of the log's transforms
+    assert recorded_transforms(tmp_path / "out") == [("map", "odom")] * placed_scans(tmp_path / "out")
+
+
+def test_the_view_of_a_slam_replay_places_the_map_by_the_slam_s_map_to_odom(unlocalised_log, tmp_path, capsys):
+    from navlog.cli import main
+
+    out = tmp_path / "slam"
+    run_replay(unlocalised_log, "mapping", out, overrides=["pose_source=slam", "lidar_mapper=off"], progress=False)
+    assert len(recorded_transforms(out)) == placed_scans(out)
+    capsys.readouterr()
+    assert main(["view", str(unlocalised_log), "--replay", str(out), "--save", str(tmp_path / "v.rrd")]) == 0
+    err = capsys.readouterr()
+    # the log has no map frame of its own: the replay's map -> odom links the map to the robot's odometry
+    assert "in frame map" in err.out + err.err
+    assert "without a TF path" not in err.out + err.err
 
 
 def test_odometry_jumps_and_unplaced_stretches_are_named_in_the_skipped_inputs():

@@ -58,6 +58,9 @@ def test_amcl_on_the_true_map_tracks_ground_truth_within_5_cm(teleop_log, room_m
     with open_log(res.out_dir / "replay.mcap") as out:
         assert out.topics["/amcl_pose"].count == report["filter_updates"]
         assert out.topics["/particle_cloud"].count == report["filter_updates"]
+        # AMCL's map -> odom, not the log's perfect localiser's (filtered out above, and not recorded again)
+        transforms = [(ts.header.frame_id, ts.child_frame_id) for e in out.messages(["/tf"]) for ts in e.msg.transforms]
+        assert transforms == [("map", "odom")] * len(traj)  # one at every scan
     again = run_replay(teleop_log, "localization", tmp_path / "b", overrides=overrides, progress=False)
     assert again.manifest["outputs"] == m["outputs"]  # same seed, same bytes
     other = run_replay(teleop_log, "localization", tmp_path / "c", overrides=[*overrides, "seed=1"], progress=False)

@@ -68,6 +68,31 @@ def test_outputs_never_overtake_inputs_and_ties_keep_publication_order():
     ]
 
 
+def test_a_sink_tells_what_nodes_published_from_what_a_source_delivered():
+    from navlog.replay.runtime.executor import Published
+
+    written: list = []
+    ex = Executor()
+
+    class Echo(Node):
+        def setup(self):
+            self.subscribe("/in", self._on)
+
+        def _on(self, m, t):
+            self.publish("/tf", "x", m * 10)
+            slot = self.defer()  # a deferred output is the node's too
+            slot.publish("/tf", "x", m * 100)
+            slot.close()
+
+    ex.add_source([Envelope("/in", "x", 5, 1), Envelope("/tf", "x", 7, 2)])
+    ex.add_node(Echo())
+    ex.add_sink(
+        type("Sink", (), {"write": lambda self, e: written.append((e.topic, e.msg, isinstance(e, Published)))})()
+    )
+    ex.run()
+    assert written == [("/in", 1, False), ("/tf", 10, True), ("/tf", 100, True), ("/tf", 2, False)]
+
+
 def test_source_is_streamed_not_loaded():
     pulled = []
 
