@@ -25,7 +25,7 @@ COLORS = {
     "estimate": (86, 180, 233),  # sky blue: the robot's own odometry
     "estimate2": (0, 114, 178),  # blue: a mapper's or localiser's estimate (/Odometry, a replay's poses)
     "replay": (0, 114, 178),
-    "replay_file": (255, 255, 255),  # white, thin: the same estimate as saved to trajectory.tum
+    "replay_file": (255, 255, 255),  # white, thin: trajectory.tum over the replay's estimate it saves
     "plan": (204, 121, 167),  # reddish purple
     "local_plan": (213, 94, 0),  # vermillion
     "goal": (255, 255, 255),

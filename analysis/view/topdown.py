@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from navlog.analysis.view.context import COLORS, ViewContext, entity_name, trajectory_role
+from navlog.analysis.view.context import COLORS, ViewContext, entity_name
 from navlog.analysis.view.grids import Grids, crop_known, grid_gray
 from navlog.analysis.view.plans import Plans
 from navlog.analysis.view.scans import Scans
@@ -126,9 +126,8 @@ def send_top(
         if ts:
             scans2d[topic] = (ts, pts)
     trajs2d = {}
-    replay_estimates = [k for k in trajectories.topics if trajectory_role(k) == "replay"]
     for topic, o in sorted(trajectories.topics.items()):
-        if not o.t or (trajectory_role(topic) == "replay_file" and replay_estimates):
+        if not o.t or trajectories.role(topic) == "replay_file":
             continue  # the file copy of an estimate drawn from the replay's own topic
         m = tf.to_fixed(o.frame, None)  # the latest transform of the odometry frame
         if m is None:
@@ -214,7 +213,7 @@ def send_top(
             e,
             rr.LineStrips2D(
                 [canvas.to_px(xy)],
-                colors=[COLORS[trajectory_role(topic)]],
+                colors=[COLORS[trajectories.role(topic)]],
                 radii=rr.Radius.ui_points(1.0),
                 draw_order=3.0,
             ),

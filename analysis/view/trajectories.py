@@ -53,15 +53,23 @@ class Trajectories:
         o.q.append((q.x, q.y, q.z, q.w))
         o.speed.append(math.hypot(lin.x, lin.y))
 
+    def role(self, topic: str) -> str:
+        """The colour role of a drawn trajectory (``trajectory_role``): trajectory.tum is the white copy
+        (``replay_file``) of the replay's estimate topic when the replay has one; alone (a SLAM's poses) it is
+        the replay's estimate."""
+        role = trajectory_role(topic)
+        if role == "replay_file" and not any(trajectory_role(k) == "replay" for k in self.topics):
+            return "replay"
+        return role
+
     def send(self) -> None:
         ctx, rr = self.ctx, self.ctx.rr
-        replay_estimates = [k for k in self.topics if trajectory_role(k) == "replay"]
         for topic, o in sorted(self.topics.items()):
             if not o.t:
                 continue
-            role = trajectory_role(topic)
+            role = self.role(topic)
             color = COLORS[role]
-            copy = role == "replay_file" and bool(replay_estimates)
+            copy = role == "replay_file"  # drawn thin over the estimate it copies
             base = f"trajectories/{entity_name(topic)}"
             xyz = np.asarray(o.xyz, dtype=np.float32)
             line = ctx.entity(f"{base}/path")

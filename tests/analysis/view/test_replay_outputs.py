@@ -50,7 +50,28 @@ def test_replay_output_folder_is_drawn(sample_log, tmp_path):
     assert np.allclose(pts, [[0, 0, 0], [1, 0, 0], [0, 1, 0.5]])
     ((_, strips),) = column(data, "/trajectories/replay/trajectory_tum/path", "LineStrips3D:strips", static=True)
     assert np.allclose(np.asarray(strips[0])[:, 0], [0, 0.5, 1.0, 1.5, 2.0])
+    # white and thin over the replay's /Odometry it copies
+    assert tum_path_style(data) == (WHITE, 0.005)
+    assert "/top/trajectories/replay/trajectory_tum" not in data  # the top-down view draws the estimate once
     # the 2D view now uses the replayed map: 60 x 40 cells at 0.1 m, the occupied row 10 from the bottom
     ((_, buf),) = column(data, "/top/grid", "Image:buffer", static=True)
     img = np.asarray(buf, np.uint8).reshape(40, 60)
     assert (img[40 - 1 - 10] == 0).all() and (img[0] == 254).all()
+    # without an estimate topic in replay.mcap (a SLAM replay's): the replay's estimate, blue, not white on the map
+    (out / "replay.mcap").unlink()
+    assert main(["-q", "view", str(sample_log), "--replay", str(out), "--save", str(rrd), "--force"]) == 0
+    data = read_rrd(rrd)
+    assert tum_path_style(data) == (BLUE, 0.01)
+    ((_, colours),) = column(data, "/top/trajectories/replay/trajectory_tum", "LineStrips2D:colors", static=True)
+    assert int(colours[0]) == BLUE  # and in the top-down view, where white would vanish on the map's free cells
+
+
+WHITE, BLUE = 0xFFFFFFFF, 0x0072B2FF  # RGBA
+
+
+def tum_path_style(data: dict) -> tuple[int, float]:
+    """The colour and radius trajectory.tum's path is drawn with."""
+    entity = "/trajectories/replay/trajectory_tum/path"
+    ((_, colours),) = column(data, entity, "LineStrips3D:colors", static=True)
+    ((_, radii),) = column(data, entity, "LineStrips3D:radii", static=True)
+    return int(colours[0]), round(float(radii[0]), 6)
