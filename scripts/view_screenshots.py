@@ -3,8 +3,10 @@
 Renders the default blueprint of a mapping log (a `navlog demo` folder: the 138 s Go2 tour of
 indoor_room and its mapping replay), a navigation log (`navlog record --scenario nav_tour`: Nav2's
 plan, local plan, footprint, goals, both costmaps, the velocity chain and the navigator's events), a safety log (Nav2's velocity smoother and collision monitor
-stopping a robot before a box), a real robot's bag without ground truth (neato_drive_square) and a
-`navlog diff --rrd` of two mapping replays (ground truth against drifting odometry),
+stopping a robot before a box), a real robot's bag without ground truth (neato_drive_square), a
+`navlog diff --rrd` of two mapping replays (ground truth against drifting odometry) and the SLAM's
+replay of a real building (the Intel lab's bag, `--pipeline mapping --set pose_source=slam`, viewed with
+`--replay`: its map, its path and its map -> odom under the bag's scans and odometry),
 each with the screenshot tool (`rerun-shot.sh RRD OUT.png`: Xvfb + Mesa's software Vulkan, about
 30 to 60 s a shot), and checks each PNG:
 
@@ -17,7 +19,7 @@ each with the screenshot tool (`rerun-shot.sh RRD OUT.png`: Xvfb + Mesa's softwa
 The PNGs are written small (downscaled, fewer colours) for the README: docs/images/view-*.png.
 
     .venv/bin/python scripts/view_screenshots.py [--demo DEMO_DIR] [--out docs/images]
-        [--shot ../shared/tools/rerun-shot.sh] [--bags DIR]
+        [--shot ../shared/tools/rerun-shot.sh] [--bags DIR] [--only NAME ...]
 
 Exit status 0 when every check passes, 1 when one fails, 2 when the screenshot tool or its
 prerequisites are missing (nothing is checked then).
@@ -123,29 +125,52 @@ def shrink(src: Path, dst: Path) -> None:
     img.quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(dst, optimize=True)
 
 
-def build_rrds(work: Path, demo: Path | None, bags: Path) -> list[Shot]:
+SHOTS = ("mapping", "navigation", "safety", "real-bag", "diff", "slam-real")
+
+
+def build_rrds(work: Path, demo: Path | None, bags: Path, only: tuple[str, ...] = SHOTS) -> list[Shot]:
     from navlog.analysis.view import save_view
     from navlog.recorder.record import prepare, record
     from tests.analysis.view.safety_log import write_safety_log
 
     shots = []
-    if demo is None:
-        demo = work / "demo"
-        subprocess.run([str(Path(sys.executable).with_name("navlog")), "-q", "demo", "-o", str(demo)], check=True)
-    save_view(demo / "mapping.mcap", work / "mapping.rrd", replay_dir=demo / "replay", force=True)
-    shots.append(Shot("mapping", work / "mapping.rrd", 0.0, 45))
-    nav = work / "navigation.mcap"
-    record(prepare(None, None, "nav_tour"), nav, progress=False, force=True)
-    save_view(nav, work / "navigation.rrd", force=True)
-    shots.append(Shot("navigation", work / "navigation.rrd", 5.0, 20))
-    safety = write_safety_log(work / "safety.mcap")
-    save_view(safety, work / "safety.rrd", force=True)
-    shots.append(Shot("safety", work / "safety.rrd", 5.0, 15))
-    if (bags / "neato_drive_square").exists():
+    if "mapping" in only:
+        if demo is None:
+            demo = work / "demo"
+            subprocess.run([str(Path(sys.executable).with_name("navlog")), "-q", "demo", "-o", str(demo)], check=True)
+        save_view(demo / "mapping.mcap", work / "mapping.rrd", replay_dir=demo / "replay", force=True)
+        shots.append(Shot("mapping", work / "mapping.rrd", 0.0, 45))
+    if "navigation" in only:
+        nav = work / "navigation.mcap"
+        record(prepare(None, None, "nav_tour"), nav, progress=False, force=True)
+        save_view(nav, work / "navigation.rrd", force=True)
+        shots.append(Shot("navigation", work / "navigation.rrd", 5.0, 20))
+    if "safety" in only:
+        safety = write_safety_log(work / "safety.mcap")
+        save_view(safety, work / "safety.rrd", force=True)
+        shots.append(Shot("safety", work / "safety.rrd", 5.0, 15))
+    if "real-bag" in only and (bags / "neato_drive_square").exists():
         save_view(bags / "neato_drive_square", work / "real-bag.rrd", force=True)
         shots.append(Shot("real-bag", work / "real-bag.rrd", 10.0, 20))
-    shots.append(diff_shot(work))
+    if "diff" in only:
+        shots.append(diff_shot(work))
+    intel = bags.parent / "carmen" / "intel"
+    if "slam-real" in only and intel.exists():
+        shots.append(slam_shot(work, intel))
     return shots
+
+
+def slam_shot(work: Path, log: Path) -> Shot:
+    """The SLAM's replay of a real building's bag (the Intel lab), viewed over the bag with ``--replay``: the
+    final map and the SLAM's path (blue) in the map frame, the bag's odometry (sky blue) and scans placed by the
+    replay's map -> odom; the robot where the 3D camera starts."""
+    from navlog.analysis.view import save_view
+    from navlog.replay.session import run_replay
+
+    out = work / "slam-real"
+    run_replay(log, "mapping", out, overrides=["pose_source=slam", "lidar_mapper=off"], progress=False)
+    save_view(log, work / "slam-real.rrd", replay_dir=out, force=True)
+    return Shot("slam-real", work / "slam-real.rrd", 40.0, 40)  # the first scan (the first map -> odom) at 33 s
 
 
 def diff_shot(work: Path) -> Shot:
@@ -170,6 +195,7 @@ def main() -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "docs" / "images")
     ap.add_argument("--shot", type=Path, default=ROOT.parent / "shared" / "tools" / "rerun-shot.sh")
     ap.add_argument("--bags", type=Path, default=ROOT.parent / "shared" / "external-data" / "bags")
+    ap.add_argument("--only", nargs="+", choices=SHOTS, default=SHOTS, help="take these screenshots only")
     args = ap.parse_args()
     missing = prerequisites(args.shot)
     if missing:
@@ -179,7 +205,7 @@ def main() -> int:
     failed = 0
     with tempfile.TemporaryDirectory(prefix="navlog-view-shots-") as tmp:
         work = Path(tmp)
-        for s in build_rrds(work, args.demo, args.bags):
+        for s in build_rrds(work, args.demo, args.bags, tuple(args.only)):
             raw = work / f"{s.name}.png"
             out = take(args.shot, s, raw)
             problems = check_png(raw, out, s.marks) if raw.is_file() else ["no screenshot written:\n" + out]

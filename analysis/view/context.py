@@ -27,6 +27,7 @@ COLORS = {
     "replay": (0, 114, 178),
     "replay_file": (255, 255, 255),  # white, thin: trajectory.tum over the replay's estimate it saves
     "plan": (204, 121, 167),  # reddish purple
+    "loop": (204, 121, 167),  # a SLAM's loop closures (a mapping replay has no plan)
     "local_plan": (213, 94, 0),  # vermillion
     "goal": (255, 255, 255),
     "waypoint": (190, 190, 190),

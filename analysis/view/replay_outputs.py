@@ -1,8 +1,10 @@
 """A replay output folder drawn beside its log: replay.mcap topics (under ``replay/``), the 2D map
-(map.yaml), the 3D point map (map.pcd, coloured by height) and the estimated trajectory (trajectory.tum)."""
+(map.yaml), the 3D point map (map.pcd, coloured by height), the estimated trajectory (trajectory.tum) and a
+SLAM's loop closures (pose_graph.json)."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable
 from pathlib import Path
 
@@ -44,6 +46,8 @@ def add_replay_dir(
     if (out / "trajectory.tum").is_file():
         add_tum(out / "trajectory.tum", ctx, trajectories)
         found = True
+    if (out / "pose_graph.json").is_file():
+        add_pose_graph(out / "pose_graph.json", ctx, trajectories)
     if not found:
         raise NavlogError(f"{out}: no replay outputs found (expected replay.mcap, map.yaml, map.pcd or trajectory.tum)")
 
@@ -103,3 +107,23 @@ def add_tum(path: Path, ctx: ViewContext, trajectories: Trajectories) -> None:
     o.xyz = [tuple(r) for r in traj.positions]
     o.q = [tuple(r) for r in traj.quaternions]
     trajectories.topics["replay/trajectory_tum"] = o
+
+
+def add_pose_graph(path: Path, ctx: ViewContext, trajectories: Trajectories) -> None:
+    """A SLAM replay's loop closures (pose_graph.json's edges of kind ``loop``), each a segment between the two
+    keyframes it joins, at their final poses in the graph's frame; a file that is not such a graph is a
+    warning, and nothing of it is drawn."""
+    try:
+        graph = json.loads(path.read_text())
+        nodes = {int(n["id"]): (float(n["x"]), float(n["y"])) for n in graph["nodes"]}
+        pairs = [(nodes[int(e["source"])], nodes[int(e["target"])]) for e in graph["edges"] if e["kind"] == "loop"]
+        frame = str(graph.get("frame_id") or ctx.opt.fixed_frame or "map")
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError) as exc:
+        ctx.summary.warnings.append(
+            f"{path}: not a pose graph navlog wrote ({type(exc).__name__}: {exc}); no loops drawn"
+        )
+        return
+    segments = np.array([[[ax, ay, 0.0], [bx, by, 0.0]] for (ax, ay), (bx, by) in pairs], np.float64).reshape(-1, 2, 3)
+    segments = segments[np.isfinite(segments).all(axis=(1, 2))].astype(np.float32)
+    if len(segments):
+        trajectories.loops["replay/pose_graph"] = (frame, segments)

@@ -134,6 +134,11 @@ def send_top(
             continue
         xyz = np.asarray(o.xyz)
         trajs2d[topic] = xyz[:, :2] @ m[:2, :2].T + m[:2, 3]
+    loops2d = {}
+    for name, (frame, segments) in sorted(trajectories.loops.items()):
+        m = np.eye(4) if frame == fixed else tf.to_fixed(frame, None)
+        if m is not None and len(segments):
+            loops2d[name] = segments[:, :, :2].astype(np.float64) @ m[:2, :2].T + m[:2, 3]
     plans2d = {}
     for topic, items in sorted(plans.topics.items()):
         frame = items[0][1]
@@ -230,6 +235,17 @@ def send_top(
         ctx.rec.log(
             e,
             rr.LineStrips2D.from_fields(colors=[COLORS[role]], radii=rr.Radius.ui_points(1.5), draw_order=4.0),
+            static=True,
+        )
+    for name, segments in loops2d.items():
+        ctx.rec.log(
+            ctx.entity(f"top/trajectories/{entity_name(name)}/loops"),
+            rr.LineStrips2D(
+                [canvas.to_px(seg) for seg in segments],
+                colors=[COLORS["loop"]],
+                radii=rr.Radius.ui_points(1.0),
+                draw_order=3.5,
+            ),
             static=True,
         )
     if poses:

@@ -1,4 +1,5 @@
-"""Trajectories: odometry topics (and a replay's TUM file) as a 3D path plus a pose arrow over time.
+"""Trajectories: odometry topics (and a replay's TUM file) as a 3D path plus a pose arrow over time, and a SLAM
+replay's loop closures as segments between the keyframes they join.
 
 Paths carry no text labels (they would pile up where the robot stands and where tours end): each
 topic keeps one colour in every view, and the speed plot's legend names them. The TUM file of a
@@ -41,6 +42,8 @@ class Trajectories:
     def __init__(self, ctx: ViewContext) -> None:
         self.ctx = ctx
         self.topics: dict[str, PoseRows] = {}
+        # name -> (frame, (N, 2, 3) segments): a pose graph's loop closures, each joining two keyframes
+        self.loops: dict[str, tuple[str, np.ndarray]] = {}
 
     def on_odom(self, topic: str, t: int, msg: Any) -> None:
         o = self.topics.setdefault(
@@ -84,3 +87,8 @@ class Trajectories:
             )
             ctx.rec.log(pose, rr.Arrows3D.from_fields(colors=[color], radii=0.015), static=True)
             ctx.summary.drawn[topic] = base
+        for name, (frame, segments) in sorted(self.loops.items()):
+            ent = ctx.entity(f"trajectories/{entity_name(name)}/loops")
+            ctx.set_frame(ent, frame)
+            ctx.rec.log(ent, rr.LineStrips3D(segments, radii=0.01, colors=[COLORS["loop"]]), static=True)
+            ctx.summary.drawn[name] = ent

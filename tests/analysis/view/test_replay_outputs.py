@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 import numpy as np
 
 from navlog.cli import main
@@ -75,3 +77,39 @@ def tum_path_style(data: dict) -> tuple[int, float]:
     ((_, colours),) = column(data, entity, "LineStrips3D:colors", static=True)
     ((_, radii),) = column(data, entity, "LineStrips3D:radii", static=True)
     return int(colours[0]), round(float(radii[0]), 6)
+
+
+def test_a_slam_replay_s_loop_closures_are_drawn_between_their_keyframes(sample_log, tmp_path, caplog):
+    import json
+
+    from navlog.replay.io.tum import write_tum
+
+    out = tmp_path / "OUT"
+    out.mkdir()
+    nodes = [
+        {"id": i, "stamp_ns": i * NS, "x": x, "y": y, "yaw": 0.0} for i, (x, y) in enumerate([(0, 0), (2, 0), (2, 1)])
+    ]
+    edge = {"response": 0.6, "x": 0.0, "y": 0.0, "yaw": 0.0}
+    edges = [{**edge, "kind": "match", "source": 0, "target": 1}, {**edge, "kind": "loop", "source": 2, "target": 0}]
+    graph = {"frame_id": "map", "nodes": nodes, "edges": edges, "counts": {}, "odometry_jumps": [], "unplaced": []}
+    (out / "pose_graph.json").write_text(json.dumps(graph))
+    times = np.arange(3, dtype=np.int64) * NS
+    write_tum(
+        out / "trajectory.tum",
+        times,
+        np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0]], float),
+        np.tile([0, 0, 0, 1.0], (3, 1)),
+    )
+    rrd = tmp_path / "loops.rrd"
+    assert main(["-q", "view", str(sample_log), "--replay", str(out), "--save", str(rrd)]) == 0
+    data = read_rrd(rrd)
+    ((_, strips),) = column(data, "/trajectories/replay/pose_graph/loops", "LineStrips3D:strips", static=True)
+    assert len(strips) == 1 and np.allclose(strips[0], [[2, 1, 0], [0, 0, 0]])  # the loop edge only, keyframe 2 to 0
+    ((_, strips2d),) = column(data, "/top/trajectories/replay/pose_graph/loops", "LineStrips2D:strips", static=True)
+    assert len(strips2d) == 1
+    # a pose graph navlog did not write is a warning, and the rest is drawn
+    (out / "pose_graph.json").write_text('{"nodes": [{"id": "a"}], "edges": []}')
+    caplog.set_level(logging.WARNING, logger="navlog")
+    assert main(["-q", "view", str(sample_log), "--replay", str(out), "--save", str(rrd), "--force"]) == 0
+    assert "pose_graph.json: not a pose graph navlog wrote (ValueError" in caplog.text
+    assert "/trajectories/replay/pose_graph/loops" not in read_rrd(rrd)
