@@ -32,7 +32,7 @@ from navlog.analysis.view.grids import Grids
 from navlog.analysis.view.options import ViewOptions, ViewSummary
 from navlog.analysis.view.plans import Plans
 from navlog.analysis.view.polygons import Polygons
-from navlog.analysis.view.replay_outputs import add_replay_dir
+from navlog.analysis.view.replay_outputs import REPLAY_PREFIX, add_replay_dir, replay_tf_children
 from navlog.analysis.view.robot import send_robot
 from navlog.analysis.view.scans import Scans
 from navlog.analysis.view.tf import TfTree
@@ -205,6 +205,9 @@ def build_view(
     rec.set_log_time_enabled(False) if hasattr(rec, "set_log_time_enabled") else None
     rec.set_log_tick_enabled(False) if hasattr(rec, "set_log_tick_enabled") else None
     b = ViewBuilder(rec, options)
+    if replay_dir is not None:  # the frames whose parent the replay published: its transforms, not the log's
+        b.tf.replaced = {b.ctx.frame(f) for f in replay_tf_children(Path(replay_dir))}
+        b.tf.replay_prefix = REPLAY_PREFIX + "/"
     b.add_log(reader)
     if replay_dir is not None:
         b.add_replay_dir(Path(replay_dir))

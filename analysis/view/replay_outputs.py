@@ -52,6 +52,21 @@ def add_replay_dir(
         raise NavlogError(f"{out}: no replay outputs found (expected replay.mcap, map.yaml, map.pcd or trajectory.tum)")
 
 
+def replay_tf_children(out: Path) -> set[str]:
+    """The child frames of the transforms a replay published (its replay.mcap's /tf: a SLAM's or AMCL's odom
+    frame); none when it has no /tf or cannot be read (drawing the folder reports that)."""
+    mcap = Path(out) / REPLAY_LOG
+    if not mcap.is_file():
+        return set()
+    try:
+        with open_log(mcap) as r:
+            if "/tf" not in r.topics:
+                return set()
+            return {str(ts.child_frame_id) for env in r.messages(["/tf"]) for ts in env.msg.transforms}
+    except (NavlogError, OSError):
+        return set()
+
+
 def add_map_yaml(path: Path, ctx: ViewContext, grids: Grids) -> bool:
     """The replayed map becomes the top-down view's grid; in 3D it is drawn as a static GridMap unless
     the replay.mcap's own ``/map`` (the same map as it grew) is drawn already."""

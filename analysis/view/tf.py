@@ -2,6 +2,9 @@
 
 The fixed frame is the option when given, else ``map`` when the tree has it (or has no frames),
 else the root of the largest tree. Frames with no TF path to it are drawn as coincident with it.
+
+A replay that publishes a frame's parent itself (a SLAM's or AMCL's map -> odom, in its replay.mcap) replaces
+the log's transforms into that frame, as the replay itself ignored them (``TfTree.replaced``).
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from navlog.analysis.view.context import ViewContext, entity_name
+from navlog.replay import messages
 from navlog.replay.runtime.tf import TFBuffer, TransformError
 
 
@@ -22,9 +26,21 @@ class TfTree:
         self.ctx = ctx
         self.buffer = TFBuffer(cache_ns=1 << 62, frame_prefix=ctx.opt.frame_prefix)
         self.edges: dict[tuple[str, str], dict] = {}  # (parent, child) -> static flag and samples
+        # child frames whose transforms a replay's log gives (topics under ``replay_prefix``): the other logs'
+        # transforms into them are left out and counted
+        self.replaced: set[str] = set()
+        self.replay_prefix = "replay/"
 
     def on_tf(self, topic: str, t: int, msg: Any) -> None:
         static = topic.endswith("/tf_static")
+        if self.replaced and not topic.startswith(self.replay_prefix):
+            kept = [ts for ts in msg.transforms if self.ctx.frame(ts.child_frame_id) not in self.replaced]
+            if len(kept) < len(msg.transforms):
+                frames = ", ".join(sorted(self.replaced))
+                self.ctx.summary.skipped[f"{topic}: transforms into {frames} (the replay's own drawn instead)"] += len(
+                    msg.transforms
+                ) - len(kept)
+                msg = messages.tf_message(kept)
         self.buffer.add_message(msg, static=static)
         for ts in msg.transforms:
             parent, child = self.ctx.frame(ts.header.frame_id), self.ctx.frame(ts.child_frame_id)

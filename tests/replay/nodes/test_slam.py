@@ -90,14 +90,27 @@ def placed_scans(out) -> int:
     return sum(not line.startswith("#") for line in (out / "trajectory.tum").read_text().splitlines())
 
 
-def test_a_logged_map_to_odom_is_ignored_and_counted(teleop_log, tmp_path):
+def test_a_logged_map_to_odom_is_ignored_and_counted(teleop_log, tmp_path, capsys):
+    from navlog.cli import main
+    from tests.analysis.view.rrd import column, read_rrd
+
     res = run_replay(
         teleop_log, "mapping", tmp_path / "out", overrides=["pose_source=slam", "lidar_mapper=off"], progress=False
     )
-    assert res.manifest["skipped"][ODOM_PARENTS_FROM_LOG] > 100
+    logged = res.manifest["skipped"][ODOM_PARENTS_FROM_LOG]
+    assert logged > 100
     assert compute_metrics(teleop_log, tmp_path / "out")["trajectory"]["ate"]["translation_m"]["rmse"] < 0.03
     # replay.mcap's /tf holds the SLAM's map -> odom, one for every scan placed, and none of the log's transforms
-    assert recorded_transforms(tmp_path / "out") == [("map", "odom")] * placed_scans(tmp_path / "out")
+    placed = placed_scans(tmp_path / "out")
+    assert recorded_transforms(tmp_path / "out") == [("map", "odom")] * placed
+    # viewed with the replay, the log's map -> odom (the perfect localiser's) gives way to the SLAM's
+    rrd = tmp_path / "v.rrd"
+    capsys.readouterr()
+    assert main(["view", str(teleop_log), "--replay", str(tmp_path / "out"), "--save", str(rrd), "--json"]) == 0
+    skipped = json.loads(capsys.readouterr().out)["skipped"]
+    assert skipped["/tf: transforms into odom (the replay's own drawn instead)"] == logged
+    rows = column(read_rrd(rrd), "/tf/odom", "Transform3D:translation")
+    assert placed <= len(rows) <= placed + 1  # the SLAM's, the first held from the log's start
 
 
 def test_the_view_of_a_slam_replay_places_the_map_by_the_slam_s_map_to_odom(unlocalised_log, tmp_path, capsys):
