@@ -170,7 +170,7 @@ def slam_shot(work: Path, log: Path) -> Shot:
     out = work / "slam-real"
     run_replay(log, "mapping", out, overrides=["pose_source=slam", "lidar_mapper=off"], progress=False)
     save_view(log, work / "slam-real.rrd", replay_dir=out, force=True)
-    return Shot("slam-real", work / "slam-real.rrd", 40.0, 40)  # the first scan (the first map -> odom) at 33 s
+    return Shot("slam-real", work / "slam-real.rrd", 40.0, 40)  # sim_time: the bag starts at 32.9 s
 
 
 def diff_shot(work: Path) -> Shot:
