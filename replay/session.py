@@ -13,7 +13,7 @@ import logging
 import shutil
 import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Sequence, Set
 from concurrent.futures import Future
 from dataclasses import dataclass
 from pathlib import Path
@@ -96,7 +96,7 @@ class _OutputSink:
     its nodes published (not the log's); the types with a fast CDR encoder (``cdr_decode.encoder``: Twist) are
     serialized by it, the same bytes."""
 
-    def __init__(self, writer: McapLogWriter, topics: set[str], published: set[str] = frozenset()) -> None:
+    def __init__(self, writer: McapLogWriter, topics: Set[str], published: Set[str] = frozenset()) -> None:
         self.writer, self.topics, self.published = writer, topics, published
         self._encoders: dict[str, Any] = {}  # type name -> its fast encoder or None
 

@@ -290,7 +290,9 @@ class Executor:
         """A message, or a closed ``Deferred``'s messages at its time, to every sink."""
         if isinstance(item, Deferred):
             published = self.stats.published
-            envs = [Published(topic, typename, item.time_ns, msg) for topic, typename, msg in item.outputs]
+            envs: list[Envelope] = [
+                Published(topic, typename, item.time_ns, msg) for topic, typename, msg in item.outputs
+            ]
             for env in envs:
                 published[env.topic] = published.get(env.topic, 0) + 1
         else:
