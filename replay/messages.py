@@ -52,6 +52,7 @@ TWIST = "geometry_msgs/msg/Twist"
 TWIST_STAMPED = "geometry_msgs/msg/TwistStamped"
 POSE_STAMPED = "geometry_msgs/msg/PoseStamped"
 POSE_ARRAY = "geometry_msgs/msg/PoseArray"
+POSE_WITH_COVARIANCE_STAMPED = "geometry_msgs/msg/PoseWithCovarianceStamped"
 TRANSFORM_STAMPED = "geometry_msgs/msg/TransformStamped"
 
 # QoS profiles as rosbag2 stores them in `offered_qos_profiles` (version 8 YAML form).
@@ -475,6 +476,21 @@ def pose(xyz, q_xyzw):
     return T.Pose(
         T.Point(float(xyz[0]), float(xyz[1]), float(xyz[2])), T.Quaternion(float(x), float(y), float(z), float(w))
     )
+
+
+def covariance_6x6(cov: np.ndarray) -> np.ndarray:
+    """The 36 entries of a ROS pose covariance from a 3x3 (x, y, yaw) one (the other axes' entries 0)."""
+    out = np.zeros((6, 6))
+    out[:2, :2] = cov[:2, :2]
+    out[5, 5] = cov[2, 2]
+    return out.ravel()
+
+
+def planar_pose_with_covariance(ns: int, frame_id: str, pose_xyt, cov: np.ndarray):
+    """A geometry_msgs/PoseWithCovarianceStamped of a planar pose (x, y, yaw) and its 3x3 covariance."""
+    x, y, yaw = (float(v) for v in pose_xyt)
+    pwc = msg_class("geometry_msgs/msg/PoseWithCovariance")(pose((x, y, 0.0), quat_from_yaw(yaw)), covariance_6x6(cov))
+    return msg_class(POSE_WITH_COVARIANCE_STAMPED)(header(ns, frame_id), pwc)
 
 
 def transform_stamped(ns: int, parent: str, child: str, xyz, q_xyzw):

@@ -30,13 +30,13 @@ import numpy as np
 from navlog.replay import messages
 from navlog.replay.geometry import planar_matrix, quat_from_yaw, remainder_angle, yaw_from_matrix, yaw_from_quat
 from navlog.replay.io import pose_cdr
+from navlog.replay.messages import POSE_WITH_COVARIANCE_STAMPED
 from navlog.replay.nav2.amcl import AmclParams, LikelihoodField, ParticleFilter, Scan
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.executor import Node
 from navlog.replay.runtime.tf import TFBuffer, TransformError, WaitingForTransforms
 from navlog.replay.scan_geometry import NOT_FINITE, ScanAngles
 
-POSE_WITH_COVARIANCE_STAMPED = "geometry_msgs/msg/PoseWithCovarianceStamped"
 POSE_ARRAY = messages.POSE_ARRAY
 # Nav2's initial covariance when the pose comes from parameters: 0.5 m in x and y, pi/12 in yaw
 DEFAULT_INITIAL_COV = np.diag([0.25, 0.25, (math.pi / 12.0) ** 2])
@@ -45,14 +45,6 @@ DEFAULT_INITIAL_COV = np.diag([0.25, 0.25, (math.pi / 12.0) ** 2])
 def _planar(m: np.ndarray) -> np.ndarray:
     """(x, y, yaw) of a 4x4 transform."""
     return np.array([m[0, 3], m[1, 3], yaw_from_matrix(m)])
-
-
-def covariance_6x6(cov: np.ndarray) -> np.ndarray:
-    """The 36 entries of a ROS pose covariance from a 3x3 (x, y, yaw) one."""
-    out = np.zeros((6, 6))
-    out[:2, :2] = cov[:2, :2]
-    out[5, 5] = cov[2, 2]
-    return out.ravel()
 
 
 def covariance_3x3(cov36) -> np.ndarray:
@@ -216,15 +208,14 @@ class AmclNode(Node):
         est = self.filter.estimate()
         x, y, yaw = (float(v) for v in est.pose)
         self._map_to_odom = planar_matrix(x, y, yaw) @ np.linalg.inv(planar_matrix(*_planar(odom_base)))
-        header = messages.header(stamp, self.global_frame)
         self.publish_cdr(
             "/particle_cloud", POSE_ARRAY, pose_cdr.pose_array(stamp, self.global_frame, self.filter.poses)
         )
-        cls = messages.msg_class(POSE_WITH_COVARIANCE_STAMPED)
-        pwc = messages.msg_class("geometry_msgs/msg/PoseWithCovariance")(
-            messages.pose((x, y, 0.0), quat_from_yaw(yaw)), covariance_6x6(est.covariance)
+        self.publish(
+            "/amcl_pose",
+            POSE_WITH_COVARIANCE_STAMPED,
+            messages.planar_pose_with_covariance(stamp, self.global_frame, (x, y, yaw), est.covariance),
         )
-        self.publish("/amcl_pose", POSE_WITH_COVARIANCE_STAMPED, cls(header, pwc))
         if self.p.tf_broadcast:
             self._publish_tf(stamp)
 

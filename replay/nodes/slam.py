@@ -9,7 +9,9 @@ odometry (``WaitingForTransforms``) up to ``transform_timeout`` of scan stamps, 
 and counted.
 
 Per scan: the odometry pose of ``base_frame`` at the scan's stamp and the laser's pose in it go to
-``Slam2D.add_scan``; map -> odom is published on /tf, stamped with the scan. Every
+``Slam2D.add_scan``; map -> odom is published on /tf, stamped with the scan, and for a scan that became a
+keyframe the robot's pose in the map frame on ``pose_topic`` (slam_toolbox's ``pose``), with the covariance
+of its step times ``position_covariance_scale`` and ``yaw_covariance_scale``. Every
 ``map_update_interval`` of sim time (and at the end) ``/map`` is the occupancy grid of the keyframes'
 scans at their optimised poses. ``trajectory`` holds, at the end, the pose of ``trajectory_frame``
 in the map frame at every scan, from the final keyframe poses.
@@ -40,6 +42,7 @@ UNPLACED_LISTED = 5  # stretches placed by odometry alone named one by one in th
 class SlamNodeParams:
     scan_topic: str = "/scan"
     map_topic: str = "/map"
+    pose_topic: str = "/pose"  # the robot's pose at every keyframe, with its covariance
     map_frame: str = "map"
     trajectory_frame: str = "base_link"  # whose map pose the trajectory holds ("" = the base frame)
     frame_prefix: str = ""  # stripped from every frame name (e.g. "simple_robot/")
@@ -143,9 +146,18 @@ class SlamNode(Node):
             angles, np.asarray(msg.ranges, dtype=np.float64), float(msg.range_min), float(msg.range_max), mount
         )
         odom = (float(odom_base[0, 3]), float(odom_base[1, 3]), yaw_from_matrix(odom_base))
-        if self.slam.add_scan(stamp, odom, scan) is not None:
+        keyframes = len(self.slam.keyframes)
+        pose = self.slam.add_scan(stamp, odom, scan)
+        if pose is not None:
             self._to_trajectory_frame.append(to_traj)
         self._publish_tf(stamp)
+        if pose is not None and len(self.slam.keyframes) > keyframes:
+            self._publish_pose(stamp, pose, self.slam.keyframes[-1].covariance)
+
+    def _publish_pose(self, stamp: int, pose: np.ndarray, cov: np.ndarray) -> None:
+        scale = np.array([self.p.slam.position_covariance_scale] * 2 + [self.p.slam.yaw_covariance_scale])
+        msg = messages.planar_pose_with_covariance(stamp, self.p.map_frame, pose, cov * np.sqrt(np.outer(scale, scale)))
+        self.publish(self.p.pose_topic, messages.POSE_WITH_COVARIANCE_STAMPED, msg)
 
     def _publish_tf(self, stamp: int) -> None:
         m = self.slam.map_to_odom

@@ -5,7 +5,8 @@ Outputs: /map (OccupancyGrid), /Odometry, /cloud_registered (throttled) and /lid
 replay.mcap; map.yaml + map.pgm (map_server), map.pcd (binary float32), trajectory.tum.
 With ``pose_source: slam`` (what ``auto`` picks on a log without ground truth) the 2D map comes from
 the SLAM node (``navlog.replay.nodes.slam``): trajectory.tum is then its pose at every scan,
-pose_graph.json its keyframes and edges, and replay.mcap's /tf its map -> odom at every scan it placed.
+pose_graph.json its keyframes and edges, replay.mcap's /tf its map -> odom at every scan it placed and /pose
+its pose with covariance at every keyframe.
 """
 
 from __future__ import annotations
@@ -87,6 +88,8 @@ def build(params: Params, log_topics: set[str]) -> Pipeline:
     if source in ("ground_truth", "odom") and occupancy_on:
         inputs.append(params.occupancy.pose_topic or DEFAULT_POSE_TOPICS[source])
     outputs = [params.occupancy.map_topic] if occupancy_on else []
+    if slam is not None:
+        outputs.append(slam.p.pose_topic)
     lidar = None
     if lidar_on:
         lidar = LidarMapperNode(params.lidar)

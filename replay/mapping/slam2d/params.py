@@ -93,6 +93,10 @@ class SlamParams:
     # (the rest of the graph disagrees with it; 16.3 is chi-square's 99.9 % for three degrees of freedom)
     loop_match_maximum_chi2: float = 16.3
     map_update_interval: float = param(5.0, ge=MIN_MAP_PERIOD_S, le=MAX_PERIOD_S)  # s between /map messages
+    # the /pose message's covariance (a keyframe's step: its match weighted against the odometry) times these, for
+    # x and y and for the yaw (slam_toolbox's names)
+    position_covariance_scale: float = param(1.0, gt=0.0)
+    yaw_covariance_scale: float = param(1.0, gt=0.0)
     odom_frame: str = DEFAULT_ODOM_FRAME  # the odometry frame of the log's TF tree (slam_toolbox's name)
     # the robot's base below odom_frame (slam_toolbox's name and default); base_link when the tree has none
     base_frame: str = "base_footprint"
@@ -133,6 +137,8 @@ class SlamParams:
             "loop_search_maximum_dimension",
             "loop_match_maximum_spread",
             "map_update_interval",
+            "position_covariance_scale",
+            "yaw_covariance_scale",
             "loop_kernel_k",
             "loop_match_maximum_variance_coarse",
             "loop_match_maximum_chi2",

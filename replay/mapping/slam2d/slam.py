@@ -195,6 +195,9 @@ class Keyframe:
     points: np.ndarray  # (N, 2) in the robot frame
     scan: LaserScan2D
     surface: np.ndarray  # (M, 2) the points joined into surfaces (``surface_points``), for matching against
+    # (3, 3) map-frame covariance of its step from the keyframe before (its match weighted against the odometry, or
+    # the odometry's alone); the identity for the first
+    covariance: np.ndarray
 
 
 @dataclass
@@ -431,6 +434,7 @@ class Slam2D:
     ) -> np.ndarray:
         i = len(self.keyframes)
         pose = _xyt(prediction)
+        cov = np.eye(3)
         if i == 0:
             self.graph.add_node(pose)
         else:
@@ -477,7 +481,7 @@ class Slam2D:
             self._travel.append(self._travel[-1] + float(np.linalg.norm(pose[:2] - _xyt(prev)[:2])))
         res = self.p.correlation_search_space_resolution
         surface = surface_points(points, res / 2, self.p.correlation_search_space_smear_deviation * 1.5)
-        self.keyframes.append(Keyframe(i, stamp, odom, points, scan, surface))
+        self.keyframes.append(Keyframe(i, stamp, odom, points, scan, surface, cov))
         self._range_max.append(
             max(self._range_max[-1], float(scan.range_max)) if self._range_max else float(scan.range_max)
         )

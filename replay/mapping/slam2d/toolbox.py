@@ -58,8 +58,6 @@ NOT_USED: dict[str, str] = {
         _ROS,
     ),
     "transform_publish_period": "the replay publishes map -> odom at every scan it places",
-    "position_covariance_scale": "no pose covariance is published",
-    "yaw_covariance_scale": "no pose covariance is published",
     "use_scan_matching": "scan matching is always on here (pose_source=odom maps on the odometry alone)",
     **dict.fromkeys(
         (

@@ -233,13 +233,8 @@ def test_same_seed_same_particles_and_recovery_particles_when_lost():
 
 def initial_pose_msg(frame: str, x: float, y: float, yaw: float, cov: np.ndarray):
     from navlog.replay import messages
-    from navlog.replay.geometry import quat_from_yaw
-    from navlog.replay.nodes.amcl import POSE_WITH_COVARIANCE_STAMPED, covariance_6x6
 
-    pwc = messages.msg_class("geometry_msgs/msg/PoseWithCovariance")(
-        messages.pose((x, y, 0.0), quat_from_yaw(yaw)), covariance_6x6(cov)
-    )
-    return messages.msg_class(POSE_WITH_COVARIANCE_STAMPED)(messages.header(0, frame), pwc)
+    return messages.planar_pose_with_covariance(0, frame, (x, y, yaw), cov)
 
 
 def test_initialpose_restarts_the_filter_around_the_given_gaussian():

@@ -236,3 +236,35 @@ def test_a_log_whose_odometry_frame_is_not_odom_is_mapped_with_slam_odom_frame(s
     node.publish = lambda topic, typename, msg: sent.append(msg)  # type: ignore[method-assign,assignment]
     node._publish_tf(0)
     assert [(t.header.frame_id, t.child_frame_id) for m in sent for t in m.transforms] == [("map", "wheel_odom")]
+
+
+def test_the_pose_at_every_keyframe_is_published_with_its_covariance_scaled_as_slam_toolbox_does(
+    unlocalised_log, tmp_path
+):
+    def poses(out):
+        with open_log(out / "replay.mcap") as reader:
+            msgs = [env.msg for env in reader.messages(["/pose"])]
+        assert {m.header.frame_id for m in msgs} == {"map"}
+        xy = np.array([(m.pose.pose.position.x, m.pose.pose.position.y) for m in msgs])
+        return xy, np.array([np.asarray(m.pose.covariance).reshape(6, 6) for m in msgs])
+
+    base = ["pose_source=slam", "lidar_mapper=off"]
+    run_replay(unlocalised_log, "mapping", tmp_path / "a", overrides=base, progress=False)
+    xy, cov = poses(tmp_path / "a")
+    nodes = json.loads((tmp_path / "a" / "pose_graph.json").read_text())["nodes"]
+    assert len(xy) == len(nodes) >= 5  # one at every keyframe, where the keyframe was placed
+    assert np.abs(xy - np.array([(n["x"], n["y"]) for n in nodes])).max() < 0.01
+    assert np.allclose(cov[0], np.diag([1.0, 1.0, 0, 0, 0, 1.0]))  # the first: slam_toolbox's identity
+    position = cov[1:, :2, :2]
+    assert (np.linalg.eigvalsh(position) > 0).all() and position.max() < 0.01  # matched steps: centimetres
+    assert (cov[1:, 5, 5] > 0).all() and (cov[1:, 2:5, :] == 0).all()
+    run_replay(
+        unlocalised_log,
+        "mapping",
+        tmp_path / "b",
+        overrides=[*base, "slam.position_covariance_scale=4", "slam.yaw_covariance_scale=9"],
+        progress=False,
+    )
+    xy_b, cov_b = poses(tmp_path / "b")
+    assert np.array_equal(xy_b, xy)
+    assert np.allclose(cov_b[:, :2, :2], 4 * cov[:, :2, :2]) and np.allclose(cov_b[:, 5, 5], 9 * cov[:, 5, 5])
