@@ -49,7 +49,7 @@ def trajectory_role(topic: str) -> str:
         return "replay_file" if topic.endswith("trajectory_tum") else "replay"
     if "ground_truth" in topic:
         return "ground_truth"
-    return "estimate2" if topic.endswith("/Odometry") else "estimate"
+    return "estimate2" if topic.endswith(("/Odometry", "/amcl_pose", "/pose")) else "estimate"
 
 
 def _ns(arr: Iterable[int]) -> np.ndarray:

@@ -86,7 +86,7 @@ class ViewBuilder:
             messages.TWIST_STAMPED: self.series.on_twist,
             messages.OCCUPANCY_GRID: self.grids.on_grid,
             messages.POSE_STAMPED: self.goals.on_goal,
-            POSE_COV_STAMPED: self.goals.on_goal,
+            POSE_COV_STAMPED: self._on_pose_with_covariance,
             POSE_ARRAY: self.goals.on_waypoints,
             messages.EVENT_TYPE: self._on_event,
             POLYGON_STAMPED: self.polygons.on_polygon,
@@ -102,6 +102,14 @@ class ViewBuilder:
     def _on_path(self, topic: str, t: int, msg: Any) -> None:
         self.goals.on_path(topic, t, msg)
         self.plans.on_path(topic, t, msg)
+
+    def _on_pose_with_covariance(self, topic: str, t: int, msg: Any) -> None:
+        """/initialpose and goals are goals; any other pose with covariance (AMCL's /amcl_pose, the SLAM's /pose)
+        is an estimate, drawn as a trajectory."""
+        if "initialpose" in topic or "goal" in topic.lower():
+            self.goals.on_goal(topic, t, msg)
+        else:
+            self.trajectories.on_pose(topic, t, msg)
 
     def _on_event(self, topic: str, t: int, msg: Any) -> None:
         self.events.on_event(topic, t, msg)

@@ -44,6 +44,7 @@ class Trajectories:
         self.topics: dict[str, PoseRows] = {}
         # name -> (frame, (N, 2, 3) segments): a pose graph's loop closures, each joining two keyframes
         self.loops: dict[str, tuple[str, np.ndarray]] = {}
+        self.pose_topics: set[str] = set()  # estimates with a covariance (``on_pose``), not odometry
 
     def on_odom(self, topic: str, t: int, msg: Any) -> None:
         o = self.topics.setdefault(
@@ -56,12 +57,23 @@ class Trajectories:
         o.q.append((q.x, q.y, q.z, q.w))
         o.speed.append(math.hypot(lin.x, lin.y))
 
+    def on_pose(self, topic: str, t: int, msg: Any) -> None:
+        """A pose estimate with its covariance (PoseWithCovarianceStamped: AMCL's, the SLAM's), without a speed."""
+        o = self.topics.setdefault(topic, PoseRows(frame=self.ctx.frame(msg.header.frame_id), child=""))
+        self.pose_topics.add(topic)
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        o.t.append(t)
+        o.xyz.append((p.x, p.y, p.z))
+        o.q.append((q.x, q.y, q.z, q.w))
+
     def role(self, topic: str) -> str:
         """The colour role of a drawn trajectory (``trajectory_role``): trajectory.tum is the white copy
-        (``replay_file``) of the replay's estimate topic when the replay has one; alone (a SLAM's poses) it is
-        the replay's estimate."""
+        (``replay_file``) of the replay's odometry topic (the 3D mapper's /Odometry) when the replay has one; else
+        (a SLAM's final poses, beside the /pose it published as it went) it is the replay's estimate."""
         role = trajectory_role(topic)
-        if role == "replay_file" and not any(trajectory_role(k) == "replay" for k in self.topics):
+        if role == "replay_file" and not any(
+            trajectory_role(k) == "replay" and k not in self.pose_topics for k in self.topics
+        ):
             return "replay"
         return role
 

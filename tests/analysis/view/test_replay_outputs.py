@@ -113,3 +113,27 @@ def test_a_slam_replay_s_loop_closures_are_drawn_between_their_keyframes(sample_
     assert main(["-q", "view", str(sample_log), "--replay", str(out), "--save", str(rrd), "--force"]) == 0
     assert "pose_graph.json: not a pose graph navlog wrote (ValueError" in caplog.text
     assert "/trajectories/replay/pose_graph/loops" not in read_rrd(rrd)
+
+
+def test_a_pose_estimate_with_covariance_is_a_trajectory_and_an_initial_pose_a_goal(tmp_path):
+    from navlog.replay import messages as m
+    from navlog.replay.io.logwriter import McapLogWriter
+
+    log = tmp_path / "amcl.mcap"
+    cov = np.diag([0.01, 0.01, 0.02])
+    with McapLogWriter(log) as w:
+        msg = m.planar_pose_with_covariance(0, "map", (0.5, 0.0, 0.0), cov)
+        w.write_raw("/initialpose", m.POSE_WITH_COVARIANCE_STAMPED, 0, m.serialize(msg, m.POSE_WITH_COVARIANCE_STAMPED))
+        for k in range(1, 6):
+            msg = m.planar_pose_with_covariance(k * NS, "map", (0.5 + 0.2 * k, 0.1 * k, 0.0), cov)
+            w.write_raw(
+                "/amcl_pose", m.POSE_WITH_COVARIANCE_STAMPED, k * NS, m.serialize(msg, m.POSE_WITH_COVARIANCE_STAMPED)
+            )
+    rrd = tmp_path / "amcl.rrd"
+    assert main(["-q", "view", str(log), "--save", str(rrd)]) == 0
+    data = read_rrd(rrd)
+    assert "/goals/initialpose" in data and not any(e.startswith("/goals/amcl_pose") for e in data)
+    ((_, strips),) = column(data, "/trajectories/amcl_pose/path", "LineStrips3D:strips", static=True)
+    assert np.allclose(np.asarray(strips[0])[:, :2], [(0.5 + 0.2 * k, 0.1 * k) for k in range(1, 6)])
+    ((_, colours),) = column(data, "/trajectories/amcl_pose/path", "LineStrips3D:colors", static=True)
+    assert int(colours[0]) == BLUE  # a localiser's estimate, not the odometry's sky blue
