@@ -133,7 +133,16 @@ def add_pose_graph(path: Path, ctx: ViewContext, trajectories: Trajectories) -> 
         nodes = {int(n["id"]): (float(n["x"]), float(n["y"])) for n in graph["nodes"]}
         pairs = [(nodes[int(e["source"])], nodes[int(e["target"])]) for e in graph["edges"] if e["kind"] == "loop"]
         frame = str(graph.get("frame_id") or ctx.opt.fixed_frame or "map")
-    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError, AttributeError, RecursionError) as exc:
+    except (
+        OSError,
+        UnicodeDecodeError,
+        ValueError,
+        KeyError,
+        TypeError,
+        AttributeError,
+        RecursionError,
+        OverflowError,
+    ) as exc:
         ctx.summary.warnings.append(
             f"{path}: not a pose graph navlog wrote ({type(exc).__name__}: {exc}); no loops drawn"
         )

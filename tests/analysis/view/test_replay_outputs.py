@@ -112,6 +112,9 @@ def test_a_slam_replay_s_loop_closures_are_drawn_between_their_keyframes(sample_
     caplog.set_level(logging.WARNING, logger="navlog")
     assert main(["-q", "view", str(sample_log), "--replay", str(out), "--save", str(rrd), "--force"]) == 0
     assert "pose_graph.json: not a pose graph navlog wrote (ValueError" in caplog.text
+    (out / "pose_graph.json").write_text('{"nodes": [{"id": 1e400, "x": 0, "y": 0}], "edges": []}')
+    assert main(["-q", "view", str(sample_log), "--replay", str(out), "--save", str(rrd), "--force"]) == 0
+    assert "pose_graph.json: not a pose graph navlog wrote (OverflowError" in caplog.text
     assert "/trajectories/replay/pose_graph/loops" not in read_rrd(rrd)
 
 
