@@ -111,6 +111,8 @@ KINDS: dict[str, int] = {
     # robot description files (URDF, SDF, xacro), map_server maps
     "description": 6,
     "map": 4,
+    # a SLAM replay's output folder, one of its files mutated, drawn by `navlog view LOG --replay`
+    "replay-folder": 4,
 }
 
 
@@ -165,7 +167,7 @@ def build_seed_log(folder: Path) -> Path:
     from navlog.cli import main
 
     folder.mkdir(parents=True, exist_ok=True)
-    names = ("seed_zstd.mcap", "seed_none.mcap", "seed_lz4.mcap", "map.yaml")
+    names = ("seed_zstd.mcap", "seed_none.mcap", "seed_lz4.mcap", "map.yaml", "slam.mcap", "slam/pose_graph.json")
     if all((folder / name).exists() for name in names):
         return folder
     scenario = folder / "fuzz_seed.yaml"
@@ -174,6 +176,10 @@ def build_seed_log(folder: Path) -> Path:
     with contextlib.redirect_stdout(io.StringIO()):
         main(["-q", "record", "--scenario", str(scenario), "-o", str(raw), "--force"])
         main(["-q", "world-map", "indoor_room", "-o", str(folder / "map.yaml"), "--force"])
+        # the drive without its perfect localiser, mapped by the SLAM: the seed of the replay-folder kind
+        main(["-q", "record", "--scenario", str(scenario), "--localization", "none", "-o", str(folder / "slam.mcap")])
+        slam_args = ["--pipeline", "mapping", "--set", "pose_source=slam", "--set", "lidar_mapper=off"]
+        main(["-q", "replay", str(folder / "slam.mcap"), *slam_args, "-o", str(folder / "slam"), "--force"])
     seeds = (
         ("seed_zstd.mcap", CompressionType.ZSTD),
         ("seed_none.mcap", CompressionType.NONE),
@@ -1047,6 +1053,24 @@ def map_image(draw: Any, seeds: Seeds) -> dict[str, Any]:
     return r
 
 
+REPLAY_FILES = ["pose_graph.json", "pose_graph.json", "trajectory.tum", "map.yaml", "replay.mcap"]
+
+
+@st.composite
+def replay_folder(draw: Any, seeds: Seeds) -> dict[str, Any]:
+    """A SLAM replay's output folder beside its log, one file mutated: pose_graph.json's JSON (its text, or its
+    tree: keys, types, values), trajectory.tum's or map.yaml's text, or replay.mcap cut or its bits flipped;
+    drawn by ``view LOG --replay``."""
+    name = draw(st.sampled_from(REPLAY_FILES))
+    r: dict[str, Any] = {"file": name}
+    if name == "replay.mcap":
+        r["at"] = draw(AT)
+        r["flips"] = draw(st.lists(st.tuples(AT, st.integers(0, 7)), max_size=8))
+    else:
+        r["mutation"] = draw(yaml_mutation())
+    return r
+
+
 MORE_KINDS: dict[str, Callable[[Seeds], Any]] = {
     "mcap-times": mcap_times,
     "mcap-claims": mcap_claims,
@@ -1059,6 +1083,7 @@ MORE_KINDS: dict[str, Callable[[Seeds], Any]] = {
     "outputs-special": outputs_special,
     "description": description,
     "map": map_image,
+    "replay-folder": replay_folder,
 }
 
 
@@ -1961,9 +1986,33 @@ def build_map(r: dict[str, Any], seeds: Seeds) -> Built:
     return Built(f"map:{mutation}", f"map-{r['call']}", {"path": name}, files)
 
 
+def build_replay_folder(r: dict[str, Any], seeds: Seeds) -> Built:
+    src = seeds.folder / "slam"
+    name = r["file"]
+    data = (src / name).read_bytes()
+    if name == "replay.mcap":
+        buf = bytearray(data[: r["at"] * len(data) >> 32] if not r["flips"] else data)
+        for at, bit in r["flips"]:
+            buf[at * len(buf) >> 32] ^= 1 << bit
+        mutation, data = (f"flip x{len(r['flips'])}" if r["flips"] else f"cut@{len(buf)}"), bytes(buf)
+    elif name == "pose_graph.json" and "tree" in r["mutation"]:  # the tree mutated, written back as JSON
+        tree = json.loads(data)
+        ops = []
+        for m in r["mutation"]["tree"]:
+            op, tree = mutate_tree(m, tree)
+            ops.append(op)
+        mutation, data = "+".join(ops), json.dumps(tree, default=str).encode()
+    else:  # pose_graph.json's text, trajectory.tum's and map.yaml's text or (read as YAML) tree
+        mutation, data = mutate_yaml(r["mutation"], data.decode())
+    links = {f"replay/{p.name}": str(p) for p in sorted(src.iterdir()) if p.is_file() and p.name != name}
+    links["log.mcap"] = str(seeds.folder / "slam.mcap")
+    return Built(f"replay/{name}:{mutation}", "cli-view-replay", {}, {f"replay/{name}": data}, links)
+
+
 BUILDERS: dict[str, Callable[[dict[str, Any], Seeds], Built]] = {
     "description": build_description,
     "map": build_map,
+    "replay-folder": build_replay_folder,
     "mcap-times": build_times,
     "mcap-claims": build_claims,
     "mcap-crc": build_crc,
@@ -2145,6 +2194,8 @@ def call_case(built: Built, folder: Path, seeds: Seeds) -> str:
         return run_cli(a["argv"], folder, seeds)
     if built.call == "cli-output":
         return run_special_output(a, folder, seeds)
+    if built.call == "cli-view-replay":
+        return run_cli(["view", "log.mcap", "--replay", "replay", "--save", "view.rrd"], folder, seeds)
     if built.call == "cli-view":
         return run_cli(["view", a["log"], "--save", "view.rrd"], folder, seeds)
     if built.call == "cli-export":
