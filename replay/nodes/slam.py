@@ -209,6 +209,8 @@ class SlamNode(Node):
                 "loops": c.loops,
                 "loops_ambiguous": c.loops_ambiguous,
                 "loops_inconsistent": c.loops_inconsistent,
+                "global_searches": c.global_searches,
+                "loops_global": c.loops_global,
                 "optimizations": self.slam.graph.optimizations,
                 "odometry_jumps": len(c.odometry_jumps),
             },

@@ -79,6 +79,15 @@ class SlamParams:
     # the new keyframe's position relative to an older one (the uncertainty the sequential edges between
     # them add up to: the path's own, from the matches' covariances), up to half the loop search square
     loop_search_path_sigmas: float = 3.0
+    # navlog's: where the path's uncertainty since older keyframes reaches past half of
+    # loop_search_maximum_dimension (a revisit the square may not hold), a keyframe the square search did not
+    # close is also matched -- the running buffer's surfaces -- against the stretch of those keyframes whose
+    # ranges look most like its own, in a square over the stretch wherever the estimate puts the robot, at the
+    # yaws the heading's uncertainty allows; such a closure needs loop_match_minimum_response_global, the loop's
+    # other checks, and a shift within the path's uncertainty as the closures so far measured it (Slam2D's
+    # _global_search)
+    loop_search_global: bool = True
+    loop_match_minimum_response_global: float = 0.6
     # a loop match whose translation variance (m^2, its worst direction) exceeds this is refused: the
     # submap does not pin the scan (a corridor). slam_toolbox's name; navlog's variance is the match's
     # Hessian's (ScanMatcher.covariance), hence the smaller default (slam_toolbox: 3.0 of its own measure)
@@ -192,6 +201,7 @@ class SlamParams:
             "link_match_minimum_response_fine",
             "loop_match_minimum_response_fine",
             "loop_match_minimum_response_coarse",
+            "loop_match_minimum_response_global",
         ):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"{name} is a response in [0, 1], got {getattr(self, name)}")

@@ -31,7 +31,11 @@ scan's valid points in the robot frame:
    a closure the next search waits until the keyframes have travelled ``loop_search_maximum_distance``
    (a closed loop stays closed; searching again at every keyframe of the same pass would only
    repeat it), and so does it after a closure the optimised graph disagreed with and that was taken
-   back (its chain would be met again at the next keyframe).
+   back (its chain would be met again at the next keyframe);
+6. **search globally** (``loop_search_global``) where the path's uncertainty outgrows the widest square:
+   the running buffer is matched against the older stretch whose place signature is most alike, wherever
+   the estimate puts the robot, within the uncertainty as the closures so far measured it
+   (``_global_search``).
 
 ``map_to_odom`` is the correction the last keyframe implies; ``trajectory()`` is the robot's pose at
 every scan with the final poses (each scan's keyframe pose composed with its pose relative to it);
@@ -89,6 +93,13 @@ UNSEEN_SHARE = 0.2
 LEAST_IN_SIGHT = 0.1
 SIGHT_MARGIN = 0.3  # m
 FULL_FAN = math.radians(300.0)
+# loop_search_global: a keyframe's place signature is the share of its valid ranges in each of SIGNATURE_BINS
+# equal bins up to max_laser_range (a turn of the robot on the spot leaves it as it is); the stretch searched
+# spans GLOBAL_STRETCH keyframes either side of the most alike one, at most
+SIGNATURE_BINS = 32
+GLOBAL_STRETCH = 10
+GLOBAL_CALIBRATION = 3  # closures the square search kept before _drift_scale measures the uncertainty's scale
+GLOBAL_POINTS = 2048  # the running buffer's surface points the global search matches, evenly spread, at most
 
 
 @dataclass(frozen=True)
@@ -212,6 +223,8 @@ class SlamCounts:
     # loop matches refused: the submap leaves a direction unpinned, or another place in the square matches as well
     loops_ambiguous: int = 0
     loops_inconsistent: int = 0  # loop edges taken back: the optimised graph disagreed with them
+    global_searches: int = 0  # loop_search_global's searches (not in loop_attempts)
+    loops_global: int = 0  # of the loops, those its searches closed
     empty_scans: int = 0  # scans with no valid reading (not keyframes)
     # (stamp ns, metres between the odometry's prediction and the pose found, response) of every keyframe
     # whose sequential match failed and that the wider search placed: the odometry jumped
@@ -269,6 +282,7 @@ class Slam2D:
         self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
         self._grid_drawn = 0  # keyframes when the grid was last redrawn from scratch
         self._since_loop = math.inf  # path length of keyframes since the last loop closure
+        self._since_global = math.inf  # path length of keyframes since the last global search (loop_search_global)
         # the last keyframes' odometry travel to them (the newest and ODOMETRY_WINDOW before it)
         self._odometry_steps: deque[float] = deque(maxlen=ODOMETRY_WINDOW + 1)
         # the last matches' match - odometry prediction, in the previous keyframe's frame
@@ -284,6 +298,10 @@ class Slam2D:
         self._chain_cov.append(np.zeros((3, 3)))
         # per loop closure kept: (old keyframe, new keyframe, its translation variance's trace, its yaw variance)
         self._loop_edges = Rows((4,))
+        # per loop closure the square search kept: how far its match put the new keyframe from its estimate, in
+        # standard deviations of the path's uncertainty (loop_search_global's measure of that uncertainty's scale)
+        self._drift_ratios: list[float] = []
+        self._signatures = Rows((SIGNATURE_BINS,))  # per keyframe: its place signature (_signature)
         self._map_points: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # keyframe -> (pose, its points there)
         self._range_max: list[float] = []  # per keyframe: the longest range_max of the scans up to it
         self._link = SearchWindow(
@@ -482,6 +500,7 @@ class Slam2D:
         res = self.p.correlation_search_space_resolution
         surface = surface_points(points, res / 2, self.p.correlation_search_space_smear_deviation * 1.5)
         self.keyframes.append(Keyframe(i, stamp, odom, points, scan, surface, cov))
+        self._signatures.append(self._signature(scan))
         self._range_max.append(
             max(self._range_max[-1], float(scan.range_max)) if self._range_max else float(scan.range_max)
         )
@@ -523,6 +542,12 @@ class Slam2D:
             if pinned and not inside and step <= usual:
                 return found
         return None
+
+    def _signature(self, scan: LaserScan2D) -> np.ndarray:
+        """The scan's place signature (``SIGNATURE_BINS``): the share of its valid ranges in each bin."""
+        valid = scan.valid(self.p.max_laser_range)
+        counts, _ = np.histogram(scan.ranges[valid], bins=SIGNATURE_BINS, range=(0.0, self.p.max_laser_range))
+        return counts / max(1, int(valid.sum()))
 
     def _usual_step(self) -> float:
         """The longest usual step between keyframes: half the sequential search square or twice the median of
@@ -664,8 +689,10 @@ class Slam2D:
 
     def _close_loop(self) -> None:
         new = len(self.keyframes) - 1
-        if new > 0 and math.isfinite(self._since_loop):
-            self._since_loop += self._travel[new] - self._travel[new - 1]
+        if new > 0:
+            step = self._travel[new] - self._travel[new - 1]
+            self._since_loop += step
+            self._since_global += step
         if self._since_loop < self.p.loop_search_maximum_distance:
             return
         old_end = new - self.p.scan_buffer_size  # keyframes before this are not in the running buffer
@@ -676,52 +703,173 @@ class Slam2D:
         # the search reaches as far as the path's uncertainty since a keyframe may have carried the estimate
         # off it: the fixed distance plus loop_search_path_sigmas standard deviations of the new keyframe's
         # position relative to it, bounded by the loop search window
-        reach = np.minimum(
-            self.p.loop_search_maximum_distance
-            + self.p.loop_search_path_sigmas * np.sqrt(self._path_variance(poses, new)[:old_end]),
-            self.p.loop_search_maximum_dimension / 2,
-        )
+        path = self._path_variance(poses, new)[:old_end]
+        full = self.p.loop_search_maximum_distance + self.p.loop_search_path_sigmas * np.sqrt(path)
+        reach = np.minimum(full, self.p.loop_search_maximum_dimension / 2)
         near = d <= reach
-        if not near.any():
+        searched = np.zeros(old_end, dtype=bool)
+        variance = None  # the least of the chain's and the route's variance (_least_variance), once needed
+        if near.any():
+            closest = int(np.argmin(np.where(near, d / reach, np.inf)))
+            lo = hi = closest  # the chain: near keyframes contiguous with the closest one
+            while lo > 0 and near[lo - 1]:
+                lo -= 1
+            while hi + 1 < old_end and near[hi + 1]:
+                hi += 1
+            if hi - lo + 1 >= self.p.loop_match_minimum_chain_size:
+                self.counts.loop_attempts += 1
+                searched[lo : hi + 1] = True
+                # the square searched: the reach to the closest keyframe by the least variance
+                variance = self._least_variance(poses, new, path)
+                sigma = math.sqrt(float(variance[closest]))
+                square_reach = min(
+                    float(reach[closest]), self.p.loop_search_maximum_distance + self.p.loop_search_path_sigmas * sigma
+                )
+                window = SearchWindow(
+                    min(self.p.loop_search_maximum_dimension, 2 * square_reach + 2.0),
+                    self.p.coarse_search_angle_offset,
+                    self.p.coarse_angle_resolution,
+                )
+                chain = list(range(lo, hi + 1))
+                estimate, anchor = _pose2(poses[new]), _pose2(poses[closest])  # copies: poses is the graph's view
+                loops = self.counts.loops
+                if self._try_closure(new, chain, closest, poses[new], window, self.p.loop_match_minimum_response_fine):
+                    if self.counts.loops > loops:  # how far the match put the keyframe from its estimate, in sigmas
+                        found = anchor.compose(gtsam.Pose2(*self.graph.edges[-1].relative))
+                        shift = math.hypot(found.x() - estimate.x(), found.y() - estimate.y())
+                        self._drift_ratios.append(shift / max(sigma, 1e-9))
+                    return
+        if self.p.loop_search_global:
+            self._global_search(new, poses, d, full, searched, path, variance)
+
+    def _least_variance(self, poses: np.ndarray, new: int, path: np.ndarray) -> np.ndarray:
+        """Per keyframe before ``len(path)``: the smaller of two bounds of the same uncertainty of the new keyframe's
+        position relative to it, the chain's (``path``, from ``_path_variance``) and the route's through the closures
+        kept (``_route_variance``): a chain with a closure across it is known no worse than by either."""
+        routes = self._route_variance(poses, new)
+        return path if routes is None else np.minimum(path, routes[: len(path)])
+
+    def _global_search(
+        self,
+        new: int,
+        poses: np.ndarray,
+        d: np.ndarray,
+        full: np.ndarray,
+        searched: np.ndarray,
+        path: np.ndarray,
+        variance: np.ndarray | None,
+    ) -> None:
+        """``loop_search_global``, once per ``loop_search_maximum_distance`` of travel at most: the keyframes older
+        than the running buffer that the square search did not cover and whose uncertainty reaches past half of
+        ``loop_search_maximum_dimension`` to the new keyframe -- ``loop_search_maximum_distance`` plus
+        ``loop_search_path_sigmas`` standard deviations of ``_least_variance``, scaled by ``_drift_scale`` -- are
+        looked through for the one whose place signature is most like the new keyframe's; the stretch of them
+        around it (``GLOBAL_STRETCH`` either side, at least ``loop_match_minimum_chain_size``) is searched for the
+        running buffer's surfaces (``GLOBAL_POINTS`` at most) in a square over the stretch's keyframes and
+        ``loop_search_maximum_distance`` around them (``loop_search_space_dimension`` at least; on a grid as much
+        coarser as it is wider), at the yaws of ``_global_turn``, with the loop's checks, at least
+        ``loop_match_minimum_response_global`` and a shift from the estimate within that reach of the keyframe
+        the closure joins."""
+        cap = self.p.loop_search_maximum_dimension / 2
+        scale = self._drift_scale()
+        if not (full > cap).any() or scale == 0.0 or self._since_global < self.p.loop_search_maximum_distance:
             return
-        closest = int(np.argmin(np.where(near, d / reach, np.inf)))
-        lo = hi = closest  # the chain: near keyframes contiguous with the closest one
-        while lo > 0 and near[lo - 1]:
+        if variance is None:
+            variance = self._least_variance(poses, new, path)
+        full = self.p.loop_search_maximum_distance + self.p.loop_search_path_sigmas * scale * np.sqrt(variance)
+        candidate = (full > cap) & (d <= full) & ~searched
+        if candidate.sum() < self.p.loop_match_minimum_chain_size:
+            return
+        signatures = self._signatures.view()
+        index = np.flatnonzero(candidate)
+        best = int(index[int(np.argmin(np.abs(signatures[index] - signatures[new]).sum(axis=1)))])
+        lo = hi = best
+        while lo > 0 and candidate[lo - 1] and best - lo < GLOBAL_STRETCH:
             lo -= 1
-        while hi + 1 < old_end and near[hi + 1]:
+        while hi + 1 < len(candidate) and candidate[hi + 1] and hi - best < GLOBAL_STRETCH:
             hi += 1
         if hi - lo + 1 < self.p.loop_match_minimum_chain_size:
             return
-        self.counts.loop_attempts += 1
-        chain = list(range(lo, hi + 1))
-        # the square searched: the reach to the closest keyframe by the smaller of two bounds of the same
-        # uncertainty (a chain with a closure across it is known no worse than by either)
-        square_reach = float(reach[closest])
-        variance = self._route_variance(poses, new, closest)
-        if variance is not None:
-            square_reach = min(
-                square_reach, self.p.loop_search_maximum_distance + self.p.loop_search_path_sigmas * math.sqrt(variance)
-            )
-        window = SearchWindow(
-            min(self.p.loop_search_maximum_dimension, 2 * square_reach + 2.0),
-            self.p.coarse_search_angle_offset,
-            self.p.coarse_angle_resolution,
+        self.counts.global_searches += 1
+        self._since_global = 0.0
+        xy = poses[lo : hi + 1, :2]
+        low, high = xy.min(axis=0), xy.max(axis=0)
+        side = max(
+            float(np.max(high - low)) + 2 * self.p.loop_search_maximum_distance, self.p.loop_search_space_dimension
         )
-        searched = self._loop_search(self._points_of(chain), self.keyframes[new].points, poses[new], window)
+        centre = np.array([(low[0] + high[0]) / 2, (low[1] + high[1]) / 2, poses[new, 2]])
+        window = SearchWindow(side, self._global_turn(lo, new), self.p.coarse_angle_resolution)
+        least = max(self.p.loop_match_minimum_response_fine, self.p.loop_match_minimum_response_global)
+        loops = self.counts.loops
+        # the running buffer's surfaces in the new keyframe's frame: a few metres of the building, far more telling
+        # than one scan (a room or a stretch of corridor alike to the new scan is common; one alike with the
+        # rooms and corridors around it, rare)
+        local = transform_points(_xyt(self._pose(new).inverse()), self._buffer_points(self._pose(new)))
+        if len(local) > GLOBAL_POINTS:
+            local = local[np.linspace(0, len(local) - 1, GLOBAL_POINTS).astype(np.int64)]
+        self._try_closure(new, list(range(lo, hi + 1)), None, centre, window, least, local, full)
+        self.counts.loops_global += self.counts.loops - loops
+
+    def _drift_scale(self) -> float:
+        """How the path's uncertainty (``_path_variance``, ``_route_variance``: from the matches' covariances)
+        compares with the drift the closures found: the largest shift of a keyframe by a closure the square
+        search kept, in standard deviations of that uncertainty, once ``GLOBAL_CALIBRATION`` are in (1 before:
+        the uncertainty as it stands). The matches' covariances are bounds, and a building's long corridors
+        repeat: a search as wide as the bounds allow meets look-alike places that no drift of this log could
+        have put the robot in."""
+        if len(self._drift_ratios) < GLOBAL_CALIBRATION:
+            return 1.0
+        return min(1.0, max(self._drift_ratios))
+
+    def _global_turn(self, first: int, new: int) -> float:
+        """The yaw the global search turns either way: ``loop_search_path_sigmas`` standard deviations of the
+        heading's uncertainty along the chain from keyframe ``first`` to ``new`` (at least
+        ``coarse_search_angle_offset``, at most half a turn). A building's look-alike places are often each
+        other turned a quarter or a half: a search at every yaw would meet them."""
+        variance = float(np.sum(self._chain_cov.view()[first + 1 : new + 1, 2, 2]))
+        wide = self.p.loop_search_path_sigmas * math.sqrt(variance)
+        return min(math.pi, max(self.p.coarse_search_angle_offset, wide))
+
+    def _try_closure(
+        self,
+        new: int,
+        chain: list[int],
+        anchor: int | None,
+        prediction: np.ndarray,
+        window: SearchWindow,
+        least: float,
+        points: np.ndarray | None = None,
+        reach: np.ndarray | None = None,
+    ) -> bool:
+        """The new keyframe's loop search against ``chain`` (``_loop_search``, of ``points`` in its frame: its scan's
+        when None) and, for a match of at least
+        ``least`` that pins the scan and that no other place in the square matches as well, a loop edge from
+        ``anchor`` (the chain's keyframe nearest the match when None), kept if the optimised graph agrees with it
+        (``loop_match_maximum_chi2``). True when an edge was added, whether kept or taken back (either way the
+        next search waits ``loop_search_maximum_distance``)."""
+        points = self.keyframes[new].points if points is None else points
+        searched = self._loop_search(self._points_of(chain), points, prediction, window)
         if searched is None:
-            return
+            return False
         match, spread = searched
+        if match.response < least:
+            return False
         cov = self._match_covariance(match, self.p.loop_sigmas)
         if not self._pins(cov):
             self.counts.loops_ambiguous += 1  # the submap does not pin the scan (a corridor): no closure
-            return
+            return False
         if spread() > self.p.loop_match_maximum_spread:
             self.counts.loops_ambiguous += 1  # a place elsewhere in the square looks the same: no closure
-            return
-        anchor = _pose2(poses[closest])
-        rel = anchor.between(_pose2(match.pose))
+            return False
+        poses = self.graph.poses()
+        if anchor is None:
+            anchor = chain[int(np.argmin(np.linalg.norm(poses[chain, :2] - match.pose[:2], axis=1)))]
+        if reach is not None and float(np.hypot(*(match.pose[:2] - poses[new, :2]))) > reach[anchor]:
+            self.counts.loops_inconsistent += 1  # farther from the estimate than the path's uncertainty reaches
+            return False
+        rel = _pose2(poses[anchor]).between(_pose2(match.pose))
         self.graph.add_edge(
-            closest,
+            anchor,
             new,
             _xyt(rel),
             _edge_covariance(cov, match.pose[2]),
@@ -731,17 +879,16 @@ class Slam2D:
             kernel_k=self.p.loop_kernel_k,
         )
         self.graph.optimize()
+        # the next keyframes would meet the same chain: wait as after a closure (each try is an optimisation)
+        self._since_loop = 0.0
         if self.graph.edge_chi2() > self.p.loop_match_maximum_chi2:
             # the rest of the graph disagrees with the closure: a false match, taken back
             self.graph.remove_last_edge()
             self.counts.loops_inconsistent += 1
-            # the next keyframes would meet the same chain: wait as after a closure (each try is an
-            # optimisation)
-            self._since_loop = 0.0
-            return
+            return True
         self.counts.loops += 1
-        self._since_loop = 0.0
-        self._loop_edges.append((closest, new, cov[0, 0] + cov[1, 1], cov[2, 2]))
+        self._loop_edges.append((anchor, new, cov[0, 0] + cov[1, 1], cov[2, 2]))
+        return True
 
     def _loop_search(
         self, reference: np.ndarray, points: np.ndarray, prediction: np.ndarray, window: SearchWindow
@@ -812,9 +959,9 @@ class Slam2D:
         half = 0.5 * (m[:, 0, 0] + m[:, 1, 1])
         return half + np.sqrt(np.maximum(0.25 * (m[:, 0, 0] - m[:, 1, 1]) ** 2 + m[:, 0, 1] * m[:, 1, 0], 0.0))
 
-    def _route_variance(self, poses: np.ndarray, new: int, old: int) -> float | None:
-        """The variance of keyframe ``new``'s position relative to keyframe ``old`` along the graph's route of
-        least variance, through the loop closures kept (None before the first). Each edge adds the trace of its
+    def _route_variance(self, poses: np.ndarray, new: int) -> np.ndarray | None:
+        """Per keyframe i <= new: the variance of keyframe ``new``'s position relative to keyframe i along the
+        graph's route of least variance, through the loop closures kept (None before the first). Each edge adds the trace of its
         translation covariance and its yaw variance times the square of the lever arm from the edge's target to
         ``new`` (an edge's noise is in its target's frame: a yaw error there swings ``new`` about the target,
         whichever way the route crosses the edge): ``_path_variance``'s sum along the chain, with each matrix
@@ -838,7 +985,7 @@ class Slam2D:
         first = np.ones(len(src), dtype=bool)
         first[1:] = (src[1:] != src[:-1]) | (dst[1:] != dst[:-1])
         graph = csr_matrix((weight[first] + 1e-12, (src[first], dst[first])), shape=(n, n))  # no zero: no edge
-        return float(dijkstra(graph, directed=False, indices=new)[old])
+        return dijkstra(graph, directed=False, indices=new)
 
     # ------------------------------------------------------------ results
     def _pose(self, i: int) -> gtsam.Pose2:

@@ -217,15 +217,15 @@ def test_the_route_variance_goes_through_a_closure_when_that_is_shorter():
     closures between the same keyframes the tighter counts."""
     slam = Slam2D(SlamParams())
     poses = np.array([(float(i), 0.0, 0.0) for i in range(6)])
-    assert slam._route_variance(poses, 5, 0) is None
+    assert slam._route_variance(poses, 5) is None
     for i in range(1, 6):
         slam._chain_cov.append(np.diag([0.01, 0.01, 1e-4 if i == 5 else 0.0]))
     slam._loop_edges.append((0, 4, 0.001, 1e-4))
-    assert slam._route_variance(poses, 5, 0) == pytest.approx(0.0211, abs=1e-9)
-    assert slam._route_variance(poses, 5, 2) == pytest.approx(0.06, abs=1e-9)
-    assert slam._route_variance(poses, 5, 4) == pytest.approx(0.02, abs=1e-9)  # the yaw of 4 -> 5 swings nothing
+    assert slam._route_variance(poses, 5)[0] == pytest.approx(0.0211, abs=1e-9)
+    assert slam._route_variance(poses, 5)[2] == pytest.approx(0.06, abs=1e-9)
+    assert slam._route_variance(poses, 5)[4] == pytest.approx(0.02, abs=1e-9)  # the yaw of 4 -> 5 swings nothing
     slam._loop_edges.append((0, 4, 0.5, 0.0))  # a second, looser closure between the same keyframes
-    assert slam._route_variance(poses, 5, 0) == pytest.approx(0.0211, abs=1e-9)
+    assert slam._route_variance(poses, 5)[0] == pytest.approx(0.0211, abs=1e-9)
 
 
 def test_an_edge_crossed_either_way_swings_the_new_keyframe_about_its_target():
@@ -240,7 +240,7 @@ def test_an_edge_crossed_either_way_swings_the_new_keyframe_about_its_target():
     slam._chain_cov.append(np.diag([0.001, 0.001, 0.01]))
     slam._chain_cov.append(np.diag([1.0, 1.0, 0.0]))
     slam._loop_edges.append((0, 2, 1e-4, 0.0))
-    assert slam._route_variance(poses, 2, 1) == pytest.approx(1e-4 + 0.002 + 0.16, abs=1e-9)
+    assert slam._route_variance(poses, 2)[1] == pytest.approx(1e-4 + 0.002 + 0.16, abs=1e-9)
     slam = Slam2D(SlamParams())
     poses = np.array([(0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (3.0, 0.0, 0.0), (3.0, 3.0, 0.0), (0.0, 4.0, 0.0)])
     slam._chain_cov.append(np.diag([0.001, 0.001, 0.0]))
@@ -248,7 +248,7 @@ def test_an_edge_crossed_either_way_swings_the_new_keyframe_about_its_target():
         slam._chain_cov.append(np.diag([1.0, 1.0, 0.0]))  # the rest of the chain loose: the route takes the closures
     slam._loop_edges.append((1, 4, 1e-4, 0.0))
     slam._loop_edges.append((0, 2, 1e-4, 0.01))
-    assert slam._route_variance(poses, 4, 2) == pytest.approx(1e-4 + 0.002 + 1e-4 + 0.25, abs=1e-9)
+    assert slam._route_variance(poses, 4)[2] == pytest.approx(1e-4 + 0.002 + 1e-4 + 0.25, abs=1e-9)
 
 
 def test_a_loop_beyond_the_search_square_is_found_on_a_coarser_grid(scene):
@@ -256,7 +256,9 @@ def test_a_loop_beyond_the_search_square_is_found_on_a_coarser_grid(scene):
     (loop_search_space_dimension) reaches 0.5 m and never meets the corner again; allowed to grow to 4 m
     with the path's uncertainty (loop_search_maximum_dimension), the square is searched on a grid coarser in
     proportion, then at full resolution around what it found, and the loop closes."""
-    square, err_square = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=1.0)
+    square, err_square = drifted_corner_run(
+        scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=1.0, loop_search_global=False
+    )
     assert square.counts.loops == 0 and err_square[240] > 1.0
     refined = []  # (coarse pose, full-resolution pose) of each wide search's last step
     match = ScanMatcher.match
@@ -269,7 +271,9 @@ def test_a_loop_beyond_the_search_square_is_found_on_a_coarser_grid(scene):
 
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(ScanMatcher, "match", spy)
-        grown, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=4.0)
+        grown, err = drifted_corner_run(
+            scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=4.0, loop_search_global=False
+        )
     assert grown.counts.loops >= 1 and err[240] < 0.02 and err[-1] < 0.1
     assert len(refined) >= grown.counts.loops  # every closure came through the coarser grid, then full resolution
     # the full-resolution pose lies within a cell of the coarser grid (0.1 m for the 4 m square) of its pose
@@ -283,6 +287,80 @@ def test_a_loop_where_another_place_matches_as_well_is_refused(scene, monkeypatc
     monkeypatch.setattr(ScanMatcher, "spread", lambda *args, **kwargs: 10.0)
     slam, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=4.0)
     assert slam.counts.loops == 0 and slam.counts.loops_ambiguous >= 1 and err[240] > 1.0
+
+
+def _loop_errors(slam: Slam2D) -> np.ndarray:
+    """Per loop edge: how far the target's position it measures, in the source's frame, lies from the true one
+    (``rectangle_path``'s poses; the scans of ``run_slam`` are 0.1 s apart)."""
+    truth = [gtsam.Pose2(*rectangle_path()[k.stamp // 100_000_000]) for k in slam.keyframes]
+    out = []
+    for e in slam.graph.edges:
+        if e.kind == "loop":
+            true = truth[e.source].between(truth[e.target])
+            out.append(math.hypot(e.relative[0] - true.x(), e.relative[1] - true.y()))
+    return np.array(out)
+
+
+def test_a_revisit_beyond_the_widest_square_is_found_by_the_global_search(scene):
+    """The drifted corner (1.03 m off when back at the start) with the loop search's square held to 1 m: the
+    square reaches 0.5 m and never meets the corner again (above). The path's uncertainty there reaches
+    past the square, so the keyframes the square cannot reach are searched by their place signature, over a
+    square covering the stretch most alike, at the yaws the heading's uncertainty allows: the revisit closes
+    and every closure measures its keyframes' true relative pose to a few centimetres."""
+    slam, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=1.0)
+    c = slam.counts
+    assert c.loops_global >= 1 and c.loops == c.loops_global and c.global_searches >= c.loops_global
+    assert err[240] < 0.02 and err[-1] < 0.1
+    assert _loop_errors(slam).max() < 0.05
+
+
+def test_the_global_search_keeps_to_the_yaws_the_heading_allows(scene, monkeypatch):
+    """The room looks the same turned a quarter (four boxes, one in each quadrant). Searched at every yaw, the
+    global search closes the first pass down the west side onto the south side, a quarter turn off (and the
+    map falls apart); kept to the heading's uncertainty along the path (0.9-1.1 rad either way here), it closes
+    only true revisits."""
+    monkeypatch.setattr(Slam2D, "_global_turn", lambda self, first, new: math.pi)
+    every_yaw, err_every = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=1.0)
+    assert every_yaw.counts.loops_global >= 1 and _loop_errors(every_yaw).max() > 4.0
+    assert err_every.max() > 3.0
+    monkeypatch.undo()
+    kept, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=1.0)
+    turns = [kept._global_turn(0, k) for k in (36, 47)]
+    assert 0.85 < turns[0] < turns[1] < 1.1
+    assert _loop_errors(kept).max() < 0.05 and err.max() < 0.15
+
+
+def test_the_uncertainty_s_scale_is_the_largest_shift_the_square_search_s_closures_made():
+    """Before three closures, the path's uncertainty as it stands (1); then the largest of the closures' shifts in
+    its standard deviations, never above 1."""
+    slam = Slam2D(SlamParams())
+    slam._drift_ratios += [0.1, 0.4]
+    assert slam._drift_scale() == 1.0
+    slam._drift_ratios.append(0.3)
+    assert slam._drift_scale() == pytest.approx(0.4)
+    slam._drift_ratios.append(1.7)
+    assert slam._drift_scale() == 1.0
+
+
+def test_a_global_match_farther_than_the_measured_uncertainty_is_refused(scene, monkeypatch):
+    """The drifted corner as above. With the closures so far having moved their keyframes by at most 0.05 of the
+    path's standard deviations, the global search's reach (0.5 m + 0.15 sigma) no longer gets to the corner 1 m
+    off: nothing is searched. With the reach as it stands but every match held to none of it (each
+    search's shift limit 0), each match found is refused, counted as inconsistent."""
+    with monkeypatch.context() as patch:
+        patch.setattr(Slam2D, "_drift_scale", lambda self: 0.05)
+        slam, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=1.0)
+    assert slam.counts.global_searches == 0 and slam.counts.loops == 0 and err[240] > 1.0
+    closure = Slam2D._try_closure
+
+    def no_reach(self, new, chain, anchor, prediction, window, least, points=None, reach=None):
+        reach = None if reach is None else np.zeros_like(reach)
+        return closure(self, new, chain, anchor, prediction, window, least, points, reach)
+
+    monkeypatch.setattr(Slam2D, "_try_closure", no_reach)
+    slam, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=1.0)
+    c = slam.counts
+    assert c.global_searches >= 1 and c.loops == 0 and c.loops_inconsistent >= 1 and err[240] > 1.0
 
 
 def test_sequential_matching_keeps_the_drifting_path_and_the_map_right(scene):
