@@ -17,7 +17,8 @@ with the wheel odometry alone (the bag's odom -> base_footprint at the same stam
   (within 20 m) to the nearest point of the scans at least 30 scans away in the log (the other passes
   through the same place), the mean over the scans that have 20 such neighbours within 0.5 m, in cm;
   also printed for the reference trajectory itself (a map whose passes agree scores low);
-- **loops**: loop-closure edges in pose_graph.json; **wall s** / **x real**: the replay's wall time
+- **loops**: loop-closure edges in pose_graph.json, and (**global**) how many of them the global search
+  (``loop_search_global``) closed, over its searches; **wall s** / **x real**: the replay's wall time
   and the log's duration over it (with the load average: the machine is shared); **x (CPU)**: the
   log's duration over the CPU time of the replay.
 
@@ -283,6 +284,7 @@ def evaluate(
     odom = np.array([odom_at[t] for t in ts.tolist()])
     graph = json.loads((out / "pose_graph.json").read_text())
     loops = sum(e["kind"] == "loop" for e in graph["edges"])
+    found = f"{graph['counts']['loops_global']}/{graph['counts']['global_searches']}"
     duration = (ref_t[-1] - ref_t[0]) / 1e9
     travel = float(np.sum(np.linalg.norm(np.diff(ref[:, :2], axis=0), axis=1)))
     rows = [("slam", slam), ("odometry", odom)]
@@ -307,9 +309,9 @@ def evaluate(
         if source in averaged:
             ates.append(s["ate"])
         extra = (
-            f"{loops:>6} {wall:>7.1f} {duration / wall:>8.1f}x {duration / cpu:>8.1f}x"
+            f"{loops:>6} {found:>7} {wall:>7.1f} {duration / wall:>8.1f}x {duration / cpu:>8.1f}x"
             if source == "slam"
-            else f"{'-':>6} {'-':>7} {'-':>9} {'-':>9}"
+            else f"{'-':>6} {'-':>7} {'-':>7} {'-':>9} {'-':>9}"
         )
         print(
             f"{name if source == 'slam' else '':<8} {source:<11} {s['ate']:>7.3f} {s['re1']:>7.3f} {s['re5']:>7.3f}"
@@ -384,7 +386,7 @@ def main() -> None:
     carmen = args.shared / "external-data" / "carmen"
     print(f"machine: {os.cpu_count()} cores, load average {load()}")
     print(
-        f"{'dataset':<8} {'source':<11} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'overlap':>7} {'loops':>6} {'wall s':>7} {'x real':>9} {'x (CPU)':>9}"
+        f"{'dataset':<8} {'source':<11} {'ATE m':>7} {'RE1 m':>7} {'RE5 m':>7} {'walls':>6} {'overlap':>7} {'loops':>6} {'global':>7} {'wall s':>7} {'x real':>9} {'x (CPU)':>9}"
     )
     errors = [*args.odometry_error, *(e for e in ENSEMBLE if e not in args.odometry_error and args.ensemble)]
     means = {}

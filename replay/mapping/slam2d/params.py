@@ -87,7 +87,7 @@ class SlamParams:
     # other checks, and a shift within the path's uncertainty as the closures so far measured it (Slam2D's
     # _global_search)
     loop_search_global: bool = True
-    loop_match_minimum_response_global: float = 0.6
+    loop_match_minimum_response_global: float = 0.7
     # a loop match whose translation variance (m^2, its worst direction) exceeds this is refused: the
     # submap does not pin the scan (a corridor). slam_toolbox's name; navlog's variance is the match's
     # Hessian's (ScanMatcher.covariance), hence the smaller default (slam_toolbox: 3.0 of its own measure)

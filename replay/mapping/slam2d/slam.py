@@ -99,7 +99,7 @@ FULL_FAN = math.radians(300.0)
 SIGNATURE_BINS = 32
 GLOBAL_STRETCH = 10
 GLOBAL_CALIBRATION = 3  # closures the square search kept before _drift_scale measures the uncertainty's scale
-GLOBAL_POINTS = 2048  # the running buffer's surface points the global search matches, evenly spread, at most
+GLOBAL_POINTS = 1024  # the running buffer's surface points the global search matches, evenly spread, at most
 
 
 @dataclass(frozen=True)
