@@ -841,12 +841,12 @@ class Slam2D:
         points: np.ndarray | None = None,
         reach: np.ndarray | None = None,
     ) -> bool:
-        """The new keyframe's loop search against ``chain`` (``_loop_search``, of ``points`` in its frame: its scan's
-        when None) and, for a match of at least
-        ``least`` that pins the scan and that no other place in the square matches as well, a loop edge from
-        ``anchor`` (the chain's keyframe nearest the match when None), kept if the optimised graph agrees with it
-        (``loop_match_maximum_chi2``). True when an edge was added, whether kept or taken back (either way the
-        next search waits ``loop_search_maximum_distance``)."""
+        """The new keyframe's loop search against ``chain`` (``_loop_search``, of ``points`` in its frame: its
+        scan's when None) and, for a match of at least ``least`` that pins the scan, that no other place in the
+        square matches as well and (``reach`` given, per keyframe) that moves the new keyframe from its estimate by
+        no more than the reach of the keyframe it joins, a loop edge from ``anchor`` (the chain's keyframe nearest the match when None),
+        kept if the optimised graph agrees with it (``loop_match_maximum_chi2``). True when an edge was added,
+        whether kept or taken back (either way the next search waits ``loop_search_maximum_distance``)."""
         points = self.keyframes[new].points if points is None else points
         searched = self._loop_search(self._points_of(chain), points, prediction, window)
         if searched is None:
