@@ -191,7 +191,8 @@ def main() -> None:
         total_cpu = sum(c for _, c in laps) + (finish[1] if finish else 0.0)
         duration = (end - start_ns) / 1e9
         print(
-            f"whole: {travel:.0f} m, {len(graph['nodes'])} keyframes, {len(loop_stamps)} loops,"
+            f"whole: {travel:.0f} m, {len(graph['nodes'])} keyframes, {len(loop_stamps)} loops"
+            f" ({graph['counts']['loops_global']} of them in {graph['counts']['global_searches']} global searches),"
             f" {total_wall:.1f} s wall ({duration / total_wall:.1f}x real time), {total_cpu:.1f} s CPU"
             f" ({duration / total_cpu:.1f}x); ATE {float(np.sqrt(np.mean(sq))):.3f} m"
             f" ({len(stamps)}/{len(rt)} reference poses)"
