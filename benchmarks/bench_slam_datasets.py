@@ -17,7 +17,8 @@ with the wheel odometry alone (the bag's odom -> base_footprint at the same stam
   (within 20 m) to the nearest point of the scans at least 30 scans away in the log (the other passes
   through the same place), the mean over the scans that have 20 such neighbours within 0.5 m, in cm;
   also printed for the reference trajectory itself (a map whose passes agree scores low);
-- **loops**: loop-closure edges in pose_graph.json, and (**global**) how many of them the global search
+- **loops**: loop-closure edges in pose_graph.json (each checked below the dataset against the reference's
+  relative pose of its two keyframes), and (**global**) how many of them the global search
   (``loop_search_global``) closed, over its searches; **wall s** / **x real**: the replay's wall time
   and the log's duration over it (with the load average: the machine is shared); **x (CPU)**: the
   log's duration over the CPU time of the replay.
@@ -233,6 +234,22 @@ def matched_on_reference(ref: np.ndarray, stamps: np.ndarray, scans: dict[int, t
     return out
 
 
+def loop_errors(graph: dict, ref_at: dict[int, np.ndarray]) -> np.ndarray:
+    """Per loop edge of a pose_graph.json whose two keyframes' stamps the reference has: the distance between the
+    position of its target in its source's frame it measured and the reference's (m)."""
+    stamp = {n["id"]: n["stamp_ns"] for n in graph["nodes"]}
+    out = []
+    for e in graph["edges"]:
+        a, b = ref_at.get(stamp[e["source"]]), ref_at.get(stamp[e["target"]])
+        if e["kind"] != "loop" or a is None or b is None:
+            continue
+        c, s = np.cos(a[2]), np.sin(a[2])
+        dx, dy = b[0] - a[0], b[1] - a[1]
+        true = (c * dx + s * dy, -s * dx + c * dy)  # b's position in a's frame
+        out.append(float(np.hypot(e["x"] - true[0], e["y"] - true[1])))
+    return np.array(out)
+
+
 def odometry_error(text: str) -> tuple[str, float]:
     """``KIND=VALUE`` of ``--odometry-error``."""
     kind, _, value = text.partition("=")
@@ -284,6 +301,7 @@ def evaluate(
     odom = np.array([odom_at[t] for t in ts.tolist()])
     graph = json.loads((out / "pose_graph.json").read_text())
     loops = sum(e["kind"] == "loop" for e in graph["edges"])
+    closure_errors = loop_errors(graph, dict(zip(ref_t.tolist(), ref, strict=True)))
     found = f"{graph['counts']['loops_global']}/{graph['counts']['global_searches']}"
     duration = (ref_t[-1] - ref_t[0]) / 1e9
     travel = float(np.sum(np.linalg.norm(np.diff(ref[:, :2], axis=0), axis=1)))
@@ -330,6 +348,13 @@ def evaluate(
         print(
             f"{'':<8} own RE 1 m (RMS; reference{f' + {sigma:g} m noise' if sigma else ''}, SLAM and odometry "
             f"against each other): reference {own[0]:.3f}, SLAM {own[1]:.3f}, odometry {own[2]:.3f}",
+            flush=True,
+        )
+    if len(closure_errors):
+        print(
+            f"{'':<8} loop closures against the reference's relative pose of their keyframes: median"
+            f" {np.median(closure_errors):.3f} m, largest {closure_errors.max():.3f} m, {int(np.sum(closure_errors > 0.5))}"
+            " more than 0.5 m off",
             flush=True,
         )
     print(f"{'':<8} ({len(ts)}/{len(ref_t)} scans placed, {travel:.0f} m, load {before} -> {load()})", flush=True)
