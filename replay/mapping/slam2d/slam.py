@@ -253,6 +253,18 @@ def _edge_covariance(cov: np.ndarray, heading: float) -> np.ndarray:
     return rot.T @ cov @ rot
 
 
+def _run_around(mask: np.ndarray, at: int, most: int | None = None) -> tuple[int, int]:
+    """The first and last index of the run of True in ``mask`` that holds index ``at`` (True), at most ``most``
+    indices either side of it when given."""
+    reach = len(mask) if most is None else most
+    lo = hi = at
+    while lo > 0 and mask[lo - 1] and at - lo < reach:
+        lo -= 1
+    while hi + 1 < len(mask) and mask[hi + 1] and hi - at < reach:
+        hi += 1
+    return lo, hi
+
+
 def _xyt(p: gtsam.Pose2) -> np.ndarray:
     return np.array([p.x(), p.y(), p.theta()])
 
@@ -711,11 +723,7 @@ class Slam2D:
         variance = None  # the least of the chain's and the route's variance (_least_variance), once needed
         if near.any():
             closest = int(np.argmin(np.where(near, d / reach, np.inf)))
-            lo = hi = closest  # the chain: near keyframes contiguous with the closest one
-            while lo > 0 and near[lo - 1]:
-                lo -= 1
-            while hi + 1 < old_end and near[hi + 1]:
-                hi += 1
+            lo, hi = _run_around(near, closest)  # the chain: near keyframes contiguous with the closest one
             if hi - lo + 1 >= self.p.loop_match_minimum_chain_size:
                 self.counts.loop_attempts += 1
                 searched[lo : hi + 1] = True
@@ -731,12 +739,11 @@ class Slam2D:
                     self.p.coarse_angle_resolution,
                 )
                 chain = list(range(lo, hi + 1))
-                estimate, anchor = _pose2(poses[new]), _pose2(poses[closest])  # copies: poses is the graph's view
                 loops = self.counts.loops
-                if self._try_closure(new, chain, closest, poses[new], window, self.p.loop_match_minimum_response_fine):
+                least = self.p.loop_match_minimum_response_fine
+                shift = self._try_closure(new, chain, closest, poses[new], window, least)
+                if shift is not None:
                     if self.counts.loops > loops:  # how far the match put the keyframe from its estimate, in sigmas
-                        found = anchor.compose(gtsam.Pose2(*self.graph.edges[-1].relative))
-                        shift = math.hypot(found.x() - estimate.x(), found.y() - estimate.y())
                         self._drift_ratios.append(shift / max(sigma, 1e-9))
                     return
         if self.p.loop_search_global:
@@ -776,18 +783,14 @@ class Slam2D:
             return
         if variance is None:
             variance = self._least_variance(poses, new, path)
-        full = self.p.loop_search_maximum_distance + self.p.loop_search_path_sigmas * scale * np.sqrt(variance)
-        candidate = (full > cap) & (d <= full) & ~searched
+        scaled = self.p.loop_search_maximum_distance + self.p.loop_search_path_sigmas * scale * np.sqrt(variance)
+        candidate = (scaled > cap) & (d <= scaled) & ~searched
         if candidate.sum() < self.p.loop_match_minimum_chain_size:
             return
         signatures = self._signatures.view()
         index = np.flatnonzero(candidate)
         best = int(index[int(np.argmin(np.abs(signatures[index] - signatures[new]).sum(axis=1)))])
-        lo = hi = best
-        while lo > 0 and candidate[lo - 1] and best - lo < GLOBAL_STRETCH:
-            lo -= 1
-        while hi + 1 < len(candidate) and candidate[hi + 1] and hi - best < GLOBAL_STRETCH:
-            hi += 1
+        lo, hi = _run_around(candidate, best, GLOBAL_STRETCH)
         if hi - lo + 1 < self.p.loop_match_minimum_chain_size:
             return
         self.counts.global_searches += 1
@@ -807,7 +810,7 @@ class Slam2D:
         local = transform_points(_xyt(self._pose(new).inverse()), self._buffer_points(self._pose(new)))
         if len(local) > GLOBAL_POINTS:
             local = local[np.linspace(0, len(local) - 1, GLOBAL_POINTS).astype(np.int64)]
-        self._try_closure(new, list(range(lo, hi + 1)), None, centre, window, least, local, full)
+        self._try_closure(new, list(range(lo, hi + 1)), None, centre, window, least, local, scaled)
         self.counts.loops_global += self.counts.loops - loops
 
     def _drift_scale(self) -> float:
@@ -840,33 +843,36 @@ class Slam2D:
         least: float,
         points: np.ndarray | None = None,
         reach: np.ndarray | None = None,
-    ) -> bool:
+    ) -> float | None:
         """The new keyframe's loop search against ``chain`` (``_loop_search``, of ``points`` in its frame: its
         scan's when None) and, for a match of at least ``least`` that pins the scan, that no other place in the
         square matches as well and (``reach`` given, per keyframe) that moves the new keyframe from its estimate by
-        no more than the reach of the keyframe it joins, a loop edge from ``anchor`` (the chain's keyframe nearest the match when None),
-        kept if the optimised graph agrees with it (``loop_match_maximum_chi2``). True when an edge was added,
-        whether kept or taken back (either way the next search waits ``loop_search_maximum_distance``)."""
+        no more than the reach of the keyframe it joins, a loop edge from ``anchor`` (the chain's keyframe nearest
+        the match when None), kept if the optimised graph agrees with it (``loop_match_maximum_chi2``). When an
+        edge was added, whether kept or taken back (either way the next search waits
+        ``loop_search_maximum_distance``), how far the match put the new keyframe from its estimate (m); else
+        None."""
         points = self.keyframes[new].points if points is None else points
         searched = self._loop_search(self._points_of(chain), points, prediction, window)
         if searched is None:
-            return False
+            return None
         match, spread = searched
         if match.response < least:
-            return False
+            return None
         cov = self._match_covariance(match, self.p.loop_sigmas)
         if not self._pins(cov):
             self.counts.loops_ambiguous += 1  # the submap does not pin the scan (a corridor): no closure
-            return False
+            return None
         if spread() > self.p.loop_match_maximum_spread:
             self.counts.loops_ambiguous += 1  # a place elsewhere in the square looks the same: no closure
-            return False
+            return None
         poses = self.graph.poses()
         if anchor is None:
             anchor = chain[int(np.argmin(np.linalg.norm(poses[chain, :2] - match.pose[:2], axis=1)))]
-        if reach is not None and float(np.hypot(*(match.pose[:2] - poses[new, :2]))) > reach[anchor]:
+        shift = float(np.hypot(*(match.pose[:2] - poses[new, :2])))
+        if reach is not None and shift > reach[anchor]:
             self.counts.loops_inconsistent += 1  # farther from the estimate than the path's uncertainty reaches
-            return False
+            return None
         rel = _pose2(poses[anchor]).between(_pose2(match.pose))
         self.graph.add_edge(
             anchor,
@@ -885,10 +891,10 @@ class Slam2D:
             # the rest of the graph disagrees with the closure: a false match, taken back
             self.graph.remove_last_edge()
             self.counts.loops_inconsistent += 1
-            return True
+            return shift
         self.counts.loops += 1
         self._loop_edges.append((anchor, new, cov[0, 0] + cov[1, 1], cov[2, 2]))
-        return True
+        return shift
 
     def _loop_search(
         self, reference: np.ndarray, points: np.ndarray, prediction: np.ndarray, window: SearchWindow
