@@ -87,6 +87,8 @@ class SlamParams:
     # other checks, and a shift within the path's uncertainty as the closures so far measured it (Slam2D's
     # _global_search)
     loop_search_global: bool = True
+    # also the bar of a square search's closure that moves the keyframe farther than
+    # loop_search_maximum_distance: the running buffer's surfaces must match there as well (Slam2D's _confirmed)
     loop_match_minimum_response_global: float = 0.7
     # a loop match whose translation variance (m^2, its worst direction) exceeds this is refused: the
     # submap does not pin the scan (a corridor). slam_toolbox's name; navlog's variance is the match's

@@ -26,8 +26,10 @@ scan's valid points in the robot frame:
    (at most ``loop_search_maximum_dimension``; beyond ``loop_search_space_dimension`` searched on a
    coarser grid, then at full resolution around what it found) with a response of at least
    ``loop_match_minimum_response_fine``, that pins the scan and that no other place in the square
-   matches as well (``loop_match_maximum_spread``), adds a loop edge, and the graph is optimised
-   (gtsam). After
+   matches as well (``loop_match_maximum_spread``) and, when it moves the keyframe farther than
+   ``loop_search_maximum_distance`` from its estimate, that the running buffer's surfaces match there too
+   (``loop_match_minimum_response_global``: a corridor one scan finds alike metres along is seldom alike
+   with the metres before it), adds a loop edge, and the graph is optimised (gtsam). After
    a closure the next search waits until the keyframes have travelled ``loop_search_maximum_distance``
    (a closed loop stays closed; searching again at every keyframe of the same pass would only
    repeat it), and so does it after a closure the optimised graph disagreed with and that was taken
@@ -804,14 +806,27 @@ class Slam2D:
         window = SearchWindow(side, self._global_turn(lo, new), self.p.coarse_angle_resolution)
         least = max(self.p.loop_match_minimum_response_fine, self.p.loop_match_minimum_response_global)
         loops = self.counts.loops
-        # the running buffer's surfaces in the new keyframe's frame: a few metres of the building, far more telling
-        # than one scan (a room or a stretch of corridor alike to the new scan is common; one alike with the
-        # rooms and corridors around it, rare)
+        self._try_closure(new, list(range(lo, hi + 1)), None, centre, window, least, self._surroundings(new), scaled)
+        self.counts.loops_global += self.counts.loops - loops
+
+    def _surroundings(self, new: int) -> np.ndarray:
+        """The running buffer's surfaces in keyframe ``new``'s frame (``GLOBAL_POINTS`` at most, evenly spread): a
+        few metres of the building, far more telling than one scan (a room or a stretch of corridor alike to the
+        new scan is common; one alike with the rooms and corridors around it, rare)."""
         local = transform_points(_xyt(self._pose(new).inverse()), self._buffer_points(self._pose(new)))
         if len(local) > GLOBAL_POINTS:
             local = local[np.linspace(0, len(local) - 1, GLOBAL_POINTS).astype(np.int64)]
-        self._try_closure(new, list(range(lo, hi + 1)), None, centre, window, least, local, scaled)
-        self.counts.loops_global += self.counts.loops - loops
+        return local
+
+    def _confirmed(self, reference: np.ndarray, new: int, pose: np.ndarray) -> bool:
+        """Whether the running buffer's surfaces (``_surroundings``), matched against ``reference`` in a
+        ``WIDE_REFINE`` square and yaw around ``pose`` (where a match put keyframe ``new``), reach
+        ``loop_match_minimum_response_global``: the bar of a closure the global search finds, for a square-search
+        closure that moves the keyframe farther than ``loop_search_maximum_distance`` from its estimate (a
+        stretch of corridor one scan finds alike metres along is seldom alike with the few metres before it)."""
+        window = SearchWindow(WIDE_REFINE[0], WIDE_REFINE[1], self.p.coarse_angle_resolution)
+        least = self.p.loop_match_minimum_response_global
+        return self.matcher.match(reference, self._surroundings(new), pose, window, least) is not None
 
     def _drift_scale(self) -> float:
         """How the path's uncertainty (``_path_variance``, ``_route_variance``: from the matches' covariances)
@@ -846,14 +861,18 @@ class Slam2D:
     ) -> float | None:
         """The new keyframe's loop search against ``chain`` (``_loop_search``, of ``points`` in its frame: its
         scan's when None) and, for a match of at least ``least`` that pins the scan, that no other place in the
-        square matches as well and (``reach`` given, per keyframe) that moves the new keyframe from its estimate by
-        no more than the reach of the keyframe it joins, a loop edge from ``anchor`` (the chain's keyframe nearest
+        square matches as well, (``reach`` given, per keyframe) that moves the new keyframe from its estimate by
+        no more than the reach of the keyframe it joins and (a match of the scan alone moving it farther than
+        ``loop_search_maximum_distance``) that the running buffer confirms (``_confirmed``), a loop edge from
+        ``anchor`` (the chain's keyframe nearest
         the match when None), kept if the optimised graph agrees with it (``loop_match_maximum_chi2``). When an
         edge was added, whether kept or taken back (either way the next search waits
         ``loop_search_maximum_distance``), how far the match put the new keyframe from its estimate (m); else
         None."""
+        confirm = points is None  # a match of the new scan alone, confirmed by the buffer when it moves far
         points = self.keyframes[new].points if points is None else points
-        searched = self._loop_search(self._points_of(chain), points, prediction, window)
+        reference = self._points_of(chain)
+        searched = self._loop_search(reference, points, prediction, window)
         if searched is None:
             return None
         match, spread = searched
@@ -872,6 +891,9 @@ class Slam2D:
         shift = float(np.hypot(*(match.pose[:2] - poses[new, :2])))
         if reach is not None and shift > reach[anchor]:
             self.counts.loops_inconsistent += 1  # farther from the estimate than the path's uncertainty reaches
+            return None
+        if confirm and shift > self.p.loop_search_maximum_distance and not self._confirmed(reference, new, match.pose):
+            self.counts.loops_inconsistent += 1  # the metres before the scan disagree with the place it found
             return None
         rel = _pose2(poses[anchor]).between(_pose2(match.pose))
         self.graph.add_edge(
