@@ -80,7 +80,13 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from navlog.analysis.metrics import align_planar, own_relative_errors, planar_ate, planar_relative_error
+from navlog.analysis.metrics import (
+    align_planar,
+    own_relative_errors,
+    planar_ate,
+    planar_in_frame,
+    planar_relative_error,
+)
 from navlog.replay.geometry import planar_matrix
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow, SlamParams
@@ -238,16 +244,14 @@ def loop_errors(graph: dict, ref_at: dict[int, np.ndarray]) -> np.ndarray:
     """Per loop edge of a pose_graph.json whose two keyframes' stamps the reference has: the distance between the
     position of its target in its source's frame it measured and the reference's (m)."""
     stamp = {n["id"]: n["stamp_ns"] for n in graph["nodes"]}
-    out = []
-    for e in graph["edges"]:
-        a, b = ref_at.get(stamp[e["source"]]), ref_at.get(stamp[e["target"]])
-        if e["kind"] != "loop" or a is None or b is None:
-            continue
-        c, s = np.cos(a[2]), np.sin(a[2])
-        dx, dy = b[0] - a[0], b[1] - a[1]
-        true = (c * dx + s * dy, -s * dx + c * dy)  # b's position in a's frame
-        out.append(float(np.hypot(e["x"] - true[0], e["y"] - true[1])))
-    return np.array(out)
+    loops = [e for e in graph["edges"] if e["kind"] == "loop"]
+    loops = [e for e in loops if stamp[e["source"]] in ref_at and stamp[e["target"]] in ref_at]
+    if not loops:
+        return np.zeros(0)
+    source = np.array([ref_at[stamp[e["source"]]] for e in loops])
+    target = np.array([ref_at[stamp[e["target"]]][:2] for e in loops])
+    measured = np.array([(e["x"], e["y"]) for e in loops])
+    return np.linalg.norm(measured - planar_in_frame(source, target), axis=1)
 
 
 def odometry_error(text: str) -> tuple[str, float]:

@@ -527,12 +527,15 @@ def _planar_moves(ref: np.ndarray, travel: float, *trajectories: np.ndarray) -> 
     i = np.arange(len(ref))
     j = np.searchsorted(cum, cum + travel)
     i, j = i[j < len(ref)], j[j < len(ref)]
-    out = []
-    for p in trajectories:
-        c, s = np.cos(p[i, 2]), np.sin(p[i, 2])
-        dx, dy = (p[j, :2] - p[i, :2]).T
-        out.append(np.stack([c * dx + s * dy, -s * dx + c * dy], axis=1))
-    return out
+    return [planar_in_frame(p[i], p[j, :2]) for p in trajectories]
+
+
+def planar_in_frame(frames: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """(M, 2) positions ``xy`` given in the parent frame, each expressed in its planar frame of ``frames`` (M, 3:
+    x, y, yaw)."""
+    c, s = np.cos(frames[:, 2]), np.sin(frames[:, 2])
+    dx, dy = (xy - frames[:, :2]).T
+    return np.stack([c * dx + s * dy, -s * dx + c * dy], axis=1)
 
 
 def planar_relative_error(est: np.ndarray, ref: np.ndarray, travel: float) -> float:

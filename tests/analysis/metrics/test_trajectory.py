@@ -161,6 +161,14 @@ def test_planar_ate_is_the_error_no_rigid_motion_in_the_plane_removes():
     assert tr.planar_ate(ref + [3.0, -1.0, 0.2], ref) == pytest.approx(0.0, abs=1e-12)
 
 
+def test_a_position_in_a_planar_frame():
+    """(1, 3) seen from a robot at (1, 2) facing +y is 1 m straight ahead; (0, 0) seen from the origin turned
+    a half turn is still the origin; (2, 0) from there is 2 m behind."""
+    frames = np.array([[1.0, 2.0, math.pi / 2], [0.0, 0.0, math.pi], [0.0, 0.0, math.pi]])
+    xy = np.array([[1.0, 3.0], [0.0, 0.0], [2.0, 0.0]])
+    assert np.allclose(tr.planar_in_frame(frames, xy), [[1.0, 0.0], [0.0, 0.0], [-2.0, 0.0]], atol=1e-12)
+
+
 def test_three_trajectories_give_each_ones_own_relative_error():
     # a 2.5 km straight run of 0.5 m steps; three estimates, each the truth with seeded position noise of its
     # own (1, 2 and 3 cm per axis): a move over 1 m (two steps) differs by two noises, RMS 2 x sigma x sqrt(2)
