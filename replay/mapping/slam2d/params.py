@@ -64,7 +64,9 @@ class SlamParams:
     coarse_angle_resolution: float = 0.0349  # yaw step of the search (refined after)
     do_loop_closing: bool = True
     loop_search_maximum_distance: float = 3.0  # keyframes closer than this are loop candidates
-    loop_match_minimum_chain_size: int = 10  # a candidate chain needs this many keyframes
+    # a candidate chain needs this many keyframes, or as much travel as this many made every
+    # minimum_travel_distance would span (keyframes farther apart: a log recorded once per metre)
+    loop_match_minimum_chain_size: int = 10
     loop_match_minimum_response_fine: float = 0.45  # a loop is accepted at or above this response
     # a search wider than loop_search_space_dimension (below) keeps its best pose at or above this response
     # before the full-resolution search around it

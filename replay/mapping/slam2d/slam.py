@@ -19,8 +19,9 @@ scan's valid points in the robot frame:
 5. **close loops** (``do_loop_closing``): keyframes within ``loop_search_maximum_distance`` plus
    ``loop_search_path_sigmas`` standard deviations of the path's uncertainty since them, that are
    older than the running buffer, in a chain of at least ``loop_match_minimum_chain_size`` such
-   keyframes, form a submap; a match of the new scan against it in a square as wide as the reach to
-   the closest of them — there the uncertainty is the smaller of the chain's and that along the graph's
+   keyframes (or as much travel as that many made every ``minimum_travel_distance`` would span: a log
+   whose scans lie a metre apart has half as many along a corridor it crosses), form a submap; a match
+   of the new scan against it in a square as wide as the reach to the closest of them — there the uncertainty is the smaller of the chain's and that along the graph's
    shortest route, through the loops closed since (``_route_variance``): a revisit of a place already
    tied to the path searches a small square —
    (at most ``loop_search_maximum_dimension``; beyond ``loop_search_space_dimension`` searched on a
@@ -726,7 +727,7 @@ class Slam2D:
         if near.any():
             closest = int(np.argmin(np.where(near, d / reach, np.inf)))
             lo, hi = _run_around(near, closest)  # the chain: near keyframes contiguous with the closest one
-            if hi - lo + 1 >= self.p.loop_match_minimum_chain_size:
+            if self._submap(lo, hi):
                 self.counts.loop_attempts += 1
                 searched[lo : hi + 1] = True
                 # the square searched: the reach to the closest keyframe by the least variance
@@ -750,6 +751,15 @@ class Slam2D:
                     return
         if self.p.loop_search_global:
             self._global_search(new, poses, d, full, searched, path, variance)
+
+    def _submap(self, lo: int, hi: int) -> bool:
+        """Whether keyframes ``lo``..``hi`` are enough of a chain to match a loop against: at least
+        ``loop_match_minimum_chain_size`` of them, or as much travel as that many keyframes made every
+        ``minimum_travel_distance`` span (a log whose scans lie a metre apart has half as many keyframes along the
+        same stretch, and a corridor it crosses would never make a chain)."""
+        least = self.p.loop_match_minimum_chain_size
+        spanned = self._travel[hi] - self._travel[lo]
+        return hi - lo + 1 >= least or spanned >= (least - 1) * self.p.minimum_travel_distance
 
     def _least_variance(self, poses: np.ndarray, new: int, path: np.ndarray) -> np.ndarray:
         """Per keyframe before ``len(path)``: the smaller of two bounds of the same uncertainty of the new keyframe's
@@ -787,13 +797,13 @@ class Slam2D:
             variance = self._least_variance(poses, new, path)
         scaled = self.p.loop_search_maximum_distance + self.p.loop_search_path_sigmas * scale * np.sqrt(variance)
         candidate = (scaled > cap) & (d <= scaled) & ~searched
-        if candidate.sum() < self.p.loop_match_minimum_chain_size:
+        if not candidate.any():
             return
         signatures = self._signatures.view()
         index = np.flatnonzero(candidate)
         best = int(index[int(np.argmin(np.abs(signatures[index] - signatures[new]).sum(axis=1)))])
         lo, hi = _run_around(candidate, best, GLOBAL_STRETCH)
-        if hi - lo + 1 < self.p.loop_match_minimum_chain_size:
+        if not self._submap(lo, hi):
             return
         self.counts.global_searches += 1
         self._since_global = 0.0

@@ -166,6 +166,36 @@ def test_a_loop_closure_removes_the_odometry_drift(scene):
     assert kinds.count("odometry") == len(slam.keyframes) - 1 and kinds.count("loop") == slam.counts.loops
 
 
+def test_a_log_whose_scans_lie_far_apart_still_makes_chains_to_close_loops_on(scene):
+    """The rectangle with its scans 0.5 m apart (a log recorded once per half metre), placed by odometry alone
+    that turns 1.2 % too much, loops searched 1 m around each keyframe: a revisit's near keyframes, 2 m of path,
+    are four or five, fewer than ``loop_match_minimum_chain_size`` (10). They span as much travel as ten
+    keyframes made every ``minimum_travel_distance`` (0.1 m) would, and the loop closes; with keyframes made
+    every 0.45 m (each scan still one) ten of them would span 4.05 m, no chain is ever long enough and the
+    drift stays."""
+    truth = rectangle_path()[::5]
+    odom = drifting_odometry(truth, 0.012)
+    revisit = 48  # back at the start corner
+    assert 0.25 < np.hypot(*(odom[revisit, :2] - truth[revisit, :2])) < 0.4
+    base = {
+        "link_match_minimum_response_fine": 1.0,
+        "scan_buffer_size": 6,
+        "loop_search_maximum_distance": 1.0,
+        "loop_search_path_sigmas": 0.0,
+        "loop_search_global": False,
+    }
+    errors = {}
+    for travel in (0.1, 0.45):
+        slam = run_slam(scene, truth, odom, SlamParams(minimum_travel_distance=travel, **base))
+        assert slam.counts.keyframes == len(truth)  # every scan a keyframe either way
+        _, poses = slam.trajectory()
+        errors[travel] = (slam.counts, np.hypot(*(poses[:, :2] - truth[:, :2]).T))
+    counts, err = errors[0.1]
+    assert counts.loops >= 1 and err[revisit] < 0.05 and err[-1] < 0.05
+    counts, err = errors[0.45]
+    assert counts.loop_attempts == 0 and err[revisit] > 0.25
+
+
 def drifted_corner_run(scene, **params) -> tuple[Slam2D, np.ndarray]:
     """Keyframes placed by odometry alone (0.1 m, 0.05 rad per edge) that turns 4 % too much, loops searched
     from 0.5 m with 4-keyframe chains and ``params``: the SLAM and its position error at every scan."""
