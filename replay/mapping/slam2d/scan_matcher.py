@@ -31,6 +31,33 @@ SPREAD_LOOKUPS = 1 << 20
 SPREAD_POINTS = 512
 
 
+# the distance transform runs over tiles of this many cells a side (each widened by the reach it must be exact
+# within), skipping those with no reference cell that near: most of a building's box is rooms' insides
+TILE = 128
+
+
+def _distance_transform(free: np.ndarray, reach: int) -> tuple[np.ndarray, np.ndarray]:
+    """scipy's Euclidean distance transform of ``free`` (cells) and its feature transform (the nearest occupied
+    cell's row and column), exact wherever an occupied cell lies within ``reach`` cells: computed over each
+    ``TILE`` square widened by ``reach`` on every side, the squares with no occupied cell skipped. Elsewhere the
+    distance is more than ``reach`` (infinite where no square was computed) and the feature -1 there."""
+    ny, nx = free.shape
+    distance = np.full((ny, nx), np.inf)
+    feature = np.full((2, ny, nx), -1, dtype=np.int32)
+    for y in range(0, ny, TILE):
+        for x in range(0, nx, TILE):
+            y0, x0 = max(0, y - reach), max(0, x - reach)
+            wide = free[y0 : y + TILE + reach, x0 : x + TILE + reach]
+            if wide.all():
+                continue
+            d, f = ndimage.distance_transform_edt(wide, return_indices=True)
+            rows, cols = slice(y - y0, y - y0 + TILE), slice(x - x0, x - x0 + TILE)
+            distance[y : y + TILE, x : x + TILE] = d[rows, cols]
+            feature[0, y : y + TILE, x : x + TILE] = f[0, rows, cols] + y0
+            feature[1, y : y + TILE, x : x + TILE] = f[1, rows, cols] + x0
+    return distance, feature
+
+
 @dataclass(frozen=True)
 class MatchResult:
     pose: np.ndarray  # (x, y, yaw) of the scan's frame in the reference's frame
@@ -71,20 +98,23 @@ class LookupGrid:
         self._occupied, slot = np.unique(cells[:, 1] * nx + cells[:, 0], return_inverse=True)
         free = np.ones(ny * nx, dtype=bool)
         free[self._occupied] = False
-        distance, self._feature = ndimage.distance_transform_edt(free.reshape(ny, nx), return_indices=True)
+        # the fields are read only within 3 sigma of the reference (two cells more: a point and a cell's mean
+        # both lie anywhere in their cells)
+        distance, self._feature = _distance_transform(free.reshape(ny, nx), math.ceil(cut / resolution) + 2)
         # the mean of the reference points in each occupied cell
         count = np.bincount(slot)
         self._mean = np.stack(
             [np.bincount(slot, reference[:, 0]) / count, np.bincount(slot, reference[:, 1]) / count], 1
         )
-        # exp(-0.5 (d / sigma)^2) with d in metres, worked in place: a grid holds millions of cells
+        # exp(-0.5 (d / sigma)^2) with d in metres, within cut of the reference (zero beyond)
         distance *= resolution
-        z = distance / smear_deviation
+        near = distance <= cut
+        z = distance[near] / smear_deviation
         np.square(z, out=z)
         z *= -0.5
         np.exp(z, out=z)
-        likelihood = z.astype(np.float32)
-        likelihood[distance > cut] = 0.0
+        likelihood = np.zeros((ny, nx), dtype=np.float32)
+        likelihood[near] = z.astype(np.float32)
         self.likelihood = likelihood
         self.border = border
         self.origin = self.core_origin - border * resolution  # the canvas's
@@ -127,8 +157,9 @@ class LookupGrid:
         return float(values.mean())
 
     def nearest(self, pose, points: np.ndarray, far: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Points placed at ``pose``, their distance to the reference (``far`` at most; see the module
-        docstring) and the unit vector from the reference to them (zero at ``far``)."""
+        """Points placed at ``pose``, their distance to the reference (``far`` at most, itself at most the
+        likelihood's cut, 3 sigma; see the module docstring) and the unit vector from the reference to them
+        (zero at ``far``)."""
         xy = transform_points(pose, points)
         ny, nx = self.likelihood.shape
         cells = np.floor((xy - self.core_origin) / self.res).astype(np.int64)
@@ -136,7 +167,10 @@ class LookupGrid:
         d = np.full(len(xy), far)
         away = np.zeros_like(xy)
         ix, iy = cells[inside, 0], cells[inside, 1]
-        nearest_cell = self._feature[0, iy, ix].astype(np.int64) * nx + self._feature[1, iy, ix]
+        feature = self._feature[:, iy, ix].astype(np.int64)
+        known = feature[0] >= 0  # else no reference cell within the transform's reach: farther than ``far``
+        inside[inside] = known
+        nearest_cell = feature[0, known] * nx + feature[1, known]
         delta = xy[inside] - self._mean[np.searchsorted(self._occupied, nearest_cell)]
         dist = np.hypot(delta[:, 0], delta[:, 1])
         use = (dist < far) & (dist > 0)

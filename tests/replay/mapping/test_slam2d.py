@@ -109,6 +109,57 @@ def test_every_pooled_level_bounds_the_finer_cells_it_covers():
         assert np.array_equal(grid.pooled(level).reshape(rows, cols), want), level
 
 
+def test_the_lookup_grid_holds_what_one_distance_transform_over_its_whole_box_gives():
+    """The distance transform runs tile by tile, skipping tiles with no reference point near: on the walls of
+    a 14 x 9 m hall (an L of them, its far corner empty for metres) and clutter inside, the likelihood is
+    bit for bit the one scipy's transform over the whole box gives, and so is every point's distance to the
+    reference and direction from it (``nearest``), near a wall, in the empty corner and off the grid."""
+    from scipy import ndimage
+
+    from navlog.replay.mapping.slam2d.scan_matcher import TILE, LookupGrid
+
+    rng = np.random.default_rng(7)
+    walls = [((0.0, 0.0), (14.0, 0.0)), ((0.0, 0.0), (0.0, 9.0)), ((0.0, 9.0), (3.0, 9.0))]
+    parts = [np.linspace(a, b, int(np.hypot(*np.subtract(b, a)) / 0.01)) for a, b in walls]
+    parts.append(rng.uniform((1.0, 1.0), (5.0, 4.0), (300, 2)))
+    reference = np.concatenate(parts) + rng.normal(0.0, 0.005, (sum(map(len, parts)), 2))
+    res, sigma = 0.025, 0.1
+    grid = LookupGrid(reference, res, sigma, 10)
+    ny, nx = grid.likelihood.shape
+    assert ny > 2 * TILE and nx > 4 * TILE and (grid._feature[0] < 0).any()  # some tiles were skipped
+    # the whole box at once
+    cells = np.floor((reference - grid.core_origin) / res).astype(np.int64)
+    free = np.ones((ny, nx), dtype=bool)
+    free[cells[:, 1], cells[:, 0]] = False
+    distance, feature = ndimage.distance_transform_edt(free, return_indices=True)
+    distance *= res
+    want = np.exp(-0.5 * np.square(distance / sigma)).astype(np.float32)
+    want[distance > 3 * sigma] = 0.0
+    assert np.array_equal(grid.likelihood, want)
+    occupied, slot = np.unique(cells[:, 1] * nx + cells[:, 0], return_inverse=True)
+    count = np.bincount(slot)
+    mean = np.stack([np.bincount(slot, reference[:, 0]) / count, np.bincount(slot, reference[:, 1]) / count], 1)
+    queries = np.concatenate(
+        [
+            reference[rng.integers(0, len(reference), 2000)] + rng.normal(0.0, 0.2, (2000, 2)),
+            rng.uniform((-2.0, -2.0), (16.0, 11.0), (2000, 2)),
+        ]
+    )
+    far = 3 * sigma
+    xy, d, away = grid.nearest((0.0, 0.0, 0.0), queries, far)
+    q = np.floor((queries - grid.core_origin) / res).astype(np.int64)
+    on = (q[:, 0] >= 0) & (q[:, 0] < nx) & (q[:, 1] >= 0) & (q[:, 1] < ny)
+    nearest = np.searchsorted(occupied, feature[0, q[on, 1], q[on, 0]] * nx + feature[1, q[on, 1], q[on, 0]])
+    delta = queries[on] - mean[nearest]
+    dist = np.hypot(delta[:, 0], delta[:, 1])
+    want_d = np.full(len(queries), far)
+    want_d[np.flatnonzero(on)[dist < far]] = dist[dist < far]
+    assert np.array_equal(xy, queries) and np.array_equal(d, want_d)
+    close = np.flatnonzero(on)[(dist < far) & (dist > 0)]
+    assert np.array_equal(away[close], delta[(dist < far) & (dist > 0)] / dist[(dist < far) & (dist > 0), None])
+    assert 1000 < len(close) < len(queries) - 1000 and not away[np.setdiff1d(np.arange(len(queries)), close)].any()
+
+
 def rectangle_path(step: float = 0.1) -> np.ndarray:
     """(n, 3) poses along a 6 x 6 m rectangle, driven once and a third, heading along the path."""
     corners = [(-3, -3), (3, -3), (3, 3), (-3, 3), (-3, -3), (3, -3), (3, -1)]
