@@ -39,8 +39,9 @@ TILE = 128
 def _distance_transform(free: np.ndarray, reach: int) -> tuple[np.ndarray, np.ndarray]:
     """scipy's Euclidean distance transform of ``free`` (cells) and its feature transform (the nearest occupied
     cell's row and column), exact wherever an occupied cell lies within ``reach`` cells: computed over each
-    ``TILE`` square widened by ``reach`` on every side, the squares with no occupied cell skipped. Elsewhere the
-    distance is more than ``reach`` (infinite where no square was computed) and the feature -1 there."""
+    ``TILE`` square widened by ``reach`` on every side, a square whose widened box holds no occupied cell skipped.
+    Elsewhere the distance is more than ``reach``, its feature an occupied cell at least that far (in a square
+    computed) or -1 and the distance infinite (in a square skipped)."""
     ny, nx = free.shape
     distance = np.full((ny, nx), np.inf)
     feature = np.full((2, ny, nx), -1, dtype=np.int32)
@@ -256,12 +257,22 @@ class ScanMatcher:
         step = 2**level
         oy, ox, cand = self._offsets(w, step, grid.shape[1])
         pooled = grid.pooled(level)
+        # 4 x 4 candidates at a time bounded by the level that covers their cells (a mean of maxima): only those of a
+        # bound reaching score - drop at a yaw are scored at it; a block's candidates below it there are not near
+        # at that yaw, and a near one is scored at every yaw it could be near at: the same blocks come out near,
+        # their scores their best over the yaws
+        coarse = grid.pooled(level + 2)
+        n = len(np.arange(0, 2 * w + 1, step))
+        block = (oy // (4 * step)) * ((n + 3) // 4) + ox // (4 * step)  # each candidate's block
+        corner = np.unique(cand - (oy % (4 * step)) * grid.shape[1] - ox % (4 * step))  # blocks' first candidates
         best = np.zeros(len(cand))
         chunk = max(1, SPREAD_LOOKUPS // len(points))  # candidates scored at once: bounded work arrays
         for row in flat:
-            for k in range(0, len(cand), chunk):
-                part = best[k : k + chunk]
-                np.maximum(part, pooled[row[None, :] + cand[k : k + chunk, None]].mean(axis=1), out=part)
+            bound = coarse[row[None, :] + corner[:, None]].mean(axis=1)
+            alive = np.flatnonzero((bound >= score - drop)[block])
+            for k in range(0, len(alive), chunk):
+                some = alive[k : k + chunk]
+                best[some] = np.maximum(best[some], pooled[row[None, :] + cand[some, None]].mean(axis=1))
         near = best >= score - drop
         if near.sum() < 2:
             return 0.0

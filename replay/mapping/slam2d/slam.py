@@ -20,10 +20,10 @@ scan's valid points in the robot frame:
    ``loop_search_path_sigmas`` standard deviations of the path's uncertainty since them, that are
    older than the running buffer, in a chain of at least ``loop_match_minimum_chain_size`` such
    keyframes (or as much travel as that many made every ``minimum_travel_distance`` would span: a log
-   whose scans lie a metre apart has half as many along a corridor it crosses), form a submap; a match
-   of the new scan against it in a square as wide as the reach to the closest of them — there the uncertainty is the smaller of the chain's and that along the graph's
-   shortest route, through the loops closed since (``_route_variance``): a revisit of a place already
-   tied to the path searches a small square —
+   whose scans lie farther apart has fewer along a corridor it crosses), form a submap; a match of the
+   new scan against it in a square as wide as the reach to the closest of them — there the uncertainty
+   is the smaller of the chain's and that along the graph's shortest route, through the loops closed
+   since (``_route_variance``): a revisit of a place already tied to the path searches a small square —
    (at most ``loop_search_maximum_dimension``; beyond ``loop_search_space_dimension`` searched on a
    coarser grid, then at full resolution around what it found) with a response of at least
    ``loop_match_minimum_response_fine``, that pins the scan and that no other place in the square
@@ -755,11 +755,11 @@ class Slam2D:
     def _submap(self, lo: int, hi: int) -> bool:
         """Whether keyframes ``lo``..``hi`` are enough of a chain to match a loop against: at least
         ``loop_match_minimum_chain_size`` of them, or as much travel as that many keyframes made every
-        ``minimum_travel_distance`` span (a log whose scans lie a metre apart has half as many keyframes along the
-        same stretch, and a corridor it crosses would never make a chain)."""
+        ``minimum_travel_distance`` would span when that is positive (a log whose scans lie farther apart has
+        fewer keyframes along the same stretch, and a corridor it crosses would never make a chain)."""
         least = self.p.loop_match_minimum_chain_size
-        spanned = self._travel[hi] - self._travel[lo]
-        return hi - lo + 1 >= least or spanned >= (least - 1) * self.p.minimum_travel_distance
+        need = (least - 1) * self.p.minimum_travel_distance
+        return hi - lo + 1 >= least or (need > 0 and self._travel[hi] - self._travel[lo] >= need)
 
     def _least_variance(self, poses: np.ndarray, new: int, path: np.ndarray) -> np.ndarray:
         """Per keyframe before ``len(path)``: the smaller of two bounds of the same uncertainty of the new keyframe's
@@ -783,7 +783,7 @@ class Slam2D:
         ``loop_search_maximum_dimension`` to the new keyframe -- ``loop_search_maximum_distance`` plus
         ``loop_search_path_sigmas`` standard deviations of ``_least_variance``, scaled by ``_drift_scale`` -- are
         looked through for the one whose place signature is most like the new keyframe's; the stretch of them
-        around it (``GLOBAL_STRETCH`` either side, at least ``loop_match_minimum_chain_size``) is searched for the
+        around it (``GLOBAL_STRETCH`` either side, a chain ``_submap`` takes) is searched for the
         running buffer's surfaces (``GLOBAL_POINTS`` at most) in a square over the stretch's keyframes and
         ``loop_search_maximum_distance`` around them (``loop_search_space_dimension`` at least; on a grid as much
         coarser as it is wider), at the yaws of ``_global_turn``, with the loop's checks, at least
@@ -998,9 +998,9 @@ class Slam2D:
 
     def _route_variance(self, poses: np.ndarray, new: int) -> np.ndarray | None:
         """Per keyframe i <= new: the variance of keyframe ``new``'s position relative to keyframe i along the
-        graph's route of least variance, through the loop closures kept (None before the first). Each edge adds the trace of its
-        translation covariance and its yaw variance times the square of the lever arm from the edge's target to
-        ``new`` (an edge's noise is in its target's frame: a yaw error there swings ``new`` about the target,
+        graph's route of least variance, through the loop closures kept (None before the first). Each edge adds the
+        trace of its translation covariance and its yaw variance times the square of the lever arm from the edge's
+        target to ``new`` (an edge's noise is in its target's frame: a yaw error there swings ``new`` about the target,
         whichever way the route crosses the edge): ``_path_variance``'s sum along the chain, with each matrix
         taken by its trace (an upper bound of its worst direction), so that the sums add along any route
         (scipy's Dijkstra)."""

@@ -88,6 +88,31 @@ def test_a_second_place_that_looks_the_same_spreads_the_search(scene):
     assert 7.5**2 * 0.9 < twice < 7.5**2 * 1.1
 
 
+def test_the_spread_scores_only_blocks_that_can_come_near_and_reads_as_scoring_all_would(scene):
+    """``spread`` skips 4 x 4 candidates whose bound cannot reach the bar at a yaw: on the room and its copy 15 m
+    along (two places alike), for bars from the match's score down to a third of it, the variance is bit for bit
+    the one of scoring every candidate at every yaw (the definition, computed here directly)."""
+    rng = np.random.default_rng(3)
+    true = np.array([0.6, -0.4, 0.3])
+    room = transform_points(true, scan_of(cast(scene, true, rng)).points(RANGE_MAX))
+    points = scan_of(cast(scene, true, rng)).points(RANGE_MAX)
+    reference = np.concatenate([room, room + (15.0, 0.0)])
+    matcher = ScanMatcher(0.1, 0.1)
+    window = SearchWindow(32.0, 0.1, 0.0349)
+    grid = matcher.grid_around(reference, points, true, window)
+    found = matcher.match_on(grid, points, true, window, 0.5)
+    sample = points[np.linspace(0, len(points) - 1, 512).astype(np.int64)]
+    _, flat, w = matcher._placements(grid, sample, true, window)
+    oy, ox, cand = matcher._offsets(w, 4, grid.shape[1])
+    scores = np.array([grid.pooled(2)[row[None, :] + cand[:, None]].mean(axis=1) for row in flat]).max(axis=0)
+    for bar in (found.response, 0.6 * found.response, 0.35 * found.response):
+        near = scores >= bar - 0.05
+        centres = (np.stack([ox[near], oy[near]]).astype(np.float64) + 2 - w) * matcher.res
+        want = float(np.linalg.eigvalsh(np.cov(centres, aweights=scores[near], bias=True))[-1])
+        assert near.sum() >= 2 and matcher.spread(grid, points, true, window, bar) == want
+    assert matcher.spread(grid, points, true, window, found.response) > 7.5**2 * 0.9
+
+
 def test_every_pooled_level_bounds_the_finer_cells_it_covers():
     """Level l holds in each cell the maximum of level 0 over the 2^l x 2^l cells from it, up to the
     canvas's far edges: a branch-and-bound bound that fell short there (it read 0 where a wall 1.0 was,
@@ -109,9 +134,36 @@ def test_every_pooled_level_bounds_the_finer_cells_it_covers():
         assert np.array_equal(grid.pooled(level).reshape(rows, cols), want), level
 
 
+def test_the_distance_transform_by_tiles_is_exact_within_its_reach(monkeypatch):
+    """With tiles of 5 cells (many per mask, most widened boxes crossing others), on sparse random cells and on a
+    lattice (every cell between two lattice points has equidistant nearest cells: ties), the tiled transform's
+    distance and nearest cell are scipy's whole-mask ones wherever those lie within ``reach``; elsewhere its
+    distance is more than ``reach``."""
+    from scipy import ndimage
+
+    from navlog.replay.mapping.slam2d import scan_matcher
+
+    monkeypatch.setattr(scan_matcher, "TILE", 5)
+    rng = np.random.default_rng(11)
+    lattice = np.ones((37, 41), dtype=bool)
+    lattice[::6, ::6] = False
+    masks = [rng.random((37, 41)) > 0.01 for _ in range(4)] + [lattice]
+    beyond = 0
+    for free in masks:
+        for reach in (1, 3, 7):
+            want, want_feature = ndimage.distance_transform_edt(free, return_indices=True)
+            got, feature = scan_matcher._distance_transform(free, reach)
+            within = want <= reach
+            assert np.array_equal(got[within], want[within])
+            assert np.array_equal(feature[:, within], want_feature[:, within])
+            assert (got[~within] > reach).all()
+            beyond += int((~within).sum())
+    assert beyond > 1000  # cells beyond the reach were met, in skipped tiles and in computed ones
+
+
 def test_the_lookup_grid_holds_what_one_distance_transform_over_its_whole_box_gives():
     """The distance transform runs tile by tile, skipping tiles with no reference point near: on the walls of
-    a 14 x 9 m hall (an L of them, its far corner empty for metres) and clutter inside, the likelihood is
+    a 14 x 9 m hall (three of them, the far corner empty for metres) and clutter inside, the likelihood is
     bit for bit the one scipy's transform over the whole box gives, and so is every point's distance to the
     reference and direction from it (``nearest``), near a wall, in the empty corner and off the grid."""
     from scipy import ndimage
@@ -404,9 +456,9 @@ def test_a_closure_that_moves_the_keyframe_far_needs_the_running_buffer_s_consen
     its estimate is held to the global search's bar: the running buffer's surfaces must match the chain
     (``loop_match_minimum_response_global``) where the scan's match put it. The true revisit of the drifted
     corner (1.03 m off) has it and closes (its first tries, coming into the corner, wait for a buffer less bent
-    by the odometry's turns: sequential matches are off here). A look-alike place 1.5 m off the true one is refused, each try
-    counted as inconsistent, and the map stays as the odometry left it; with the bar at 0 it is taken, and
-    the estimate is pulled well off the truth."""
+    by the odometry's turns: sequential matches are off here). A look-alike place 1.5 m off the true one is
+    refused, each try counted as inconsistent, and the map stays as the odometry left it; with the bar at 0 it is
+    taken, and the estimate is pulled well off the truth."""
     true, err_true, said_true = _look_alike_run(scene, (0.0, 0.0))
     assert any(said_true) and true.counts.loops >= 1 and err_true[240] < 0.02
     alike, err, said = _look_alike_run(scene, (0.0, 1.5))
