@@ -262,9 +262,8 @@ class ScanMatcher:
         # at that yaw, and a near one is scored at every yaw it could be near at: the same blocks come out near,
         # their scores their best over the yaws
         coarse = grid.pooled(level + 2)
-        n = len(np.arange(0, 2 * w + 1, step))
-        block = (oy // (4 * step)) * ((n + 3) // 4) + ox // (4 * step)  # each candidate's block
-        corner = np.unique(cand - (oy % (4 * step)) * grid.shape[1] - ox % (4 * step))  # blocks' first candidates
+        _, _, corner = self._offsets(w, 4 * step, grid.shape[1])  # the blocks' first candidates, row-major
+        block = (oy // (4 * step)) * math.isqrt(len(corner)) + ox // (4 * step)  # each candidate's block
         best = np.zeros(len(cand))
         chunk = max(1, SPREAD_LOOKUPS // len(points))  # candidates scored at once: bounded work arrays
         for row in flat:
