@@ -19,6 +19,7 @@ in the map frame at every scan, from the final keyframe poses.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -214,7 +215,9 @@ class SlamNode(Node):
                 "optimizations": self.slam.graph.optimizations,
                 "odometry_jumps": len(c.odometry_jumps),
             },
-            "odometry_jumps": [{"stamp_ns": t, "distance": d, "response": r} for t, d, r in c.odometry_jumps],
+            "odometry_jumps": [
+                {"stamp_ns": t, "distance": d, "turn": a, "response": r} for t, d, a, r in c.odometry_jumps
+            ],
             "unplaced": [
                 {"first": a, "last": b, "first_stamp_ns": ta, "last_stamp_ns": tb} for a, b, ta, tb in c.unplaced
             ],
@@ -244,10 +247,11 @@ class SlamNode(Node):
             out[f"/tf: transforms into '{self.odom}' from the log (ignored: SLAM publishes its own)"] = from_log
         c = self.slam.counts
         if c.odometry_jumps:
-            far = max(d for _, d, _ in c.odometry_jumps)
+            far = max(d for _, d, _, _ in c.odometry_jumps)
+            turn = math.degrees(max(abs(a) for _, _, a, _ in c.odometry_jumps))
             out[
-                f"{self.p.scan_topic}: odometry jumped (scan matched up to {far:.2f} m from its prediction by the wider"
-                " search; see pose_graph.json odometry_jumps)"
+                f"{self.p.scan_topic}: odometry jumped (scan matched up to {far:.2f} m and {turn:.0f} deg from its"
+                " prediction by the wider search; see pose_graph.json odometry_jumps)"
             ] = len(c.odometry_jumps)
         for a, b, ta, tb in c.unplaced[:UNPLACED_LISTED]:
             out[

@@ -229,9 +229,9 @@ class SlamCounts:
     global_searches: int = 0  # loop_search_global's searches (not in loop_attempts)
     loops_global: int = 0  # of the loops, those its searches closed
     empty_scans: int = 0  # scans with no valid reading (not keyframes)
-    # (stamp ns, metres between the odometry's prediction and the pose found, response) of every keyframe
-    # whose sequential match failed and that the wider search placed: the odometry jumped
-    odometry_jumps: list[tuple[int, float, float]] = field(default_factory=list)
+    # (stamp ns, metres and radians between the odometry's prediction and the pose found, response) of every
+    # keyframe whose sequential match failed and that the wider search placed: the odometry jumped or missed a turn
+    odometry_jumps: list[tuple[int, float, float, float]] = field(default_factory=list)
     # stretches of consecutive keyframes placed by odometry alone (no match, even by the wider search):
     # (first keyframe, last keyframe, first stamp ns, last stamp ns)
     unplaced: list[tuple[int, int, int, int]] = field(default_factory=list)
@@ -480,14 +480,15 @@ class Slam2D:
             self._odometry_steps.append(math.hypot(step.x(), step.y()))
             weak = match is None or match.response < self.p.loop_match_minimum_response_fine
             usual = self._usual_step()
+            halfway = (1.0 + (0.0 if match is None else match.response)) / 2
             if weak and (math.isinf(usual) or self._odometry_steps[-1] > usual):  # early in a log, any step may be
-                recovered = self._recover(
-                    points, pose, _xyt(prev), (1.0 + (0.0 if match is None else match.response)) / 2, usual
-                )
+                recovered = self._recover(points, pose, _xyt(prev), halfway, usual)
+            if weak and recovered is None:
+                recovered = self._recover_turn(points, pose, _xyt(prev), halfway, usual)
             if recovered is not None:  # the odometry jumped: the scans say where the robot is
-                self.counts.odometry_jumps.append(
-                    (stamp, float(np.linalg.norm(recovered.pose[:2] - pose[:2])), float(recovered.response))
-                )
+                turn = remainder_angle(float(recovered.pose[2] - pose[2]))
+                distance = float(np.linalg.norm(recovered.pose[:2] - pose[:2]))
+                self.counts.odometry_jumps.append((stamp, distance, turn, float(recovered.response)))
                 pose = recovered.pose.copy()
                 pose[2] = remainder_angle(float(pose[2]))
                 self.counts.matched += 1
@@ -557,6 +558,38 @@ class Slam2D:
             if pinned and not inside and step <= usual:
                 return found
         return None
+
+    def _recover_turn(
+        self, points: np.ndarray, prediction: np.ndarray, previous: np.ndarray, min_response: float, usual: float
+    ) -> MatchResult | None:
+        """After a failed or weak sequential match: the scan matched against the running buffer at every heading,
+        within a ``usual`` step either way of the odometry's prediction (the sequential search's square at least,
+        ``loop_search_space_dimension`` at most), for a heading outside the search's fan with at least
+        ``min_response`` and at least ``loop_match_minimum_response_fine`` that no heading outside the fan around
+        it reaches as well: the robot turned and the odometry did not see it (a gyro that lost its heading, a gap
+        in the log while the robot turned). Where the fit leaves a direction free (a corridor), the pose keeps the
+        odometry's prediction along it. None when none passes."""
+        side = min(self.p.loop_search_space_dimension, max(self._link.linear, 2.0 * usual))
+        fan = self._link.angular
+        reference = self._buffer_points(_pose2(previous))
+        least = max(self.p.loop_match_minimum_response_fine, min_response)
+        every = replace(self._link, linear=side, angular=math.pi)
+        found = self.matcher.match(reference, points, prediction, every, least)
+        if found is None or abs(remainder_angle(float(found.pose[2] - prediction[2]))) <= fan:
+            return None
+        # every heading more than the fan away from the fit's: a second heading as good is a look-alike (a corridor
+        # seen either way), not a turn
+        others = replace(self._link, linear=side, angular=math.pi - fan)
+        if self.matcher.match(reference, points, found.pose + np.array([0.0, 0.0, math.pi]), others, least) is not None:
+            return None
+        cov = self._match_covariance(found, self.p.loop_sigmas)
+        values, vectors = np.linalg.eigh(cov[:2, :2])
+        if values[-1] > self.p.loop_match_maximum_variance_coarse:  # the odometry's place along the free axis
+            free = vectors[:, -1]
+            pose = found.pose.copy()
+            pose[:2] += free * float(free @ (prediction[:2] - found.pose[:2]))
+            found = replace(found, pose=pose)
+        return found
 
     def _signature(self, scan: LaserScan2D) -> np.ndarray:
         """The scan's place signature (``SIGNATURE_BINS``): the share of its valid ranges in each bin."""

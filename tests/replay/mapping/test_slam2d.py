@@ -1122,7 +1122,7 @@ def test_odometry_that_jumps_is_found_by_the_wider_search_and_counted(scene):
     odom[40:, 1] += 2.5
     slam = run_slam(scene, truth, odom, SlamParams(do_loop_closing=False))
     assert len(slam.counts.odometry_jumps) == 1 and slam.counts.unplaced == []
-    stamp, distance, response = slam.counts.odometry_jumps[0]
+    stamp, distance, turn, response = slam.counts.odometry_jumps[0]
     assert stamp == 40 * 100_000_000 and abs(distance - 2.5) < 0.05 and response > 0.45
     _, poses = slam.trajectory()
     assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.03
@@ -1148,6 +1148,39 @@ def test_odometry_reset_to_zero_is_found_whatever_the_heading(scene):
     assert np.abs(np.remainder(poses[:, 2] - truth[:, 2] + math.pi, 2 * math.pi) - math.pi).max() < 0.01
 
 
+def missed_turn(truth: np.ndarray, at: int, turn: float) -> np.ndarray:
+    """Odometry that follows ``truth`` but for a turn of ``turn`` rad at scan ``at`` it did not see (a gyro that
+    lost its heading): from there on its poses are the truth's turned by ``-turn`` about the scan before."""
+    import gtsam
+
+    pivot = gtsam.Pose2(truth[at - 1, 0], truth[at - 1, 1], 0.0)
+    offset = pivot.compose(gtsam.Pose2(0.0, 0.0, -turn)).compose(pivot.inverse())
+    odom = truth.copy()
+    for i in range(at, len(truth)):
+        p = offset.compose(gtsam.Pose2(*truth[i]))
+        odom[i] = (p.x(), p.y(), p.theta())
+    return odom
+
+
+def test_a_turn_the_odometry_missed_is_found_by_the_search_over_every_heading(scene, monkeypatch):
+    # at scan 70 (keyframe 14: the usual step is known) the odometry misses a 1.2 rad turn while its steps stay
+    # usual (its step there swings 0.11 m with the turn it missed): the sequential match in its
+    # 20-degree fan fails, the search at every heading around the prediction finds the turn (one jump, counted
+    # with its turn) and the path stays on the truth; without that search the rest of the path swings away
+    truth = rectangle_path(0.1)[:100]
+    odom = missed_turn(truth, 70, 1.2)
+    slam = run_slam(scene, truth, odom, SlamParams(do_loop_closing=False))
+    assert slam.counts.unplaced == [] and len(slam.counts.odometry_jumps) == 1
+    stamp, distance, turn, response = slam.counts.odometry_jumps[0]
+    assert stamp == 70 * 100_000_000 and abs(turn - 1.2) < 0.02 and distance < 0.15 and response > 0.9
+    _, poses = slam.trajectory()
+    assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.03
+    assert np.abs(np.remainder(poses[:, 2] - truth[:, 2] + math.pi, 2 * math.pi) - math.pi).max() < 0.01
+    monkeypatch.setattr(Slam2D, "_recover_turn", lambda *args: None)
+    _, blind = run_slam(scene, truth, odom, SlamParams(do_loop_closing=False)).trajectory()
+    assert np.hypot(*(blind[:, :2] - truth[:, :2]).T).max() > 1.0
+
+
 def test_a_look_alike_place_far_off_is_no_jump_when_the_odometry_moved_as_usual(scene):
     # at scan 102 (keyframe 20: the odometry's usual step between keyframes is known by then) the scan fits
     # 2 m to the side much better than where the robot is (it is the scan taken there: a look-alike place),
@@ -1167,7 +1200,7 @@ def test_a_look_alike_place_far_off_is_no_jump_when_the_odometry_moved_as_usual(
     jumped = Slam2D(SlamParams(do_loop_closing=False))
     for i, (t, o) in enumerate(zip(truth, odom, strict=True)):
         jumped.add_scan(i * 100_000_000, o, scan_of(cast(scene, t, rng)))
-    assert [stamp for stamp, _, _ in jumped.counts.odometry_jumps] == [102 * 100_000_000]
+    assert [stamp for stamp, _, _, _ in jumped.counts.odometry_jumps] == [102 * 100_000_000]
     _, poses = jumped.trajectory()
     assert np.hypot(*(poses[:, :2] - truth[:, :2]).T).max() < 0.05
 

@@ -132,21 +132,23 @@ def test_odometry_jumps_and_unplaced_stretches_are_named_in_the_skipped_inputs()
 
     node = SlamNode(SlamNodeParams())
     c = node.slam.counts
-    c.odometry_jumps.append((5_000_000_000, 3.99, 0.96))
+    c.odometry_jumps.extend([(5_000_000_000, 3.99, 0.02, 0.96), (6_000_000_000, 0.55, -1.40, 0.95)])
     c.unplaced.extend([(8, 10, 12_500_000_000, 14_000_000_000)] + [(20 + 2 * k, 20 + 2 * k, 0, 0) for k in range(6)])
     skipped = node.skipped_counts()
     assert (
         skipped[
-            "/scan: odometry jumped (scan matched up to 3.99 m from its prediction by the wider search; see pose_graph.json odometry_jumps)"
+            "/scan: odometry jumped (scan matched up to 3.99 m and 80 deg from its prediction by the wider search; see"
+            " pose_graph.json odometry_jumps)"
         ]
-        == 1
+        == 2
     )
     key = "/scan: keyframes 8-10 (stamps 12.500-14.000 s) placed by odometry alone: their scans matched nothing before them"
     assert skipped[key] == 3
     # five stretches are named, the rest summed
     assert skipped["/scan: keyframes placed by odometry alone in 2 more stretches (see pose_graph.json unplaced)"] == 2
     graph = node.pose_graph()
-    assert graph["counts"]["odometry_jumps"] == 1 and len(graph["unplaced"]) == 7
+    assert graph["counts"]["odometry_jumps"] == 2 and len(graph["unplaced"]) == 7
+    assert graph["odometry_jumps"][1] == {"stamp_ns": 6_000_000_000, "distance": 0.55, "turn": -1.40, "response": 0.95}
     assert graph["unplaced"][0] == {
         "first": 8,
         "last": 10,
