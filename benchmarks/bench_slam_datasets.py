@@ -28,7 +28,9 @@ of travel, from the three compared with each other (``navlog.analysis.metrics.ow
 three-cornered hat: their errors taken as independent). The reference is itself an estimate: against it, a
 SLAM without error would score the reference's own error. With ``--reference-noise SIGMA`` the same with
 seeded noise added to the reference's positions, a check of the method on the data: the reference's own
-figure should grow to sqrt(own^2 + 4 SIGMA^2) (two positions per move, two axes), the others' stay.
+figure should grow to sqrt(own^2 + 4 SIGMA^2) (two positions per move, two axes), the others' stay. The last
+line counts the keyframes the wider searches placed where the odometry jumped (pose_graph.json
+``odometry_jumps``), and of them the turns the odometry missed (more than the sequential search's fan).
 
 With ``--maps DIR``, ``DIR/NAME-maps.png``: the walls of the map drawn from the reference and of the one drawn
 from the SLAM side by side, in the 16 m square centred where the SLAM is farthest from the reference.
@@ -361,7 +363,13 @@ def evaluate(
             " more than 0.5 m off",
             flush=True,
         )
-    print(f"{'':<8} ({len(ts)}/{len(ref_t)} scans placed, {travel:.0f} m, load {before} -> {load()})", flush=True)
+    jumps = graph["odometry_jumps"]
+    turned = sum(abs(j["turn"]) > slam_params.coarse_search_angle_offset for j in jumps)
+    print(
+        f"{'':<8} ({len(ts)}/{len(ref_t)} scans placed, {travel:.0f} m, odometry jumps {len(jumps)} ({turned} turns),"
+        f" load {before} -> {load()})",
+        flush=True,
+    )
     return ates
 
 

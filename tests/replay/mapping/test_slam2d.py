@@ -1181,6 +1181,27 @@ def test_a_turn_the_odometry_missed_is_found_by_the_search_over_every_heading(sc
     assert np.hypot(*(blind[:, :2] - truth[:, :2]).T).max() > 1.0
 
 
+def test_a_turn_that_fits_as_well_half_a_turn_on_is_no_turn():
+    # the buffer holds a 6 x 4 m room's walls; the scan is taken from its centre turned 1 rad from the prediction
+    # (after a weak match at 0.6: the bar is 0.8). A closed room looks the same half a turn on: refused. Open at
+    # one end, half a turn on leaves a quarter of the scan off the walls: found.
+    edge = np.linspace(-1.0, 1.0, 301)[:-1]
+    long_walls = [np.stack([3 * edge, np.full_like(edge, y)], 1) for y in (-2.0, 2.0)]
+    end_walls = [np.stack([np.full_like(edge, x), 2 * edge], 1) for x in (-3.0, 3.0)]
+    truth = np.array([0.0, 0.0, 1.0])
+    c, s = math.cos(truth[2]), math.sin(truth[2])
+
+    def recovered(walls: np.ndarray):
+        slam = Slam2D(SlamParams())
+        slam._buffer_points = lambda around: walls  # type: ignore[method-assign]
+        points = walls @ np.array([[c, -s], [s, c]])  # the walls in the frame of the robot at truth
+        return slam._recover_turn(points, np.zeros(3), np.zeros(3), 0.8, 0.5)
+
+    assert recovered(np.concatenate(long_walls + end_walls)) is None
+    found = recovered(np.concatenate(long_walls + end_walls[:1]))
+    assert found is not None and abs(found.pose[2] - 1.0) < 0.02 and np.hypot(*found.pose[:2]) < 0.03
+
+
 def test_a_look_alike_place_far_off_is_no_jump_when_the_odometry_moved_as_usual(scene):
     # at scan 102 (keyframe 20: the odometry's usual step between keyframes is known by then) the scan fits
     # 2 m to the side much better than where the robot is (it is the scan taken there: a look-alike place),
