@@ -390,6 +390,38 @@ def test_odometry_with_a_nan_orientation_is_a_counted_skip(campaign_and_seeds, t
     assert skipped["lidar_mapper: odom_not_finite"] == 51  # every /odom message of the seed log
 
 
+ODOM_LONG_QUATERNION = {  # case 1265 of seed 13: a quaternion whose norm overflows normalised to no rotation at all
+    "channel": 3,
+    "first": None,
+    "leaves": [
+        {"leaf": 347, "float": 4.06895965601743e304, "int": 0, "array": "inf", "text": "\u00a4["},
+        {"leaf": 220, "float": math.inf, "int": 2147483647, "array": "inf", "text": ";"},
+        {"leaf": 323, "float": 3.4e38, "int": 36746, "array": "half", "text": "?\b\u00de\u00bf"},
+        {"leaf": 99520, "float": -2.96193785483411e166, "int": 251, "array": "half", "text": "map"},
+    ],
+    "special": None,
+    "call": "replay-mapping",
+}
+
+
+@pytest.mark.parametrize(
+    ("recipe", "reason"),
+    [
+        (ODOM_LONG_QUATERNION, "odom_orientation_invalid"),
+        # the odometry's x (leaf 6 of an Odometry message) 4e304 m out: interpolating between two such poses overflows
+        (
+            {**ODOM_LONG_QUATERNION, "leaves": [{"leaf": 6, "float": 4e304, "int": 0, "array": "inf", "text": ""}]},
+            "odom_far",
+        ),
+    ],
+)
+def test_odometry_no_robot_could_report_is_a_counted_skip(campaign_and_seeds, tmp_path: Path, recipe, reason) -> None:
+    campaign, seeds, _ = campaign_and_seeds
+    assert replay_mapping(campaign, seeds, recipe, tmp_path) == 0
+    skipped = json.loads((tmp_path / "out" / "manifest.json").read_text())["skipped"]
+    assert skipped[f"lidar_mapper: {reason}"] == 51  # every /odom message of the seed log
+
+
 def test_scans_with_infinite_angles_are_skipped_and_named(campaign_and_seeds, tmp_path: Path, capsys) -> None:
     campaign, seeds, _ = campaign_and_seeds
     assert replay_mapping(campaign, seeds, MAPPING_CASES["infinite angle"], tmp_path) == 2

@@ -37,6 +37,7 @@ from navlog.replay.geometry import make_transform, matrix_to_quat, quat_from_rpy
 from navlog.replay.io.cdr import GrowingSequence
 from navlog.replay.mapping.lidar_odometry.deskew import GyroTrack, MotionPrior, PoseTrack
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams, Preset, for_sweep, preset
+from navlog.replay.mapping.occupancy import MAX_COORDINATE
 from navlog.replay.pointcloud import azimuth_times, point_times, read_points, time_field_name, xyz_cloud
 from navlog.replay.runtime.cpus import usable_cpus
 from navlog.replay.runtime.executor import Node
@@ -234,12 +235,18 @@ class LidarMapperNode(Node):
         if not np.isfinite(quat).all() or not np.isfinite((pp.x, pp.y, pp.z)).all():  # (SciPy refuses NaN)
             self._skip("odom_not_finite")
             return
+        if np.abs(quat).max() > 1e3:  # no orientation: its norm may not even square without overflow
+            self._skip("odom_orientation_invalid")
+            return
         if np.linalg.norm(quat) <= 1e-12:  # a zero quaternion: no orientation to normalise
             self._skip("odom_orientation_zero")
             return
         pose = make_transform((pp.x, pp.y, pp.z), (q.x, q.y, q.z, q.w)) @ fix
         if not np.isfinite(pose).all():
             self._skip("odom_not_finite")
+            return
+        if np.abs(pose[:3, 3]).max() > MAX_COORDINATE:  # no robot drives that far: interpolating it overflows
+            self._skip("odom_far")
             return
         self.odom.add(messages.to_ns(msg.header.stamp), pose)
         self._drain(force=False)
