@@ -25,8 +25,9 @@ with the wheel odometry alone (the bag's odom -> base_footprint at the same stam
 
 Below each dataset, **own RE 1 m**: each of the reference, the SLAM and the odometry's own RMS error over 1 m
 of travel, from the three compared with each other (``navlog.analysis.metrics.own_relative_errors``, the
-three-cornered hat: their errors taken as independent). The reference is itself an estimate: against it, a
-SLAM without error would score the reference's own error. With ``--reference-noise SIGMA`` the same with
+three-cornered hat: their errors taken as independent; ``-`` where that does not hold and a mean square comes
+out negative). The reference is itself an estimate: against it, a SLAM without error would score the reference's
+own error. With ``--reference-noise SIGMA`` the same with
 seeded noise added to the reference's positions, a check of the method on the data: the reference's own
 figure should grow to sqrt(own^2 + 4 SIGMA^2) (two positions per move, two axes), the others' stay. The last
 line counts the keyframes the wider searches placed where the odometry jumped (pose_graph.json
@@ -351,9 +352,10 @@ def evaluate(
         noisy = ref[keep].copy()
         noisy[:, :2] += np.random.default_rng(0).normal(0.0, sigma, (len(noisy), 2))
         own = own_relative_errors(noisy, slam, odom, 1.0, along=ref[keep])  # the same moves with or without noise
+        shown = ["-" if math.isnan(v) else f"{v:.3f}" for v in own]
         print(
             f"{'':<8} own RE 1 m (RMS; reference{f' + {sigma:g} m noise' if sigma else ''}, SLAM and odometry "
-            f"against each other): reference {own[0]:.3f}, SLAM {own[1]:.3f}, odometry {own[2]:.3f}",
+            f"against each other): reference {shown[0]}, SLAM {shown[1]}, odometry {shown[2]}",
             flush=True,
         )
     if len(closure_errors):
