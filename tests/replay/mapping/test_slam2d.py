@@ -237,6 +237,18 @@ def drifting_odometry(truth: np.ndarray, yaw_error: float) -> np.ndarray:
     return np.array(odom)
 
 
+def odometry_moved(truth: np.ndarray, at: int, offset) -> np.ndarray:
+    """Odometry that is ``truth`` up to scan ``at`` and from there the truth's poses moved by ``offset`` (a
+    gtsam.Pose2 composed on their left): a reset, a jump or a turn the wheels did not report."""
+    import gtsam
+
+    odom = truth.copy()
+    for i in range(at, len(truth)):
+        p = offset.compose(gtsam.Pose2(*truth[i]))
+        odom[i] = (p.x(), p.y(), p.theta())
+    return odom
+
+
 def run_slam(scene, truth: np.ndarray, odom: np.ndarray, params: SlamParams) -> Slam2D:
     rng = np.random.default_rng(5)
     slam = Slam2D(params)
@@ -1135,11 +1147,7 @@ def test_odometry_reset_to_zero_is_found_whatever_the_heading(scene):
     import gtsam
 
     truth = rectangle_path(0.1)[:100]
-    reset = gtsam.Pose2(*truth[70])
-    odom = truth.copy()
-    for i in range(70, len(truth)):
-        p = reset.between(gtsam.Pose2(*truth[i]))
-        odom[i] = (p.x(), p.y(), p.theta())
+    odom = odometry_moved(truth, 70, gtsam.Pose2(*truth[70]).inverse())
     slam = run_slam(scene, truth, odom, SlamParams(do_loop_closing=False))
     assert len(slam.counts.odometry_jumps) == 1 and slam.counts.unplaced == []
     assert slam.counts.odometry_jumps[0][0] == 70 * 100_000_000
@@ -1154,12 +1162,7 @@ def missed_turn(truth: np.ndarray, at: int, turn: float) -> np.ndarray:
     import gtsam
 
     pivot = gtsam.Pose2(truth[at - 1, 0], truth[at - 1, 1], 0.0)
-    offset = pivot.compose(gtsam.Pose2(0.0, 0.0, -turn)).compose(pivot.inverse())
-    odom = truth.copy()
-    for i in range(at, len(truth)):
-        p = offset.compose(gtsam.Pose2(*truth[i]))
-        odom[i] = (p.x(), p.y(), p.theta())
-    return odom
+    return odometry_moved(truth, at, pivot.compose(gtsam.Pose2(0.0, 0.0, -turn)).compose(pivot.inverse()))
 
 
 def test_a_turn_the_odometry_missed_is_found_by_the_search_over_every_heading(scene, monkeypatch):
