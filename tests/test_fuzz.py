@@ -422,6 +422,16 @@ def test_odometry_no_robot_could_report_is_a_counted_skip(campaign_and_seeds, tm
     assert skipped[f"lidar_mapper: {reason}"] == 51  # every /odom message of the seed log
 
 
+def test_transforms_whose_rotation_overflows_are_a_counted_skip(campaign_and_seeds, tmp_path: Path) -> None:
+    campaign, seeds, _ = campaign_and_seeds
+    # leaf 11 of a TFMessage: the first transform's rotation x, on every /tf message (channel 4)
+    recipe = {**ODOM_LONG_QUATERNION, "channel": 4, "leaves": [{**ODOM_LONG_QUATERNION["leaves"][3], "leaf": 11}]}
+    assert replay_mapping(campaign, seeds, recipe, tmp_path) == 0
+    skipped = json.loads((tmp_path / "out" / "manifest.json").read_text())["skipped"]
+    # its norm squares past the float range: once taken as no rotation at all, now left out and counted
+    assert skipped["/tf: transform map -> odom not finite or with a zero rotation (ignored)"] == 51
+
+
 def test_scans_with_infinite_angles_are_skipped_and_named(campaign_and_seeds, tmp_path: Path, capsys) -> None:
     campaign, seeds, _ = campaign_and_seeds
     assert replay_mapping(campaign, seeds, MAPPING_CASES["infinite angle"], tmp_path) == 2

@@ -92,7 +92,7 @@ def _tf_rows(
     tf_topics = [t for t in ("/tf_static", "/tf") if t in reader.topics]
     if "/tf" not in tf_topics:
         raise NavlogError(f"{reader.path}: no /tf topic; a TF chain needs one")
-    buf = TFBuffer(cache_ns=1 << 62, frame_prefix=frame_prefix)
+    buf = TFBuffer(cache_ns=1 << 62, frame_prefix=frame_prefix, skipped=skipped)
 
     def name(frame: str) -> str:
         f = frame.lstrip("/")

@@ -24,7 +24,7 @@ class TfTree:
 
     def __init__(self, ctx: ViewContext) -> None:
         self.ctx = ctx
-        self.buffer = TFBuffer(cache_ns=1 << 62, frame_prefix=ctx.opt.frame_prefix)
+        self.buffer = TFBuffer(cache_ns=1 << 62, frame_prefix=ctx.opt.frame_prefix, skipped=ctx.summary.skipped)
         self.edges: dict[tuple[str, str], dict] = {}  # (parent, child) -> static flag and samples
         # child frames whose transforms a replay's log gives (topics under ``replay_prefix``): the other logs'
         # transforms into them are left out and counted

@@ -73,7 +73,7 @@ class AmclNode(Node):
         self.p = params
         self.map = occ_map
         self.filter = ParticleFilter(params, LikelihoodField(occ_map, params.laser_likelihood_max_dist), rng)
-        self.tf = TFBuffer()
+        self.tf = TFBuffer(skipped=self.skipped)
         self._angles = ScanAngles()
         self.base = self.tf.name(params.base_frame_id)
         self.odom = self.tf.name(params.odom_frame_id)

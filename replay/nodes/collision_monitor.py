@@ -171,7 +171,7 @@ class CollisionMonitorNode(Node):
         self.monitor = CollisionMonitor(params, footprint)
         self.input_topic = input_topic
         self.output_topic = output_topic
-        self.tf = TFBuffer()
+        self.tf = TFBuffer(skipped=self.skipped)
         # per source: (message, its sensor-frame points (_LATER: not computed yet), their least distance from
         # the sensor when planar) and (message, TF epoch, odom <- sensor at its stamp), as a matrix and a Pose
         self._sensor_points: dict[str, tuple[Any, Any, float | None]] = {}

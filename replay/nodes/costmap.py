@@ -52,7 +52,7 @@ class CostmapNode(Node):
         self.publish_period_ns = None if publish_period_s is None else int(round(publish_period_s * 1e9))
         self.last_publish_ns: int | None = None
         self.last_map: OccupancyMap | None = None
-        self.tf = TFBuffer()
+        self.tf = TFBuffer(skipped=self.skipped)
         self.static_map = static_map
         self.map_topic = map_topic
         self.pending: dict[str, tuple[int, Any, ObservationSourceParams]] = {}  # source -> (stamp, msg, params)

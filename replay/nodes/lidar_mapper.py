@@ -134,7 +134,7 @@ class LidarMapperNode(Node):
         self._tf_static_seen = False
         self._accel: list[np.ndarray] = []  # IMU specific force in base_link, until the first frame is registered
         self._last_stamp: int | None = None  # of the last cloud, for the sweep period of motion deskew
-        self.tf = TFBuffer()
+        self.tf = TFBuffer(skipped=self.skipped)
         self.gyro = GyroTrack()
         self.odom = PoseTrack()
         self.frames_in = 0

@@ -79,8 +79,8 @@ class OccupancyMapperNode(Node):
         self._updates = GridWorker(params.grid, spawn=False)  # started with the run (``setup``)
         self._final: OccupancyGrid2D | None = None  # the grid after ``finish``
         self._pending: list[tuple[int, np.ndarray]] = []  # (stamp, robot pose) of scans sent, outcome not known
-        self.tf = TFBuffer(frame_prefix=params.frame_prefix)
-        self.poses = TFBuffer(frame_prefix=params.frame_prefix)
+        self.tf = TFBuffer(frame_prefix=params.frame_prefix, skipped=self.skipped)
+        self.poses = TFBuffer(frame_prefix=params.frame_prefix, skipped=self.skipped, topic=self.pose_topic)
         self.trajectory: list[tuple[int, np.ndarray]] = []  # (stamp, robot pose in map) of inserted scans
         self._pose_child: str | None = None
         self._last_pose: np.ndarray | None = None

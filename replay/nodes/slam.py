@@ -61,7 +61,7 @@ class SlamNode(Node):
         super().__init__()
         self.p = params
         self.slam = Slam2D(params.slam, replace(params.grid, resolution=params.slam.resolution))
-        self.tf = TFBuffer(frame_prefix=params.frame_prefix)
+        self.tf = TFBuffer(frame_prefix=params.frame_prefix, skipped=self.skipped)
         self.odom = self.tf.name(params.slam.odom_frame)
         self.tf_published = 0
         self._log_odom_parents = 0

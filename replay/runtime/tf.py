@@ -18,12 +18,17 @@ A caller may keep a lookup's result while the buffer would give it unchanged (``
 sample newer than an edge's newest changes none of those. Anything else (a static transform, a new or
 re-parented edge, a sample at or before an edge's newest stamp) starts a new ``epoch``; ``added``
 counts the transforms added (a lookup of the latest transforms holds while it is the same).
+
+A transform with a coordinate that is not finite, or a rotation whose length is zero or overflows, is
+not added: it is counted in the ``skipped`` counter the buffer was given (a node's), one reason per
+edge, named for ``topic`` (by default /tf or /tf_static). A rotation of any other length is normalised.
 """
 
 from __future__ import annotations
 
 import bisect
 import math
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -88,8 +93,16 @@ class _Edge:
 
 
 class TFBuffer:
-    def __init__(self, cache_ns: int = 10_000_000_000, frame_prefix: str = "") -> None:
+    def __init__(
+        self,
+        cache_ns: int = 10_000_000_000,
+        frame_prefix: str = "",
+        skipped: Counter[str] | None = None,
+        topic: str | None = None,
+    ) -> None:
         self.cache_ns = cache_ns
+        self.skipped = Counter() if skipped is None else skipped  # transforms not added, by reason
+        self.topic = topic
         self.frame_prefix = frame_prefix
         self._edges: dict[str, _Edge] = {}  # keyed by child frame
         self._names: dict[str, str] = {}  # frame id as given -> as stored
@@ -136,6 +149,11 @@ class TFBuffer:
     def _insert(
         self, parent: str, child: str, t_ns: int, p: tuple, x: float, y: float, z: float, w: float, static: bool
     ) -> None:
+        n = math.sqrt(x * x + y * y + z * z + w * w)
+        if not 0.0 < n < math.inf or not math.isfinite(p[0] + p[1] + p[2]):
+            topic = self.topic or ("/tf_static" if static else "/tf")
+            self.skipped[f"{topic}: transform {parent} -> {child} not finite or with a zero rotation (ignored)"] += 1
+            return
         self.added += 1
         edge = self._edges.get(child)
         if edge is None or edge.parent != parent or edge.static != static:
@@ -144,7 +162,6 @@ class TFBuffer:
             self._chains.clear()
             self._paths.clear()
             self.epoch += 1
-        n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
         q = (x / n, y / n, z / n, w / n)
         if static:
             edge.times, edge.trans, edge.quats, edge.start, edge.matrix = [0], [p], [q], 0, None
