@@ -239,6 +239,21 @@ class SlamNode(Node):
             ],
         }
 
+    def summary(self) -> str:
+        """What the SLAM did, in one line: keyframes, how they were placed, loop closures and optimisations."""
+        c = self.slam.counts
+        refused = f"{c.loops_ambiguous} ambiguous, {c.loops_inconsistent} taken back"
+        line = (
+            f"{c.keyframes} keyframes of {c.scans} scans ({c.matched} matched, {c.odometry_only} by odometry alone);"
+            f" {c.loops} loops closed in {c.loop_attempts + c.global_searches} searches ({refused},"
+            f" {c.loops_global} global); {self.slam.graph.optimizations} optimisations"
+        )
+        if c.odometry_jumps:
+            line += f"; {len(c.odometry_jumps)} odometry jumps placed by the wider search"
+        if c.unplaced:
+            line += f"; {len(c.unplaced)} stretches not placed"
+        return line
+
     def skipped_counts(self) -> dict[str, int]:
         """Skipped inputs by reason."""
         out = dict(self.skipped)

@@ -167,6 +167,7 @@ class MappingRun(Pipeline):
             from navlog.replay.nodes.slam import slam_artifacts
 
             written.update(slam_artifacts(slam, out))
+            self.info["slam"] = slam.summary()
         return written
 
     def skipped(self) -> dict[str, int]:

@@ -51,6 +51,12 @@ def test_slam_maps_the_unlocalised_log_within_centimetres(unlocalised_log, tmp_p
     assert res.manifest["pipeline_info"]["pose_source"] == "slam"
     graph = json.loads((tmp_path / "slam" / "pose_graph.json").read_text())
     assert len(graph["nodes"]) >= 5 and {e["kind"] for e in graph["edges"]} == {"match"}
+    c = graph["counts"]  # the run's summary row says what the pose graph holds
+    assert res.manifest["pipeline_info"]["slam"] == (
+        f"{len(graph['nodes'])} keyframes of {c['scans']} scans ({len(graph['nodes']) - 1} matched, 0 by odometry"
+        f" alone); 0 loops closed in {c['loop_attempts']} searches (0 ambiguous, 0 taken back, 0 global);"
+        f" {c['optimizations']} optimisations"
+    )
     slam = compute_metrics(unlocalised_log, tmp_path / "slam")["trajectory"]["ate"]["translation_m"]
     run_replay(
         unlocalised_log,
@@ -146,6 +152,7 @@ def test_odometry_jumps_and_unplaced_stretches_are_named_in_the_skipped_inputs()
     assert skipped[key] == 3
     # five stretches are named, the rest summed
     assert skipped["/scan: keyframes placed by odometry alone in 2 more stretches (see pose_graph.json unplaced)"] == 2
+    assert node.summary().endswith("; 2 odometry jumps placed by the wider search; 7 stretches not placed")
     graph = node.pose_graph()
     assert graph["counts"]["odometry_jumps"] == 2 and len(graph["unplaced"]) == 7
     assert graph["odometry_jumps"][1] == {"stamp_ns": 6_000_000_000, "distance": 0.55, "turn": -1.40, "response": 0.95}
