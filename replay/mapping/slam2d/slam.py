@@ -481,10 +481,13 @@ class Slam2D:
             weak = match is None or match.response < self.p.loop_match_minimum_response_fine
             usual = self._usual_step()
             halfway = (1.0 + (0.0 if match is None else match.response)) / 2
-            if weak and (math.isinf(usual) or self._odometry_steps[-1] > usual):  # early in a log, any step may be
-                recovered = self._recover(points, pose, _xyt(prev), halfway, usual)
-            if weak and recovered is None:
-                recovered = self._recover_turn(points, pose, _xyt(prev), halfway, usual)
+            if weak:  # the wider searches, against the running buffer, for a response halfway to 1 at least
+                reference = self._buffer_points(prev)
+                least = max(self.p.loop_match_minimum_response_fine, halfway)
+                if math.isinf(usual) or self._odometry_steps[-1] > usual:  # early in a log, any step may be
+                    recovered = self._recover(reference, points, pose, _xyt(prev), least, usual)
+                if recovered is None:
+                    recovered = self._recover_turn(reference, points, pose, least, usual)
             if recovered is not None:  # the odometry jumped: the scans say where the robot is
                 turn = remainder_angle(float(recovered.pose[2] - pose[2]))
                 distance = float(np.linalg.norm(recovered.pose[:2] - pose[:2]))
@@ -524,15 +527,21 @@ class Slam2D:
         return pose
 
     def _recover(
-        self, points: np.ndarray, prediction: np.ndarray, previous: np.ndarray, min_response: float, usual: float
+        self,
+        reference: np.ndarray,
+        points: np.ndarray,
+        prediction: np.ndarray,
+        previous: np.ndarray,
+        least: float,
+        usual: float,
     ) -> MatchResult | None:
-        """After a failed or weak sequential match: the scan matched against the running buffer in a
+        """After a failed or weak sequential match: the scan matched against the running buffer (``reference``) in a
         ``loop_search_space_dimension`` square around the odometry's prediction, then around the
         previous keyframe's position with the prediction's heading and, when the two differ by more than the
         search's fan, with the previous keyframe's own (odometry that jumped or was reset while the robot
-        stood still or drove on); the first place found that (1) passes the loop's terms
-        (``loop_match_minimum_response_fine``, ``loop_match_maximum_variance_coarse``) with at least
-        ``min_response`` (the caller's: halfway from the weak match's response to 1, so that a slightly
+        stood still or drove on); the first place found that (1) pins the scan
+        (``loop_match_maximum_variance_coarse``) with a response of at least ``least`` (the caller's: at least
+        ``loop_match_minimum_response_fine`` and halfway from the weak match's response to 1, so that a slightly
         better fit elsewhere in a large hall does not move the robot), (2) lies outside the sequential
         search (inside it, the sequential match's verdict stands) and (3) is a ``usual`` step from the
         previous keyframe (it is the odometry that jumped, not the robot). None when no place passes (the
@@ -543,8 +552,6 @@ class Slam2D:
         centres = [prediction, np.array([previous[0], previous[1], prediction[2]])]
         if abs(remainder_angle(float(previous[2] - prediction[2]))) > self._link.angular:
             centres.append(np.asarray(previous, dtype=np.float64))
-        reference = self._buffer_points(_pose2(previous))
-        least = max(self.p.loop_match_minimum_response_fine, min_response)
         for centre in centres:
             found = self.matcher.match(reference, points, centre, window, least)
             if found is None:
@@ -560,19 +567,17 @@ class Slam2D:
         return None
 
     def _recover_turn(
-        self, points: np.ndarray, prediction: np.ndarray, previous: np.ndarray, min_response: float, usual: float
+        self, reference: np.ndarray, points: np.ndarray, prediction: np.ndarray, least: float, usual: float
     ) -> MatchResult | None:
-        """After a failed or weak sequential match: the scan matched against the running buffer at every heading,
-        within a ``usual`` step either way of the odometry's prediction (the sequential search's square at least,
-        ``loop_search_space_dimension`` at most), for a heading outside the search's fan with at least
-        ``min_response`` and at least ``loop_match_minimum_response_fine`` that no heading outside the fan around
+        """After a failed or weak sequential match: the scan matched against the running buffer (``reference``) at
+        every heading, within a ``usual`` step either way of the odometry's prediction (the sequential search's
+        square at least, ``loop_search_space_dimension`` at most), for a heading outside the search's fan with a
+        response of at least ``least`` (the caller's, as for ``_recover``) that no heading outside the fan around
         it reaches as well: the robot turned and the odometry did not see it (a gyro that lost its heading, a gap
         in the log while the robot turned). Where the fit leaves a direction free (a corridor), the pose keeps the
         odometry's prediction along it. None when none passes."""
         side = min(self.p.loop_search_space_dimension, max(self._link.linear, 2.0 * usual))
         fan = self._link.angular
-        reference = self._buffer_points(_pose2(previous))
-        least = max(self.p.loop_match_minimum_response_fine, min_response)
         every = replace(self._link, linear=side, angular=math.pi)
         found = self.matcher.match(reference, points, prediction, every, least)
         if found is None or abs(remainder_angle(float(found.pose[2] - prediction[2]))) <= fan:

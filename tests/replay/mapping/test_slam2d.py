@@ -1195,10 +1195,8 @@ def test_a_turn_that_fits_as_well_half_a_turn_on_is_no_turn():
     c, s = math.cos(truth[2]), math.sin(truth[2])
 
     def recovered(walls: np.ndarray):
-        slam = Slam2D(SlamParams())
-        slam._buffer_points = lambda around: walls  # type: ignore[method-assign]
         points = walls @ np.array([[c, -s], [s, c]])  # the walls in the frame of the robot at truth
-        return slam._recover_turn(points, np.zeros(3), np.zeros(3), 0.8, 0.5)
+        return Slam2D(SlamParams())._recover_turn(walls, points, np.zeros(3), 0.8, 0.5)
 
     assert recovered(np.concatenate(long_walls + end_walls)) is None
     found = recovered(np.concatenate(long_walls + end_walls[:1]))
