@@ -90,7 +90,8 @@ class SlamParams:
     # _global_search)
     loop_search_global: bool = True
     # also the bar of a square search's closure that moves the keyframe farther than
-    # loop_search_maximum_distance: the running buffer's surfaces must match there as well (Slam2D's _confirmed)
+    # loop_search_maximum_distance, or than half that with a look-alike place in its square: the running
+    # buffer's surfaces must match there as well (Slam2D's _far, _confirmed)
     loop_match_minimum_response_global: float = 0.7
     # a loop match whose translation variance (m^2, its worst direction) exceeds this is refused: the
     # submap does not pin the scan (a corridor). slam_toolbox's name; navlog's variance is the match's

@@ -28,7 +28,8 @@ scan's valid points in the robot frame:
    coarser grid, then at full resolution around what it found) with a response of at least
    ``loop_match_minimum_response_fine``, that pins the scan and that no other place in the square
    matches as well (``loop_match_maximum_spread``) and, when it moves the keyframe farther than
-   ``loop_search_maximum_distance`` from its estimate, that the running buffer's surfaces match there too
+   ``loop_search_maximum_distance`` from its estimate (or half that with a look-alike place in the square),
+   that the running buffer's surfaces match there too
    (``loop_match_minimum_response_global``: a corridor one scan finds alike metres along is seldom alike
    with the metres before it), adds a loop edge, and the graph is optimised (gtsam). After
    a closure the next search waits until the keyframes have travelled ``loop_search_maximum_distance``
@@ -83,6 +84,9 @@ CALIBRATION_BOUNDS = (0.8, 1.25)
 # a loop search wider than loop_search_space_dimension ends in a full-resolution search of this square side (m)
 # and yaw either side (rad) around the pose its coarser grid found
 WIDE_REFINE = (1.0, 0.1)
+# m^2: a loop search whose places scoring like its match spread more than this has a look-alike in its square; such
+# a closure moving its keyframe more than half loop_search_maximum_distance needs the running buffer's consent
+LOOK_ALIKE_SPREAD = 1.0
 # a scan's points matched at most (that many valid beams evenly spread beyond: a 2D laser has a few thousand
 # beams; the matcher's work arrays grow with the points times the candidate poses)
 MAX_MATCH_POINTS = 8192
@@ -866,12 +870,20 @@ class Slam2D:
             local = local[np.linspace(0, len(local) - 1, GLOBAL_POINTS).astype(np.int64)]
         return local
 
+    def _far(self, shift: float, spread: float) -> bool:
+        """Whether a square-search closure moving its keyframe ``shift`` m from its estimate, its search's spread
+        ``spread`` (m^2), needs the running buffer's consent (``_confirmed``): beyond ``loop_search_maximum_distance``,
+        or beyond half of it with a look-alike in the square (``LOOK_ALIKE_SPREAD``: a corridor's scan that matches
+        a stretch two metres along)."""
+        reach = self.p.loop_search_maximum_distance
+        return shift > reach or (shift > reach / 2 and spread > LOOK_ALIKE_SPREAD)
+
     def _confirmed(self, reference: np.ndarray, new: int, pose: np.ndarray) -> bool:
         """Whether the running buffer's surfaces (``_surroundings``), matched against ``reference`` in a
         ``WIDE_REFINE`` square and yaw around ``pose`` (where a match put keyframe ``new``), reach
         ``loop_match_minimum_response_global``: the bar of a closure the global search finds, for a square-search
-        closure that moves the keyframe farther than ``loop_search_maximum_distance`` from its estimate (a
-        stretch of corridor one scan finds alike metres along is seldom alike with the few metres before it)."""
+        closure that moves the keyframe far from its estimate (``_far``; a stretch of corridor one scan finds
+        alike metres along is seldom alike with the few metres before it)."""
         window = SearchWindow(WIDE_REFINE[0], WIDE_REFINE[1], self.p.coarse_angle_resolution)
         least = self.p.loop_match_minimum_response_global
         return self.matcher.match(reference, self._surroundings(new), pose, window, least) is not None
@@ -910,8 +922,8 @@ class Slam2D:
         """The new keyframe's loop search against ``chain`` (``_loop_search``, of ``points`` in its frame: its
         scan's when None) and, for a match of at least ``least`` that pins the scan, that no other place in the
         square matches as well, (``reach`` given, per keyframe) that moves the new keyframe from its estimate by
-        no more than the reach of the keyframe it joins and (a match of the scan alone moving it farther than
-        ``loop_search_maximum_distance``) that the running buffer confirms (``_confirmed``), a loop edge from
+        no more than the reach of the keyframe it joins and (a match of the scan alone moving it far: ``_far``)
+        that the running buffer confirms (``_confirmed``), a loop edge from
         ``anchor`` (the chain's keyframe nearest the match when None), kept if the optimised graph agrees with it
         (``loop_match_maximum_chi2``). When an edge was added, whether kept or taken back (either way the next
         search waits ``loop_search_maximum_distance``), how far the match put the new keyframe from its estimate
@@ -929,7 +941,8 @@ class Slam2D:
         if not self._pins(cov):
             self.counts.loops_ambiguous += 1  # the submap does not pin the scan (a corridor): no closure
             return None
-        if spread() > self.p.loop_match_maximum_spread:
+        ambiguity = spread()
+        if ambiguity > self.p.loop_match_maximum_spread:
             self.counts.loops_ambiguous += 1  # a place elsewhere in the square looks the same: no closure
             return None
         poses = self.graph.poses()
@@ -939,7 +952,7 @@ class Slam2D:
         if reach is not None and shift > reach[anchor]:
             self.counts.loops_inconsistent += 1  # farther from the estimate than the path's uncertainty reaches
             return None
-        if confirm and shift > self.p.loop_search_maximum_distance and not self._confirmed(reference, new, match.pose):
+        if confirm and self._far(shift, ambiguity) and not self._confirmed(reference, new, match.pose):
             self.counts.loops_inconsistent += 1  # the metres before the scan disagree with the place it found
             return None
         rel = _pose2(poses[anchor]).between(_pose2(match.pose))
