@@ -90,7 +90,8 @@ class OccupancyMapperNode(Node):
 
     @property
     def pose_topic(self) -> str:
-        return self.p.pose_topic or DEFAULT_POSE_TOPICS[self.p.pose_source]
+        """The topic the poses come from ("" for a pose source with none: tf, or a node's own such as slam)."""
+        return self.p.pose_topic or DEFAULT_POSE_TOPICS.get(self.p.pose_source, "")
 
     def input_topics(self) -> list[str]:
         topics = [self.p.scan_topic, "/tf", "/tf_static"]
