@@ -432,6 +432,30 @@ def test_transforms_whose_rotation_overflows_are_a_counted_skip(campaign_and_see
     assert skipped["/tf: transform map -> odom not finite or with a zero rotation (ignored)"] == 51
 
 
+@pytest.mark.parametrize(("message", "code"), [(0, 2), (300, 0)])
+def test_log_times_past_a_signed_64_bit_count_are_not_drawn_and_are_counted(
+    campaign_and_seeds, tmp_path: Path, capsys, message: int, code: int
+) -> None:
+    # case 1118 of seed 15: every log time from message ``message`` on moved past 2^63 ns (the year 2262), which
+    # the view's int64 times could not hold (OverflowError). From the first message: nothing to draw, and why.
+    # From a later one, the log reader drops them as a jump (more than an hour past the message before).
+    campaign, seeds, _ = campaign_and_seeds
+    recipe = {"kind": "mcap-times", "form": "jump-run", "message": message, "bit": 63, "call": "cli-view"}
+    campaign.materialize(campaign.build(campaign.Case(0, "mcap-times", recipe), seeds), tmp_path)
+    from navlog.cli import main
+
+    assert main(["-q", "view", str(tmp_path / "log.mcap"), "--save", str(tmp_path / "v.rrd"), "--json"]) == code
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err
+    reason = "/imu/data: log time past the year 2262 or 292 years from the first message (not drawn)"
+    if code:
+        assert "nothing to draw" in err and f"{reason} x201" in err  # every /imu/data message
+    else:
+        summary = json.loads(out)
+        jumped = "messages whose log time jumps more than an hour past the message before (corrupt log time)"
+        assert summary["skipped"] == {jumped: 150} and summary["messages"] == 238
+
+
 def test_scans_with_infinite_angles_are_skipped_and_named(campaign_and_seeds, tmp_path: Path, capsys) -> None:
     campaign, seeds, _ = campaign_and_seeds
     assert replay_mapping(campaign, seeds, MAPPING_CASES["infinite angle"], tmp_path) == 2

@@ -16,6 +16,7 @@ import numpy as np
 from navlog.analysis.view.options import ViewOptions, ViewSummary
 
 TIMELINE = "sim_time"
+TIMELINE_REACH_NS = (1 << 63) - 1  # the timeline's durations are signed 64-bit nanoseconds
 
 # role -> RGB: one colour per kind of stream in every view, from the Okabe-Ito palette (told apart by
 # readers with any of the common colour-vision deficiencies); amber, orange and red are kept for the
@@ -98,6 +99,12 @@ class ViewContext:
             return
         self.frames_used.add(frame)
         self.rec.log(entity, self.rr.CoordinateFrame(frame), static=True)
+
+    def on_timeline(self, t_ns: int) -> bool:
+        """Whether log time ``t_ns`` can be drawn: a signed 64-bit count of nanoseconds, as the view keeps its
+        times, and as far from ``offset_ns`` as the ``sim_time`` timeline reaches (about 292 years either way).
+        An MCAP log time is unsigned and may lie beyond both."""
+        return t_ns <= TIMELINE_REACH_NS and -TIMELINE_REACH_NS <= t_ns - (self.offset_ns or 0) <= TIMELINE_REACH_NS
 
     def time_column(self, t_ns: Iterable[int]):
         """A ``sim_time`` column of log times (ns)."""

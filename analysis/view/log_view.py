@@ -152,8 +152,14 @@ class ViewBuilder:
 
         prog = Progress(reader.duration_ns / 1e9, f"view {reader.path.name}", enabled=log.isEnabledFor(logging.WARNING))
         n = 0
+        on_timeline = self.ctx.on_timeline
         for env in reader.messages(wanted):
             key = f"{prefix}{env.topic}" if prefix else env.topic
+            if not on_timeline(env.time_ns):
+                summary.skipped[
+                    f"{key}: log time past the year 2262 or 292 years from the first message (not drawn)"
+                ] += 1
+                continue
             try:
                 handlers[env.typename](key, env.time_ns, env.msg)
             except (AttributeError, ValueError, KeyError, IndexError, TypeError) as exc:
@@ -221,7 +227,8 @@ def build_view(
         b.add_replay_dir(Path(replay_dir))
     if b.summary.messages == 0 and not b.summary.entities:
         have = ", ".join(f"{t.name} ({t.typename})" for t in reader.topics.values()) or "no topics"
-        raise LogError(f"{reader.path}: nothing to draw: the log has {have}")
+        skipped = "".join(f"; {reason} x{n}" for reason, n in b.summary.skipped.most_common(3))
+        raise LogError(f"{reader.path}: nothing to draw: the log has {have}{skipped}")
     return b.finish()
 
 
