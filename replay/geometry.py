@@ -246,16 +246,24 @@ def slerp_rows(q0: np.ndarray, q1: np.ndarray, a: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------ quaternions and matrices
 
 
+def quat_norm(x: float, y: float, z: float, w: float) -> float:
+    """``sqrt(x^2 + y^2 + z^2 + w^2)``: a quaternion names a rotation only where this is positive and finite
+    (``0 < n < inf``: not zero, no NaN, no component whose square passes the float range)."""
+    return math.sqrt(x * x + y * y + z * z + w * w)
+
+
 def quat_to_matrix(q_xyzw) -> np.ndarray:
-    """3x3 rotation matrix of a quaternion of any non-zero norm, normalised first.
+    """3x3 rotation matrix of a quaternion of any positive, finite norm (``quat_norm``), normalised first.
 
     SciPy's ``Rotation.from_quat(q).as_matrix()`` to the bit: divided by ``sqrt(x^2 + y^2 + z^2 + w^2)``,
     then the diagonal as ``x^2 - y^2 - z^2 + w^2`` (and its permutations), the rest as ``2 (xy - zw)`` etc.
     """
     x, y, z, w = np.asarray(q_xyzw, dtype=np.float64).reshape(4).tolist()
-    n = math.sqrt(x * x + y * y + z * z + w * w)
+    n = quat_norm(x, y, z, w)
     if n == 0.0:
         raise ValueError(f"quaternion {tuple(q_xyzw)} has zero norm: it is no rotation")
+    if not n < math.inf:
+        raise ValueError(f"quaternion {tuple(q_xyzw)} has no finite norm: it is no rotation")
     x, y, z, w = x / n, y / n, z / n, w / n
     x2, y2, z2, w2 = x * x, y * y, z * z, w * w
     xy, zw, xz, yw, yz, xw = x * y, z * w, x * z, y * w, y * z, x * w

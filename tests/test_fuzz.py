@@ -422,14 +422,25 @@ def test_odometry_no_robot_could_report_is_a_counted_skip(campaign_and_seeds, tm
     assert skipped[f"lidar_mapper: {reason}"] == 51  # every /odom message of the seed log
 
 
-def test_transforms_whose_rotation_overflows_are_a_counted_skip(campaign_and_seeds, tmp_path: Path) -> None:
+def test_transforms_whose_rotation_overflows_are_a_counted_skip(campaign_and_seeds, tmp_path: Path, capsys) -> None:
     campaign, seeds, _ = campaign_and_seeds
     # leaf 11 of a TFMessage: the first transform's rotation x, on every /tf message (channel 4)
     recipe = {**ODOM_LONG_QUATERNION, "channel": 4, "leaves": [{**ODOM_LONG_QUATERNION["leaves"][3], "leaf": 11}]}
     assert replay_mapping(campaign, seeds, recipe, tmp_path) == 0
+    capsys.readouterr()
     skipped = json.loads((tmp_path / "out" / "manifest.json").read_text())["skipped"]
     # its norm squares past the float range: once taken as no rotation at all, now left out and counted
-    assert skipped["/tf: transform map -> odom not finite or with a zero rotation (ignored)"] == 51
+    reason = "/tf: transform map -> odom not finite or with a zero rotation (ignored)"
+    assert skipped[reason] == 51
+    # the view leaves the same samples out of its drawing: map -> odom had no other, so no edge is drawn
+    from navlog.cli import main
+    from tests.analysis.view.rrd import read_rrd
+
+    rrd = tmp_path / "v.rrd"
+    assert main(["-q", "view", str(tmp_path / "log.mcap"), "--save", str(rrd), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["skipped"][reason] == 51
+    drawn = read_rrd(rrd)
+    assert "/tf/odom" not in drawn and "/tf/base_footprint" in drawn
 
 
 @pytest.mark.parametrize(("message", "code"), [(0, 2), (300, 0)])

@@ -16,7 +16,7 @@ import numpy as np
 
 from navlog.analysis.view.context import ViewContext, entity_name
 from navlog.replay import messages
-from navlog.replay.runtime.tf import TFBuffer, TransformError
+from navlog.replay.runtime.tf import TFBuffer, TransformError, usable_norm
 
 
 class TfTree:
@@ -43,9 +43,11 @@ class TfTree:
                 msg = messages.tf_message(kept)
         self.buffer.add_message(msg, static=static)
         for ts in msg.transforms:
+            tr, r = ts.transform.translation, ts.transform.rotation
+            if not usable_norm((tr.x, tr.y, tr.z), r.x, r.y, r.z, r.w):
+                continue  # left out of the buffer above, and counted there
             parent, child = self.ctx.frame(ts.header.frame_id), self.ctx.frame(ts.child_frame_id)
             e = self.edges.setdefault((parent, child), {"static": static, "t": [], "xyz": [], "q": []})
-            tr, r = ts.transform.translation, ts.transform.rotation
             if static:
                 e["static"] = True
                 e["t"], e["xyz"], e["q"] = [t], [(tr.x, tr.y, tr.z)], [(r.x, r.y, r.z, r.w)]

@@ -12,6 +12,7 @@ Positions and quaternions are written with 9 decimals (``-0.000000000`` as ``0.0
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from decimal import ROUND_HALF_EVEN, Decimal, InvalidOperation
 from pathlib import Path
@@ -20,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from navlog.errors import NavlogError
-from navlog.replay.geometry import matrices_to_canonical_quats
+from navlog.replay.geometry import matrices_to_canonical_quats, quat_norm
 from navlog.replay.io.atomic import write_file
 
 __all__ = [
@@ -120,8 +121,8 @@ def parse_tum(text: str, source: str = "<text>") -> TumPoses:
             raise NavlogError(f"{source}:{lineno}: {bad!r} is not a number") from None
         if not all(np.isfinite(row)):
             raise NavlogError(f"{source}:{lineno}: pose values must be finite: {_clip(line)}")
-        if np.linalg.norm(row[3:]) < 1e-9:
-            raise NavlogError(f"{source}:{lineno}: quaternion (qx qy qz qw) is zero")
+        if not 0.0 < quat_norm(*row[3:]) < math.inf:
+            raise NavlogError(f"{source}:{lineno}: quaternion (qx qy qz qw) is zero or too long to normalise")
         if times and t <= times[-1]:
             raise NavlogError(
                 f"{source}:{lineno}: time {fields[0]} s does not increase "

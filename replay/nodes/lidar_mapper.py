@@ -24,6 +24,7 @@ the outputs are the same bytes in the same order as one frame after another here
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -33,7 +34,7 @@ import numpy as np
 
 from navlog.errors import ConfigError
 from navlog.replay import messages
-from navlog.replay.geometry import make_transform, matrix_to_quat, quat_from_rpy
+from navlog.replay.geometry import make_transform, matrix_to_quat, quat_from_rpy, quat_norm
 from navlog.replay.io.cdr import GrowingSequence
 from navlog.replay.mapping.lidar_odometry.deskew import GyroTrack, MotionPrior, PoseTrack
 from navlog.replay.mapping.lidar_odometry.params import LidarOdometryParams, Preset, for_sweep, preset
@@ -235,11 +236,12 @@ class LidarMapperNode(Node):
         if not np.isfinite(quat).all() or not np.isfinite((pp.x, pp.y, pp.z)).all():  # (SciPy refuses NaN)
             self._skip("odom_not_finite")
             return
-        if np.abs(quat).max() > 1e3:  # no orientation: its norm may not even square without overflow
-            self._skip("odom_orientation_invalid")
-            return
-        if np.linalg.norm(quat) <= 1e-12:  # a zero quaternion: no orientation to normalise
+        norm = quat_norm(q.x, q.y, q.z, q.w)
+        if norm == 0.0:  # a zero quaternion: no orientation to normalise
             self._skip("odom_orientation_zero")
+            return
+        if not norm < math.inf:  # no orientation: its norm does not square without overflow
+            self._skip("odom_orientation_invalid")
             return
         pose = make_transform((pp.x, pp.y, pp.z), (q.x, q.y, q.z, q.w)) @ fix
         if not np.isfinite(pose).all():

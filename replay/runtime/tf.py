@@ -37,7 +37,7 @@ import numpy as np
 
 from navlog.errors import NavlogError
 from navlog.replay import messages
-from navlog.replay.geometry import slerp, unit_quat_transform
+from navlog.replay.geometry import quat_norm, slerp, unit_quat_transform
 
 
 class TransformError(NavlogError):
@@ -90,6 +90,14 @@ class _Edge:
     matrix: np.ndarray | None = None  # a static edge's matrix, once computed (read-only)
     # a dynamic edge's last matrix (read-only): (time, the buffer's epoch then, matrix)
     last: tuple[int, int, np.ndarray] | None = None
+
+
+def usable_norm(p: tuple, x: float, y: float, z: float, w: float) -> float:
+    """The norm of a transform's quaternion (x, y, z, w) where the transform is usable -- every coordinate of
+    ``p`` finite and that norm positive and finite (``geometry.quat_norm``) -- else 0.0: what the buffer leaves
+    out and counts, and what a drawing of the samples leaves out with it."""
+    n = quat_norm(x, y, z, w)
+    return n if 0.0 < n < math.inf and math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2]) else 0.0
 
 
 class TFBuffer:
@@ -149,8 +157,8 @@ class TFBuffer:
     def _insert(
         self, parent: str, child: str, t_ns: int, p: tuple, x: float, y: float, z: float, w: float, static: bool
     ) -> None:
-        n = math.sqrt(x * x + y * y + z * z + w * w)
-        if not 0.0 < n < math.inf or not math.isfinite(p[0] + p[1] + p[2]):
+        n = usable_norm(p, x, y, z, w)
+        if not n:
             topic = self.topic or ("/tf_static" if static else "/tf")
             self.skipped[f"{topic}: transform {parent} -> {child} not finite or with a zero rotation (ignored)"] += 1
             return

@@ -59,9 +59,13 @@ def test_quat_to_matrix_is_scipys_to_the_bit():
     np.testing.assert_array_equal(t, [[1, 0, 0, 1], [0, 1, 0, 2], [0, 0, 1, 3], [0, 0, 0, 1]])
 
 
-def test_a_zero_quaternion_is_refused():
+def test_a_zero_quaternion_or_one_whose_norm_overflows_is_refused():
     with pytest.raises(ValueError, match="zero norm"):
         g.quat_to_matrix((0.0, 0.0, 0.0, 0.0))
+    # (1e200)^2 passes the float range: normalised by an infinite norm it would be the zero matrix
+    assert g.quat_norm(0.0, 0.0, 1e200, 1.0) == float("inf") and g.quat_norm(0.0, 0.0, 1e150, 1.0) == 1e150
+    with pytest.raises(ValueError, match="no finite norm"):
+        g.quat_to_matrix((0.0, 0.0, 1e200, 1.0))
 
 
 def test_the_recorder_loads_no_scipy():

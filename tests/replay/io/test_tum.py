@@ -89,6 +89,7 @@ def test_comments_blank_lines_and_tabs_are_accepted():
         ("# c\n1.0 1 2 x 0 0 0 1\n", r"traj\.tum:2: 'x' is not a number"),
         ("abc 1 2 3 0 0 0 1\n", r"traj\.tum:1: time 'abc' is not a number"),
         ("1.0 1 2 3 0 0 0 0\n", r"traj\.tum:1: quaternion .* is zero"),
+        ("1.0 1 2 3 0 0 0 1e200\n", r"traj\.tum:1: quaternion .* too long to normalise"),  # its square overflows
         ("1.0 1 2 nan 0 0 0 1\n", r"traj\.tum:1: pose values must be finite"),
         ("2.0 1 2 3 0 0 0 1\n\n1.0 1 2 3 0 0 0 1\n", r"traj\.tum:3: time 1.0 s does not increase \(line 1"),
         ("# only a comment\n", r"traj\.tum: no poses"),
