@@ -120,21 +120,30 @@ def cached_replay(
     log: Path, pipeline: str, params: Any, remap: dict[str, str], key: str, cache_dir: Path, *, fresh: bool = False
 ) -> tuple[Path, bool]:
     """The replay folder for ``key`` (replayed when missing, or always with ``fresh``) and whether it was
-    cached. A fresh replay replaces the cached one."""
+    cached. A fresh replay replaces the cached one.
+
+    Two workers may replay the same key at once (two cases of a suite with the same log and parameters):
+    a finished replay in place is never deleted under the other, which may be reading it. Without
+    ``fresh`` the first one in place is kept (the key names the same bytes); a fresh one moves the old
+    aside in one rename and puts its own in place."""
     from navlog.replay.session import run_replay
 
     out = cache_dir / "replays" / key
     if not fresh and (out / "manifest.json").is_file():
         return out, True
-    tmp = _partial(out)
+    tmp, old = _partial(out), out.with_name(f".{out.name}.{os.getpid()}.old")
     shutil.rmtree(tmp, ignore_errors=True)
     try:
         run_replay(log, pipeline, tmp, params=params, remap=remap, progress=False)
-        shutil.rmtree(out, ignore_errors=True)
+        if not fresh and (out / "manifest.json").is_file():
+            return out, False  # another worker put the same replay there meanwhile
+        if out.exists():  # a fresh run's old replay, or a folder a killed run left without its manifest
+            os.replace(out, old)
         try:
             os.replace(tmp, out)
-        except OSError:  # another worker put the same replay there first
+        except OSError:  # another worker put its own there between the two renames: the same bytes
             pass
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+        shutil.rmtree(old, ignore_errors=True)
     return out, False

@@ -43,3 +43,35 @@ def test_a_replay_run_alone_by_a_fleet_and_by_ci_has_one_identity(teleop_log: Pa
     assert not again.results[0].cached
     state = json.loads((tmp_path / "fleet" / ".fleet" / f"{name}.json").read_text())
     assert state["key"] == replay_identity(log_sha256(teleop_log), "mapping", changed, {}) != key
+
+
+def test_a_replay_another_worker_put_in_place_meanwhile_is_kept_not_deleted_under_it(
+    teleop_log: Path, tmp_path: Path, monkeypatch
+) -> None:
+    # two cases with the same log and parameters, on two workers: the second to finish deleted the first's
+    # replay while the first was reading its outputs
+    import navlog.replay.session as session
+    from navlog.analysis.ci import cache
+
+    params = pipeline_params("mapping", overrides=OVERRIDES)
+    key = replay_identity(log_sha256(teleop_log), "mapping", params, {})
+    placed = tmp_path / "cache" / "replays" / key
+    real = session.run_replay
+
+    def other_worker_finishes_first(log, pipeline, out, **kw):
+        run = real(log, pipeline, out, **kw)
+        real(log, pipeline, placed, **kw)  # the other worker's replay lands while this one finishes
+        (placed / "being-read").write_text("the other case reads this folder now")
+        return run
+
+    monkeypatch.setattr(session, "run_replay", other_worker_finishes_first)
+    out, cached = cache.cached_replay(teleop_log, "mapping", params, {}, key, tmp_path / "cache")
+    assert out == placed and not cached
+    assert (placed / "being-read").is_file() and (placed / "manifest.json").is_file()
+    assert sorted(p.name for p in placed.parent.iterdir()) == [key]  # its own copy gone, nothing half-written
+
+    # a fresh replay (--determinism) replaces the folder in one rename, and leaves nothing beside it
+    monkeypatch.setattr(session, "run_replay", real)
+    out, _ = cache.cached_replay(teleop_log, "mapping", params, {}, key, tmp_path / "cache", fresh=True)
+    assert not (out / "being-read").exists() and (out / "manifest.json").is_file()
+    assert sorted(p.name for p in placed.parent.iterdir()) == [key]
