@@ -16,7 +16,9 @@ with the wheel odometry alone (the bag's odom -> base_footprint at the same stam
 - **overlap**: a figure that needs no reference: for every third scan, the median distance of its points
   (within 20 m) to the nearest point of the scans at least 30 scans away in the log (the other passes
   through the same place), the mean over the scans that have 20 such neighbours within 0.5 m, in cm;
-  also printed for the reference trajectory itself (a map whose passes agree scores low);
+  also printed for the reference trajectory itself (a map whose passes agree scores low), and for both over the
+  tenth of those scans where the SLAM and the reference lie farthest apart after alignment (whose passes agree
+  better where the two differ most);
 - **loops**: loop-closure edges in pose_graph.json (each checked below the dataset against the reference's
   relative pose of its two keyframes), and (**global**) how many of them the global search
   (``loop_search_global``) closed, over its searches; **wall s** / **x real**: the replay's wall time
@@ -147,11 +149,17 @@ def wall_agreement(est_grid: OccupancyGrid2D, ref_grid: OccupancyGrid2D) -> floa
 
 def overlap(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> float:
     """The reference-free agreement of the passes (see the module docstring), in cm."""
+    medians = scan_overlaps(poses, stamps, scans)
+    return 100 * float(np.mean(list(medians.values()))) if medians else float("nan")
+
+
+def scan_overlaps(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> dict[int, float]:
+    """``overlap``'s scans: for every third scan with 20 such neighbours, its index -> the median distance (m)."""
     points = [LaserScan2D(*scans[t], np.eye(4)).points(20.0) for t in stamps.tolist()]
     placed = np.concatenate([transform_points(p, q) for p, q in zip(poses, points, strict=True)])
     owner = np.repeat(np.arange(len(points)), [len(q) for q in points])
     tree = cKDTree(placed)
-    medians = []
+    medians = {}
     for i in range(0, len(points), 3):
         d, j = tree.query(transform_points(poses[i], points[i]), k=60, distance_upper_bound=0.5)
         far = np.zeros(d.shape, dtype=bool)
@@ -160,8 +168,25 @@ def overlap(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> f
         nearest = np.where(far, d, np.inf).min(axis=1)
         nearest = nearest[np.isfinite(nearest)]
         if len(nearest) >= 20:
-            medians.append(float(np.median(nearest)))
-    return 100 * float(np.mean(medians)) if medians else float("nan")
+            medians[i] = float(np.median(nearest))
+    return medians
+
+
+def where_they_disagree(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans) -> tuple[float, float, int]:
+    """``overlap`` of ``est`` and of the reference (cm) over the scans both score where the two lie farthest
+    apart after alignment (the tenth of them): which of the two has its passes agree better where they
+    differ most; and how many scans that is."""
+    mine, theirs = scan_overlaps(est, stamps, scans), scan_overlaps(ref, stamps, scans)
+    both = np.array(sorted(set(mine) & set(theirs)), dtype=np.int64)
+    if not len(both):
+        return float("nan"), float("nan"), 0
+    apart = np.linalg.norm(align_planar(est, ref)[both, :2] - ref[both, :2], axis=1)
+    worst = both[np.argsort(apart)[-max(1, len(both) // 10) :]]
+    return (
+        100 * float(np.mean([mine[i] for i in worst])),
+        100 * float(np.mean([theirs[i] for i in worst])),
+        len(worst),
+    )
 
 
 MAP_WINDOW = 16.0  # m: the side of the square ``--maps`` shows
@@ -358,6 +383,12 @@ def evaluate(
             f"against each other): reference {shown[0]}, SLAM {shown[1]}, odometry {shown[2]}",
             flush=True,
         )
+    mine, theirs, count = where_they_disagree(slam, ref[keep], ts, scans)
+    print(
+        f"{'':<8} overlap where the SLAM and the reference lie farthest apart ({count} scans, the tenth of those"
+        f" scored): SLAM {mine:.2f} cm, reference {theirs:.2f} cm",
+        flush=True,
+    )
     if len(closure_errors):
         print(
             f"{'':<8} loop closures against the reference's relative pose of their keyframes: median"
