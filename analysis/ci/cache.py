@@ -122,10 +122,10 @@ def cached_replay(
     """The replay folder for ``key`` (replayed when missing, or always with ``fresh``) and whether it was
     cached. A fresh replay replaces the cached one.
 
-    Two workers may replay the same key at once (two cases of a suite with the same log and parameters):
-    a finished replay in place is never deleted under the other, which may be reading it. Without
-    ``fresh`` the first one in place is kept (the key names the same bytes); a fresh one moves the old
-    aside in one rename and puts its own in place."""
+    Two workers may replay the same key at once (two cases of a suite with the same log and parameters).
+    Without ``fresh`` the first replay in place is kept (the key names the same bytes) and never deleted
+    under the other, which may be reading it. A fresh one moves the old aside in one rename and puts its own
+    in place (two fresh replays of one key at once may still take each other's folder away)."""
     from navlog.replay.session import run_replay
 
     out = cache_dir / "replays" / key
