@@ -136,10 +136,12 @@ class LookupGrid:
             else:
                 h = 2 ** (level - 1)
                 half = self.pooled(level - 1).reshape(self.shape)
-                rows = half.copy()
-                np.maximum(rows[:-h], half[h:], out=rows[:-h])
-                canvas = rows.copy()
-                np.maximum(canvas[:, :-h], rows[:, h:], out=canvas[:, :-h])
+                rows = np.empty_like(half)
+                np.maximum(half[:-h], half[h:], out=rows[:-h])
+                rows[-h:] = half[-h:]  # (the last h rows have no cells h further on: their own)
+                canvas = np.empty_like(rows)
+                np.maximum(rows[:, :-h], rows[:, h:], out=canvas[:, :-h])
+                canvas[:, -h:] = rows[:, -h:]
             grid = self._pooled[level] = canvas.ravel()
         return grid
 
