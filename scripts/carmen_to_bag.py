@@ -21,7 +21,11 @@ two resets are the wheels' own motion. So:
   readings ``pi / (N - N mod 2)`` apart from ``-pi/2`` (180 readings a degree apart, 361 half a degree
   apart); the log's no-return code (the most frequent reading within 1 m of its largest) and any reading
   within 0.1 m below it written as ``+inf`` (REP 117), ``range_max`` that code less 0.1 m;
-- **reference**: the corrected pose of every scan, as TUM (``t x y z qx qy qz qw``).
+- **reference**: the corrected pose of every scan, as TUM (``t x y z qx qy qz qw``), its position to the
+  micrometre as in the shared references.
+
+Each bag is written under a temporary name and moved into place; a write that fails leaves neither the bag
+nor its reference.
 
 Scans are not thinned: the corrected files hold one per metre or large turn already.
 """
@@ -31,6 +35,7 @@ from __future__ import annotations
 import argparse
 import gzip
 import math
+import shutil
 import sys
 from collections import Counter
 from collections.abc import Iterable
@@ -38,6 +43,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from navlog.errors import NavlogError
+from navlog.replay.geometry import quat_from_yaw, se2_compose
+from navlog.replay.io.atomic import replace_output, temp_path, write_error
+from navlog.replay.io.tum import write_tum
 
 ODOM_PERIOD_NS = 100_000_000  # /odom and /tf every 0.1 s between scans
 MONOTONIC_STEP_NS = 10_000_000  # a scan stamped at or before the one before it moves to 10 ms after it
@@ -59,11 +69,6 @@ def _relative(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     c, s = math.cos(a[2]), math.sin(a[2])
     dx, dy = b[0] - a[0], b[1] - a[1]
     return np.array([c * dx + s * dy, -s * dx + c * dy, math.remainder(b[2] - a[2], math.tau)])
-
-
-def _compose(a: np.ndarray, step: np.ndarray) -> np.ndarray:
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return np.array([a[0] + c * step[0] - s * step[1], a[1] + s * step[0] + c * step[1], a[2] + step[2]])
 
 
 def parse_carmen(lines: Iterable[str], source: str = "log") -> CarmenLog:
@@ -107,7 +112,7 @@ def parse_carmen(lines: Iterable[str], source: str = "log") -> CarmenLog:
     odometry = [np.zeros(3)]
     for k in range(1, len(stamps)):
         step = steps[k] if steps[k] is not None else _relative(corrected[k - 1], corrected[k])
-        odometry.append(_compose(odometry[-1], step))
+        odometry.append(np.array(se2_compose(odometry[-1], step)))
     return CarmenLog(stamps, ranges, np.array(corrected), np.array(odometry))
 
 
@@ -149,7 +154,8 @@ def write_bag(log: CarmenLog, out: Path) -> None:
         )
 
     def quat(yaw: float):
-        return T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2))
+        x, y, z, w = quat_from_yaw(yaw)
+        return T["geometry_msgs/msg/Quaternion"](x=x, y=y, z=z, w=w)
 
     def transform(t: int, parent: str, child: str, x: float, y: float, yaw: float):
         return T["geometry_msgs/msg/TransformStamped"](
@@ -220,12 +226,11 @@ def write_bag(log: CarmenLog, out: Path) -> None:
 
 
 def write_reference(log: CarmenLog, out: Path) -> None:
-    """The corrected pose of every scan, as TUM."""
-    rows = [
-        f"{t // 10**9}.{t % 10**9:09d} {x:.6f} {y:.6f} 0 0 0 {math.sin(yaw / 2):.9f} {math.cos(yaw / 2):.9f}"
-        for t, (x, y, yaw) in zip(log.stamps.tolist(), log.corrected.tolist(), strict=True)
-    ]
-    out.write_text("\n".join(rows) + "\n")
+    """The corrected pose of every scan, as TUM (written whole or not at all), its positions to the micrometre as
+    in the shared references."""
+    micrometres = [[float(f"{v:.6f}") for v in xy] for xy in log.corrected[:, :2].tolist()]  # (rounded as printed)
+    positions = np.column_stack([np.array(micrometres).reshape(-1, 2), np.zeros(len(log.corrected))])
+    write_tum(out, log.stamps, positions, np.array([quat_from_yaw(yaw) for yaw in log.corrected[:, 2]]), header=False)
 
 
 def bag_name(path: Path) -> str:
@@ -256,8 +261,18 @@ def main(argv: list[str] | None = None) -> int:
         except (OSError, ValueError) as e:
             print(f"{path}: {e}", file=sys.stderr)
             return 2
-        write_bag(log, bag)
-        write_reference(log, reference)
+        tmp = temp_path(bag)  # the bag is written in a folder of its own name inside it, then moved into place
+        try:
+            tmp.mkdir()
+            write_bag(log, tmp / name)
+            replace_output(tmp / name, bag)
+            write_reference(log, reference)
+        except (OSError, NavlogError) as e:  # a full disk, a read-only folder, a special file at the output
+            shutil.rmtree(bag, ignore_errors=True)  # no bag without its reference
+            print(e if isinstance(e, NavlogError) else write_error(bag, e), file=sys.stderr)
+            return 2
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
         travel = float(np.sum(np.linalg.norm(np.diff(log.corrected[:, :2], axis=0), axis=1)))
         print(f"{name}: {len(log.stamps)} scans, {travel:.0f} m -> {bag}")
     return 0

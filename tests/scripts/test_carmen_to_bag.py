@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from navlog.replay.geometry import se2_compose
 from navlog.replay.session import run_replay
 from tests.replay.mapping.planar_logs import planar_tum, read_bag
 
@@ -50,7 +51,7 @@ def test_wheel_steps_are_chained_from_the_resets_and_the_corrected_step_fills_a_
     np.testing.assert_allclose(log.odometry[1], [0.4, 0.0, 0.1], atol=1e-12)  # the wheels' own step, not 0.54 m
     step = carmen._relative(log.corrected[1], log.corrected[2])  # 1 m straight on in the corrected frame
     np.testing.assert_allclose(step, [1.0 * math.cos(0.55), -1.0 * math.sin(0.55), 0.0], atol=1e-12)
-    np.testing.assert_allclose(log.odometry[2], carmen._compose(log.odometry[1], step), atol=1e-12)
+    np.testing.assert_allclose(log.odometry[2], se2_compose(log.odometry[1], step), atol=1e-12)
     assert carmen.no_return_code(log.ranges) == 50.0
 
 
