@@ -26,6 +26,7 @@ from typing import Any
 from navlog.analysis.ci.suite import Recipe, WorldMap
 from navlog.errors import NavlogError
 from navlog.replay.config import config_hash
+from navlog.replay.io.atomic import replace_output
 from navlog.version import __version__
 
 __all__ = [
@@ -131,19 +132,16 @@ def cached_replay(
     out = cache_dir / "replays" / key
     if not fresh and (out / "manifest.json").is_file():
         return out, True
-    tmp, old = _partial(out), out.with_name(f".{out.name}.{os.getpid()}.old")
+    tmp = _partial(out)
     shutil.rmtree(tmp, ignore_errors=True)
     try:
         run_replay(log, pipeline, tmp, params=params, remap=remap, progress=False)
         if not fresh and (out / "manifest.json").is_file():
             return out, False  # another worker put the same replay there meanwhile
-        if out.exists():  # a fresh run's old replay, or a folder a killed run left without its manifest
-            os.replace(out, old)
-        try:
-            os.replace(tmp, out)
+        try:  # a fresh run's old replay, or a folder a killed run left without its manifest, is moved aside
+            replace_output(tmp, out)
         except OSError:  # another worker put its own there between the two renames: the same bytes
             pass
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-        shutil.rmtree(old, ignore_errors=True)
     return out, False
