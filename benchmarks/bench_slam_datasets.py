@@ -147,9 +147,8 @@ def wall_agreement(est_grid: OccupancyGrid2D, ref_grid: OccupancyGrid2D) -> floa
     return float(near.mean())
 
 
-def overlap(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]) -> float:
-    """The reference-free agreement of the passes (see the module docstring), in cm."""
-    medians = scan_overlaps(poses, stamps, scans)
+def overlap(medians: dict[int, float]) -> float:
+    """The reference-free agreement of the passes (see the module docstring), in cm, from ``scan_overlaps``."""
     return 100 * float(np.mean(list(medians.values()))) if medians else float("nan")
 
 
@@ -172,11 +171,12 @@ def scan_overlaps(poses: np.ndarray, stamps: np.ndarray, scans: dict[int, tuple]
     return medians
 
 
-def where_they_disagree(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans) -> tuple[float, float, int]:
-    """``overlap`` of ``est`` and of the reference (cm) over the scans both score where the two lie farthest
-    apart after alignment (the tenth of them): which of the two has its passes agree better where they
-    differ most; and how many scans that is."""
-    mine, theirs = scan_overlaps(est, stamps, scans), scan_overlaps(ref, stamps, scans)
+def where_they_disagree(
+    est: np.ndarray, ref: np.ndarray, mine: dict[int, float], theirs: dict[int, float]
+) -> tuple[float, float, int]:
+    """``overlap`` of ``est`` and of the reference (cm; ``mine`` and ``theirs``: their ``scan_overlaps``) over the
+    scans both score where the two lie farthest apart after alignment (the tenth of them): which of the two has
+    its passes agree better where they differ most; and how many scans that is."""
     both = np.array(sorted(set(mine) & set(theirs)), dtype=np.int64)
     if not len(both):
         return float("nan"), float("nan"), 0
@@ -229,16 +229,21 @@ def estimate_grid(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans) -
     return draw(align_planar(est, ref), stamps, scans)
 
 
-def score(est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid, est_grid=None) -> dict[str, float]:
-    """The figures of the module docstring; ``est_grid``: ``estimate_grid``'s map, drawn when not given."""
+def score(
+    est: np.ndarray, ref: np.ndarray, stamps: np.ndarray, scans, ref_grid, est_grid=None, est_overlaps=None
+) -> dict[str, float]:
+    """The figures of the module docstring; ``est_grid``: ``estimate_grid``'s map, and ``est_overlaps``: ``est``'s
+    ``scan_overlaps``, each computed when not given."""
     if est_grid is None:
         est_grid = estimate_grid(est, ref, stamps, scans)
+    if est_overlaps is None:
+        est_overlaps = scan_overlaps(est, stamps, scans)
     return {
         "ate": planar_ate(est, ref),
         "re1": planar_relative_error(est, ref, 1.0),
         "re5": planar_relative_error(est, ref, 5.0),
         "walls": wall_agreement(est_grid, ref_grid),
-        "overlap": overlap(est, stamps, scans),
+        "overlap": overlap(est_overlaps),
     }
 
 
@@ -353,9 +358,11 @@ def evaluate(
         back_poses = slam_on_odometry(back_odom, back_ts, back_scans, slam_params)
         scored.append(("driven back", back_poses, ref[keep][::-1], back_ts, back_scans))
     slam_grid = estimate_grid(slam, ref[keep], ts, scans)  # scored below, and drawn by --maps
+    slam_overlaps, ref_overlaps = scan_overlaps(slam, ts, scans), scan_overlaps(ref[keep], ts, scans)  # (each once)
     ates = []
     for source, est_poses, truth, stamps, logged in scored:
-        s = score(est_poses, truth, stamps, logged, ref_grid, slam_grid if source == "slam" else None)
+        computed = (slam_grid, slam_overlaps) if source == "slam" else ()
+        s = score(est_poses, truth, stamps, logged, ref_grid, *computed)
         if source in averaged:
             ates.append(s["ate"])
         extra = (
@@ -371,7 +378,7 @@ def evaluate(
     if maps is not None:
         maps.mkdir(parents=True, exist_ok=True)
         plot_maps(maps / f"{name}-maps.png", name, slam, ref[keep], slam_grid, ref_grid)
-    reference = overlap(ref[keep], ts, scans)
+    reference = overlap(ref_overlaps)
     print(f"{'':<8} {'reference':<11} {'-':>7} {'-':>7} {'-':>7} {'-':>6} {reference:>7.2f}", flush=True)
     for sigma in (0.0, *([reference_noise] if reference_noise else [])):
         noisy = ref[keep].copy()
@@ -383,7 +390,7 @@ def evaluate(
             f"against each other): reference {shown[0]}, SLAM {shown[1]}, odometry {shown[2]}",
             flush=True,
         )
-    mine, theirs, count = where_they_disagree(slam, ref[keep], ts, scans)
+    mine, theirs, count = where_they_disagree(slam, ref[keep], slam_overlaps, ref_overlaps)
     print(
         f"{'':<8} overlap where the SLAM and the reference lie farthest apart ({count} scans, the tenth of those"
         f" scored): SLAM {mine:.2f} cm, reference {theirs:.2f} cm",
