@@ -19,11 +19,14 @@ the cell's centre, which would pull every point of a wall onto the centre line o
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage, optimize
+
+from navlog.replay.compiled import compile_together
 
 # ScanMatcher.spread scores its candidates in chunks of about this many grid reads, with at most this many of
 # the scan's points
@@ -34,6 +37,9 @@ SPREAD_POINTS = 512
 # the distance transform runs over tiles of this many cells a side (each widened by the reach it must be exact
 # within), skipping those with no reference cell that near: most of a building's box is rooms' insides
 TILE = 128
+
+# the coarsest pooled level a search reads (cells 2^6 = 64 a side)
+TOP_LEVEL = 6
 
 
 def _distance_transform(free: np.ndarray, reach: int) -> tuple[np.ndarray, np.ndarray]:
@@ -120,30 +126,37 @@ class LookupGrid:
         self.border = border
         self.origin = self.core_origin - border * resolution  # the canvas's
         self.shape = (ny + 2 * border, nx + 2 * border)
-        self._pooled: dict[int, np.ndarray] = {}
+        # the pooled levels, one flat canvas a row, written when first asked for (rows never written stay
+        # unmapped memory)
+        self._pooled = np.empty((TOP_LEVEL + 1, self.shape[0] * self.shape[1]), dtype=np.float32)
+        self._pooled_count = 0
 
     def pooled(self, level: int) -> np.ndarray:
         """Flat canvas whose cell (i, j) is the maximum likelihood over cells [i, i + 2^l) x [j, j + 2^l)
-        (zero beyond the canvas): level l is level l - 1's maximum over its cell and the cells half a
-        window (2^(l-1)) further along each axis."""
-        grid = self._pooled.get(level)
-        if grid is None:
-            b = self.border
+        (zero beyond the canvas), ``level`` at most ``TOP_LEVEL``: level l is level l - 1's maximum over its
+        cell and the cells half a window (2^(l-1)) further along each axis."""
+        return self.levels(level)[level]
+
+    def levels(self, top: int) -> np.ndarray:
+        """(top + 1, cells) the pooled levels 0..``top`` (``pooled``), a row each."""
+        b = self.border
+        while self._pooled_count <= top:
+            level = self._pooled_count
+            canvas = self._pooled[level].reshape(self.shape)
             if level == 0:
                 ny, nx = self.likelihood.shape
-                canvas = np.zeros(self.shape, dtype=np.float32)
+                canvas.fill(0.0)
                 canvas[b : b + ny, b : b + nx] = self.likelihood
             else:
                 h = 2 ** (level - 1)
-                half = self.pooled(level - 1).reshape(self.shape)
+                half = self._pooled[level - 1].reshape(self.shape)
                 rows = np.empty_like(half)
                 np.maximum(half[:-h], half[h:], out=rows[:-h])
                 rows[-h:] = half[-h:]  # (the last h rows have no cells h further on: their own)
-                canvas = np.empty_like(rows)
                 np.maximum(rows[:, :-h], rows[:, h:], out=canvas[:, :-h])
                 canvas[:, -h:] = rows[:, -h:]
-            grid = self._pooled[level] = canvas.ravel()
-        return grid
+            self._pooled_count += 1
+        return self._pooled[: top + 1]
 
     def _coordinates(self, xy: np.ndarray) -> np.ndarray:
         """(2, N) fractional (row, column) coordinates of points on the core, cell centres at integers."""
@@ -205,7 +218,7 @@ class ScanMatcher:
 
     def _levels(self, window: SearchWindow) -> int:
         cells = 2 * math.ceil(window.linear / 2 / self.res) + 1
-        return max(0, min(6, int(math.floor(math.log2(cells))) - 1))
+        return max(0, min(TOP_LEVEL, int(math.floor(math.log2(cells))) - 1))
 
     def match(
         self, reference: np.ndarray, scan_points: np.ndarray, prediction, window: SearchWindow, min_response: float
@@ -326,40 +339,27 @@ class ScanMatcher:
             if scores[a, c] > best_score:
                 best = (a, int(oy[c]), int(ox[c]))
             order = order[:0]
-        for k in order.tolist():
-            a, c = divmod(k, len(cand))
-            if scores[a, c] <= best_score:
-                break
-            found = self._branch(grid, flat[a], int(oy[c]), int(ox[c]), top, 2 * w, nx, best_score)
-            if found is not None:
-                best_score = found[0]
-                best = (a, found[1], found[2])
+        if len(order):
+            found_score, a, dy, dx = _compiled_branch_and_bound()(
+                grid.levels(top),
+                flat,
+                _pairwise_plan(flat.shape[1]),
+                scores.ravel(),
+                order,
+                len(cand),
+                oy,
+                ox,
+                top,
+                2 * w,
+                nx,
+                best_score,
+            )
+            if a >= 0:
+                best = (a, dy, dx)
         if best is None:
             return None
         a, dy, dx = best
         return np.array([px + (dx - w) * self.res, py + (dy - w) * self.res, float(yaws[a])])
-
-    def _branch(self, grid, flat, dy, dx, level, limit, nx, best_score):
-        """Depth-first expansion of the candidate (dy, dx) of ``level``: (score, dy, dx) of the best leaf
-        scoring above ``best_score``, or None."""
-        if level == 0:
-            return None  # leaves are scored by their parent
-        h = 2 ** (level - 1)
-        kids = [(dy + i, dx + j) for i in (0, h) for j in (0, h) if dy + i <= limit and dx + j <= limit]
-        offsets = np.array([ky * nx + kx for ky, kx in kids], dtype=np.int64)
-        scores = grid.pooled(level - 1)[flat[None, :] + offsets[:, None]].mean(axis=1)
-        best = None
-        for i in np.argsort(-scores, kind="stable").tolist():
-            s = float(scores[i])
-            if s <= best_score:
-                break
-            if level - 1 == 0:
-                best_score, best = s, (s, kids[i][0], kids[i][1])
-                continue
-            found = self._branch(grid, flat, kids[i][0], kids[i][1], level - 1, limit, nx, best_score)
-            if found is not None:
-                best_score, best = found[0], found
-        return best
 
     def _hessian(self, grid: LookupGrid, points: np.ndarray, pose: np.ndarray) -> np.ndarray:
         """Mean J^T J of point-to-line distances over the scan's points within ``3 sigma`` of the reference:
@@ -423,6 +423,148 @@ class ScanMatcher:
         if np.any(np.abs(pose[:2] - start[:2]) > 2 * self.res) or not np.all(np.isfinite(pose)):
             return np.asarray(start, dtype=np.float64)
         return pose
+
+
+def _pairwise_plan(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """How NumPy adds a float32 row of ``n`` values (pairwise: a part longer than 128 split in two at half its
+    length rounded down to a multiple of 8), as a postfix program: (start, length) of each block of at most
+    128 to add in place of a start of -1, the sum of the two partial sums last made."""
+    starts: list[int] = []
+    lengths: list[int] = []
+    parts = [(0, n, False)]
+    while parts:
+        lo, m, split = parts.pop()
+        if m <= 128 or split:
+            starts.append(lo if m <= 128 else -1)
+            lengths.append(m)
+            continue
+        half = m // 2 - (m // 2) % 8
+        parts += [(lo, m, True), (lo + half, m - half, False), (lo, half, False)]
+    return np.array(starts, dtype=np.int64), np.array(lengths, dtype=np.int64)
+
+
+def _block_sum(values, flat, offset, lo, n):
+    """The float32 sum of ``values[flat[lo:lo + n] + offset]``, ``n`` at most 128, added as NumPy adds such a
+    block (one by one below 8, else eight running sums); to be compiled."""
+    if n < 8:
+        total = np.float32(0.0)
+        for i in range(lo, lo + n):
+            total += values[flat[i] + offset]
+        return total
+    r0, r1, r2, r3 = (
+        values[flat[lo] + offset],
+        values[flat[lo + 1] + offset],
+        values[flat[lo + 2] + offset],
+        values[flat[lo + 3] + offset],
+    )
+    r4, r5, r6, r7 = (
+        values[flat[lo + 4] + offset],
+        values[flat[lo + 5] + offset],
+        values[flat[lo + 6] + offset],
+        values[flat[lo + 7] + offset],
+    )
+    i = lo + 8
+    end = lo + n - n % 8
+    while i < end:
+        r0 += values[flat[i] + offset]
+        r1 += values[flat[i + 1] + offset]
+        r2 += values[flat[i + 2] + offset]
+        r3 += values[flat[i + 3] + offset]
+        r4 += values[flat[i + 4] + offset]
+        r5 += values[flat[i + 5] + offset]
+        r6 += values[flat[i + 6] + offset]
+        r7 += values[flat[i + 7] + offset]
+        i += 8
+    total = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < lo + n:
+        total += values[flat[i] + offset]
+        i += 1
+    return total
+
+
+def _row_mean(values, flat, offset, plan_start, plan_length, partial):
+    """The float32 mean of ``values[flat + offset]`` to the bit of NumPy's (``_pairwise_plan`` of
+    ``len(flat)``; ``partial`` room for its partial sums); to be compiled."""
+    depth = 0
+    for k in range(plan_start.shape[0]):
+        if plan_start[k] >= 0:
+            partial[depth] = _block_sum(values, flat, offset, plan_start[k], plan_length[k])
+            depth += 1
+        else:
+            depth -= 1
+            partial[depth - 1] = partial[depth - 1] + partial[depth]
+    return partial[0] / np.float32(flat.shape[0])
+
+
+def _branch_and_bound(levels, flat, plan, scores, order, n_offsets, oy, ox, top, limit, nx, best_score):
+    """The branch and bound of ``ScanMatcher._search`` below its top level, to be compiled: the top level's
+    candidates (``scores``, flat (yaw, offset), and their ``order``, best first) expanded depth first, each
+    candidate's four children (offsets ``2^(l-1)`` apart, none beyond ``limit``) scored on the level below
+    (``levels``: the pooled canvases, a row each; a score is the float32 mean of the scan's cells ``flat``
+    read there, as ``plan``, their ``_pairwise_plan``, adds them) and visited best first (ties in row-major order), a branch dropped once its score is no
+    more than ``best_score``. Returns (best score, yaw index, row offset, column offset) of the best
+    full-resolution candidate above ``best_score``, the index -1 when there is none."""
+    plan_start, plan_length = plan
+    partial = np.empty(plan_start.shape[0], dtype=np.float32)
+    kid_y = np.empty((top + 1, 4), dtype=np.int64)
+    kid_x = np.empty((top + 1, 4), dtype=np.int64)
+    kid_score = np.empty((top + 1, 4), dtype=np.float32)
+    kid_order = np.empty((top + 1, 4), dtype=np.int64)
+    kid_count = np.zeros(top + 1, dtype=np.int64)
+    visited = np.zeros(top + 1, dtype=np.int64)
+    best_a, best_y, best_x = -1, 0, 0
+    for k in order:
+        if scores[k] <= np.float32(best_score):  # (compared in float32, as NumPy compares a float32 and a float)
+            break
+        a = k // n_offsets
+        c = k % n_offsets
+        level = top
+        y, x = oy[c], ox[c]
+        while True:
+            if y >= 0:  # expand (y, x) of ``level``: its children, scored on level - 1 and sorted
+                h = 1 << (level - 1)
+                m = 0
+                for i in (0, h):
+                    for j in (0, h):
+                        if y + i <= limit and x + j <= limit:
+                            kid_y[level, m] = y + i
+                            kid_x[level, m] = x + j
+                            offset = (y + i) * nx + x + j
+                            kid_score[level, m] = _row_mean(
+                                levels[level - 1], flat[a], offset, plan_start, plan_length, partial
+                            )
+                            kid_order[level, m] = m
+                            q = m
+                            while q > 0 and kid_score[level, kid_order[level, q - 1]] < kid_score[level, m]:
+                                kid_order[level, q] = kid_order[level, q - 1]
+                                q -= 1
+                            kid_order[level, q] = m
+                            m += 1
+                kid_count[level] = m
+                visited[level] = 0
+                y = -1
+            if visited[level] == kid_count[level]:
+                if level == top:
+                    break
+                level += 1
+                continue
+            i = kid_order[level, visited[level]]
+            visited[level] += 1
+            s = float(kid_score[level, i])
+            if s <= best_score:
+                visited[level] = kid_count[level]
+            elif level == 1:
+                best_score, best_a, best_y, best_x = s, a, kid_y[level, i], kid_x[level, i]
+            else:
+                y, x = kid_y[level, i], kid_x[level, i]
+                level -= 1
+    return best_score, best_a, best_y, best_x
+
+
+@functools.cache
+def _compiled_branch_and_bound():
+    """``_branch_and_bound`` compiled by numba (on first use; cached on disk)."""
+    return compile_together(globals(), (_block_sum, _row_mean, _branch_and_bound))["_branch_and_bound"]
 
 
 def _distance_jacobian(xy: np.ndarray, away: np.ndarray, pose: np.ndarray) -> np.ndarray:

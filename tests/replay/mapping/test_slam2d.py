@@ -134,6 +134,45 @@ def test_every_pooled_level_bounds_the_finer_cells_it_covers():
         assert np.array_equal(grid.pooled(level).reshape(rows, cols), want), level
 
 
+def test_the_compiled_mean_adds_as_numpy_adds_a_float32_row():
+    """The branch and bound's scores are NumPy's float32 means to the bit, whatever the row's length (pairwise
+    below and above its blocks of 128), so the compiled search visits what a NumPy one would."""
+    from navlog.replay.compiled import compile_together
+    from navlog.replay.mapping.slam2d import scan_matcher
+
+    kernels = (scan_matcher._block_sum, scan_matcher._row_mean)
+    mean = compile_together(vars(scan_matcher), kernels)["_row_mean"]
+    rng = np.random.default_rng(5)
+    values = (rng.random(5000) ** 3).astype(np.float32)
+    for n in [*range(1, 300), 511, 512, 513, 1000, 1024, 1500, 4095, 8192]:
+        flat = rng.integers(0, 4000, n)
+        want = values[flat + 7][None, :].repeat(2, axis=0).mean(axis=1)[0]
+        starts, lengths = scan_matcher._pairwise_plan(n)
+        assert mean(values, flat, 7, starts, lengths, np.empty(len(starts), np.float32)) == want, n
+
+
+def test_the_search_finds_the_best_full_resolution_candidate_of_its_window(scene):
+    """Branch and bound drops only branches that cannot win: on a room, from predictions up to a metre off, its
+    pick scores what the best of every (yaw, offset) of the window scores at full resolution."""
+    rng = np.random.default_rng(8)
+    true = np.array([0.4, -0.3, 0.2])
+    reference = transform_points(true, scan_of(cast(scene, true, rng)).points(RANGE_MAX))
+    points = scan_of(cast(scene, true, rng)).points(RANGE_MAX)[::3]
+    matcher = ScanMatcher(0.05, 0.1)
+    window = SearchWindow(2.0, 0.1, 0.0349)
+    for offset in ([0.0, 0.0, 0.0], [0.5, -0.6, 0.05], [-0.9, 0.2, -0.08]):
+        prediction = true + offset
+        grid = matcher.grid_around(reference, points, prediction, window)
+        yaws, flat, w = matcher._placements(grid, points, prediction, window)
+        _, _, cand = matcher._offsets(w, 1, grid.shape[1])
+        every = grid.pooled(0)[flat[:, None, :] + cand[None, :, None]].mean(axis=2)
+        found = matcher._search(grid, points, prediction, window, 0.2)
+        a = int(np.argmin(np.abs(yaws - found[2])))
+        dy, dx = (round((found[i] - prediction[i]) / matcher.res) + w for i in (1, 0))
+        assert every[a, dy * (2 * w + 1) + dx] == every.max() > 0.5
+        assert np.linalg.norm(found[:2] - true[:2]) < 0.1
+
+
 def test_the_distance_transform_by_tiles_is_exact_within_its_reach(monkeypatch):
     """With tiles of 5 cells (many per mask, most widened boxes crossing others), on sparse random cells and on a
     lattice (every cell between two lattice points has equidistant nearest cells: ties), the tiled transform's
