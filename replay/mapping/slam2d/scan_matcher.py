@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,27 +43,36 @@ TILE = 128
 TOP_LEVEL = 6
 
 
-def _distance_transform(free: np.ndarray, reach: int) -> tuple[np.ndarray, np.ndarray]:
-    """scipy's Euclidean distance transform of ``free`` (cells) and its feature transform (the nearest occupied
-    cell's row and column), exact wherever an occupied cell lies within ``reach`` cells: computed over each
-    ``TILE`` square widened by ``reach`` on every side, a square whose widened box holds no occupied cell skipped.
-    Elsewhere the distance is more than ``reach``, its feature an occupied cell at least that far (in a square
-    computed) or -1 and the distance infinite (in a square skipped)."""
-    ny, nx = free.shape
-    distance = np.full((ny, nx), np.inf)
-    feature = np.full((2, ny, nx), -1, dtype=np.int32)
-    for y in range(0, ny, TILE):
-        for x in range(0, nx, TILE):
-            y0, x0 = max(0, y - reach), max(0, x - reach)
-            wide = free[y0 : y + TILE + reach, x0 : x + TILE + reach]
-            if wide.all():
-                continue
-            d, f = ndimage.distance_transform_edt(wide, return_indices=True)
-            rows, cols = slice(y - y0, y - y0 + TILE), slice(x - x0, x - x0 + TILE)
-            distance[y : y + TILE, x : x + TILE] = d[rows, cols]
-            feature[0, y : y + TILE, x : x + TILE] = f[0, rows, cols] + y0
-            feature[1, y : y + TILE, x : x + TILE] = f[1, rows, cols] + x0
-    return distance, feature
+def _distance_tiles(occupied: np.ndarray, shape: tuple[int, int], reach: int) -> Iterator[tuple[int, ...]]:
+    """scipy's Euclidean distance transform of the cells of ``shape`` (rows, columns) from the ``occupied``
+    ones (flat indices) and its feature transform, by ``TILE`` squares: each computed over the square widened
+    by ``reach`` on every side, the squares whose widened box holds no occupied cell (all of whose cells lie
+    farther than ``reach`` from every one) left out. Yields per square its first row and column, its
+    distances (cells) and its cells' nearest occupied cells (2, rows, columns), exact wherever an occupied
+    cell lies within ``reach`` (elsewhere the distance is more than ``reach``)."""
+    ny, nx = shape
+    rows, cols = np.divmod(occupied, nx)
+    # a square's widened box holds the occupied cells of rows (r - reach) // TILE to (r + reach) // TILE of
+    # squares (and the same of columns)
+    wanted = np.zeros((-(-ny // TILE), -(-nx // TILE)), dtype=bool)
+    spans = -(-2 * reach // TILE) + 1
+    for ty in range(spans):
+        for tx in range(spans):
+            y = np.minimum((rows - reach) // TILE + ty, (rows + reach) // TILE).clip(0, wanted.shape[0] - 1)
+            x = np.minimum((cols - reach) // TILE + tx, (cols + reach) // TILE).clip(0, wanted.shape[1] - 1)
+            wanted[y, x] = True
+    free = np.ones(ny * nx, dtype=bool)
+    free[occupied] = False
+    free = free.reshape(ny, nx)
+    for ty, tx in zip(*np.nonzero(wanted), strict=True):
+        y, x = int(ty) * TILE, int(tx) * TILE
+        y0, x0 = max(0, y - reach), max(0, x - reach)
+        d, f = ndimage.distance_transform_edt(free[y0 : y + TILE + reach, x0 : x + TILE + reach], return_indices=True)
+        crop = (slice(y - y0, y - y0 + TILE), slice(x - x0, x - x0 + TILE))
+        f = f[:, crop[0], crop[1]]
+        f[0] += y0
+        f[1] += x0
+        yield y, x, d[crop], f
 
 
 @dataclass(frozen=True)
@@ -103,32 +113,36 @@ class LookupGrid:
         cells = np.floor((reference - self.core_origin) / resolution).astype(np.int64)
         # the occupied cells (flat indices, sorted) and each point's among them
         self._occupied, slot = np.unique(cells[:, 1] * nx + cells[:, 0], return_inverse=True)
-        free = np.ones(ny * nx, dtype=bool)
-        free[self._occupied] = False
-        # the fields are read only within 3 sigma of the reference (two cells more: a point and a cell's mean
-        # both lie anywhere in their cells)
-        distance, self._feature = _distance_transform(free.reshape(ny, nx), math.ceil(cut / resolution) + 2)
         # the mean of the reference points in each occupied cell
         count = np.bincount(slot)
         self._mean = np.stack(
             [np.bincount(slot, reference[:, 0]) / count, np.bincount(slot, reference[:, 1]) / count], 1
         )
-        # exp(-0.5 (d / sigma)^2) with d in metres, within cut of the reference (zero beyond)
-        distance *= resolution
-        near = distance <= cut
-        z = distance[near] / smear_deviation
-        np.square(z, out=z)
-        z *= -0.5
-        np.exp(z, out=z)
+        # exp(-0.5 (d / sigma)^2) with d in metres, within cut of the reference (zero beyond), and per cell 1 + the
+        # row and column of its nearest occupied cell (0 where no square was computed: none within reach), both
+        # NumPy's zeros where no square is written (pages never touched)
         likelihood = np.zeros((ny, nx), dtype=np.float32)
-        likelihood[near] = z.astype(np.float32)
+        self._feature = np.zeros((2, ny, nx), dtype=np.int32)
+        # the fields are read only within 3 sigma of the reference (two cells more: a point and a cell's mean
+        # both lie anywhere in their cells)
+        for y, x, distance, feature in _distance_tiles(self._occupied, (ny, nx), math.ceil(cut / resolution) + 2):
+            distance *= resolution
+            near = distance <= cut
+            z = distance[near] / smear_deviation
+            np.square(z, out=z)
+            z *= -0.5
+            np.exp(z, out=z)
+            square = likelihood[y : y + distance.shape[0], x : x + distance.shape[1]]
+            square[near] = z.astype(np.float32)
+            feature += 1
+            self._feature[:, y : y + distance.shape[0], x : x + distance.shape[1]] = feature
         self.likelihood = likelihood
         self.border = border
         self.origin = self.core_origin - border * resolution  # the canvas's
         self.shape = (ny + 2 * border, nx + 2 * border)
-        # the pooled levels, one flat canvas a row, written when first asked for (rows never written stay
-        # unmapped memory)
-        self._pooled = np.empty((TOP_LEVEL + 1, self.shape[0] * self.shape[1]), dtype=np.float32)
+        # the pooled levels, one flat canvas a row, written where they can be non-zero when first asked for
+        # (NumPy's zeros: the pages not written stay unmapped memory)
+        self._pooled = np.zeros((TOP_LEVEL + 1, self.shape[0] * self.shape[1]), dtype=np.float32)
         self._pooled_count = 0
 
     def pooled(self, level: int) -> np.ndarray:
@@ -138,23 +152,31 @@ class LookupGrid:
         return self.levels(level)[level]
 
     def levels(self, top: int) -> np.ndarray:
-        """(top + 1, cells) the pooled levels 0..``top`` (``pooled``), a row each."""
+        """(top + 1, cells) the pooled levels 0..``top`` (``pooled``), a row each. A level is computed only
+        where its windows reach the core: its other cells are the zeros of the rows' allocation."""
         b = self.border
+        ny, nx = self.likelihood.shape
+        rows_total, cols_total = self.shape
         while self._pooled_count <= top:
             level = self._pooled_count
             canvas = self._pooled[level].reshape(self.shape)
             if level == 0:
-                ny, nx = self.likelihood.shape
-                canvas.fill(0.0)
                 canvas[b : b + ny, b : b + nx] = self.likelihood
             else:
+                # the cells whose window [i, i + 2^l) meets the core, and the cells h further on they read
                 h = 2 ** (level - 1)
-                half = self._pooled[level - 1].reshape(self.shape)
+                r0, c0 = max(0, b - 2**level + 1), max(0, b - 2**level + 1)
+                r1, c1 = min(rows_total, b + ny), min(cols_total, b + nx)
+                half = self._pooled[level - 1].reshape(self.shape)[
+                    r0 : min(rows_total, r1 + h), c0 : min(cols_total, c1 + h)
+                ]
                 rows = np.empty_like(half)
                 np.maximum(half[:-h], half[h:], out=rows[:-h])
-                rows[-h:] = half[-h:]  # (the last h rows have no cells h further on: their own)
-                np.maximum(rows[:, :-h], rows[:, h:], out=canvas[:, :-h])
-                canvas[:, -h:] = rows[:, -h:]
+                rows[-h:] = half[-h:]  # (the last h rows of the canvas have no cells h further on: their own)
+                pooled = np.empty_like(rows)
+                np.maximum(rows[:, :-h], rows[:, h:], out=pooled[:, :-h])
+                pooled[:, -h:] = rows[:, -h:]
+                canvas[r0:r1, c0:c1] = pooled[: r1 - r0, : c1 - c0]
             self._pooled_count += 1
         return self._pooled[: top + 1]
 
@@ -182,8 +204,7 @@ class LookupGrid:
         inside = (cells[:, 0] >= 0) & (cells[:, 0] < nx) & (cells[:, 1] >= 0) & (cells[:, 1] < ny)
         d = np.full(len(xy), far)
         away = np.zeros_like(xy)
-        ix, iy = cells[inside, 0], cells[inside, 1]
-        feature = self._feature[:, iy, ix].astype(np.int64)
+        feature = self._feature[:, cells[inside, 1], cells[inside, 0]].astype(np.int64) - 1
         known = feature[0] >= 0  # else no reference cell within the transform's reach: farther than ``far``
         inside[inside] = known
         nearest_cell = feature[0, known] * nx + feature[1, known]

@@ -120,18 +120,19 @@ def test_every_pooled_level_bounds_the_finer_cells_it_covers():
     from navlog.replay.mapping.slam2d.scan_matcher import LookupGrid
 
     rng = np.random.default_rng(3)
-    grid = LookupGrid(rng.uniform(0.0, 3.0, (400, 2)), 0.025, 0.1, 80)
-    rows, cols = grid.shape
-    base = grid.pooled(0).reshape(rows, cols)
-    for level in range(1, 7):
-        k = 2**level
-        padded = np.zeros((rows + k, cols + k), np.float32)
-        padded[:rows, :cols] = base
-        want = np.zeros_like(base)
-        for dy in range(k):
-            for dx in range(k):
-                want = np.maximum(want, padded[dy : dy + rows, dx : dx + cols])
-        assert np.array_equal(grid.pooled(level).reshape(rows, cols), want), level
+    for border in (80, 5):  # (a border narrower than a window: windows from the canvas's first cell reach the core)
+        grid = LookupGrid(rng.uniform(0.0, 3.0, (400, 2)), 0.025, 0.1, border)
+        rows, cols = grid.shape
+        base = grid.pooled(0).reshape(rows, cols)
+        for level in range(1, 7):
+            k = 2**level
+            padded = np.zeros((rows + k, cols + k), np.float32)
+            padded[:rows, :cols] = base
+            want = np.zeros_like(base)
+            for dy in range(k):
+                for dx in range(k):
+                    want = np.maximum(want, padded[dy : dy + rows, dx : dx + cols])
+            assert np.array_equal(grid.pooled(level).reshape(rows, cols), want), (border, level)
 
 
 def test_the_compiled_mean_adds_as_numpy_adds_a_float32_row():
@@ -177,7 +178,7 @@ def test_the_distance_transform_by_tiles_is_exact_within_its_reach(monkeypatch):
     """With tiles of 5 cells (many per mask, most widened boxes crossing others), on sparse random cells and on a
     lattice (every cell between two lattice points has equidistant nearest cells: ties), the tiled transform's
     distance and nearest cell are scipy's whole-mask ones wherever those lie within ``reach``; elsewhere its
-    distance is more than ``reach``."""
+    distance is more than ``reach``, and the tiles it leaves out hold no cell within it."""
     from scipy import ndimage
 
     from navlog.replay.mapping.slam2d import scan_matcher
@@ -187,17 +188,22 @@ def test_the_distance_transform_by_tiles_is_exact_within_its_reach(monkeypatch):
     lattice = np.ones((37, 41), dtype=bool)
     lattice[::6, ::6] = False
     masks = [rng.random((37, 41)) > 0.01 for _ in range(4)] + [lattice]
-    beyond = 0
+    beyond = skipped = 0
     for free in masks:
         for reach in (1, 3, 7):
             want, want_feature = ndimage.distance_transform_edt(free, return_indices=True)
-            got, feature = scan_matcher._distance_transform(free, reach)
+            got = np.full(free.shape, np.inf)
+            feature = np.full((2, *free.shape), -1)
+            for y, x, d, f in scan_matcher._distance_tiles(np.flatnonzero(~free), free.shape, reach):
+                got[y : y + d.shape[0], x : x + d.shape[1]] = d
+                feature[:, y : y + d.shape[0], x : x + d.shape[1]] = f
             within = want <= reach
             assert np.array_equal(got[within], want[within])
             assert np.array_equal(feature[:, within], want_feature[:, within])
             assert (got[~within] > reach).all()
             beyond += int((~within).sum())
-    assert beyond > 1000  # cells beyond the reach were met, in skipped tiles and in computed ones
+            skipped += int(np.isinf(got).sum())
+    assert beyond > 1000 and skipped > 100  # cells beyond the reach were met, in skipped tiles and in computed ones
 
 
 def test_the_lookup_grid_holds_what_one_distance_transform_over_its_whole_box_gives():
@@ -217,7 +223,7 @@ def test_the_lookup_grid_holds_what_one_distance_transform_over_its_whole_box_gi
     res, sigma = 0.025, 0.1
     grid = LookupGrid(reference, res, sigma, 10)
     ny, nx = grid.likelihood.shape
-    assert ny > 2 * TILE and nx > 4 * TILE and (grid._feature[0] < 0).any()  # some tiles were skipped
+    assert ny > 2 * TILE and nx > 4 * TILE and (grid._feature[0] == 0).any()  # some tiles were skipped
     # the whole box at once
     cells = np.floor((reference - grid.core_origin) / res).astype(np.int64)
     free = np.ones((ny, nx), dtype=bool)
