@@ -20,6 +20,8 @@ import os
 import shutil
 import subprocess
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -117,31 +119,35 @@ def cached_world_map(spec: WorldMap, cache_dir: Path) -> Path:
     return out
 
 
+@contextmanager
 def cached_replay(
     log: Path, pipeline: str, params: Any, remap: dict[str, str], key: str, cache_dir: Path, *, fresh: bool = False
-) -> tuple[Path, bool]:
+) -> Iterator[tuple[Path, bool]]:
     """The replay folder for ``key`` (replayed when missing, or always with ``fresh``) and whether it was
-    cached. A fresh replay replaces the cached one.
+    cached, to be read within the ``with`` block.
 
-    Two workers may replay the same key at once (two cases of a suite with the same log and parameters).
-    Without ``fresh`` the first replay in place is kept (the key names the same bytes) and never deleted
-    under the other, which may be reading it. A fresh one moves the old aside in one rename and puts its own
-    in place (two fresh replays of one key at once may still take each other's folder away)."""
+    Two workers may replay the same key at once (two cases of a suite with the same log and parameters), and
+    a replay in place may be being read by another case: no replay in place is ever replaced or deleted. The
+    first replay put in place stays (the key names the same bytes). A fresh one is read from its own folder
+    and put in place at the end of the block only where none is; otherwise it is deleted."""
     from navlog.replay.session import run_replay
 
     out = cache_dir / "replays" / key
     if not fresh and (out / "manifest.json").is_file():
-        return out, True
+        yield out, True
+        return
     tmp = _partial(out)
     shutil.rmtree(tmp, ignore_errors=True)
     try:
         run_replay(log, pipeline, tmp, params=params, remap=remap, progress=False)
-        if not fresh and (out / "manifest.json").is_file():
-            return out, False  # another worker put the same replay there meanwhile
-        try:  # a fresh run's old replay, or a folder a killed run left without its manifest, is moved aside
-            replace_output(tmp, out)
-        except OSError:  # another worker put its own there between the two renames: the same bytes
-            pass
+        if fresh:
+            yield tmp, False
+        if not (out / "manifest.json").is_file():
+            try:  # a folder a killed run left without its manifest is moved aside
+                replace_output(tmp, out)
+            except OSError:  # another worker put its own there between the two renames: the same bytes
+                pass
+        if not fresh:
+            yield out, False
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    return out, False

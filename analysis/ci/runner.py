@@ -298,27 +298,28 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
 
     start = time.perf_counter()
     key = replay_identity(log_sha, case.pipeline, params, remap)
-    replay_dir, cached = cached_replay(log, case.pipeline, params, remap, key, job.cache, fresh=job.determinism)
-    if job.determinism:
-        checks.append(_determinism(log, case.pipeline, params, remap, replay_dir))
-    timings["replay"] = time.perf_counter() - start
+    with cached_replay(log, case.pipeline, params, remap, key, job.cache, fresh=job.determinism) as found_replay:
+        replay_dir, cached = found_replay
+        if job.determinism:
+            checks.append(_determinism(log, case.pipeline, params, remap, replay_dir))
+        timings["replay"] = time.perf_counter() - start
 
-    start = time.perf_counter()
-    manifest = json.loads((replay_dir / "manifest.json").read_text(encoding="utf-8"))
-    metrics = _metrics(log, replay_dir, world_map) if pipeline.scored_by_metrics else None
-    written = False
-    with tempfile.TemporaryDirectory(prefix="navlog-ci-") as work:
-        outputs = {o["file"]: replay_dir / o["file"] for o in manifest["outputs"].values()}
-        if metrics is not None:
-            (Path(work) / METRICS_FILE).write_text(json_text.dumps(metrics, indent=2, sort_keys=True) + "\n")
-            outputs[METRICS_FILE] = Path(work) / METRICS_FILE
-        if case.diff is not None:
-            diff_checks, written = _diff(job, base, outputs, provenance, notes)
-            checks += diff_checks
-    roots = {inv.roots() for inv in case.invariants} | set(pipeline.summary_facts)
-    static_map, goals = pipeline.static_map(params), pipeline.goal_count(params)
-    facts = case_facts(roots, log=log, replay_dir=replay_dir, metrics=metrics, static_map=static_map, goals=goals)
-    checks += [evaluate(inv, facts) for inv in case.invariants]
+        start = time.perf_counter()
+        manifest = json.loads((replay_dir / "manifest.json").read_text(encoding="utf-8"))
+        metrics = _metrics(log, replay_dir, world_map) if pipeline.scored_by_metrics else None
+        written = False
+        with tempfile.TemporaryDirectory(prefix="navlog-ci-") as work:
+            outputs = {o["file"]: replay_dir / o["file"] for o in manifest["outputs"].values()}
+            if metrics is not None:
+                (Path(work) / METRICS_FILE).write_text(json_text.dumps(metrics, indent=2, sort_keys=True) + "\n")
+                outputs[METRICS_FILE] = Path(work) / METRICS_FILE
+            if case.diff is not None:
+                diff_checks, written = _diff(job, base, outputs, provenance, notes)
+                checks += diff_checks
+        roots = {inv.roots() for inv in case.invariants} | set(pipeline.summary_facts)
+        static_map, goals = pipeline.static_map(params), pipeline.goal_count(params)
+        facts = case_facts(roots, log=log, replay_dir=replay_dir, metrics=metrics, static_map=static_map, goals=goals)
+        checks += [evaluate(inv, facts) for inv in case.invariants]
     timings["compare"] = time.perf_counter() - start
     return CaseResult(
         case.name,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 from navlog.analysis.ci import run_suite
@@ -65,13 +66,22 @@ def test_a_replay_another_worker_put_in_place_meanwhile_is_kept_not_deleted_unde
         return run
 
     monkeypatch.setattr(session, "run_replay", other_worker_finishes_first)
-    out, cached = cache.cached_replay(teleop_log, "mapping", params, {}, key, tmp_path / "cache")
-    assert out == placed and not cached
+    with cache.cached_replay(teleop_log, "mapping", params, {}, key, tmp_path / "cache") as (out, cached):
+        assert out == placed and not cached
     assert (placed / "being-read").is_file() and (placed / "manifest.json").is_file()
     assert sorted(p.name for p in placed.parent.iterdir()) == [key]  # its own copy gone, nothing half-written
 
-    # a fresh replay (--determinism) replaces the folder in one rename, and leaves nothing beside it
+    # a fresh replay (--determinism) is read from its own folder: the one in place, which another case may be
+    # reading, is neither replaced nor deleted, and the fresh one leaves nothing beside it
     monkeypatch.setattr(session, "run_replay", real)
-    out, _ = cache.cached_replay(teleop_log, "mapping", params, {}, key, tmp_path / "cache", fresh=True)
-    assert not (out / "being-read").exists() and (out / "manifest.json").is_file()
-    assert sorted(p.name for p in placed.parent.iterdir()) == [key]
+    with cache.cached_replay(teleop_log, "mapping", params, {}, key, tmp_path / "cache", fresh=True) as (out, _):
+        assert out != placed and (out / "manifest.json").is_file() and not (out / "being-read").exists()
+        own = json.loads((out / "manifest.json").read_text())["outputs"]
+    assert (placed / "being-read").is_file() and sorted(p.name for p in placed.parent.iterdir()) == [key]
+    assert own == json.loads((placed / "manifest.json").read_text())["outputs"]  # the same bytes either way
+
+    # where none is in place, the fresh replay is put there at the end
+    shutil.rmtree(placed)
+    with cache.cached_replay(teleop_log, "mapping", params, {}, key, tmp_path / "cache", fresh=True) as (out, _):
+        assert out != placed and not placed.exists()
+    assert (placed / "manifest.json").is_file() and sorted(p.name for p in placed.parent.iterdir()) == [key]
