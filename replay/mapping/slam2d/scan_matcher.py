@@ -29,9 +29,7 @@ from scipy import ndimage, optimize
 
 from navlog.replay.compiled import compile_together
 
-# ScanMatcher.spread scores its candidates in chunks of about this many grid reads, with at most this many of
-# the scan's points
-SPREAD_LOOKUPS = 1 << 20
+# ScanMatcher.spread scores its candidates with at most this many of the scan's points
 SPREAD_POINTS = 512
 
 
@@ -301,13 +299,9 @@ class ScanMatcher:
         _, _, corner = self._offsets(w, 4 * step, grid.shape[1])  # the blocks' first candidates, row-major
         block = (oy // (4 * step)) * math.isqrt(len(corner)) + ox // (4 * step)  # each candidate's block
         best = np.zeros(len(cand))
-        chunk = max(1, SPREAD_LOOKUPS // len(points))  # candidates scored at once: bounded work arrays
-        for row in flat:
-            bound = coarse[row[None, :] + corner[:, None]].mean(axis=1)
-            alive = np.flatnonzero((bound >= score - drop)[block])
-            for k in range(0, len(alive), chunk):
-                some = alive[k : k + chunk]
-                best[some] = np.maximum(best[some], pooled[row[None, :] + cand[some, None]].mean(axis=1))
+        bar = np.float32(score - drop)  # (a float32 mean is compared in float32, as NumPy compares it with a float)
+        plan = _pairwise_plan(len(points))
+        _compiled_kernels()["_best_over_yaws"](pooled, coarse, flat, plan, cand, corner, block, bar, best)
         near = best >= score - drop
         if near.sum() < 2:
             return 0.0
@@ -361,7 +355,7 @@ class ScanMatcher:
                 best = (a, int(oy[c]), int(ox[c]))
             order = order[:0]
         if len(order):
-            found_score, a, dy, dx = _compiled_branch_and_bound()(
+            found_score, a, dy, dx = _compiled_kernels()["_branch_and_bound"](
                 grid.levels(top),
                 flat,
                 _pairwise_plan(flat.shape[1]),
@@ -582,10 +576,29 @@ def _branch_and_bound(levels, flat, plan, scores, order, n_offsets, oy, ox, top,
     return best_score, best_a, best_y, best_x
 
 
+def _best_over_yaws(pooled, coarse, flat, plan, cand, corner, block, bar, best):
+    """``ScanMatcher.spread``'s scores, to be compiled: per yaw (the scan's cells ``flat``, a row each) each
+    group of blocks bounded by its float32 mean on ``coarse`` from its ``corner``, and each candidate ``cand``
+    of a group (``block``) whose bound reaches ``bar`` scored by its mean on ``pooled``; ``best`` (float64)
+    raised to the best score of each candidate over the yaws. The means are NumPy's to the bit (``plan``, the
+    ``_pairwise_plan`` of the scan's points)."""
+    plan_start, plan_length = plan
+    partial = np.empty(plan_start.shape[0], dtype=np.float32)
+    bound = np.empty(corner.shape[0], dtype=np.float32)
+    for a in range(flat.shape[0]):
+        for g in range(corner.shape[0]):
+            bound[g] = _row_mean(coarse, flat[a], corner[g], plan_start, plan_length, partial)
+        for c in range(cand.shape[0]):
+            if bound[block[c]] >= bar:
+                score = _row_mean(pooled, flat[a], cand[c], plan_start, plan_length, partial)
+                if score > best[c]:
+                    best[c] = score
+
+
 @functools.cache
-def _compiled_branch_and_bound():
-    """``_branch_and_bound`` compiled by numba (on first use; cached on disk)."""
-    return compile_together(globals(), (_block_sum, _row_mean, _branch_and_bound))["_branch_and_bound"]
+def _compiled_kernels() -> dict:
+    """``_branch_and_bound`` and ``_best_over_yaws`` compiled by numba (on first use; cached on disk), by name."""
+    return compile_together(globals(), (_block_sum, _row_mean, _branch_and_bound, _best_over_yaws))
 
 
 def _distance_jacobian(xy: np.ndarray, away: np.ndarray, pose: np.ndarray) -> np.ndarray:
