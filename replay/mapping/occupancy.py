@@ -185,9 +185,16 @@ class OccupancyGrid2D:
         d2c = d2.astype(np.float32)
         g0 = ((pos[:2] - self.origin) / self.res).astype(np.float32)
         end_cells = self._cells(ends[ishit], nx)
-        self._update(t, last, d2c, g0, end_cells)
+        # the cells the scan can touch: its beams' box, a cell wider on every side (float32 samples)
+        corners = (np.vstack([pos[:2], ends]) - self.origin) / self.res
+        ny = self.logodds.shape[0]
+        x0, y0 = np.maximum(np.floor(corners.min(axis=0)).astype(int) - 1, 0).tolist()
+        x1, y1 = np.minimum(np.floor(corners.max(axis=0)).astype(int) + 2, (nx, ny)).tolist()
+        self._update(t, last, d2c, g0, end_cells, (slice(y0, y1), slice(x0, x1)))
 
-    def _update(self, t: np.ndarray, last: np.ndarray, d2c: np.ndarray, g0: np.ndarray, end_cells: np.ndarray) -> None:
+    def _update(
+        self, t: np.ndarray, last: np.ndarray, d2c: np.ndarray, g0: np.ndarray, end_cells: np.ndarray, box: tuple
+    ) -> None:
         """Each cell crossed by a beam updated once with the miss log-odds (clamped below), each end cell
         once with the hit log-odds (clamped above), an end cell never counting as crossed; all of them
         marked seen. Sample j of a beam lies at ``g0 + direction * t[j]`` (cells, float32 arithmetic, the
@@ -198,11 +205,16 @@ class OccupancyGrid2D:
         of free samples), each group's arrays as long as its longest beam: a room's beams are mostly
         short, so this computes about half the samples one array as long as the longest beam would. A
         group with more than ``GROUP_SAMPLES`` (beam, sample) pairs is taken in parts (the same cells:
-        the work arrays stay bounded for a scan of a million beams)."""
+        the work arrays stay bounded for a scan of a million beams).
+
+        Every cell the scan marks lies in ``box`` (row and column slices of the grid): the marks are read and
+        cleared there, not over the whole grid (a campus's grid is tens of millions of cells)."""
         ny, nx = self.logodds.shape
         ncell = ny * nx
-        mask = self._work("mask", np.int8, (ncell + 1,))
-        mask.fill(0)
+        # the scan's mark per cell (1 crossed, 2 end), zero between scans (each clears its box)
+        mask = self._buffers.get("mask")
+        if mask is None or mask.size != ncell + 1:
+            mask = self._buffers["mask"] = np.zeros(ncell + 1, dtype=np.int8)
         samples = np.maximum(np.searchsorted(t, last, side="right"), 1)  # the sensor's own sample at least
         order = np.argsort(samples, kind="stable")
         bounds = np.linspace(0, len(order), NUMPY_BEAM_GROUPS + 1).astype(int)
@@ -216,11 +228,16 @@ class OccupancyGrid2D:
                     mask[cells.reshape(-1)] = 1
         # a beam's own end cell is not cleared by it (nor by grazing neighbours in this scan)
         mask[end_cells] = 2
-        mask = mask[:ncell]
+        mask[ncell] = 0  # the spare cell of the samples past a beam's free part
+        marks = mask[:ncell].reshape(ny, nx)[box]
+        rows, cols = np.nonzero(marks)  # row-major: the flat cells in increasing order
+        cells = (rows + box[0].start) * nx + cols + box[1].start
+        mark = marks[rows, cols]
+        marks.fill(0)
         flat = self.logodds.reshape(-1)
         seen = self.seen.reshape(-1)
-        f = np.flatnonzero(mask == 1)
-        o = np.flatnonzero(mask == 2)
+        f = cells[mark == 1]
+        o = cells[mark == 2]
         flat[f] = np.maximum(flat[f] + self.l_miss, self.l_min)
         flat[o] = np.minimum(flat[o] + self.l_hit, self.l_max)
         seen[f] = True

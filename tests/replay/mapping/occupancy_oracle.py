@@ -88,10 +88,18 @@ def compiled_scan_update():
 
 
 def reference_update(
-    grid: OccupancyGrid2D, t: np.ndarray, last: np.ndarray, d2c: np.ndarray, g0: np.ndarray, end_cells: np.ndarray
+    grid: OccupancyGrid2D,
+    t: np.ndarray,
+    last: np.ndarray,
+    d2c: np.ndarray,
+    g0: np.ndarray,
+    end_cells: np.ndarray,
+    box: tuple[slice, slice],
 ) -> None:
-    """``OccupancyGrid2D._update``'s contract, computed by ``scan_update``."""
+    """``OccupancyGrid2D._update``'s contract, computed by ``scan_update``; it also checks that every cell the
+    scan changes lies in ``box``, where the grid's own update looks for them."""
     ny, nx = grid.logodds.shape
+    before = grid.logodds.copy(), grid.seen.copy()
     f32 = np.float32
     compiled_scan_update()(
         grid.logodds.reshape(-1),
@@ -105,3 +113,6 @@ def reference_update(
         end_cells,
         *(f32(grid.l_miss), f32(grid.l_min), f32(grid.l_hit), f32(grid.l_max)),
     )
+    changed = (grid.logodds != before[0]) | (grid.seen != before[1])
+    changed[box] = False
+    assert not changed.any(), f"the scan changed cells outside its box {box}"
