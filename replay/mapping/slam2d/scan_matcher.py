@@ -41,7 +41,9 @@ TILE = 128
 TOP_LEVEL = 6
 
 
-def _distance_tiles(occupied: np.ndarray, shape: tuple[int, int], reach: int) -> Iterator[tuple[int, ...]]:
+def _distance_tiles(
+    occupied: np.ndarray, shape: tuple[int, int], reach: int
+) -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
     """scipy's Euclidean distance transform of the cells of ``shape`` (rows, columns) from the ``occupied``
     ones (flat indices) and its feature transform, by ``TILE`` squares: each computed over the square widened
     by ``reach`` on every side, the squares whose widened box holds no occupied cell (all of whose cells lie
@@ -59,9 +61,9 @@ def _distance_tiles(occupied: np.ndarray, shape: tuple[int, int], reach: int) ->
             y = np.minimum((rows - reach) // TILE + ty, (rows + reach) // TILE).clip(0, wanted.shape[0] - 1)
             x = np.minimum((cols - reach) // TILE + tx, (cols + reach) // TILE).clip(0, wanted.shape[1] - 1)
             wanted[y, x] = True
-    free = np.ones(ny * nx, dtype=bool)
-    free[occupied] = False
-    free = free.reshape(ny, nx)
+    flat_free = np.ones(ny * nx, dtype=bool)
+    flat_free[occupied] = False
+    free = flat_free.reshape(ny, nx)
     for ty, tx in zip(*np.nonzero(wanted), strict=True):
         y, x = int(ty) * TILE, int(tx) * TILE
         y0, x0 = max(0, y - reach), max(0, x - reach)
