@@ -125,6 +125,7 @@ class LookupGrid:
         self._feature = np.zeros((2, ny, nx), dtype=np.int32)
         # the fields are read only within 3 sigma of the reference (two cells more: a point and a cell's mean
         # both lie anywhere in their cells)
+        spans: list[list[int]] = []  # the computed squares, runs along their rows: (row, row end, column, end)
         for y, x, distance, feature in _distance_tiles(self._occupied, (ny, nx), math.ceil(cut / resolution) + 2):
             distance *= resolution
             near = distance <= cut
@@ -132,11 +133,16 @@ class LookupGrid:
             np.square(z, out=z)
             z *= -0.5
             np.exp(z, out=z)
+            if spans and spans[-1][0] == y and spans[-1][3] == x:  # the run of squares along the row goes on
+                spans[-1][3] = x + distance.shape[1]
+            else:
+                spans.append([y, y + distance.shape[0], x, x + distance.shape[1]])
             square = likelihood[y : y + distance.shape[0], x : x + distance.shape[1]]
             square[near] = z.astype(np.float32)
             feature += 1
             self._feature[:, y : y + distance.shape[0], x : x + distance.shape[1]] = feature
         self.likelihood = likelihood
+        self._spans = spans  # every non-zero likelihood lies in one
         self.border = border
         self.origin = self.core_origin - border * resolution  # the canvas's
         self.shape = (ny + 2 * border, nx + 2 * border)
@@ -153,20 +159,21 @@ class LookupGrid:
 
     def levels(self, top: int) -> np.ndarray:
         """(top + 1, cells) the pooled levels 0..``top`` (``pooled``), a row each. A level is computed only
-        where its windows reach the core: its other cells are the zeros of the rows' allocation."""
+        where its windows reach a run of computed squares (where every non-zero likelihood lies): its other
+        cells are the zeros of the rows' allocation."""
         b = self.border
-        ny, nx = self.likelihood.shape
         rows_total, cols_total = self.shape
         while self._pooled_count <= top:
             level = self._pooled_count
             canvas = self._pooled[level].reshape(self.shape)
             if level == 0:
+                ny, nx = self.likelihood.shape
                 canvas[b : b + ny, b : b + nx] = self.likelihood
-            else:
-                # the cells whose window [i, i + 2^l) meets the core, and the cells h further on they read
+            for y0, y1, x0, x1 in self._spans if level else ():
+                # the cells whose window [i, i + 2^l) meets the run, and the cells h further on they read
                 h = 2 ** (level - 1)
-                r0, c0 = max(0, b - 2**level + 1), max(0, b - 2**level + 1)
-                r1, c1 = min(rows_total, b + ny), min(cols_total, b + nx)
+                r0, c0 = max(0, b + y0 - 2**level + 1), max(0, b + x0 - 2**level + 1)
+                r1, c1 = min(rows_total, b + y1), min(cols_total, b + x1)
                 half = self._pooled[level - 1].reshape(self.shape)[
                     r0 : min(rows_total, r1 + h), c0 : min(cols_total, c1 + h)
                 ]

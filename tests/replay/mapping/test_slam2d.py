@@ -120,19 +120,29 @@ def test_every_pooled_level_bounds_the_finer_cells_it_covers():
     from navlog.replay.mapping.slam2d.scan_matcher import LookupGrid
 
     rng = np.random.default_rng(3)
-    for border in (80, 5):  # (a border narrower than a window: windows from the canvas's first cell reach the core)
-        grid = LookupGrid(rng.uniform(0.0, 3.0, (400, 2)), 0.025, 0.1, border)
+    # two clusters 9 m apart: most of the squares between them hold no reference cell, and are not pooled
+    clusters = np.concatenate([rng.uniform(0.0, 1.5, (200, 2)), rng.uniform(9.0, 10.5, (200, 2))])
+    for reference, border in (
+        (rng.uniform(0.0, 3.0, (400, 2)), 80),
+        (rng.uniform(0.0, 3.0, (400, 2)), 5),
+        (clusters, 70),
+    ):
+        # (a border narrower than a window: windows from the canvas's first cell reach the core)
+        grid = LookupGrid(reference, 0.025, 0.1, border)
         rows, cols = grid.shape
         base = grid.pooled(0).reshape(rows, cols)
         for level in range(1, 7):
             k = 2**level
             padded = np.zeros((rows + k, cols + k), np.float32)
             padded[:rows, :cols] = base
-            want = np.zeros_like(base)
+            along = np.zeros((rows, cols + k), np.float32)  # the maximum over a window is over its rows, then columns
             for dy in range(k):
-                for dx in range(k):
-                    want = np.maximum(want, padded[dy : dy + rows, dx : dx + cols])
+                along = np.maximum(along, padded[dy : dy + rows])
+            want = np.zeros_like(base)
+            for dx in range(k):
+                want = np.maximum(want, along[:, dx : dx + cols])
             assert np.array_equal(grid.pooled(level).reshape(rows, cols), want), (border, level)
+    assert len(grid._spans) > 1 and sum((y1 - y0) * (x1 - x0) for y0, y1, x0, x1 in grid._spans) < base.size / 4
 
 
 def test_the_compiled_mean_adds_as_numpy_adds_a_float32_row():
