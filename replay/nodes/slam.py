@@ -212,6 +212,7 @@ class SlamNode(Node):
                 "loops_inconsistent": c.loops_inconsistent,
                 "global_searches": c.global_searches,
                 "loops_global": c.loops_global,
+                "loops_buffer": c.loops_buffer,
                 "optimizations": self.slam.graph.optimizations,
                 "odometry_jumps": len(c.odometry_jumps),
             },
@@ -246,7 +247,8 @@ class SlamNode(Node):
         line = (
             f"{c.keyframes} keyframes of {c.scans} scans ({c.matched} matched, {c.odometry_only} by odometry alone);"
             f" {c.loops} loops closed in {c.loop_attempts + c.global_searches} searches ({refused},"
-            f" {c.loops_global} global); {self.slam.graph.optimizations} optimisations"
+            f" {c.loops_global} global, {c.loops_buffer} by the running buffer); {self.slam.graph.optimizations}"
+            " optimisations"
         )
         if c.odometry_jumps:
             line += f"; {len(c.odometry_jumps)} odometry jumps placed by the wider search"

@@ -27,7 +27,8 @@ scan's valid points in the robot frame:
    (at most ``loop_search_maximum_dimension``; beyond ``loop_search_space_dimension`` searched on a
    coarser grid, then at full resolution around what it found) with a response of at least
    ``loop_match_minimum_response_fine``, that pins the scan and that no other place in the square
-   matches as well (``loop_match_maximum_spread``) and, when it moves the keyframe farther than
+   matches as well (``loop_match_maximum_spread``; where the scan alone fails these two, the running buffer's
+   surfaces searched in the same square stand in for it, at ``loop_match_minimum_response_global``) and, when it moves the keyframe farther than
    ``loop_search_maximum_distance`` from its estimate (or half that with a look-alike place in the square),
    that the running buffer's surfaces match there too
    (``loop_match_minimum_response_global``: a corridor one scan finds alike metres along is seldom alike
@@ -232,6 +233,8 @@ class SlamCounts:
     loops_inconsistent: int = 0  # loop edges taken back: the optimised graph disagreed with them
     global_searches: int = 0  # loop_search_global's searches (not in loop_attempts)
     loops_global: int = 0  # of the loops, those its searches closed
+    # of the loops, those the running buffer's surfaces closed where the new scan's own match was ambiguous
+    loops_buffer: int = 0
     empty_scans: int = 0  # scans with no valid reading (not keyframes)
     # (stamp ns, metres and radians between the odometry's prediction and the pose found, response) of every
     # keyframe whose sequential match failed and that the wider search placed: the odometry jumped or missed a turn
@@ -921,7 +924,8 @@ class Slam2D:
     ) -> float | None:
         """The new keyframe's loop search against ``chain`` (``_loop_search``, of ``points`` in its frame: its
         scan's when None) and, for a match of at least ``least`` that pins the scan, that no other place in the
-        square matches as well, (``reach`` given, per keyframe) that moves the new keyframe from its estimate by
+        square matches as well (a scan's own match failing either: the running buffer's surfaces, ``_surroundings``,
+        in the same square instead, at least ``loop_match_minimum_response_global``), (``reach`` given, per keyframe) that moves the new keyframe from its estimate by
         no more than the reach of the keyframe it joins and (a match of the scan alone moving it far: ``_far``)
         that the running buffer confirms (``_confirmed``), a loop edge from
         ``anchor`` (the chain's keyframe nearest the match when None), kept if the optimised graph agrees with it
@@ -934,17 +938,21 @@ class Slam2D:
         searched = self._loop_search(reference, points, prediction, window)
         if searched is None:
             return None
-        match, spread = searched
-        if match.response < least:
+        if searched[0].response < least:
             return None
-        cov = self._match_covariance(match, self.p.loop_sigmas)
-        if not self._pins(cov):
-            self.counts.loops_ambiguous += 1  # the submap does not pin the scan (a corridor): no closure
+        checked = self._unambiguous(searched)
+        by_buffer = False
+        if checked is None and confirm:
+            # the scan alone leaves the place open: the running buffer's surfaces, a few metres of the building, may
+            # not; their match stands in for the scan's at the global search's bar
+            wider = self._loop_search(reference, self._surroundings(new), prediction, window)
+            if wider is not None and wider[0].response >= max(least, self.p.loop_match_minimum_response_global):
+                checked = self._unambiguous(wider)
+                by_buffer = checked is not None
+        if checked is None:
+            self.counts.loops_ambiguous += 1
             return None
-        ambiguity = spread()
-        if ambiguity > self.p.loop_match_maximum_spread:
-            self.counts.loops_ambiguous += 1  # a place elsewhere in the square looks the same: no closure
-            return None
+        match, cov, ambiguity = checked
         poses = self.graph.poses()
         if anchor is None:
             anchor = chain[int(np.argmin(np.linalg.norm(poses[chain, :2] - match.pose[:2], axis=1)))]
@@ -952,7 +960,12 @@ class Slam2D:
         if reach is not None and shift > reach[anchor]:
             self.counts.loops_inconsistent += 1  # farther from the estimate than the path's uncertainty reaches
             return None
-        if confirm and self._far(shift, ambiguity) and not self._confirmed(reference, new, match.pose):
+        if (
+            confirm
+            and not by_buffer
+            and self._far(shift, ambiguity)
+            and not self._confirmed(reference, new, match.pose)
+        ):
             self.counts.loops_inconsistent += 1  # the metres before the scan disagree with the place it found
             return None
         rel = _pose2(poses[anchor]).between(_pose2(match.pose))
@@ -975,8 +988,24 @@ class Slam2D:
             self.counts.loops_inconsistent += 1
             return shift
         self.counts.loops += 1
+        self.counts.loops_buffer += by_buffer
         self._loop_edges.append((anchor, new, cov[0, 0] + cov[1, 1], cov[2, 2]))
         return shift
+
+    def _unambiguous(
+        self, searched: tuple[MatchResult, Callable[[], float]]
+    ) -> tuple[MatchResult, np.ndarray, float] | None:
+        """A loop search's match, its covariance and its spread, when the match pins the scan (``_pins``: a
+        corridor's axis does not) and no other place in the square matches as well (``loop_match_maximum_spread``);
+        None otherwise."""
+        match, spread = searched
+        cov = self._match_covariance(match, self.p.loop_sigmas)
+        if not self._pins(cov):
+            return None
+        ambiguity = spread()
+        if ambiguity > self.p.loop_match_maximum_spread:
+            return None
+        return match, cov, ambiguity
 
     def _loop_search(
         self, reference: np.ndarray, points: np.ndarray, prediction: np.ndarray, window: SearchWindow

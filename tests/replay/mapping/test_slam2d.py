@@ -494,6 +494,45 @@ def test_a_loop_where_another_place_matches_as_well_is_refused(scene, monkeypatc
     assert slam.counts.loops == 0 and slam.counts.loops_ambiguous >= 1 and err[240] > 1.0
 
 
+def _scan_alone_ambiguous_run(scene, buffer_spread: float | None, **params) -> Slam2D:
+    """The drifted corner at the default squares, every loop search of the new scan's own points reading a spread
+    of 10 m^2 (a look-alike place in the square); a search of other points (the running buffer's surfaces) reads
+    ``buffer_spread`` m^2, or its spread as measured when None."""
+    search = Slam2D._loop_search
+
+    def spread(self, reference, points, prediction, window):
+        found = search(self, reference, points, prediction, window)
+        if found is None:
+            return None
+        match, measured = found
+        alone = points is self.keyframes[-1].points
+        if alone or buffer_spread is not None:
+            return match, lambda: 10.0 if alone else buffer_spread
+        return match, measured
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(Slam2D, "_loop_search", spread)
+        slam, err = drifted_corner_run(scene, **params)
+    return slam, err
+
+
+def test_a_loop_the_scan_alone_leaves_ambiguous_is_closed_by_the_running_buffer_s_surfaces(scene):
+    """Where the new scan's own loop match has a look-alike in its square, the running buffer's surfaces (a few
+    metres of the building) are searched in the same square: their match, at the global search's bar
+    (``loop_match_minimum_response_global``) and pinning one place, closes the drifted corner as an unambiguous
+    scan would (counted in ``loops_buffer``; the buffer is bent by the odometry's turns here, its closures as
+    far off as the scan's own, 0.07 m). Refused, and counted as ambiguous, when the buffer's search spreads
+    as well or its match falls short of the bar: the map then keeps the odometry's drift."""
+    closed, err = _scan_alone_ambiguous_run(scene, None)
+    assert closed.counts.loops >= 1 and closed.counts.loops_buffer == closed.counts.loops
+    assert err[240] < 0.02 and err.max() < 0.1 and _loop_errors(closed).max() < 0.1  # the scan's own: 0.07 m
+    for refused, err in (
+        _scan_alone_ambiguous_run(scene, 10.0),
+        _scan_alone_ambiguous_run(scene, None, loop_match_minimum_response_global=1.0),
+    ):
+        assert refused.counts.loops == 0 and refused.counts.loops_ambiguous >= 1 and err[240] > 1.0
+
+
 def _look_alike_run(
     scene, offset: tuple[float, float], spread: float | None = None, **params
 ) -> tuple[Slam2D, np.ndarray, list[bool]]:
