@@ -27,10 +27,10 @@ scan's valid points in the robot frame:
    (at most ``loop_search_maximum_dimension``; beyond ``loop_search_space_dimension`` searched on a
    coarser grid, then at full resolution around what it found) with a response of at least
    ``loop_match_minimum_response_fine``, that pins the scan and that no other place in the square
-   matches as well (``loop_match_maximum_spread``; where the scan alone fails these two, the running buffer's
-   surfaces searched in the same square stand in for it, at ``loop_match_minimum_response_global``) and, when it moves the keyframe farther than
-   ``loop_search_maximum_distance`` from its estimate (or half that with a look-alike place in the square),
-   that the running buffer's surfaces match there too
+   matches as well (``loop_match_maximum_spread``; where the scan alone fails these two, the running
+   buffer's surfaces searched in the same square stand in for it, at ``loop_match_minimum_response_global``)
+   and, when it moves the keyframe farther than ``loop_search_maximum_distance`` from its estimate (or half
+   that with a look-alike place in the square), that the running buffer's surfaces match there too
    (``loop_match_minimum_response_global``: a corridor one scan finds alike metres along is seldom alike
    with the metres before it), adds a loop edge, and the graph is optimised (gtsam). After
    a closure the next search waits until the keyframes have travelled ``loop_search_maximum_distance``
@@ -924,12 +924,12 @@ class Slam2D:
     ) -> float | None:
         """The new keyframe's loop search against ``chain`` (``_loop_search``, of ``points`` in its frame: its
         scan's when None) and, for a match of at least ``least`` that pins the scan, that no other place in the
-        square matches as well (a scan's own match failing either: the running buffer's surfaces, ``_surroundings``,
-        in the same square instead, at least ``loop_match_minimum_response_global``), (``reach`` given, per keyframe) that moves the new keyframe from its estimate by
-        no more than the reach of the keyframe it joins and (a match of the scan alone moving it far: ``_far``)
-        that the running buffer confirms (``_confirmed``), a loop edge from
-        ``anchor`` (the chain's keyframe nearest the match when None), kept if the optimised graph agrees with it
-        (``loop_match_maximum_chi2``). When an edge was added, whether kept or taken back (either way the next
+        square matches as well (a scan's own match failing either: the running buffer's surfaces,
+        ``_surroundings``, in the same square instead, at least ``loop_match_minimum_response_global``),
+        (``reach`` given, per keyframe) that moves the new keyframe from its estimate by no more than the reach
+        of the keyframe it joins and (a match of the scan alone moving it far: ``_far``) that the running buffer
+        confirms (``_confirmed``), a loop edge from ``anchor`` (the chain's keyframe nearest the match when None),
+        kept if the optimised graph agrees with it (``loop_match_maximum_chi2``). When an edge was added, whether kept or taken back (either way the next
         search waits ``loop_search_maximum_distance``), how far the match put the new keyframe from its estimate
         (m); else None."""
         confirm = points is None  # a match of the new scan alone, confirmed by the buffer when it moves far
