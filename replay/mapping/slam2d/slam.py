@@ -929,9 +929,9 @@ class Slam2D:
         (``reach`` given, per keyframe) that moves the new keyframe from its estimate by no more than the reach
         of the keyframe it joins and (a match of the scan alone moving it far: ``_far``) that the running buffer
         confirms (``_confirmed``), a loop edge from ``anchor`` (the chain's keyframe nearest the match when None),
-        kept if the optimised graph agrees with it (``loop_match_maximum_chi2``). When an edge was added, whether kept or taken back (either way the next
-        search waits ``loop_search_maximum_distance``), how far the match put the new keyframe from its estimate
-        (m); else None."""
+        kept if the optimised graph agrees with it (``loop_match_maximum_chi2``). When an edge was added, whether
+        kept or taken back (either way the next search waits ``loop_search_maximum_distance``), how far the match
+        put the new keyframe from its estimate (m); else None."""
         confirm = points is None  # a match of the new scan alone, confirmed by the buffer when it moves far
         points = self.keyframes[new].points if points is None else points
         reference = self._points_of(chain)

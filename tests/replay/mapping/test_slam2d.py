@@ -494,10 +494,10 @@ def test_a_loop_where_another_place_matches_as_well_is_refused(scene, monkeypatc
     assert slam.counts.loops == 0 and slam.counts.loops_ambiguous >= 1 and err[240] > 1.0
 
 
-def _scan_alone_ambiguous_run(scene, buffer_spread: float | None, **params) -> Slam2D:
+def _scan_alone_ambiguous_run(scene, buffer_spread: float | None, **params) -> tuple[Slam2D, np.ndarray]:
     """The drifted corner at the default squares, every loop search of the new scan's own points reading a spread
     of 10 m^2 (a look-alike place in the square); a search of other points (the running buffer's surfaces) reads
-    ``buffer_spread`` m^2, or its spread as measured when None."""
+    ``buffer_spread`` m^2, or its spread as measured when None: the SLAM and its position error at every scan."""
     search = Slam2D._loop_search
 
     def spread(self, reference, points, prediction, window):
