@@ -273,18 +273,18 @@ def matched_on_reference(ref: np.ndarray, stamps: np.ndarray, scans: dict[int, t
     return out
 
 
-def loop_errors(graph: dict, ref_at: dict[int, np.ndarray]) -> np.ndarray:
-    """Per loop edge of a pose_graph.json whose two keyframes' stamps the reference has: the distance between the
-    position of its target in its source's frame it measured and the reference's (m)."""
+def loop_errors(graph: dict, ref_at: dict[int, np.ndarray]) -> tuple[np.ndarray, list[dict]]:
+    """The loop edges of a pose_graph.json whose two keyframes' stamps the reference has, and per edge the distance
+    between the position of its target in its source's frame it measured and the reference's (m)."""
     stamp = {n["id"]: n["stamp_ns"] for n in graph["nodes"]}
     loops = [e for e in graph["edges"] if e["kind"] == "loop"]
     loops = [e for e in loops if stamp[e["source"]] in ref_at and stamp[e["target"]] in ref_at]
     if not loops:
-        return np.zeros(0)
+        return np.zeros(0), loops
     source = np.array([ref_at[stamp[e["source"]]] for e in loops])
     target = np.array([ref_at[stamp[e["target"]]][:2] for e in loops])
     measured = np.array([(e["x"], e["y"]) for e in loops])
-    return np.linalg.norm(measured - planar_in_frame(source, target), axis=1)
+    return np.linalg.norm(measured - planar_in_frame(source, target), axis=1), loops
 
 
 def odometry_error(text: str) -> tuple[str, float]:
@@ -338,7 +338,7 @@ def evaluate(
     odom = np.array([odom_at[t] for t in ts.tolist()])
     graph = json.loads((out / "pose_graph.json").read_text())
     loops = sum(e["kind"] == "loop" for e in graph["edges"])
-    closure_errors = loop_errors(graph, dict(zip(ref_t.tolist(), ref, strict=True)))
+    closure_errors, closures = loop_errors(graph, dict(zip(ref_t.tolist(), ref, strict=True)))
     found = f"{graph['counts']['loops_global']}/{graph['counts']['global_searches']}"
     duration = (ref_t[-1] - ref_t[0]) / 1e9
     travel = float(np.sum(np.linalg.norm(np.diff(ref[:, :2], axis=0), axis=1)))
@@ -403,6 +403,20 @@ def evaluate(
             " more than 0.5 m off",
             flush=True,
         )
+        closed_by = np.array([e.get("closed_by", "") for e in closures])
+        by = ", ".join(
+            f"{kind} {int(np.sum(closed_by == kind))} (largest {closure_errors[closed_by == kind].max():.3f} m)"
+            for kind in ("scan", "buffer", "global")
+            if (closed_by == kind).any()
+        )
+        print(f"{'':<8} found by the scan's own match, the running buffer's, the global search: {by}", flush=True)
+        for e, error in zip(closures, closure_errors.tolist(), strict=True):
+            if error > 0.5:
+                print(
+                    f"{'':<8} keyframes {e['source']} -> {e['target']}: {error:.3f} m off, found by"
+                    f" {e.get('closed_by') or '-'}, response {e['response']:.3f}",
+                    flush=True,
+                )
     jumps = graph["odometry_jumps"]
     turned = sum(abs(j["turn"]) > slam_params.coarse_search_angle_offset for j in jumps)
     print(

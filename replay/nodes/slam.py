@@ -235,6 +235,7 @@ class SlamNode(Node):
                     "y": e.relative[1],
                     "yaw": e.relative[2],
                     "response": e.response,
+                    **({"closed_by": e.closed_by} if e.kind == "loop" else {}),
                 }
                 for e in self.slam.graph.edges
             ],

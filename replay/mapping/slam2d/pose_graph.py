@@ -31,6 +31,9 @@ import numpy as np
 from navlog.replay.mapping.slam2d.rows import Rows
 
 EdgeKind = Literal["match", "odometry", "loop"]
+# what found a loop edge: the new scan's own match in the loop square, the running buffer's surfaces in the same
+# square (the scan's own match left the place ambiguous), or the global search
+ClosedBy = Literal["", "scan", "buffer", "global"]
 PRIOR_SIGMAS = (1e-6, 1e-6, 1e-6)
 # iSAM2 relinearises a variable whose update exceeds this (metres and radians of its tangent space; below
 # one that does not, the check stops)...
@@ -46,6 +49,7 @@ class Edge:
     kind: EdgeKind
     relative: tuple[float, float, float]  # target's pose in source's frame (x, y, yaw)
     response: float  # the scan match's response (0 for odometry)
+    closed_by: ClosedBy = ""  # a loop edge's search (``ClosedBy``); empty for the others
 
 
 class PoseGraph:
@@ -94,11 +98,12 @@ class PoseGraph:
         response: float = 0.0,
         kernel: Literal["huber", "cauchy", "none"] = "none",
         kernel_k: float = 1.345,
+        closed_by: ClosedBy = "",
     ) -> None:
         """An edge measuring ``target``'s pose in ``source``'s frame. ``noise``: three standard deviations
         (x, y, yaw) or a (3, 3) covariance, in ``target``'s frame (where gtsam's ``BetweenFactorPose2``
         measures the error); behind a robust ``kernel`` (Huber or Cauchy, threshold ``kernel_k`` standard
-        deviations) unless ``none``."""
+        deviations) unless ``none``; a loop edge says what found it (``closed_by``)."""
         rel = tuple(float(v) for v in relative)
         arr = np.asarray(noise, dtype=np.float64)
         model: gtsam.noiseModel.Base = (
@@ -113,7 +118,7 @@ class PoseGraph:
         self._new_factors.add(factor)
         self._factors.append(factor)
         self._slots.append(None)
-        self.edges.append(Edge(source, target, kind, (rel[0], rel[1], rel[2]), float(response)))
+        self.edges.append(Edge(source, target, kind, (rel[0], rel[1], rel[2]), float(response), closed_by))
 
     def edge_chi2(self, k: int = -1) -> float:
         """Squared whitened (Mahalanobis) error of edge ``k`` at the current estimate, before any kernel."""

@@ -978,6 +978,7 @@ class Slam2D:
             response=match.response,
             kernel=self.p.loop_kernel,
             kernel_k=self.p.loop_kernel_k,
+            closed_by="global" if reach is not None else "buffer" if by_buffer else "scan",
         )
         self.graph.optimize()
         # the next keyframes would meet the same chain: wait as after a closure (each try is an optimisation)

@@ -525,6 +525,8 @@ def test_a_loop_the_scan_alone_leaves_ambiguous_is_closed_by_the_running_buffer_
     as well or its match falls short of the bar: the map then keeps the odometry's drift."""
     closed, err = _scan_alone_ambiguous_run(scene, None)
     assert closed.counts.loops >= 1 and closed.counts.loops_buffer == closed.counts.loops
+    assert {e.closed_by for e in closed.graph.edges if e.kind == "loop"} == {"buffer"}
+    assert {e.closed_by for e in closed.graph.edges if e.kind != "loop"} == {""}
     assert err[240] < 0.02 and err.max() < 0.1 and _loop_errors(closed).max() < 0.1  # the scan's own: 0.07 m
     for refused, err in (
         _scan_alone_ambiguous_run(scene, 10.0),
@@ -571,6 +573,7 @@ def test_a_closure_that_moves_the_keyframe_far_needs_the_running_buffer_s_consen
     taken, and the estimate is pulled well off the truth."""
     true, err_true, said_true = _look_alike_run(scene, (0.0, 0.0))
     assert any(said_true) and true.counts.loops >= 1 and err_true[240] < 0.02
+    assert {e.closed_by for e in true.graph.edges if e.kind == "loop"} == {"scan"}
     alike, err, said = _look_alike_run(scene, (0.0, 1.5))
     assert len(said) >= 3 and not any(said)
     assert alike.counts.loops == 0 and alike.counts.loops_inconsistent == len(said) and err[240] > 1.0
@@ -615,6 +618,7 @@ def test_a_revisit_beyond_the_widest_square_is_found_by_the_global_search(scene)
     slam, err = drifted_corner_run(scene, loop_search_space_dimension=1.0, loop_search_maximum_dimension=1.0)
     c = slam.counts
     assert c.loops_global >= 1 and c.loops == c.loops_global and c.global_searches >= c.loops_global
+    assert {e.closed_by for e in slam.graph.edges if e.kind == "loop"} == {"global"}
     assert err[240] < 0.02 and err[-1] < 0.1
     assert _loop_errors(slam).max() < 0.05
 

@@ -41,4 +41,10 @@ def test_slam_on_a_real_building_beats_its_odometry(
     assert ate < max_ate, f"ATE {ate:.4f} m"
     assert re1 < max_re1 < odometry_re1, f"relative error over 1 m {re1:.4f} m"  # never worse than odometry
     graph = json.loads((tmp_path / "pose_graph.json").read_text())
-    assert sum(e["kind"] == "loop" for e in graph["edges"]) >= min_loops
+    loops = [e for e in graph["edges"] if e["kind"] == "loop"]
+    assert len(loops) >= min_loops
+    # each loop edge says what found it, and the counts agree
+    closed_by = [e["closed_by"] for e in loops]
+    assert closed_by.count("buffer") == graph["counts"]["loops_buffer"]
+    assert closed_by.count("global") == graph["counts"]["loops_global"]
+    assert set(closed_by) <= {"scan", "buffer", "global"} and closed_by.count("scan") >= 1
