@@ -20,7 +20,9 @@ with the wheel odometry alone (the bag's odom -> base_footprint at the same stam
   tenth of those scans where the SLAM and the reference lie farthest apart after alignment (whose passes agree
   better where the two differ most);
 - **loops**: loop-closure edges in pose_graph.json (each checked below the dataset against the reference's
-  relative pose of its two keyframes), and (**global**) how many of them the global search
+  relative pose of its two keyframes, counted by what found it, ``closed_by``; under each more than 0.5 m off,
+  its scan matched against the keyframes around its source drawn at the SLAM's and at the reference's poses:
+  whether the scans prefer the edge's place or the reference's), and (**global**) how many of them the global search
   (``loop_search_global``) closed, over its searches; **wall s** / **x real**: the replay's wall time
   and the log's duration over it (with the load average: the machine is shared); **x (CPU)**: the
   log's duration over the CPU time of the replay.
@@ -92,7 +94,7 @@ from navlog.analysis.metrics import (
     planar_in_frame,
     planar_relative_error,
 )
-from navlog.replay.geometry import planar_matrix
+from navlog.replay.geometry import planar_matrix, se2_compose
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d import LaserScan2D, ScanMatcher, SearchWindow, SlamParams
 from navlog.replay.mapping.slam2d.scan_matcher import transform_points
@@ -287,6 +289,55 @@ def loop_errors(graph: dict, ref_at: dict[int, np.ndarray]) -> tuple[np.ndarray,
     return np.linalg.norm(measured - planar_in_frame(source, target), axis=1), loops
 
 
+def where_the_scans_put_it(
+    graph: dict, edge: dict, scans: dict[int, tuple], ref_at: dict[int, np.ndarray], side: int = 10
+) -> list[str]:
+    """For a loop edge: the target keyframe's scan matched in a 3 m square against the scans of the ``side``
+    keyframes either side of its source, drawn at the SLAM's poses and at the reference's. Per map: the scan's
+    response at that trajectory's own pose, its best response and where (along x and y of the source's frame),
+    and its response at the other one's relative pose (the edge's on the reference's map, the reference's on
+    the SLAM's): do the scans decide between the two?"""
+    p = SlamParams()
+    matcher = ScanMatcher(p.correlation_search_space_resolution, p.correlation_search_space_smear_deviation)
+    window = SearchWindow(3.0, 0.2, p.coarse_angle_resolution / 2)
+    stamp = {n["id"]: n["stamp_ns"] for n in graph["nodes"]}
+    source, target = edge["source"], edge["target"]
+    near = [k for k in range(source - side, source + side + 1) if k in stamp and stamp[k] in ref_at]
+
+    def points(k: int) -> np.ndarray:
+        return LaserScan2D(*scans[stamp[k]], np.eye(4)).points(p.max_laser_range)
+
+    slam_at = {n["id"]: np.array([n["x"], n["y"], n["yaw"]]) for n in graph["nodes"]}
+    ref_of = {k: np.asarray(ref_at[stamp[k]]) for k in near + [target]}
+    reference_rel = planar_in_frame(ref_of[source][None], ref_of[target][None, :2])[0]
+    reference_rel = (*reference_rel, ref_of[target][2] - ref_of[source][2])
+    edge_rel = (edge["x"], edge["y"], edge["yaw"])
+    lines = []
+    for label, at, other, other_label in (
+        ("SLAM", slam_at, reference_rel, "the reference's"),
+        ("reference", ref_of, edge_rel, "the edge's"),
+    ):
+        reference = np.concatenate([transform_points(at[k], points(k)) for k in near])
+        scan = points(target)
+        grid = matcher.grid_around(reference, scan, at[target], window)
+        if grid is None:
+            continue
+        best = matcher.match_on(grid, scan, at[target], window, 0.0)
+        placed = np.array(se2_compose(at[source], other))
+        found = (
+            ""
+            if best is None
+            else (
+                f"best {best.response:.3f} at ({', '.join(f'{v:.2f}' for v in planar_in_frame(at[source][None], best.pose[None, :2])[0])})"
+            )
+        )
+        lines.append(
+            f"on the {label}'s map: {grid.response(at[target], scan):.3f} at its own pose, {found},"
+            f" {grid.response(placed, scan):.3f} at {other_label} relative pose"
+        )
+    return lines
+
+
 def odometry_error(text: str) -> tuple[str, float]:
     """``KIND=VALUE`` of ``--odometry-error``."""
     kind, _, value = text.partition("=")
@@ -338,7 +389,8 @@ def evaluate(
     odom = np.array([odom_at[t] for t in ts.tolist()])
     graph = json.loads((out / "pose_graph.json").read_text())
     loops = sum(e["kind"] == "loop" for e in graph["edges"])
-    closure_errors, closures = loop_errors(graph, dict(zip(ref_t.tolist(), ref, strict=True)))
+    ref_at = dict(zip(ref_t.tolist(), ref, strict=True))
+    closure_errors, closures = loop_errors(graph, ref_at)
     found = f"{graph['counts']['loops_global']}/{graph['counts']['global_searches']}"
     duration = (ref_t[-1] - ref_t[0]) / 1e9
     travel = float(np.sum(np.linalg.norm(np.diff(ref[:, :2], axis=0), axis=1)))
@@ -414,9 +466,12 @@ def evaluate(
             if error > 0.5:
                 print(
                     f"{'':<8} keyframes {e['source']} -> {e['target']}: {error:.3f} m off, found by"
-                    f" {e.get('closed_by') or '-'}, response {e['response']:.3f}",
+                    f" {e.get('closed_by') or '-'}, response {e['response']:.3f}, at ({e['x']:.2f}, {e['y']:.2f});"
+                    " its scan against the keyframes around the source:",
                     flush=True,
                 )
+                for line in where_the_scans_put_it(graph, e, scans, ref_at):
+                    print(f"{'':<12} {line}", flush=True)
     jumps = graph["odometry_jumps"]
     turned = sum(abs(j["turn"]) > slam_params.coarse_search_angle_offset for j in jumps)
     print(
