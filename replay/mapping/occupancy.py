@@ -93,6 +93,10 @@ class OccupancyGrid2D:
         self.seen = np.zeros((0, 0), dtype=bool)
         self.stats = ScanStats()
         self._buffers: dict[str, np.ndarray] = {}  # work arrays of insert_scan, reused between scans
+        # to_map's last trinary grid, with the log-odds and seen arrays it was made from (another array there: made
+        # again whole), and the box (rows, columns: first, end) of the cells scans changed since, None for none
+        self._trinary: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._changed: tuple[int, int, int, int] | None = None
 
     # ------------------------------------------------------------ growth
     def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
@@ -238,6 +242,11 @@ class OccupancyGrid2D:
         seen = self.seen.reshape(-1)
         f = cells[mark == 1]
         o = cells[mark == 2]
+        y0, y1, x0, x1 = box[0].start, box[0].stop, box[1].start, box[1].stop
+        if self._changed is not None:
+            y0, y1 = min(y0, self._changed[0]), max(y1, self._changed[1])
+            x0, x1 = min(x0, self._changed[2]), max(x1, self._changed[3])
+        self._changed = (y0, y1, x0, x1)
         flat[f] = np.maximum(flat[f] + self.l_miss, self.l_min)
         flat[o] = np.minimum(flat[o] + self.l_hit, self.l_max)
         seen[f] = True
@@ -283,16 +292,30 @@ class OccupancyGrid2D:
 
     # ------------------------------------------------------------ output
     def to_map(self, frame_id: str = "map") -> OccupancyMap:
-        """Trinary grid: 100 occupied, 0 free, -1 unknown (never seen or undecided)."""
-        data = np.full(self.logodds.shape, -1, dtype=np.int8)
-        data[self.seen & (self.logodds > logit(self.p.occupied_threshold))] = 100
-        data[self.seen & (self.logodds < logit(self.p.free_threshold))] = 0
+        """Trinary grid: 100 occupied, 0 free, -1 unknown (never seen or undecided). Made again only in the box of
+        the cells scans changed since the last call (whole when the grid grew or its arrays were replaced)."""
+        last = self._trinary
+        if last is None or last[0] is not self.logodds or last[1] is not self.seen:
+            data = self._trinary_of(self.logodds, self.seen)
+        else:
+            data = last[2]
+            if self._changed is not None:
+                y0, y1, x0, x1 = self._changed
+                data[y0:y1, x0:x1] = self._trinary_of(self.logodds[y0:y1, x0:x1], self.seen[y0:y1, x0:x1])
+        self._trinary, self._changed = (self.logodds, self.seen, data), None
         return OccupancyMap(
-            data=data,
+            data=data.copy(),
             resolution=self.res,
             origin=(float(self.origin[0]), float(self.origin[1]), 0.0),
             frame_id=frame_id,
         )
+
+
+    def _trinary_of(self, logodds: np.ndarray, seen: np.ndarray) -> np.ndarray:
+        data = np.full(logodds.shape, -1, dtype=np.int8)
+        data[seen & (logodds > logit(self.p.occupied_threshold))] = 100
+        data[seen & (logodds < logit(self.p.free_threshold))] = 0
+        return data
 
 
 def project_points(

@@ -83,3 +83,36 @@ def test_a_large_scan_after_small_ones_matches_a_fresh_grid():
     }
     occupied = {(int(r), int(c)) for r, c in zip(*np.nonzero(solo.logodds > 0))}
     assert occupied == cells and len(cells) > 600
+
+
+def test_the_map_made_again_where_scans_changed_it_is_the_map_made_whole():
+    """``to_map`` remakes only the box of the cells scans changed since its last call: after scans here and far
+    off (the grid growing west and north between calls), after no scan, and after the grid's arrays were replaced,
+    every map is the trinary definition over the whole grid: 100 where seen and above the occupied threshold's
+    log-odds, 0 where seen and below the free one's, -1 elsewhere."""
+    params = OccupancyParams(resolution=0.05, no_return_ray_length=2.0)
+    grid = OccupancyGrid2D(params)
+    rng = np.random.default_rng(4)
+
+    def whole() -> np.ndarray:
+        want = np.full(grid.logodds.shape, -1, dtype=np.int8)
+        want[grid.seen & (grid.logodds > logit(params.occupied_threshold))] = 100
+        want[grid.seen & (grid.logodds < logit(params.free_threshold))] = 0
+        return want
+
+    checked = []
+    for k, (x, y) in enumerate([(1.0, 1.0), (1.3, 0.8), (-6.0, 1.0), (1.2, 9.0), (1.2, 9.0), (0.5, 0.5)]):
+        for _ in range(3 if k != 4 else 0):  # the fifth call follows no scan
+            pose = np.eye(4)
+            pose[:2, 3] = (x + rng.uniform(-0.2, 0.2), y + rng.uniform(-0.2, 0.2))
+            angles = np.linspace(-math.pi, math.pi, 90, endpoint=False)
+            grid.insert_scan(pose, angles, rng.uniform(0.3, 2.5, 90), 0.1, 2.0)
+        if k == 5:  # arrays replaced in place of the grid's (as a grid read back from a worker is)
+            grid.logodds, grid.seen = grid.logodds.copy(), grid.seen.copy()
+        got = grid.to_map()
+        assert np.array_equal(got.data, whole()), k
+        checked.append(got.data)
+    assert checked[2].shape != checked[1].shape and checked[3].shape != checked[2].shape  # the grid grew
+    assert {-1, 0, 100} <= set(np.unique(checked[-1]).tolist())
+    got.data[:] = 100  # a map handed out is the caller's: the next is made from the grid
+    assert np.array_equal(grid.to_map().data, whole())
