@@ -310,7 +310,6 @@ class OccupancyGrid2D:
             frame_id=frame_id,
         )
 
-
     def _trinary_of(self, logodds: np.ndarray, seen: np.ndarray) -> np.ndarray:
         data = np.full(logodds.shape, -1, dtype=np.int8)
         data[seen & (logodds > logit(self.p.occupied_threshold))] = 100
