@@ -130,6 +130,7 @@ class OccupancyGrid2D:
         lg[off[1] : off[1] + ny, off[0] : off[0] + nx] = self.logodds
         sn[off[1] : off[1] + ny, off[0] : off[0] + nx] = self.seen
         self.origin, self.logodds, self.seen = new_lo, lg, sn
+        self._trinary = None  # (the old arrays' map: made again whole, the old arrays not held)
 
     # ------------------------------------------------------------ update
     def insert_scan(
