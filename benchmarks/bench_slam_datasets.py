@@ -312,25 +312,22 @@ def where_the_scans_put_it(
     reference_rel = planar_in_frame(ref_of[source][None], ref_of[target][None, :2])[0]
     reference_rel = (*reference_rel, ref_of[target][2] - ref_of[source][2])
     edge_rel = (edge["x"], edge["y"], edge["yaw"])
+    scan = points(target)
     lines = []
     for label, at, other, other_label in (
         ("SLAM", slam_at, reference_rel, "the reference's"),
         ("reference", ref_of, edge_rel, "the edge's"),
     ):
         reference = np.concatenate([transform_points(at[k], points(k)) for k in near])
-        scan = points(target)
         grid = matcher.grid_around(reference, scan, at[target], window)
         if grid is None:
             continue
         best = matcher.match_on(grid, scan, at[target], window, 0.0)
         placed = np.array(se2_compose(at[source], other))
-        found = (
-            ""
-            if best is None
-            else (
-                f"best {best.response:.3f} at ({', '.join(f'{v:.2f}' for v in planar_in_frame(at[source][None], best.pose[None, :2])[0])})"
-            )
-        )
+        found = ""
+        if best is not None:
+            bx, by = planar_in_frame(at[source][None], best.pose[None, :2])[0]
+            found = f"best {best.response:.3f} at ({bx:.2f}, {by:.2f})"
         lines.append(
             f"on the {label}'s map: {grid.response(at[target], scan):.3f} at its own pose, {found},"
             f" {grid.response(placed, scan):.3f} at {other_label} relative pose"

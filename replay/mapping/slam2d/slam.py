@@ -65,7 +65,7 @@ from scipy.sparse.csgraph import dijkstra
 from navlog.replay.geometry import angle_diff, planar_matrix, remainder_angle
 from navlog.replay.mapping.occupancy import GridTooLarge, OccupancyGrid2D, OccupancyParams
 from navlog.replay.mapping.slam2d.params import SlamParams
-from navlog.replay.mapping.slam2d.pose_graph import PoseGraph
+from navlog.replay.mapping.slam2d.pose_graph import ClosedBy, PoseGraph
 from navlog.replay.mapping.slam2d.rows import Rows
 from navlog.replay.mapping.slam2d.scan_matcher import (
     LookupGrid,
@@ -860,9 +860,7 @@ class Slam2D:
         centre = np.array([(low[0] + high[0]) / 2, (low[1] + high[1]) / 2, poses[new, 2]])
         window = SearchWindow(side, self._global_turn(lo, new), self.p.coarse_angle_resolution)
         least = max(self.p.loop_match_minimum_response_fine, self.p.loop_match_minimum_response_global)
-        loops = self.counts.loops
         self._try_closure(new, list(range(lo, hi + 1)), None, centre, window, least, self._surroundings(new), scaled)
-        self.counts.loops_global += self.counts.loops - loops
 
     def _surroundings(self, new: int) -> np.ndarray:
         """The running buffer's surfaces in keyframe ``new``'s frame (``GLOBAL_POINTS`` at most, evenly spread): a
@@ -969,6 +967,8 @@ class Slam2D:
             self.counts.loops_inconsistent += 1  # the metres before the scan disagree with the place it found
             return None
         rel = _pose2(poses[anchor]).between(_pose2(match.pose))
+        # the global search's tries are the ones given a reach
+        closed_by: ClosedBy = "global" if reach is not None else "buffer" if by_buffer else "scan"
         self.graph.add_edge(
             anchor,
             new,
@@ -978,7 +978,7 @@ class Slam2D:
             response=match.response,
             kernel=self.p.loop_kernel,
             kernel_k=self.p.loop_kernel_k,
-            closed_by="global" if reach is not None else "buffer" if by_buffer else "scan",
+            closed_by=closed_by,
         )
         self.graph.optimize()
         # the next keyframes would meet the same chain: wait as after a closure (each try is an optimisation)
@@ -989,7 +989,8 @@ class Slam2D:
             self.counts.loops_inconsistent += 1
             return shift
         self.counts.loops += 1
-        self.counts.loops_buffer += by_buffer
+        self.counts.loops_global += closed_by == "global"
+        self.counts.loops_buffer += closed_by == "buffer"
         self._loop_edges.append((anchor, new, cov[0, 0] + cov[1, 1], cov[2, 2]))
         return shift
 
