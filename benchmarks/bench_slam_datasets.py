@@ -319,9 +319,9 @@ def where_the_scans_put_it(
         ("reference", ref_of, edge_rel, "the edge's"),
     ):
         reference = np.concatenate([transform_points(at[k], points(k)) for k in near])
-        grid = matcher.grid_around(reference, scan, at[target], window)
-        if grid is None:
+        if not len(reference) or not len(scan):
             continue
+        grid = matcher.grid(reference, window)  # whole: read at poses that may lie outside the window too
         best = matcher.match_on(grid, scan, at[target], window, 0.0)
         placed = np.array(se2_compose(at[source], other))
         found = ""

@@ -40,27 +40,41 @@ TILE = 128
 # the coarsest pooled level a search reads (cells 2^6 = 64 a side)
 TOP_LEVEL = 6
 
+# cells past a search's square that its refinement and interpolation may read (ScanMatcher.grid)
+READ_SLACK = 8
+# a grid made for one search finds the squares its reads reach by blocks of this many cells a side
+READ_BLOCK = 16
+
+
+def _squares_near(rows: np.ndarray, cols: np.ndarray, reach: int, squares: tuple[int, int]) -> np.ndarray:
+    """(``squares``) whether each ``TILE`` square holds a cell within ``reach`` cells (along each axis) of one
+    of the cells at ``rows``, ``cols``."""
+    near = np.zeros(squares, dtype=bool)
+    # the cell at r reaches the squares of rows (r - reach) // TILE to (r + reach) // TILE (and the same of columns)
+    spans = -(-2 * reach // TILE) + 1
+    for ty in range(spans):
+        for tx in range(spans):
+            y = np.minimum((rows - reach) // TILE + ty, (rows + reach) // TILE).clip(0, squares[0] - 1)
+            x = np.minimum((cols - reach) // TILE + tx, (cols + reach) // TILE).clip(0, squares[1] - 1)
+            near[y, x] = True
+    return near
+
 
 def _distance_tiles(
-    occupied: np.ndarray, shape: tuple[int, int], reach: int
+    occupied: np.ndarray, shape: tuple[int, int], reach: int, read: np.ndarray | None = None
 ) -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
     """scipy's Euclidean distance transform of the cells of ``shape`` (rows, columns) from the ``occupied``
     ones (flat indices) and its feature transform, by ``TILE`` squares: each computed over the square widened
     by ``reach`` on every side, the squares whose widened box holds no occupied cell (all of whose cells lie
-    farther than ``reach`` from every one) left out. Yields per square its first row and column, its
-    distances (cells) and its cells' nearest occupied cells (2, rows, columns), exact wherever an occupied
-    cell lies within ``reach`` (elsewhere the distance is more than ``reach``)."""
+    farther than ``reach`` from every one) left out, and (``read`` given: per square, whether it is to be read)
+    the squares not read. Yields per square its first row and column, its distances (cells) and its cells'
+    nearest occupied cells (2, rows, columns), exact wherever an occupied cell lies within ``reach`` (elsewhere
+    the distance is more than ``reach``). A square's figures do not depend on which others are computed."""
     ny, nx = shape
     rows, cols = np.divmod(occupied, nx)
-    # a square's widened box holds the occupied cells of rows (r - reach) // TILE to (r + reach) // TILE of
-    # squares (and the same of columns)
-    wanted = np.zeros((-(-ny // TILE), -(-nx // TILE)), dtype=bool)
-    spans = -(-2 * reach // TILE) + 1
-    for ty in range(spans):
-        for tx in range(spans):
-            y = np.minimum((rows - reach) // TILE + ty, (rows + reach) // TILE).clip(0, wanted.shape[0] - 1)
-            x = np.minimum((cols - reach) // TILE + tx, (cols + reach) // TILE).clip(0, wanted.shape[1] - 1)
-            wanted[y, x] = True
+    wanted = _squares_near(rows, cols, reach, (-(-ny // TILE), -(-nx // TILE)))
+    if read is not None:
+        wanted &= read
     flat_free = np.ones(ny * nx, dtype=bool)
     flat_free[occupied] = False
     free = flat_free.reshape(ny, nx)
@@ -101,9 +115,21 @@ class LookupGrid:
     The fields cover the reference's box widened by ``3 sigma`` (the *core*): the likelihood is cut to
     zero beyond that distance. The search reads the pooled levels on a *canvas*: the core inside a
     zero border of ``border`` cells, so that a point placed outside it reads zeros.
+
+    A grid made for one search is given the map-frame points the search will read it at (``reads``; each read
+    anywhere within ``margin`` cells of one of them): the ``TILE`` squares none of them reaches are left zero,
+    and the search reads what the whole grid would give it.
     """
 
-    def __init__(self, reference: np.ndarray, resolution: float, smear_deviation: float, border: int) -> None:
+    def __init__(
+        self,
+        reference: np.ndarray,
+        resolution: float,
+        smear_deviation: float,
+        border: int,
+        reads: np.ndarray | None = None,
+        margin: int = 0,
+    ) -> None:
         self.res = resolution
         cut = 3.0 * smear_deviation
         self.core_origin = reference.min(axis=0) - cut - resolution
@@ -125,8 +151,20 @@ class LookupGrid:
         self._feature = np.zeros((2, ny, nx), dtype=np.int32)
         # the fields are read only within 3 sigma of the reference (two cells more: a point and a cell's mean
         # both lie anywhere in their cells)
+        read = None
+        if reads is not None:
+            # the reads' blocks of READ_BLOCK cells (those off the core: the blocks just off it), each once, by its
+            # middle cell: a read lies within half a block of it along each axis (and a cell, for rounding)
+            bx, by = -(-nx // READ_BLOCK), -(-ny // READ_BLOCK)
+            at = np.floor((reads - self.core_origin) / (resolution * READ_BLOCK)).astype(np.int64)
+            np.clip(at[:, 0], -1, bx, out=at[:, 0])
+            np.clip(at[:, 1], -1, by, out=at[:, 1])
+            rows, cols = np.divmod(np.unique((at[:, 1] + 1) * (bx + 2) + at[:, 0] + 1), bx + 2)
+            half = READ_BLOCK // 2
+            middle = (rows - 1) * READ_BLOCK + half, (cols - 1) * READ_BLOCK + half
+            read = _squares_near(*middle, margin + half + 1, (-(-ny // TILE), -(-nx // TILE)))
         spans: list[list[int]] = []  # the computed squares, runs along their rows: (row, row end, column, end)
-        for y, x, distance, feature in _distance_tiles(self._occupied, (ny, nx), math.ceil(cut / resolution) + 2):
+        for y, x, distance, feature in _distance_tiles(self._occupied, (ny, nx), math.ceil(cut / resolution) + 2, read):
             distance *= resolution
             near = distance <= cut
             z = distance[near] / smear_deviation
@@ -239,10 +277,16 @@ class ScanMatcher:
         self.res = resolution
         self.sigma = smear_deviation
 
-    def grid(self, reference: np.ndarray, window: SearchWindow) -> LookupGrid:
-        """The reference's lookup grid, with a zero border wide enough for ``window``'s search."""
+    def grid(self, reference: np.ndarray, window: SearchWindow, around: np.ndarray | None = None) -> LookupGrid:
+        """The reference's lookup grid, with a zero border wide enough for ``window``'s search; given ``around``
+        (map-frame points), only where ``window``'s searches around them (``match_on`` and ``spread``, and a
+        search again around the pose one found) read it."""
         w = math.ceil(window.linear / 2 / self.res)
-        return LookupGrid(reference, self.res, self.sigma, 2 * w + 2 ** self._levels(window) + 1)
+        levels = self._levels(window)
+        # a search reads 2w cells on from a point's cell w back, and a pooled level's 2^l more; a second search
+        # starts w away; refinement and interpolation stay within READ_SLACK of the search's square
+        margin = 3 * w + 2 ** max(levels, min(2, levels) + 2) + READ_SLACK
+        return LookupGrid(reference, self.res, self.sigma, 2 * w + 2**levels + 1, around, margin)
 
     def _levels(self, window: SearchWindow) -> int:
         cells = 2 * math.ceil(window.linear / 2 / self.res) + 1
@@ -265,7 +309,14 @@ class ScanMatcher:
             return None
         reach = float(np.hypot(scan_points[:, 0], scan_points[:, 1]).max()) + window.linear * 0.75 + 4 * self.sigma
         reference = reference[np.hypot(reference[:, 0] - prediction[0], reference[:, 1] - prediction[1]) <= reach]
-        return self.grid(reference, window) if len(reference) else None
+        if not len(reference):
+            return None
+        # the scan's points at every yaw of the window around the prediction
+        px, py, _ = (float(v) for v in prediction)
+        around = np.concatenate(
+            [transform_points((px, py, yaw), scan_points) for yaw in self._yaws(prediction, window)]
+        )
+        return self.grid(reference, window, around)
 
     def match_on(
         self, grid: LookupGrid, scan_points: np.ndarray, prediction, window: SearchWindow, min_response: float
@@ -327,15 +378,20 @@ class ScanMatcher:
         oy, ox = (o.ravel() for o in np.meshgrid(offs, offs, indexing="ij"))
         return oy, ox, oy * nx + ox
 
+    @staticmethod
+    def _yaws(prediction, window: SearchWindow) -> np.ndarray:
+        """The yaws ``window`` searches around ``prediction``'s."""
+        n_ang = int(math.floor(window.angular / window.angle_step + 1e-9))
+        return float(prediction[2]) + window.angle_step * np.arange(-n_ang, n_ang + 1)
+
     def _placements(
         self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow
     ) -> tuple[np.ndarray, np.ndarray, int]:
         """The window's yaws, per yaw the flat canvas index of each point's cell at offset (0, 0) (the square's
         corner; the search reads offsets 0..2w cells from there), and w."""
-        px, py, pyaw = (float(v) for v in prediction)
+        px, py, _ = (float(v) for v in prediction)
         w = math.ceil(window.linear / 2 / self.res)  # offsets 0..2w cells cover the square
-        n_ang = int(math.floor(window.angular / window.angle_step + 1e-9))
-        yaws = pyaw + window.angle_step * np.arange(-n_ang, n_ang + 1)
+        yaws = self._yaws(prediction, window)
         ny, nx = grid.shape
         flat = np.empty((len(yaws), len(points)), dtype=np.int64)
         for a, yaw in enumerate(yaws.tolist()):

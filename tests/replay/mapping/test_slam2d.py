@@ -267,6 +267,43 @@ def test_the_lookup_grid_holds_what_one_distance_transform_over_its_whole_box_gi
     assert 1000 < len(close) < len(queries) - 1000 and not away[np.setdiff1d(np.arange(len(queries)), close)].any()
 
 
+def test_a_grid_made_for_one_search_leaves_out_what_it_does_not_read_and_matches_as_the_whole_grid():
+    """A hall's walls and clutter all round, and a laser that sees 60 degrees ahead: the grid made for the scan's
+    searches (``grid_around``) leaves out the squares behind it that no search reads (a third of the computed
+    cells for the sequential square, fewer for a 2 m one), and every search on it finds what the grid over the
+    whole reference finds, to the bit: the pose, its response and Hessian, the search's spread, and a second
+    search from the pose found."""
+    rng = np.random.default_rng(3)
+    corners = [(-8.0, -8.0), (8.0, -8.0), (8.0, 8.0), (-8.0, 8.0), (-8.0, -8.0)]
+    parts = [np.linspace(a, b, 800) for a, b in zip(corners[:-1], corners[1:], strict=True)]
+    parts.append(rng.uniform((-7.0, -7.0), (7.0, 7.0), (600, 2)))
+    reference = np.concatenate(parts) + rng.normal(0.0, 0.005, (sum(map(len, parts)), 2))
+    true = np.array([0.3, -0.2, 0.1])
+    reference = reference[np.hypot(*(reference - true[:2]).T) < 6.9]
+    c, s = math.cos(true[2]), math.sin(true[2])
+    local = (reference - true[:2]) @ np.array([[c, -s], [s, c]])  # the reference in the laser's frame
+    ahead = np.abs(np.arctan2(local[:, 1], local[:, 0])) < math.pi / 6
+    points = local[ahead] + rng.normal(0.0, 0.01, (int(ahead.sum()), 2))
+    assert np.hypot(*points.T).max() > 6.8  # the scan reaches as far as the reference: grid_around cuts none of it
+    matcher = ScanMatcher(0.02, 0.05)
+    for window, prediction, share in (
+        (SearchWindow(0.5, 0.349, 0.0349), true + [0.1, -0.08, 0.04], 0.7),
+        (SearchWindow(2.0, 0.349, 0.0349), true + [-0.6, 0.5, -0.1], 0.9),
+    ):
+        part = matcher.grid_around(reference, points, prediction, window)
+        whole = matcher.grid(reference, window)
+        assert part.likelihood.shape == whole.likelihood.shape
+        assert (part._feature[0] > 0).sum() < share * (whole._feature[0] > 0).sum()
+        found = [matcher.match_on(g, points, prediction, window, 0.3) for g in (part, whole)]
+        assert np.linalg.norm(found[0].pose[:2] - true[:2]) < 0.03
+        assert np.array_equal(found[0].pose, found[1].pose) and found[0].response == found[1].response
+        assert np.array_equal(found[0].hessian, found[1].hessian)
+        spreads = [matcher.spread(g, points, prediction, window, found[0].response) for g in (part, whole)]
+        assert spreads[0] == spreads[1]
+        again = [matcher.match_on(g, points[::2], found[0].pose, window, 0.3) for g in (part, whole)]
+        assert np.array_equal(again[0].pose, again[1].pose) and again[0].response == again[1].response
+
+
 def rectangle_path(step: float = 0.1) -> np.ndarray:
     """(n, 3) poses along a 6 x 6 m rectangle, driven once and a third, heading along the path."""
     corners = [(-3, -3), (3, -3), (3, 3), (-3, 3), (-3, -3), (3, -3), (3, -1)]
