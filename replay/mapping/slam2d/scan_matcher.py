@@ -40,9 +40,7 @@ TILE = 128
 # the coarsest pooled level a search reads (cells 2^6 = 64 a side)
 TOP_LEVEL = 6
 
-# cells past a search's square that its refinement and interpolation may read (ScanMatcher.grid)
-READ_SLACK = 8
-# a grid made for one search finds the squares its reads reach by blocks of this many cells a side
+# a grid finds the squares a search's reads reach by blocks of this many cells a side
 READ_BLOCK = 16
 
 
@@ -61,24 +59,35 @@ def _squares_near(rows: np.ndarray, cols: np.ndarray, reach: int, squares: tuple
 
 
 def _distance_tiles(
-    occupied: np.ndarray, shape: tuple[int, int], reach: int, read: np.ndarray | None = None
+    occupied: np.ndarray, shape: tuple[int, int], reach: int
 ) -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
     """scipy's Euclidean distance transform of the cells of ``shape`` (rows, columns) from the ``occupied``
-    ones (flat indices) and its feature transform, by ``TILE`` squares: each computed over the square widened
-    by ``reach`` on every side, the squares whose widened box holds no occupied cell (all of whose cells lie
-    farther than ``reach`` from every one) left out, and (``read`` given: per square, whether it is to be read)
-    the squares not read. Yields per square its first row and column, its distances (cells) and its cells'
-    nearest occupied cells (2, rows, columns), exact wherever an occupied cell lies within ``reach`` (elsewhere
-    the distance is more than ``reach``). A square's figures do not depend on which others are computed."""
+    ones (flat indices) and its feature transform, by ``TILE`` squares (``_distance_squares``), the squares
+    whose widened box holds no occupied cell (all of whose cells lie farther than ``reach`` from every one) left
+    out."""
     ny, nx = shape
     rows, cols = np.divmod(occupied, nx)
     wanted = _squares_near(rows, cols, reach, (-(-ny // TILE), -(-nx // TILE)))
-    if read is not None:
-        wanted &= read
-    flat_free = np.ones(ny * nx, dtype=bool)
+    return _distance_squares(_free_cells(occupied, shape), wanted, reach)
+
+
+def _free_cells(occupied: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(rows, columns) True but at the ``occupied`` cells (flat indices)."""
+    flat_free = np.ones(shape[0] * shape[1], dtype=bool)
     flat_free[occupied] = False
-    free = flat_free.reshape(ny, nx)
-    for ty, tx in zip(*np.nonzero(wanted), strict=True):
+    return flat_free.reshape(shape)
+
+
+def _distance_squares(
+    free: np.ndarray, squares: np.ndarray, reach: int
+) -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
+    """scipy's Euclidean distance transform of the ``TILE`` squares marked in ``squares`` (one flag per square) from
+    the cells not ``free``, and its feature transform, each square computed over itself widened by ``reach`` on
+    every side. Yields per square, in row-major order, its first row and column, its distances (cells) and its
+    cells' nearest occupied cells (2, rows, columns), exact wherever an occupied cell lies within ``reach``
+    (elsewhere the distance is more than ``reach``). A square's figures do not depend on which others are
+    computed."""
+    for ty, tx in zip(*np.nonzero(squares), strict=True):
         y, x = int(ty) * TILE, int(tx) * TILE
         y0, x0 = max(0, y - reach), max(0, x - reach)
         d, f = ndimage.distance_transform_edt(free[y0 : y + TILE + reach, x0 : x + TILE + reach], return_indices=True)
@@ -116,25 +125,19 @@ class LookupGrid:
     zero beyond that distance. The search reads the pooled levels on a *canvas*: the core inside a
     zero border of ``border`` cells, so that a point placed outside it reads zeros.
 
-    A grid made for one search is given the map-frame points the search will read it at (``reads``; each read
-    anywhere within ``margin`` cells of one of them): the ``TILE`` squares none of them reaches are left zero,
-    and the search reads what the whole grid would give it.
+    The fields are computed by ``TILE`` squares when a read first reaches them (``ensure``: the searches,
+    ``response`` and ``nearest`` ask for what they read), and the pooled levels with them: a search reads what
+    the whole grid holds, and a grid reads cost only the squares its searches reach (the buffer behind a
+    laser that looks ahead is never computed). ``complete`` computes every square.
     """
 
-    def __init__(
-        self,
-        reference: np.ndarray,
-        resolution: float,
-        smear_deviation: float,
-        border: int,
-        reads: np.ndarray | None = None,
-        margin: int = 0,
-    ) -> None:
+    def __init__(self, reference: np.ndarray, resolution: float, smear_deviation: float, border: int) -> None:
         self.res = resolution
-        cut = 3.0 * smear_deviation
-        self.core_origin = reference.min(axis=0) - cut - resolution
+        self._sigma = smear_deviation
+        self._cut = 3.0 * smear_deviation
+        self.core_origin = reference.min(axis=0) - self._cut - resolution
         nx, ny = (
-            np.ceil((reference.max(axis=0) + cut + resolution - self.core_origin) / resolution).astype(int) + 1
+            np.ceil((reference.max(axis=0) + self._cut + resolution - self.core_origin) / resolution).astype(int) + 1
         ).tolist()
         cells = np.floor((reference - self.core_origin) / resolution).astype(np.int64)
         # the occupied cells (flat indices, sorted) and each point's among them
@@ -145,42 +148,19 @@ class LookupGrid:
             [np.bincount(slot, reference[:, 0]) / count, np.bincount(slot, reference[:, 1]) / count], 1
         )
         # exp(-0.5 (d / sigma)^2) with d in metres, within cut of the reference (zero beyond), and per cell 1 + the
-        # row and column of its nearest occupied cell (0 where no square was computed: none within reach), both
-        # NumPy's zeros where no square is written (pages never touched)
-        likelihood = np.zeros((ny, nx), dtype=np.float32)
+        # row and column of its nearest occupied cell (0 where no square was computed: none within reach, or not
+        # read yet), both NumPy's zeros where no square is written (pages never touched)
+        self.likelihood = np.zeros((ny, nx), dtype=np.float32)
         self._feature = np.zeros((2, ny, nx), dtype=np.int32)
         # the fields are read only within 3 sigma of the reference (two cells more: a point and a cell's mean
         # both lie anywhere in their cells)
-        read = None
-        if reads is not None:
-            # the reads' blocks of READ_BLOCK cells (those off the core: the blocks just off it), each once, by its
-            # middle cell: a read lies within half a block of it along each axis (and a cell, for rounding)
-            bx, by = -(-nx // READ_BLOCK), -(-ny // READ_BLOCK)
-            at = np.floor((reads - self.core_origin) / (resolution * READ_BLOCK)).astype(np.int64)
-            np.clip(at[:, 0], -1, bx, out=at[:, 0])
-            np.clip(at[:, 1], -1, by, out=at[:, 1])
-            rows, cols = np.divmod(np.unique((at[:, 1] + 1) * (bx + 2) + at[:, 0] + 1), bx + 2)
-            half = READ_BLOCK // 2
-            middle = (rows - 1) * READ_BLOCK + half, (cols - 1) * READ_BLOCK + half
-            read = _squares_near(*middle, margin + half + 1, (-(-ny // TILE), -(-nx // TILE)))
-        spans: list[list[int]] = []  # the computed squares, runs along their rows: (row, row end, column, end)
-        for y, x, distance, feature in _distance_tiles(self._occupied, (ny, nx), math.ceil(cut / resolution) + 2, read):
-            distance *= resolution
-            near = distance <= cut
-            z = distance[near] / smear_deviation
-            np.square(z, out=z)
-            z *= -0.5
-            np.exp(z, out=z)
-            if spans and spans[-1][0] == y and spans[-1][3] == x:  # the run of squares along the row goes on
-                spans[-1][3] = x + distance.shape[1]
-            else:
-                spans.append([y, y + distance.shape[0], x, x + distance.shape[1]])
-            square = likelihood[y : y + distance.shape[0], x : x + distance.shape[1]]
-            square[near] = z.astype(np.float32)
-            feature += 1
-            self._feature[:, y : y + distance.shape[0], x : x + distance.shape[1]] = feature
-        self.likelihood = likelihood
-        self._spans = spans  # every non-zero likelihood lies in one
+        self._reach = math.ceil(self._cut / resolution) + 2
+        self._free: np.ndarray | None = None  # _free_cells, once a square is computed
+        rows, cols = np.divmod(self._occupied, nx)
+        self._squares = (-(-ny // TILE), -(-nx // TILE))
+        # per square: whether it is settled (computed, or with no occupied cell within reach: all zeros)
+        self._settled = ~_squares_near(rows, cols, self._reach, self._squares)
+        self._spans: list[list[int]] = []  # the computed squares, runs along their rows: (row, row end, column, end)
         self.border = border
         self.origin = self.core_origin - border * resolution  # the canvas's
         self.shape = (ny + 2 * border, nx + 2 * border)
@@ -189,41 +169,99 @@ class LookupGrid:
         self._pooled = np.zeros((TOP_LEVEL + 1, self.shape[0] * self.shape[1]), dtype=np.float32)
         self._pooled_count = 0
 
+    def complete(self) -> None:
+        """Compute every square (the whole grid's fields)."""
+        self._compute(~self._settled)
+
+    def ensure(self, rows: np.ndarray, cols: np.ndarray, margin: int) -> None:
+        """Compute the squares within ``margin`` cells (along each axis) of the core's cells at ``rows``, ``cols``
+        (any integers: cells off the core reach the squares at its edge) that are not yet."""
+        ny, nx = self.likelihood.shape
+        settled = self._settled
+        if margin < TILE:  # the squares a cell reaches are those of its corners' reach
+            sy, sx = self._squares
+            lo_y, hi_y = np.clip((rows - margin) // TILE, 0, sy - 1), np.clip((rows + margin) // TILE, 0, sy - 1)
+            lo_x, hi_x = np.clip((cols - margin) // TILE, 0, sx - 1), np.clip((cols + margin) // TILE, 0, sx - 1)
+            if all(settled[y, x].all() for y in (lo_y, hi_y) for x in (lo_x, hi_x)):
+                return
+        # the reads' blocks of READ_BLOCK cells (those off the core: the blocks just off it), each once, by its
+        # middle cell: a read lies within half a block of it along each axis
+        bx, by = -(-nx // READ_BLOCK), -(-ny // READ_BLOCK)
+        block_y = np.clip(rows // READ_BLOCK, -1, by)
+        block_x = np.clip(cols // READ_BLOCK, -1, bx)
+        at_y, at_x = np.divmod(np.unique((block_y + 1) * (bx + 2) + block_x + 1), bx + 2)
+        half = READ_BLOCK // 2
+        middle_y, middle_x = (at_y - 1) * READ_BLOCK + half, (at_x - 1) * READ_BLOCK + half
+        self._compute(_squares_near(middle_y, middle_x, margin + half, self._squares) & ~settled)
+
+    def _compute(self, squares: np.ndarray) -> None:
+        """Compute the squares marked in ``squares`` (none settled): their fields, and the pooled levels made so far
+        where their windows reach them."""
+        if not squares.any():
+            return
+        self._settled |= squares
+        if self._free is None:
+            self._free = _free_cells(self._occupied, self.likelihood.shape)
+        res, cut = self.res, self._cut
+        spans: list[list[int]] = []  # the new squares' runs along their rows
+        for y, x, distance, feature in _distance_squares(self._free, squares, self._reach):
+            distance *= res
+            near = distance <= cut
+            z = distance[near] / self._sigma
+            np.square(z, out=z)
+            z *= -0.5
+            np.exp(z, out=z)
+            if spans and spans[-1][0] == y and spans[-1][3] == x:  # the run of squares along the row goes on
+                spans[-1][3] = x + distance.shape[1]
+            else:
+                spans.append([y, y + distance.shape[0], x, x + distance.shape[1]])
+            square = self.likelihood[y : y + distance.shape[0], x : x + distance.shape[1]]
+            square[near] = z.astype(np.float32)
+            feature += 1
+            self._feature[:, y : y + distance.shape[0], x : x + distance.shape[1]] = feature
+        self._spans += spans
+        for level in range(self._pooled_count):  # a level's new cells read the level below's, made first
+            self._pool(level, spans)
+
     def pooled(self, level: int) -> np.ndarray:
         """Flat canvas whose cell (i, j) is the maximum likelihood over cells [i, i + 2^l) x [j, j + 2^l)
         (zero beyond the canvas), ``level`` at most ``TOP_LEVEL``: level l is level l - 1's maximum over its
-        cell and the cells half a window (2^(l-1)) further along each axis."""
+        cell and the cells half a window (2^(l-1)) further along each axis. Exact where the squares its windows
+        reach are computed (``ensure``)."""
         return self.levels(level)[level]
 
     def levels(self, top: int) -> np.ndarray:
         """(top + 1, cells) the pooled levels 0..``top`` (``pooled``), a row each. A level is computed only
         where its windows reach a run of computed squares (where every non-zero likelihood lies): its other
         cells are the zeros of the rows' allocation."""
-        b = self.border
-        rows_total, cols_total = self.shape
         while self._pooled_count <= top:
-            level = self._pooled_count
-            canvas = self._pooled[level].reshape(self.shape)
-            if level == 0:
-                ny, nx = self.likelihood.shape
-                canvas[b : b + ny, b : b + nx] = self.likelihood
-            for y0, y1, x0, x1 in self._spans if level else ():
-                # the cells whose window [i, i + 2^l) meets the run, and the cells h further on they read
-                h = 2 ** (level - 1)
-                r0, c0 = max(0, b + y0 - 2**level + 1), max(0, b + x0 - 2**level + 1)
-                r1, c1 = min(rows_total, b + y1), min(cols_total, b + x1)
-                half = self._pooled[level - 1].reshape(self.shape)[
-                    r0 : min(rows_total, r1 + h), c0 : min(cols_total, c1 + h)
-                ]
-                rows = np.empty_like(half)
-                np.maximum(half[:-h], half[h:], out=rows[:-h])
-                rows[-h:] = half[-h:]  # (the last h rows of the canvas have no cells h further on: their own)
-                pooled = np.empty_like(rows)
-                np.maximum(rows[:, :-h], rows[:, h:], out=pooled[:, :-h])
-                pooled[:, -h:] = rows[:, -h:]
-                canvas[r0:r1, c0:c1] = pooled[: r1 - r0, : c1 - c0]
+            self._pool(self._pooled_count, self._spans)
             self._pooled_count += 1
         return self._pooled[: top + 1]
+
+    def _pool(self, level: int, spans: list[list[int]]) -> None:
+        """Pooled level ``level`` made where its windows reach the runs of squares ``spans``."""
+        b = self.border
+        rows_total, cols_total = self.shape
+        canvas = self._pooled[level].reshape(self.shape)
+        for y0, y1, x0, x1 in spans:
+            if level == 0:
+                canvas[b + y0 : b + y1, b + x0 : b + x1] = self.likelihood[y0:y1, x0:x1]
+                continue
+            # the cells whose window [i, i + 2^l) meets the run, and the cells h further on they read
+            h = 2 ** (level - 1)
+            r0, c0 = max(0, b + y0 - 2**level + 1), max(0, b + x0 - 2**level + 1)
+            r1, c1 = min(rows_total, b + y1), min(cols_total, b + x1)
+            half = self._pooled[level - 1].reshape(self.shape)[
+                r0 : min(rows_total, r1 + h), c0 : min(cols_total, c1 + h)
+            ]
+            rows = np.empty_like(half)
+            np.maximum(half[:-h], half[h:], out=rows[:-h])
+            rows[-h:] = half[-h:]  # (the last h rows of the canvas have no cells h further on: their own)
+            pooled = np.empty_like(rows)
+            np.maximum(rows[:, :-h], rows[:, h:], out=pooled[:, :-h])
+            pooled[:, -h:] = rows[:, -h:]
+            canvas[r0:r1, c0:c1] = pooled[: r1 - r0, : c1 - c0]
 
     def _coordinates(self, xy: np.ndarray) -> np.ndarray:
         """(2, N) fractional (row, column) coordinates of points on the core, cell centres at integers."""
@@ -234,9 +272,10 @@ class LookupGrid:
         """Mean interpolated likelihood of ``points`` (scan frame) placed at ``pose``."""
         if len(points) == 0:
             return 0.0
-        values = ndimage.map_coordinates(
-            self.likelihood, self._coordinates(transform_points(pose, points)), order=1, mode="constant", cval=0.0
-        )
+        xy = transform_points(pose, points)
+        cells = np.floor((xy - self.core_origin) / self.res).astype(np.int64)
+        self.ensure(cells[:, 1], cells[:, 0], 1)  # the interpolation reads the cells either side
+        values = ndimage.map_coordinates(self.likelihood, self._coordinates(xy), order=1, mode="constant", cval=0.0)
         return float(values.mean())
 
     def nearest(self, pose, points: np.ndarray, far: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -246,6 +285,7 @@ class LookupGrid:
         xy = transform_points(pose, points)
         ny, nx = self.likelihood.shape
         cells = np.floor((xy - self.core_origin) / self.res).astype(np.int64)
+        self.ensure(cells[:, 1], cells[:, 0], 0)
         inside = (cells[:, 0] >= 0) & (cells[:, 0] < nx) & (cells[:, 1] >= 0) & (cells[:, 1] < ny)
         d = np.full(len(xy), far)
         away = np.zeros_like(xy)
@@ -277,16 +317,10 @@ class ScanMatcher:
         self.res = resolution
         self.sigma = smear_deviation
 
-    def grid(self, reference: np.ndarray, window: SearchWindow, around: np.ndarray | None = None) -> LookupGrid:
-        """The reference's lookup grid, with a zero border wide enough for ``window``'s search; given ``around``
-        (map-frame points), only where ``window``'s searches around them (``match_on`` and ``spread``, and a
-        search again around the pose one found) read it."""
+    def grid(self, reference: np.ndarray, window: SearchWindow) -> LookupGrid:
+        """The reference's lookup grid, with a zero border wide enough for ``window``'s search."""
         w = math.ceil(window.linear / 2 / self.res)
-        levels = self._levels(window)
-        # a search reads 2w cells on from a point's cell w back, and a pooled level's 2^l more; a second search
-        # starts w away; refinement and interpolation stay within READ_SLACK of the search's square
-        margin = 3 * w + 2 ** max(levels, min(2, levels) + 2) + READ_SLACK
-        return LookupGrid(reference, self.res, self.sigma, 2 * w + 2**levels + 1, around, margin)
+        return LookupGrid(reference, self.res, self.sigma, 2 * w + 2 ** self._levels(window) + 1)
 
     def _levels(self, window: SearchWindow) -> int:
         cells = 2 * math.ceil(window.linear / 2 / self.res) + 1
@@ -309,14 +343,7 @@ class ScanMatcher:
             return None
         reach = float(np.hypot(scan_points[:, 0], scan_points[:, 1]).max()) + window.linear * 0.75 + 4 * self.sigma
         reference = reference[np.hypot(reference[:, 0] - prediction[0], reference[:, 1] - prediction[1]) <= reach]
-        if not len(reference):
-            return None
-        # the scan's points at every yaw of the window around the prediction
-        px, py, _ = (float(v) for v in prediction)
-        around = np.concatenate(
-            [transform_points((px, py, yaw), scan_points) for yaw in self._yaws(prediction, window)]
-        )
-        return self.grid(reference, window, around)
+        return self.grid(reference, window) if len(reference) else None
 
     def match_on(
         self, grid: LookupGrid, scan_points: np.ndarray, prediction, window: SearchWindow, min_response: float
@@ -347,7 +374,7 @@ class ScanMatcher:
         if len(points) > SPREAD_POINTS:  # evenly spread beams: the blocks' scores need no more
             points = points[np.linspace(0, len(points) - 1, SPREAD_POINTS).astype(np.int64)]
         level = min(2, self._levels(window))
-        _, flat, w = self._placements(grid, points, prediction, window)
+        _, flat, w = self._placements(grid, points, prediction, window, level + 2)
         step = 2**level
         oy, ox, cand = self._offsets(w, step, grid.shape[1])
         pooled = grid.pooled(level)
@@ -385,30 +412,37 @@ class ScanMatcher:
         return float(prediction[2]) + window.angle_step * np.arange(-n_ang, n_ang + 1)
 
     def _placements(
-        self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow
+        self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow, top: int | None = None
     ) -> tuple[np.ndarray, np.ndarray, int]:
         """The window's yaws, per yaw the flat canvas index of each point's cell at offset (0, 0) (the square's
-        corner; the search reads offsets 0..2w cells from there), and w."""
+        corner; the search reads offsets 0..2w cells from there), and w; the grid's squares that a search reading
+        pooled levels up to ``top`` (the window's own top level when None) reaches are computed."""
         px, py, _ = (float(v) for v in prediction)
         w = math.ceil(window.linear / 2 / self.res)  # offsets 0..2w cells cover the square
         yaws = self._yaws(prediction, window)
         ny, nx = grid.shape
         flat = np.empty((len(yaws), len(points)), dtype=np.int64)
+        # the points' core cells at every yaw: a search reads from w cells before each to w + 2^top after it
+        reads = np.empty((len(yaws), len(points), 2), dtype=np.int64)
         for a, yaw in enumerate(yaws.tolist()):
             xy = transform_points((px, py, yaw), points)
-            cells = np.floor((xy - grid.origin) / self.res).astype(np.int64) - w
+            cells = np.floor((xy - grid.origin) / self.res).astype(np.int64)
+            reads[a] = cells - grid.border
+            cells -= w
             # a point off the canvas reads its zero border
             np.clip(cells[:, 0], 0, nx - 1 - 2 * w, out=cells[:, 0])
             np.clip(cells[:, 1], 0, ny - 1 - 2 * w, out=cells[:, 1])
             flat[a] = cells[:, 1] * nx + cells[:, 0]
+        levels = self._levels(window) if top is None else top
+        grid.ensure(reads[..., 1].ravel(), reads[..., 0].ravel(), w + 2**levels)
         return yaws, flat, w
 
     def _search(self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow, min_response: float):
         """Branch and bound over (yaw, x, y): the best full-resolution candidate's pose, or None."""
         px, py, _ = (float(v) for v in prediction)
-        yaws, flat, w = self._placements(grid, points, prediction, window)
-        nx = grid.shape[1]
         top = self._levels(window)
+        yaws, flat, w = self._placements(grid, points, prediction, window, top)
+        nx = grid.shape[1]
         oy, ox, cand = self._offsets(w, 2**top, nx)
         pooled = grid.pooled(top)
         scores = pooled[flat[:, None, :] + cand[None, :, None]].mean(axis=2)  # (yaws, offsets)

@@ -116,8 +116,10 @@ def test_the_spread_scores_only_blocks_that_can_come_near_and_reads_as_scoring_a
 def test_every_pooled_level_bounds_the_finer_cells_it_covers():
     """Level l holds in each cell the maximum of level 0 over the 2^l x 2^l cells from it, up to the
     canvas's far edges: a branch-and-bound bound that fell short there (it read 0 where a wall 1.0 was,
-    for the wide windows of a loop search) let the search drop the best pose."""
-    from navlog.replay.mapping.slam2d.scan_matcher import LookupGrid
+    for the wide windows of a loop search) let the search drop the best pose. The same levels when they were
+    made before any square was computed and the squares came in two rounds after (a grid computes a square
+    when a read first reaches it)."""
+    from navlog.replay.mapping.slam2d.scan_matcher import TOP_LEVEL, LookupGrid
 
     rng = np.random.default_rng(3)
     # two clusters 9 m apart: most of the squares between them hold no reference cell, and are not pooled
@@ -129,6 +131,7 @@ def test_every_pooled_level_bounds_the_finer_cells_it_covers():
     ):
         # (a border narrower than a window: windows from the canvas's first cell reach the core)
         grid = LookupGrid(reference, 0.025, 0.1, border)
+        grid.complete()
         rows, cols = grid.shape
         base = grid.pooled(0).reshape(rows, cols)
         for level in range(1, 7):
@@ -142,6 +145,12 @@ def test_every_pooled_level_bounds_the_finer_cells_it_covers():
             for dx in range(k):
                 want = np.maximum(want, along[:, dx : dx + cols])
             assert np.array_equal(grid.pooled(level).reshape(rows, cols), want), (border, level)
+        later = LookupGrid(reference, 0.025, 0.1, border)
+        assert not later.levels(TOP_LEVEL).any()
+        later.ensure(np.array([0]), np.array([0]), 0)  # the square at the core's first cell
+        assert 0 < later.likelihood.any(axis=1).sum() < grid.likelihood.any(axis=1).sum()
+        later.complete()
+        assert np.array_equal(later.levels(TOP_LEVEL), grid.levels(TOP_LEVEL)), border
     assert len(grid._spans) > 1 and sum((y1 - y0) * (x1 - x0) for y0, y1, x0, x1 in grid._spans) < base.size / 4
 
 
@@ -232,6 +241,7 @@ def test_the_lookup_grid_holds_what_one_distance_transform_over_its_whole_box_gi
     reference = np.concatenate(parts) + rng.normal(0.0, 0.005, (sum(map(len, parts)), 2))
     res, sigma = 0.025, 0.1
     grid = LookupGrid(reference, res, sigma, 10)
+    grid.complete()
     ny, nx = grid.likelihood.shape
     assert ny > 2 * TILE and nx > 4 * TILE and (grid._feature[0] == 0).any()  # some tiles were skipped
     # the whole box at once
@@ -267,12 +277,17 @@ def test_the_lookup_grid_holds_what_one_distance_transform_over_its_whole_box_gi
     assert 1000 < len(close) < len(queries) - 1000 and not away[np.setdiff1d(np.arange(len(queries)), close)].any()
 
 
-def test_a_grid_made_for_one_search_leaves_out_what_it_does_not_read_and_matches_as_the_whole_grid():
-    """A hall's walls and clutter all round, and a laser that sees 60 degrees ahead: the grid made for the scan's
-    searches (``grid_around``) leaves out the squares behind it that no search reads (a third of the computed
-    cells for the sequential square, fewer for a 2 m one), and every search on it finds what the grid over the
-    whole reference finds, to the bit: the pose, its response and Hessian, the search's spread, and a second
-    search from the pose found."""
+@pytest.mark.parametrize("tile", [128, 16])
+def test_a_grid_computes_the_squares_its_reads_reach_and_reads_as_the_whole_grid(monkeypatch, tile):
+    """A hall's walls and clutter all round, and a laser that sees 60 degrees ahead: a grid computes its distance
+    squares as searches first read them, so the squares behind the laser are never computed for a search from
+    the prediction (a third of the cells for the sequential square, fewer for a 2 m one), and every read finds
+    what the whole grid holds, to the bit: the match (pose, response, Hessian), its spread, a second search from
+    a pose turned twice the window's fan further and moved, and the response and the nearest reference at a
+    place 3 m off. With squares of 16 cells, a read's reach decides which squares it needs."""
+    from navlog.replay.mapping.slam2d import scan_matcher
+
+    monkeypatch.setattr(scan_matcher, "TILE", tile)
     rng = np.random.default_rng(3)
     corners = [(-8.0, -8.0), (8.0, -8.0), (8.0, 8.0), (-8.0, 8.0), (-8.0, -8.0)]
     parts = [np.linspace(a, b, 800) for a, b in zip(corners[:-1], corners[1:], strict=True)]
@@ -292,16 +307,24 @@ def test_a_grid_made_for_one_search_leaves_out_what_it_does_not_read_and_matches
     ):
         part = matcher.grid_around(reference, points, prediction, window)
         whole = matcher.grid(reference, window)
-        assert part.likelihood.shape == whole.likelihood.shape
-        assert (part._feature[0] > 0).sum() < share * (whole._feature[0] > 0).sum()
+        whole.complete()
+        assert part.likelihood.shape == whole.likelihood.shape and not part.likelihood.any()
         found = [matcher.match_on(g, points, prediction, window, 0.3) for g in (part, whole)]
+        assert (part._feature[0] > 0).sum() < share * (whole._feature[0] > 0).sum()
         assert np.linalg.norm(found[0].pose[:2] - true[:2]) < 0.03
         assert np.array_equal(found[0].pose, found[1].pose) and found[0].response == found[1].response
         assert np.array_equal(found[0].hessian, found[1].hessian)
         spreads = [matcher.spread(g, points, prediction, window, found[0].response) for g in (part, whole)]
         assert spreads[0] == spreads[1]
-        again = [matcher.match_on(g, points[::2], found[0].pose, window, 0.3) for g in (part, whole)]
+        turned = found[0].pose + [0.15, -0.1, 2 * window.angular]
+        again = [matcher.match_on(g, points[::2], turned, window, 0.1) for g in (part, whole)]
         assert np.array_equal(again[0].pose, again[1].pose) and again[0].response == again[1].response
+        assert np.array_equal(again[0].hessian, again[1].hessian)
+        off = true + [-3.0, 1.0, 2.5]
+        assert part.response(off, points) == whole.response(off, points) > 0.0
+        fresh = matcher.grid_around(reference, points, prediction, window)
+        near = [g.nearest(off, points, 0.15) for g in (fresh, whole)]
+        assert all(np.array_equal(a, b) for a, b in zip(*near, strict=True)) and (near[0][1] < 0.15).sum() >= 3
 
 
 def rectangle_path(step: float = 0.1) -> np.ndarray:
