@@ -178,11 +178,12 @@ class LookupGrid:
         (any integers: cells off the core reach the squares at its edge) that are not yet."""
         ny, nx = self.likelihood.shape
         settled = self._settled
-        if margin < TILE:  # the squares a cell reaches are those of its corners' reach
+        if 2 * margin <= TILE:  # a cell's reach spans two squares at most along each axis: its corners' squares
             sy, sx = self._squares
             lo_y, hi_y = np.clip((rows - margin) // TILE, 0, sy - 1), np.clip((rows + margin) // TILE, 0, sy - 1)
             lo_x, hi_x = np.clip((cols - margin) // TILE, 0, sx - 1), np.clip((cols + margin) // TILE, 0, sx - 1)
-            if all(settled[y, x].all() for y in (lo_y, hi_y) for x in (lo_x, hi_x)):
+            corners = [(lo_y, lo_x)] if margin == 0 else [(lo_y, lo_x), (lo_y, hi_x), (hi_y, lo_x), (hi_y, hi_x)]
+            if all(settled[y, x].all() for y, x in corners):
                 return
         # the reads' blocks of READ_BLOCK cells (those off the core: the blocks just off it), each once, by its
         # middle cell: a read lies within half a block of it along each axis

@@ -327,6 +327,35 @@ def test_a_grid_computes_the_squares_its_reads_reach_and_reads_as_the_whole_grid
         assert all(np.array_equal(a, b) for a, b in zip(*near, strict=True)) and (near[0][1] < 0.15).sum() >= 3
 
 
+def test_a_search_reaching_past_the_squares_either_side_of_its_own_computes_its_own():
+    """Walls along three rows of squares with the two rows between them empty (settled: no reference near), and a
+    search whose reach (72 cells) spans three squares from a scan in the middle row: the squares either side of its
+    own are settled, and its own is computed still, so the match is the whole grid's."""
+    from navlog.replay.mapping.slam2d.scan_matcher import TILE
+
+    xs = np.linspace(0.0, 12.0, 2400)
+    rows_y = [0.0, 2 * TILE * 0.025 + 1.275, 4 * TILE * 0.025 + 0.625]  # core rows in squares 0, 2 and 4
+
+    def wall(y: float) -> np.ndarray:
+        return np.stack([xs, np.full_like(xs, y)], 1)
+
+    stub = np.stack([np.full(40, 3.0), rows_y[1] + np.linspace(-0.1, 0.0, 40)], 1)  # pins the scan along the wall
+    reference = np.concatenate([wall(y) for y in rows_y] + [stub])
+    matcher = ScanMatcher(0.025, 0.1)
+    window = SearchWindow(2.0, 0.0, 0.0349)
+    true = np.array([2.0, rows_y[1] - 0.1, 0.0])
+    points = reference[(np.abs(reference[:, 1] - rows_y[1]) < 0.2) & (reference[:, 0] > 0.5)] - true[:2]
+    prediction = true + [0.04, -0.03, 0.0]
+    lazy = matcher.grid_around(reference, points, prediction, window)
+    assert lazy._settled[1].all() and lazy._settled[3].all() and not lazy._settled[2].all()
+    found = matcher.match_on(lazy, points, prediction, window, 0.1)
+    whole = matcher.grid_around(reference, points, prediction, window)
+    whole.complete()
+    want = matcher.match_on(whole, points, prediction, window, 0.1)
+    assert want is not None and want.response > 0.9 and np.linalg.norm(want.pose[:2] - true[:2]) < 0.03
+    assert found is not None and np.array_equal(found.pose, want.pose) and found.response == want.response
+
+
 def rectangle_path(step: float = 0.1) -> np.ndarray:
     """(n, 3) poses along a 6 x 6 m rectangle, driven once and a third, heading along the path."""
     corners = [(-3, -3), (3, -3), (3, 3), (-3, 3), (-3, -3), (3, -3), (3, -1)]
