@@ -143,10 +143,15 @@ def workbench(tmp_path_factory) -> tuple[Path, dict[str, Command]]:
     ref_dir.mkdir()
     for cmd in commands.values():
         out = ref_dir / cmd.output
-        t0 = time.perf_counter()
-        done = _run(cmd.argv(out))
-        cmd.run_s = record_s if cmd.name == "record" else time.perf_counter() - t0
-        assert done.returncode == 0, done.stderr
+        times = [record_s] if cmd.name == "record" else []
+        for target in (out, ref_dir / f"again-{cmd.output}"):
+            t0 = time.perf_counter()
+            done = _run(cmd.argv(target))
+            times.append(time.perf_counter() - t0)
+            assert done.returncode == 0, done.stderr
+        # a run's time at its quickest (a first run warms caches, a busy moment slows one): the kill instants, drawn
+        # within it, fall inside most runs
+        cmd.run_s = min(times)
         cmd.complete(out)
         cmd.reference = _digest(out)
     view_ref = _rrd_chunks(ref_dir / "v.rrd")
