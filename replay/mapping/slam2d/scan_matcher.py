@@ -127,7 +127,7 @@ class LookupGrid:
 
     The fields are computed by ``TILE`` squares when a read first reaches them (``ensure``: the searches,
     ``response`` and ``nearest`` ask for what they read), and the pooled levels with them: a search reads what
-    the whole grid holds, and a grid reads cost only the squares its searches reach (the buffer behind a
+    the whole grid holds, and a grid costs only the squares its searches reach (the buffer behind a
     laser that looks ahead is never computed). ``complete`` computes every square.
     """
 
