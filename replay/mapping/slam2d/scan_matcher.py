@@ -58,19 +58,6 @@ def _squares_near(rows: np.ndarray, cols: np.ndarray, reach: int, squares: tuple
     return near
 
 
-def _distance_tiles(
-    occupied: np.ndarray, shape: tuple[int, int], reach: int
-) -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
-    """scipy's Euclidean distance transform of the cells of ``shape`` (rows, columns) from the ``occupied``
-    ones (flat indices) and its feature transform, by ``TILE`` squares (``_distance_squares``), the squares
-    whose widened box holds no occupied cell (all of whose cells lie farther than ``reach`` from every one) left
-    out."""
-    ny, nx = shape
-    rows, cols = np.divmod(occupied, nx)
-    wanted = _squares_near(rows, cols, reach, (-(-ny // TILE), -(-nx // TILE)))
-    return _distance_squares(_free_cells(occupied, shape), wanted, reach)
-
-
 def _free_cells(occupied: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
     """(rows, columns) True but at the ``occupied`` cells (flat indices)."""
     flat_free = np.ones(shape[0] * shape[1], dtype=bool)
@@ -406,21 +393,16 @@ class ScanMatcher:
         oy, ox = (o.ravel() for o in np.meshgrid(offs, offs, indexing="ij"))
         return oy, ox, oy * nx + ox
 
-    @staticmethod
-    def _yaws(prediction, window: SearchWindow) -> np.ndarray:
-        """The yaws ``window`` searches around ``prediction``'s."""
-        n_ang = int(math.floor(window.angular / window.angle_step + 1e-9))
-        return float(prediction[2]) + window.angle_step * np.arange(-n_ang, n_ang + 1)
-
     def _placements(
-        self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow, top: int | None = None
+        self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow, top: int
     ) -> tuple[np.ndarray, np.ndarray, int]:
         """The window's yaws, per yaw the flat canvas index of each point's cell at offset (0, 0) (the square's
         corner; the search reads offsets 0..2w cells from there), and w; the grid's squares that a search reading
-        pooled levels up to ``top`` (the window's own top level when None) reaches are computed."""
-        px, py, _ = (float(v) for v in prediction)
+        pooled levels up to ``top`` reaches are computed."""
+        px, py, pyaw = (float(v) for v in prediction)
         w = math.ceil(window.linear / 2 / self.res)  # offsets 0..2w cells cover the square
-        yaws = self._yaws(prediction, window)
+        n_ang = int(math.floor(window.angular / window.angle_step + 1e-9))
+        yaws = pyaw + window.angle_step * np.arange(-n_ang, n_ang + 1)
         ny, nx = grid.shape
         flat = np.empty((len(yaws), len(points)), dtype=np.int64)
         # the points' core cells at every yaw: a search reads from w cells before each to w + 2^top after it
@@ -434,8 +416,7 @@ class ScanMatcher:
             np.clip(cells[:, 0], 0, nx - 1 - 2 * w, out=cells[:, 0])
             np.clip(cells[:, 1], 0, ny - 1 - 2 * w, out=cells[:, 1])
             flat[a] = cells[:, 1] * nx + cells[:, 0]
-        levels = self._levels(window) if top is None else top
-        grid.ensure(reads[..., 1].ravel(), reads[..., 0].ravel(), w + 2**levels)
+        grid.ensure(reads[..., 1].ravel(), reads[..., 0].ravel(), w + 2**top)
         return yaws, flat, w
 
     def _search(self, grid: LookupGrid, points: np.ndarray, prediction, window: SearchWindow, min_response: float):

@@ -102,7 +102,7 @@ def test_the_spread_scores_only_blocks_that_can_come_near_and_reads_as_scoring_a
     grid = matcher.grid_around(reference, points, true, window)
     found = matcher.match_on(grid, points, true, window, 0.5)
     sample = points[np.linspace(0, len(points) - 1, 512).astype(np.int64)]
-    _, flat, w = matcher._placements(grid, sample, true, window)
+    _, flat, w = matcher._placements(grid, sample, true, window, 4)  # spread's levels: 2 and 4
     oy, ox, cand = matcher._offsets(w, 4, grid.shape[1])
     scores = np.array([grid.pooled(2)[row[None, :] + cand[:, None]].mean(axis=1) for row in flat]).max(axis=0)
     for bar in (found.response, 0.6 * found.response, 0.35 * found.response):
@@ -183,7 +183,7 @@ def test_the_search_finds_the_best_full_resolution_candidate_of_its_window(scene
     for offset in ([0.0, 0.0, 0.0], [0.5, -0.6, 0.05], [-0.9, 0.2, -0.08]):
         prediction = true + offset
         grid = matcher.grid_around(reference, points, prediction, window)
-        yaws, flat, w = matcher._placements(grid, points, prediction, window)
+        yaws, flat, w = matcher._placements(grid, points, prediction, window, matcher._levels(window))
         _, _, cand = matcher._offsets(w, 1, grid.shape[1])
         every = grid.pooled(0)[flat[:, None, :] + cand[None, :, None]].mean(axis=2)
         found = matcher._search(grid, points, prediction, window, 0.2)
@@ -213,7 +213,9 @@ def test_the_distance_transform_by_tiles_is_exact_within_its_reach(monkeypatch):
             want, want_feature = ndimage.distance_transform_edt(free, return_indices=True)
             got = np.full(free.shape, np.inf)
             feature = np.full((2, *free.shape), -1)
-            for y, x, d, f in scan_matcher._distance_tiles(np.flatnonzero(~free), free.shape, reach):
+            rows, cols = np.nonzero(~free)
+            near = scan_matcher._squares_near(rows, cols, reach, (-(-free.shape[0] // 5), -(-free.shape[1] // 5)))
+            for y, x, d, f in scan_matcher._distance_squares(free, near, reach):
                 got[y : y + d.shape[0], x : x + d.shape[1]] = d
                 feature[:, y : y + d.shape[0], x : x + d.shape[1]] = f
             within = want <= reach
