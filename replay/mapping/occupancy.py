@@ -235,9 +235,13 @@ class OccupancyGrid2D:
         mask[end_cells] = 2
         mask[ncell] = 0  # the spare cell of the samples past a beam's free part
         marks = mask[:ncell].reshape(ny, nx)[box]
-        rows, cols = np.nonzero(marks)  # row-major: the flat cells in increasing order
-        cells = (rows + box[0].start) * nx + cols + box[1].start
-        mark = marks[rows, cols]
+        # the box's marks as one row-major run (a copy: the box is strided within the grid), read by position
+        run = marks.ravel()
+        at = run.nonzero()[0]  # increasing: the flat cells in increasing order
+        mark = run[at]
+        width = box[1].stop - box[1].start
+        rows = at // width
+        cells = (rows + box[0].start) * nx + (at - rows * width) + box[1].start
         marks.fill(0)
         flat = self.logodds.reshape(-1)
         seen = self.seen.reshape(-1)
