@@ -215,9 +215,13 @@ class SlamNode(Node):
                 "loops_buffer": c.loops_buffer,
                 "optimizations": self.slam.graph.optimizations,
                 "odometry_jumps": len(c.odometry_jumps),
+                "reversals_missed": len(c.reversals_missed),
             },
             "odometry_jumps": [
                 {"stamp_ns": t, "distance": d, "turn": a, "response": r} for t, d, a, r in c.odometry_jumps
+            ],
+            "reversals_missed": [
+                {"stamp_ns": t, "odometry_forward": f, "scans_back": b} for t, f, b in c.reversals_missed
             ],
             "unplaced": [
                 {"first": a, "last": b, "first_stamp_ns": ta, "last_stamp_ns": tb} for a, b, ta, tb in c.unplaced
@@ -255,6 +259,8 @@ class SlamNode(Node):
             line += f"; {len(c.odometry_jumps)} odometry jumps placed by the wider search"
         if c.unplaced:
             line += f"; {len(c.unplaced)} stretches not placed"
+        if c.reversals_missed:
+            line += f"; {len(c.reversals_missed)} steps back the odometry measured forward"
         return line
 
     def skipped_counts(self) -> dict[str, int]:
@@ -271,6 +277,12 @@ class SlamNode(Node):
                 f"{self.p.scan_topic}: odometry jumped (scan matched up to {far:.2f} m and {turn:.0f} deg from its"
                 " prediction by the wider search; see pose_graph.json odometry_jumps)"
             ] = len(c.odometry_jumps)
+        if c.reversals_missed:
+            back = -min(b for _, _, b in c.reversals_missed)
+            out[
+                f"{self.p.scan_topic}: steps the odometry measured forward and the scans back (up to {back:.2f} m;"
+                " does the odometry report driving backwards? see pose_graph.json reversals_missed)"
+            ] = len(c.reversals_missed)
         for a, b, ta, tb in c.unplaced[:UNPLACED_LISTED]:
             out[
                 f"{self.p.scan_topic}: keyframes {a}-{b} (stamps {ta / 1e9:.3f}-{tb / 1e9:.3f} s) placed by odometry"

@@ -96,6 +96,7 @@ MAX_MATCH_POINTS = 8192
 # sight (unless fewer than LEAST_IN_SIGHT of them are); a point SIGHT_MARGIN inside a buffer scan's fan, up to
 # SIGHT_MARGIN beyond where its beam ended, is in its sight; a fan of FULL_FAN or more looks all round
 REVERSING = 0.05  # m
+REVERSAL_MISSED = 0.02  # m: a step the odometry measured forward and the scans back, each by this much or more
 SIGHT_ROUNDS = 2  # the points in sight are judged again at the pose their match found, this many times at most
 UNSEEN_SHARE = 0.2
 LEAST_IN_SIGHT = 0.1
@@ -244,6 +245,10 @@ class SlamCounts:
     unplaced: list[tuple[int, int, int, int]] = field(default_factory=list)
     # keyframes left out of the map: their pose or readings lie too far off for a grid (GridTooLarge)
     off_map: set[int] = field(default_factory=set)
+    # (stamp ns, the odometry's step forward m, the scans' step back m, both since the last scan matched) of every
+    # scan whose match pins x and y and measured a step back where the odometry measured one forward
+    # (``REVERSAL_MISSED`` or more each): wheels that report no driving backwards
+    reversals_missed: list[tuple[int, float, float]] = field(default_factory=list)
 
 
 def _pose2(pose) -> gtsam.Pose2:
@@ -273,6 +278,11 @@ def _run_around(mask: np.ndarray, at: int, most: int | None = None) -> tuple[int
     while hi + 1 < len(mask) and mask[hi + 1] and hi - at < reach:
         hi += 1
     return lo, hi
+
+
+def _pins_position(match: MatchResult) -> bool:
+    """Whether a match's response pins x and y (its Hessian's smaller eigenvalue over position above 0.1)."""
+    return float(np.linalg.eigvalsh(match.hessian[:2, :2])[0]) > 0.1
 
 
 def _xyt(p: gtsam.Pose2) -> np.ndarray:
@@ -388,6 +398,7 @@ class Slam2D:
         if points is not None and len(points):
             match = self._sequential_match(self._between_grid(base), points, pose, base, reversing)
             if match is not None:
+                self._check_reversal(stamp, odom, match)
                 pose, _ = self._fuse(pose, base.theta(), match)
                 rel = base.between(_pose2(pose))
                 self.counts.matched_between += 1
@@ -463,6 +474,20 @@ class Slam2D:
             or abs(d.theta()) >= self.p.minimum_travel_heading
         )
 
+    def _check_reversal(self, stamp: int, odom: gtsam.Pose2, match: MatchResult) -> None:
+        """Count the scan in ``counts.reversals_missed`` when its match pins x and y and measured a step back of
+        ``REVERSAL_MISSED`` or more (along the robot's heading, since the last scan matched: the anchor) where the
+        odometry measured one forward as long."""
+        if not _pins_position(match):
+            return
+        _, anchor_odom, anchor_rel = self._anchor
+        forward = anchor_odom.between(odom).x()
+        if forward < REVERSAL_MISSED:
+            return
+        back = self._pose(self.keyframes[-1].index).compose(anchor_rel).between(_pose2(match.pose)).x()
+        if back <= -REVERSAL_MISSED:
+            self.counts.reversals_missed.append((stamp, float(forward), float(back)))
+
     def _add_keyframe(
         self,
         stamp: int,
@@ -505,7 +530,8 @@ class Slam2D:
                 cov = self._match_covariance(recovered, self.p.match_sigmas)
                 kind, response = "match", recovered.response
             elif match is not None:
-                if float(np.linalg.eigvalsh(match.hessian[:2, :2])[0]) > 0.1:  # a match that pins x and y
+                self._check_reversal(stamp, odom, match)
+                if _pins_position(match):
                     innovation = rot.T @ (match.pose - pose)
                     innovation[2] = remainder_angle(float(innovation[2]))
                     self._innovations.append(innovation)

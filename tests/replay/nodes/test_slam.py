@@ -133,13 +133,14 @@ def test_the_view_of_a_slam_replay_places_the_map_by_the_slam_s_map_to_odom(unlo
     assert "without a TF path" not in err.out + err.err
 
 
-def test_odometry_jumps_and_unplaced_stretches_are_named_in_the_skipped_inputs():
+def test_odometry_jumps_missed_reversals_and_unplaced_stretches_are_named_in_the_skipped_inputs():
     from navlog.replay.nodes.slam import SlamNode, SlamNodeParams
 
     node = SlamNode(SlamNodeParams())
     c = node.slam.counts
     c.odometry_jumps.extend([(5_000_000_000, 3.99, 0.02, 0.96), (6_000_000_000, 0.55, -1.40, 0.95)])
     c.unplaced.extend([(8, 10, 12_500_000_000, 14_000_000_000)] + [(20 + 2 * k, 20 + 2 * k, 0, 0) for k in range(6)])
+    c.reversals_missed.extend([(7_000_000_000, 0.09, -0.06), (7_500_000_000, 0.04, -0.21)])
     skipped = node.skipped_counts()
     assert (
         skipped[
@@ -152,9 +153,19 @@ def test_odometry_jumps_and_unplaced_stretches_are_named_in_the_skipped_inputs()
     assert skipped[key] == 3
     # five stretches are named, the rest summed
     assert skipped["/scan: keyframes placed by odometry alone in 2 more stretches (see pose_graph.json unplaced)"] == 2
-    assert node.summary().endswith("; 2 odometry jumps placed by the wider search; 7 stretches not placed")
+    key = (
+        "/scan: steps the odometry measured forward and the scans back (up to 0.21 m; does the odometry report"
+        " driving backwards? see pose_graph.json reversals_missed)"
+    )
+    assert skipped[key] == 2
+    assert node.summary().endswith(
+        "; 2 odometry jumps placed by the wider search; 7 stretches not placed; 2 steps back the odometry measured"
+        " forward"
+    )
     graph = node.pose_graph()
     assert graph["counts"]["odometry_jumps"] == 2 and len(graph["unplaced"]) == 7
+    assert graph["counts"]["reversals_missed"] == 2
+    assert graph["reversals_missed"][1] == {"stamp_ns": 7_500_000_000, "odometry_forward": 0.04, "scans_back": -0.21}
     assert graph["odometry_jumps"][1] == {"stamp_ns": 6_000_000_000, "distance": 0.55, "turn": -1.40, "response": 0.95}
     assert graph["unplaced"][0] == {
         "first": 8,
