@@ -49,7 +49,7 @@ class OccupancyParams:
     free_threshold: float = 0.196  # map_server's free_thresh
     max_laser_range: float = 0.0  # longer readings clear up to here and mark nothing (0: no clipping)
     no_return_ray_length: float = 0.0  # clear this far along beams with no return (0: they clear nothing)
-    grow_block: float = 5.0  # the grid grows in blocks of this many metres
+    grow_block: float = 5.0  # the grid grows in blocks of this many metres (whole cells: rounded up to them)
 
     def __post_init__(self) -> None:
         if self.resolution <= 0:
@@ -58,6 +58,8 @@ class OccupancyParams:
             raise ValueError("hit_probability must be in (0.5, 1) and miss_probability in (0, 0.5)")
         if not (0.0 < self.free_threshold < self.occupied_threshold < 1.0):
             raise ValueError("need 0 < free_threshold < occupied_threshold < 1")
+        if not (math.isfinite(self.grow_block) and self.grow_block >= self.resolution):
+            raise ValueError(f"grow_block must be a finite length of one cell ({self.resolution} m) or more")
         for name in ("max_laser_range", "no_return_ray_length"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
@@ -88,6 +90,9 @@ class OccupancyGrid2D:
         self.l_hit = logit(params.hit_probability)
         self.l_miss = logit(params.miss_probability)
         self.l_min, self.l_max = logit(params.clamp[0]), logit(params.clamp[1])
+        # the grid grows in whole cells: grow_block, or the whole cells just over it where it is not a whole number
+        cells = self.p.grow_block / self.res
+        self._block = self.p.grow_block if abs(cells - round(cells)) <= 1e-9 * cells else math.ceil(cells) * self.res
         self.origin = np.zeros(2)  # world position of cell (0, 0)'s corner
         self.logodds = np.zeros((0, 0), dtype=np.float32)  # (ny, nx)
         self.seen = np.zeros((0, 0), dtype=bool)
@@ -100,7 +105,7 @@ class OccupancyGrid2D:
 
     # ------------------------------------------------------------ growth
     def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
-        block = self.p.grow_block
+        block = self._block
         lo = np.floor(np.array([xmin, ymin]) / block) * block
         hi = (np.floor(np.array([xmax, ymax]) / block) + 1) * block  # strictly beyond the max, never empty
         if self.logodds.size:  # the grid after growing spans both what it has and the new bounds

@@ -245,9 +245,9 @@ class SlamCounts:
     unplaced: list[tuple[int, int, int, int]] = field(default_factory=list)
     # keyframes left out of the map: their pose or readings lie too far off for a grid (GridTooLarge)
     off_map: set[int] = field(default_factory=set)
-    # (stamp ns, the odometry's step forward m, the scans' step back m, both since the last scan matched) of every
-    # scan whose match pins x and y and measured a step back where the odometry measured one forward
-    # (``REVERSAL_MISSED`` or more each): wheels that report no driving backwards
+    # (stamp ns, the odometry's step forward m, the scans' step m, negative: back; both since the last keyframe or
+    # scan a match was tried for) of every scan whose match pins x and y and measured a step back where the
+    # odometry measured one forward (``REVERSAL_MISSED`` or more each): wheels that report no driving backwards
     reversals_missed: list[tuple[int, float, float]] = field(default_factory=list)
 
 
@@ -476,8 +476,8 @@ class Slam2D:
 
     def _check_reversal(self, stamp: int, odom: gtsam.Pose2, match: MatchResult) -> None:
         """Count the scan in ``counts.reversals_missed`` when its match pins x and y and measured a step back of
-        ``REVERSAL_MISSED`` or more (along the robot's heading, since the last scan matched: the anchor) where the
-        odometry measured one forward as long."""
+        ``REVERSAL_MISSED`` or more (along the robot's heading, since the anchor: the last keyframe or scan a match
+        was tried for, at its pose then) where the odometry measured one forward as long."""
         if not _pins_position(match):
             return
         _, anchor_odom, anchor_rel = self._anchor

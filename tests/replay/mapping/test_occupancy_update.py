@@ -153,3 +153,30 @@ def test_a_group_larger_than_the_sample_budget_is_taken_in_parts_with_the_same_b
     assert small.logodds.tobytes() == default.logodds.tobytes() and small.seen.tobytes() == default.seen.tobytes()
     # every part within the budget, but for a single beam longer than it
     assert all(beams * samples <= 200 or beams == 1 for beams, samples in shapes) and len(shapes) > 100
+
+
+@pytest.mark.parametrize(("resolution", "block"), [(0.03, 0.7), (0.07, 5.0), (0.045, 5.0)])
+def test_a_block_that_is_no_whole_number_of_cells_grows_the_grid_by_whole_cells(resolution, block):
+    # 0.7 m is 23.3 cells of 3 cm: a grid of 23 cells would end 1 cm short of the block, and an end point there
+    # would fall off it (or into the next row); the grid grows by the 24 cells over the block instead
+    grid = OccupancyGrid2D(OccupancyParams(resolution=resolution, grow_block=block))
+    edge = math.ceil(block / resolution - 1e-9) * resolution
+    far = edge - 0.25 * resolution  # in the block's last whole cell, beyond the block itself where it is short
+    ang = np.array([0.0, math.pi / 4, math.pi / 2])
+    grid.insert_scan(pose(0.0, 0.0, 0.0), ang, np.array([far, far * math.sqrt(2), far]), 0.001, 100.0)
+    n = math.ceil(block / resolution - 1e-9)
+    assert grid.logodds.shape == (n, n) and (grid.origin == 0).all()
+    hits = {tuple(int(v) for v in rc) for rc in np.argwhere(grid.logodds > 0)}
+    assert hits == {(0, n - 1), (n - 1, n - 1), (n - 1, 0)}
+    assert not grid._buffers["mask"].any()
+    # grown by a block down and left, the grid keeps its cells on the same lattice: those hits lie a block's cells on
+    grid.insert_scan(pose(-0.5 * edge, -0.5 * edge, 0.0), ang[:1], np.array([0.25 * edge]), 0.001, 100.0)
+    assert grid.logodds.shape == (2 * n, 2 * n) and np.allclose(grid.origin, -edge)
+    grown = {tuple(int(v) for v in rc) for rc in np.argwhere(grid.logodds > 0)}
+    assert {(r + n, c + n) for r, c in hits} < grown and len(grown) == 4
+
+
+@pytest.mark.parametrize("block", [0.0, -1.0, 0.01, math.inf, math.nan])
+def test_a_block_under_one_cell_or_not_finite_is_refused(block):
+    with pytest.raises(ValueError, match="grow_block"):
+        OccupancyParams(resolution=0.05, grow_block=block)

@@ -1517,18 +1517,29 @@ def test_a_scan_of_more_beams_than_the_match_takes_is_thinned_and_still_placed(s
     assert np.hypot(*(poses[:, :2] - np.array(truth)[:, :2]).T).max() < 0.04
 
 
-def test_steps_back_the_odometry_measured_forward_are_counted(scene):
-    # wheels that lose the sign of their speed: the robot drives 1 m along x, 0.4 m back and on again, 2 cm a scan;
+@pytest.mark.parametrize(
+    ("start", "heading", "keyframes_only"),
+    [((-1.5, -0.5), 0.0, False), ((1.0, -1.5), 2.3, False), ((-1.5, -0.5), 0.0, True)],
+)
+def test_steps_back_the_odometry_measured_forward_are_counted(scene, start, heading, keyframes_only):
+    # wheels that lose the sign of their speed: the robot drives 1 m ahead, 0.4 m back and on again, 2 cm a scan;
     # the odometry adds every step forward. The matches between keyframes (one each 0.5 s: 10 cm) pin the
     # room and measure the steps back: the four of the stretch driven back are counted (the next keyframe, 0.8 m
-    # from its prediction, is an odometry jump the wider search places), where exact odometry counts none
-    xs = np.concatenate([np.arange(50) * 0.02, 1.0 - np.arange(20) * 0.02, 0.6 + np.arange(40) * 0.02]) - 1.5
-    truth = np.column_stack([xs, np.full(len(xs), -0.5), np.zeros(len(xs))])
-    odom = truth.copy()
-    odom[:, 0] = xs[0] + np.concatenate([[0.0], np.cumsum(np.abs(np.diff(xs)))])
-    params = SlamParams(do_loop_closing=False)
+    # from its prediction, is an odometry jump the wider search places), where exact odometry counts none. The
+    # same with keyframes every 10 cm and no matches between them, and along any heading
+    along = np.concatenate([np.arange(50) * 0.02, 1.0 - np.arange(20) * 0.02, 0.6 + np.arange(40) * 0.02])
+    direction = np.array([math.cos(heading), math.sin(heading)])
+    truth = np.column_stack([start + along[:, None] * direction, np.full(len(along), heading)])
+    odometer = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(along)))])
+    odom = np.column_stack([start + odometer[:, None] * direction, truth[:, 2]])
+    if keyframes_only:
+        params = SlamParams(do_loop_closing=False, match_between_keyframes=False, minimum_travel_distance=0.1)
+    else:
+        params = SlamParams(do_loop_closing=False)
     lost = run_slam(scene, truth, odom, params).counts.reversals_missed
     assert run_slam(scene, truth, truth, params).counts.reversals_missed == []
-    assert [stamp // 100_000_000 for stamp, _, _ in lost] == [55, 60, 65, 70]
-    for _, forward, back in lost:
-        assert abs(forward - 0.1) < 1e-9 and abs(back + 0.1) < 0.015
+    # each 10 cm (the keyframes: the first scan the odometer puts 10 cm on, by its float sums 55 or 56)
+    first = lost[0][0] // 100_000_000
+    assert first in (55, 56) and [stamp // 100_000_000 for stamp, _, _ in lost] == [first + 5 * k for k in range(4)]
+    for _, forward, back in lost:  # (a keyframe's step is from the last one's pose weighed against the odometry)
+        assert 0.1 - 1e-6 < forward < 0.125 and -0.125 < back < -0.05
