@@ -240,7 +240,7 @@ class OccupancyGrid2D:
         mask[end_cells] = 2
         mask[ncell] = 0  # the spare cell of the samples past a beam's free part
         marks = mask[:ncell].reshape(ny, nx)[box]
-        # the box's marks as one row-major run (a copy: the box is strided within the grid), read by position
+        # the box's marks as one row-major run (a copy where the box is narrower than the grid), read by position
         run = marks.ravel()
         at = run.nonzero()[0]  # increasing: the flat cells in increasing order
         mark = run[at]
