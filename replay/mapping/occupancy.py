@@ -60,6 +60,14 @@ class OccupancyParams:
             raise ValueError("need 0 < free_threshold < occupied_threshold < 1")
         if not (math.isfinite(self.grow_block) and self.grow_block >= self.resolution):
             raise ValueError(f"grow_block must be a finite length of one cell ({self.resolution} m) or more")
+        if (self.grow_block / self.resolution) ** 2 > MAX_CELLS:
+            raise ValueError(
+                f"grow_block ({self.grow_block} m) is a block of {(self.grow_block / self.resolution) ** 2:.3g} cells "
+                f"at resolution {self.resolution} m: at most {MAX_CELLS:.0e} (the grid grows by blocks)"
+            )
+        low, high = self.clamp
+        if not (math.isfinite(low) and math.isfinite(high) and 0.0 < low < 0.5 < high < 1.0):
+            raise ValueError(f"clamp ({low}, {high}) must hold 0 < low < 0.5 < high < 1 (a cell's probability limits)")
         for name in ("max_laser_range", "no_return_ray_length"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):

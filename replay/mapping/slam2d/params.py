@@ -14,11 +14,19 @@ from dataclasses import dataclass
 from typing import Literal
 
 from navlog.replay.config import param
-from navlog.replay.limits import MAX_PERIOD_S, MIN_MAP_PERIOD_S
+from navlog.replay.limits import MAX_GRID_CELLS, MAX_PERIOD_S, MIN_GRID_RESOLUTION_M, MIN_MAP_PERIOD_S
 
 # a square searched on the correlation grid spans at most this many of its cells per side (8 m at 0.025 m: 320;
 # a lookup grid for 800 is ~0.3 GB of pooled levels)
 MAX_SEARCH_CELLS = 800
+
+# the yaws a search tries (2 coarse_search_angle_offset / coarse_angle_resolution + 1) at most: a tenth of a degree
+# around the whole turn
+MAX_SEARCH_YAWS = 3601
+# the largest map cell (the map grows in blocks of 5 m)
+MAX_MAP_RESOLUTION = 5.0
+# a standard deviation of an edge or of the odometry: from a tenth of a millimetre (or milliradian) up
+SIGMA_RANGE = (1e-4, 1e3)
 
 # slam_toolbox's odometry frame; a replay takes the one a navlog recording names instead (the mapping
 # pipeline's settle)
@@ -214,3 +222,51 @@ class SlamParams:
             sig = getattr(self, name)
             if len(sig) != 3 or not all(math.isfinite(s) and s > 0 for s in sig):
                 raise ValueError(f"{name} needs three positive standard deviations (x, y, yaw), got {sig}")
+            if not all(SIGMA_RANGE[0] <= s <= SIGMA_RANGE[1] for s in sig):
+                raise ValueError(
+                    f"{name} {sig}: each standard deviation between {SIGMA_RANGE[0]} and {SIGMA_RANGE[1]} (metres, "
+                    "radians)"
+                )
+        self._check_extents()
+
+    def _check_extents(self) -> None:
+        """Values that pass as numbers but would make a search's or a grid's arrays absurd."""
+        if not MIN_GRID_RESOLUTION_M <= self.resolution <= MAX_MAP_RESOLUTION:
+            raise ValueError(
+                f"resolution ({self.resolution} m) is a map cell: between {MIN_GRID_RESOLUTION_M} and "
+                f"{MAX_MAP_RESOLUTION} m"
+            )
+        res = self.correlation_search_space_resolution
+        if res < MIN_GRID_RESOLUTION_M:
+            raise ValueError(f"correlation_search_space_resolution ({res} m) is below {MIN_GRID_RESOLUTION_M} m")
+        for name in ("correlation_search_space_dimension", "loop_search_space_dimension"):
+            if getattr(self, name) < res:
+                raise ValueError(
+                    f"{name} ({getattr(self, name)} m) is less than one cell of correlation_search_space_resolution "
+                    f"({res} m)"
+                )
+        # a lookup grid spans the reference the laser reaches either way, and the likelihood's reach beyond it
+        side = (2 * self.max_laser_range + 6 * self.correlation_search_space_smear_deviation) / res
+        if not side * side <= MAX_GRID_CELLS:
+            raise ValueError(
+                f"max_laser_range ({self.max_laser_range} m) and correlation_search_space_smear_deviation "
+                f"({self.correlation_search_space_smear_deviation} m) make a lookup grid of {side:.3g} cells a side at "
+                f"correlation_search_space_resolution {res} m: at most {MAX_GRID_CELLS:.0e} cells; set a shorter "
+                "range, a smaller deviation or a coarser resolution"
+            )
+        if self.coarse_search_angle_offset > math.pi:
+            raise ValueError(
+                f"coarse_search_angle_offset ({self.coarse_search_angle_offset} rad) is more than half a turn either way"
+            )
+        yaws = 2 * self.coarse_search_angle_offset / self.coarse_angle_resolution + 1
+        if yaws > MAX_SEARCH_YAWS:
+            raise ValueError(
+                f"coarse_search_angle_offset ({self.coarse_search_angle_offset} rad) over coarse_angle_resolution "
+                f"({self.coarse_angle_resolution} rad) makes {yaws:.3g} yaws a search: at most {MAX_SEARCH_YAWS}"
+            )
+        if self.loop_search_maximum_distance > self.loop_search_maximum_dimension / 2:
+            raise ValueError(
+                f"loop_search_maximum_distance ({self.loop_search_maximum_distance} m) reaches past the widest loop "
+                f"square (loop_search_maximum_dimension, {self.loop_search_maximum_dimension} m a side): at most half "
+                "its side; widen the square too"
+            )

@@ -180,3 +180,18 @@ def test_a_block_that_is_no_whole_number_of_cells_grows_the_grid_by_whole_cells(
 def test_a_block_under_one_cell_or_not_finite_is_refused(block):
     with pytest.raises(ValueError, match="grow_block"):
         OccupancyParams(resolution=0.05, grow_block=block)
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ({"grow_block": 1e6}, r"grow_block \(1000000.0 m\) is a block of 4e\+14 cells"),
+        ({"clamp": (0.0, 1.0)}, "clamp"),  # logit(0) and logit(1) are infinite
+        ({"clamp": (-1.0, 2.0)}, "clamp"),
+        ({"clamp": (0.9, 0.1)}, "clamp"),
+        ({"clamp": (0.5, 0.5)}, "clamp"),
+    ],
+)
+def test_absurd_grid_parameters_are_refused_with_their_keys(values, message):
+    with pytest.raises(ValueError, match=message):
+        OccupancyParams(**values)

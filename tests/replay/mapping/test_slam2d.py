@@ -810,6 +810,45 @@ def test_bad_parameters_are_named():
         Slam2D(SlamParams()).add_scan(0, (0.0, math.nan, 0.0), scan_of(np.full(N_BEAMS, 2.0)))
 
 
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        # values that pass as numbers but would make a search's or a grid's arrays absurd (each once a traceback)
+        ({"resolution": 1e308}, r"resolution \(1e\+308 m\) is a map cell: between 0.005 and 5.0 m"),
+        ({"resolution": 1e-4}, "is a map cell"),
+        (
+            {
+                "correlation_search_space_resolution": 1e-6,
+                "correlation_search_space_dimension": 1e-4,
+                "loop_search_space_dimension": 1e-4,
+                "loop_search_maximum_dimension": 1e-4,
+            },
+            r"correlation_search_space_resolution \(1e-06 m\) is below 0.005 m",
+        ),
+        ({"correlation_search_space_resolution": 1e300}, "less than one cell of correlation_search_space_resolution"),
+        ({"correlation_search_space_smear_deviation": 1e308}, "make a lookup grid of inf cells a side"),
+        (
+            {"max_laser_range": 200.0, "correlation_search_space_resolution": 0.01},
+            r"lookup grid of 4.01e\+04 cells a side",
+        ),
+        ({"coarse_angle_resolution": 1e-9}, r"makes 6.98e\+08 yaws a search: at most 3601"),
+        ({"coarse_search_angle_offset": 1e308}, "more than half a turn either way"),
+        ({"loop_search_maximum_distance": 1e6}, "reaches past the widest loop square"),
+        ({"odometry_sigmas": (1e-300, 1e-300, 1e-300)}, "odometry_sigmas .* between 0.0001 and 1000.0"),
+        ({"match_sigmas": (1e300, 0.1, 0.1)}, "match_sigmas"),
+        ({"loop_sigmas": (0.05, 0.05, 1e-300)}, "loop_sigmas"),
+    ],
+)
+def test_absurd_extents_are_refused_with_their_keys(values, message):
+    with pytest.raises(ValueError, match=message):
+        SlamParams(**values)
+    # the limits themselves are values a run takes
+    SlamParams(loop_search_maximum_dimension=4.0, loop_search_space_dimension=4.0, loop_search_maximum_distance=2.0)
+    SlamParams(resolution=5.0, correlation_search_space_resolution=0.01)  # slam_toolbox's own
+    SlamParams(resolution=0.005, correlation_search_space_resolution=0.005, loop_search_space_dimension=4.0)
+    SlamParams(loop_search_maximum_distance=10.0, odometry_sigmas=(1e-4, 1e-4, 1e3))
+
+
 def test_the_map_is_drawn_to_the_laser_range_and_a_keyframe_no_grid_can_hold_is_left_out(scene):
     from navlog.replay.mapping.occupancy import OccupancyParams
 
