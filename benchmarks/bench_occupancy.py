@@ -31,7 +31,7 @@ from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository: tests/ holds the oracle and readers
 from benchmarks.bench_costmap import cpu_name
-from tests.replay.mapping.occupancy_oracle import compiled_scan_update
+from tests.replay.mapping.occupancy_oracle import per_beam_update
 from tests.replay.mapping.planar_logs import planar_tum, read_bag
 from tests.shared_data import default_shared_dir
 
@@ -41,15 +41,10 @@ DATASETS = ["intel", "aces", "seattle", "fhw"]
 def per_beam(grid: OccupancyGrid2D, t, last, d2c, g0, end_cells, box) -> None:
     """The grid's update by the compiled per-beam oracle, its cell marks kept between scans as the grid keeps its
     own (the oracle's test wrapper makes them afresh and checks the cells outside the box: not timed here)."""
-    ny, nx = grid.logodds.shape
     mask = grid._buffers.get("per-beam mask")
-    if mask is None or mask.size != ny * nx:
-        mask = grid._buffers["per-beam mask"] = np.zeros(ny * nx, dtype=np.int8)
-    f32 = np.float32
-    compiled_scan_update()(
-        grid.logodds.reshape(-1), grid.seen.reshape(-1), mask, nx, g0, d2c, t, last, end_cells,
-        f32(grid.l_miss), f32(grid.l_min), f32(grid.l_hit), f32(grid.l_max),
-    )  # fmt: skip
+    if mask is None or mask.size != grid.logodds.size:
+        mask = grid._buffers["per-beam mask"] = np.zeros(grid.logodds.size, dtype=np.int8)
+    per_beam_update(grid, mask, t, last, d2c, g0, end_cells)
 
 
 def draw(scans: list[tuple], poses: np.ndarray, oracle: bool) -> tuple[float, float, str]:

@@ -60,9 +60,9 @@ class OccupancyParams:
             raise ValueError("need 0 < free_threshold < occupied_threshold < 1")
         if not (math.isfinite(self.grow_block) and self.grow_block >= self.resolution):
             raise ValueError(f"grow_block must be a finite length of one cell ({self.resolution} m) or more")
-        if (self.grow_block / self.resolution) ** 2 > MAX_CELLS:
+        if (self.block / self.resolution) ** 2 > MAX_CELLS:
             raise ValueError(
-                f"grow_block ({self.grow_block} m) is a block of {(self.grow_block / self.resolution) ** 2:.3g} cells "
+                f"grow_block ({self.grow_block} m) is a block of {(self.block / self.resolution) ** 2:.3g} cells "
                 f"at resolution {self.resolution} m: at most {MAX_CELLS:.0e} (the grid grows by blocks)"
             )
         low, high = self.clamp
@@ -72,6 +72,13 @@ class OccupancyParams:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite length >= 0 (0 turns it off), got {value}")
+
+    @property
+    def block(self) -> float:
+        """The side of the blocks the grid grows by, in metres: ``grow_block``, or the whole cells just over it where
+        it is not a whole number of cells."""
+        cells = self.grow_block / self.resolution
+        return self.grow_block if abs(cells - round(cells)) <= 1e-9 * cells else math.ceil(cells) * self.resolution
 
 
 @dataclass
@@ -98,9 +105,6 @@ class OccupancyGrid2D:
         self.l_hit = logit(params.hit_probability)
         self.l_miss = logit(params.miss_probability)
         self.l_min, self.l_max = logit(params.clamp[0]), logit(params.clamp[1])
-        # the grid grows in whole cells: grow_block, or the whole cells just over it where it is not a whole number
-        cells = self.p.grow_block / self.res
-        self._block = self.p.grow_block if abs(cells - round(cells)) <= 1e-9 * cells else math.ceil(cells) * self.res
         self.origin = np.zeros(2)  # world position of cell (0, 0)'s corner
         self.logodds = np.zeros((0, 0), dtype=np.float32)  # (ny, nx)
         self.seen = np.zeros((0, 0), dtype=bool)
@@ -113,7 +117,7 @@ class OccupancyGrid2D:
 
     # ------------------------------------------------------------ growth
     def _ensure(self, xmin: float, ymin: float, xmax: float, ymax: float) -> None:
-        block = self._block
+        block = self.p.block
         lo = np.floor(np.array([xmin, ymin]) / block) * block
         hi = (np.floor(np.array([xmax, ymax]) / block) + 1) * block  # strictly beyond the max, never empty
         if self.logodds.size:  # the grid after growing spans both what it has and the new bounds

@@ -398,7 +398,8 @@ class Slam2D:
         if points is not None and len(points):
             match = self._sequential_match(self._between_grid(base), points, pose, base, reversing)
             if match is not None:
-                self._check_reversal(stamp, odom, match)
+                if _pins_position(match):
+                    self._check_reversal(stamp, odom, match, base)
                 pose, _ = self._fuse(pose, base.theta(), match)
                 rel = base.between(_pose2(pose))
                 self.counts.matched_between += 1
@@ -474,17 +475,16 @@ class Slam2D:
             or abs(d.theta()) >= self.p.minimum_travel_heading
         )
 
-    def _check_reversal(self, stamp: int, odom: gtsam.Pose2, match: MatchResult) -> None:
-        """Count the scan in ``counts.reversals_missed`` when its match pins x and y and measured a step back of
-        ``REVERSAL_MISSED`` or more (along the robot's heading, since the anchor: the last keyframe or scan a match
-        was tried for, at its pose then) where the odometry measured one forward as long."""
-        if not _pins_position(match):
-            return
+    def _check_reversal(self, stamp: int, odom: gtsam.Pose2, match: MatchResult, last: gtsam.Pose2) -> None:
+        """Count the scan in ``counts.reversals_missed`` when its match (one that pins x and y) measured a step back
+        of ``REVERSAL_MISSED`` or more (along the robot's heading, since the anchor: the last keyframe or scan a
+        match was tried for, at its pose then; ``last`` is the last keyframe's pose) where the odometry measured
+        one forward as long."""
         _, anchor_odom, anchor_rel = self._anchor
         forward = anchor_odom.between(odom).x()
         if forward < REVERSAL_MISSED:
             return
-        back = self._pose(self.keyframes[-1].index).compose(anchor_rel).between(_pose2(match.pose)).x()
+        back = last.compose(anchor_rel).between(_pose2(match.pose)).x()
         if back <= -REVERSAL_MISSED:
             self.counts.reversals_missed.append((stamp, float(forward), float(back)))
 
@@ -530,8 +530,8 @@ class Slam2D:
                 cov = self._match_covariance(recovered, self.p.match_sigmas)
                 kind, response = "match", recovered.response
             elif match is not None:
-                self._check_reversal(stamp, odom, match)
                 if _pins_position(match):
+                    self._check_reversal(stamp, odom, match, prev)
                     innovation = rot.T @ (match.pose - pose)
                     innovation[2] = remainder_angle(float(innovation[2]))
                     self._innovations.append(innovation)

@@ -88,6 +88,32 @@ def compiled_scan_update():
     return numba.njit(cache=False)(scan_update)
 
 
+def per_beam_update(
+    grid: OccupancyGrid2D,
+    mask: np.ndarray,
+    t: np.ndarray,
+    last: np.ndarray,
+    d2c: np.ndarray,
+    g0: np.ndarray,
+    end_cells: np.ndarray,
+) -> None:
+    """The grid's update computed by ``scan_update`` (compiled) with the int8 work array ``mask`` (one a cell, all
+    zero; zero again after)."""
+    f32 = np.float32
+    compiled_scan_update()(
+        grid.logodds.reshape(-1),
+        grid.seen.reshape(-1),
+        mask,
+        grid.logodds.shape[1],
+        g0,
+        d2c,
+        t,
+        last,
+        end_cells,
+        *(f32(grid.l_miss), f32(grid.l_min), f32(grid.l_hit), f32(grid.l_max)),
+    )
+
+
 def reference_update(
     grid: OccupancyGrid2D,
     t: np.ndarray,
@@ -99,21 +125,8 @@ def reference_update(
 ) -> None:
     """``OccupancyGrid2D._update``'s contract, computed by ``scan_update``; it also checks that every cell the
     scan changes lies in ``box``, where the grid's own update looks for them."""
-    ny, nx = grid.logodds.shape
     before = grid.logodds.copy(), grid.seen.copy()
-    f32 = np.float32
-    compiled_scan_update()(
-        grid.logodds.reshape(-1),
-        grid.seen.reshape(-1),
-        np.zeros(ny * nx, dtype=np.int8),
-        nx,
-        g0,
-        d2c,
-        t,
-        last,
-        end_cells,
-        *(f32(grid.l_miss), f32(grid.l_min), f32(grid.l_hit), f32(grid.l_max)),
-    )
+    per_beam_update(grid, np.zeros(grid.logodds.size, dtype=np.int8), t, last, d2c, g0, end_cells)
     changed = (grid.logodds != before[0]) | (grid.seen != before[1])
     changed[box] = False
     assert not changed.any(), f"the scan changed cells outside its box {box}"
