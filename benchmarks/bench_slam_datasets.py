@@ -36,7 +36,8 @@ seeded noise added to the reference's positions, a check of the method on the da
 figure should grow to sqrt(own^2 + 4 SIGMA^2) (two positions per move, two axes), the others' stay. The last
 line counts the keyframes the wider searches placed where the odometry jumped (pose_graph.json
 ``odometry_jumps``), and of them the turns the odometry missed (more than the sequential search's fan), and the
-steps back the odometry measured forward (``reversals_missed``: wheels that do not report driving backwards).
+steps back the odometry measured forward (``reversals_missed``: wheels that do not report driving backwards) and
+the times the SLAM read the odometry backwards (``reversals_inferred``, ``infer_reversing``).
 
 With ``--maps DIR``, ``DIR/NAME-maps.png``: the walls of the map drawn from the reference and of the one drawn
 from the SLAM side by side, in the 16 m square centred where the SLAM is farthest from the reference.
@@ -473,9 +474,11 @@ def evaluate(
     jumps = graph["odometry_jumps"]
     turned = sum(abs(j["turn"]) > slam_params.coarse_search_angle_offset for j in jumps)
     reversals = len(graph.get("reversals_missed", []))
+    backwards = sum(r["read"] == "backwards" for r in graph.get("reversals_inferred", []))
     print(
         f"{'':<8} ({len(ts)}/{len(ref_t)} scans placed, {travel:.0f} m, odometry jumps {len(jumps)} ({turned} turns),"
-        f" steps back the odometry measured forward {reversals}, load {before} -> {load()})",
+        f" steps back the odometry measured forward {reversals}, read backwards {backwards},"
+        f" load {before} -> {load()})",
         flush=True,
     )
     return ates

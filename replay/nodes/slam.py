@@ -216,12 +216,16 @@ class SlamNode(Node):
                 "optimizations": self.slam.graph.optimizations,
                 "odometry_jumps": len(c.odometry_jumps),
                 "reversals_missed": len(c.reversals_missed),
+                "reversals_inferred": len(c.reversals_inferred),
             },
             "odometry_jumps": [
                 {"stamp_ns": t, "distance": d, "turn": a, "response": r} for t, d, a, r in c.odometry_jumps
             ],
             "reversals_missed": [
                 {"stamp_ns": t, "odometry_forward": f, "scans_back": b} for t, f, b in c.reversals_missed
+            ],
+            "reversals_inferred": [
+                {"stamp_ns": t, "read": "backwards" if d < 0 else "forwards"} for t, d in c.reversals_inferred
             ],
             "unplaced": [
                 {"first": a, "last": b, "first_stamp_ns": ta, "last_stamp_ns": tb} for a, b, ta, tb in c.unplaced
@@ -261,6 +265,9 @@ class SlamNode(Node):
             line += f"; {len(c.unplaced)} stretches not placed"
         if c.reversals_missed:
             line += f"; {len(c.reversals_missed)} steps back the odometry measured forward"
+        backwards = sum(1 for _, d in c.reversals_inferred if d < 0)
+        if backwards:
+            line += f"; the odometry read backwards {backwards} times where the scans said the robot drove back"
         return line
 
     def skipped_counts(self) -> dict[str, int]:

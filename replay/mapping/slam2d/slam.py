@@ -97,6 +97,14 @@ MAX_MATCH_POINTS = 8192
 # SIGHT_MARGIN beyond where its beam ended, is in its sight; a fan of FULL_FAN or more looks all round
 REVERSING = 0.05  # m
 REVERSAL_MISSED = 0.02  # m: a step the odometry measured forward and the scans back, each by this much or more
+# infer_reversing: odometry that has reported driving back REPORTS_REVERSING in all (its steps' backward parts summed)
+# knows the sign of its speed; a match whose response is DOUBTED below the median of the last ODOMETRY_WINDOW
+# matches' is tried with the odometry's step since the last match (REVERSAL_MISSED or longer) read backwards, which
+# is kept when its response is DOUBTED above and no more than DOUBTED below that median; a robot whose odometry moved slower than STOPPED between two scans
+# stopped and drives on forward
+REPORTS_REVERSING = 0.01  # m
+DOUBTED = 0.1
+STOPPED = 0.02  # m/s
 SIGHT_ROUNDS = 2  # the points in sight are judged again at the pose their match found, this many times at most
 UNSEEN_SHARE = 0.2
 LEAST_IN_SIGHT = 0.1
@@ -211,13 +219,14 @@ def surface_points(points: np.ndarray, spacing: float, max_gap: float) -> np.nda
 class Keyframe:
     index: int
     stamp: int  # ns
-    odom: gtsam.Pose2  # the odometry pose at the stamp
+    odom: gtsam.Pose2  # the odometry pose at the stamp, as the SLAM reads it (``infer_reversing``)
     points: np.ndarray  # (N, 2) in the robot frame
     scan: LaserScan2D
     surface: np.ndarray  # (M, 2) the points joined into surfaces (``surface_points``), for matching against
     # (3, 3) map-frame covariance of its step from the keyframe before (its match weighted against the odometry, or
     # the odometry's alone); the identity for the first
     covariance: np.ndarray
+    log_odom: gtsam.Pose2  # the odometry pose at the stamp as the log gives it (``map_to_odom``'s)
 
 
 @dataclass
@@ -249,10 +258,18 @@ class SlamCounts:
     # scan a match was tried for) of every scan whose match pins x and y and measured a step back where the
     # odometry measured one forward (``REVERSAL_MISSED`` or more each): wheels that report no driving backwards
     reversals_missed: list[tuple[int, float, float]] = field(default_factory=list)
+    # (stamp ns, -1: driving back, 1: forward) of every scan from which on ``infer_reversing`` read the odometry's
+    # steps the other way (1 where the robot stopped)
+    reversals_inferred: list[tuple[int, int]] = field(default_factory=list)
 
 
 def _pose2(pose) -> gtsam.Pose2:
     return gtsam.Pose2(float(pose[0]), float(pose[1]), float(pose[2]))
+
+
+def _backwards(step: gtsam.Pose2) -> gtsam.Pose2:
+    """An odometry step driven the other way: its translation negated, its turn as it was."""
+    return gtsam.Pose2(-step.x(), -step.y(), step.theta())
 
 
 def _rotation(yaw: float) -> np.ndarray:
@@ -309,6 +326,18 @@ class Slam2D:
         # the last keyframe or scan a match was tried for (placed by it, or by the odometry when it failed):
         # (stamp, odometry pose, pose in its keyframe's frame)
         self._anchor: tuple[int, gtsam.Pose2, gtsam.Pose2] = (0, gtsam.Pose2(), gtsam.Pose2())
+        # the odometry as the SLAM reads it (infer_reversing): the log's pose and stamp at the last scan, the pose
+        # read there, the way its steps are read (1 as given, -1 backwards), how far the log's odometry has reported
+        # driving back in all, the read pose of the log's frame origin while read as given after a reversal, the
+        # keyframes when the reading last turned, and the last matches' responses
+        self._log_odom: gtsam.Pose2 | None = None
+        self._log_stamp = 0
+        self._odom = gtsam.Pose2()
+        self._direction = 1
+        self._reported_back = 0.0
+        self._read_origin: gtsam.Pose2 | None = None
+        self._turned_at = -1
+        self._responses: deque[float] = deque(maxlen=ODOMETRY_WINDOW)
         self._between: tuple[tuple[int, int], LookupGrid] | None = None  # see _between_grid
         self._grid = OccupancyGrid2D(self.grid_params)
         self._grid_poses = np.zeros((0, 3))  # the poses the keyframes in _grid were inserted at
@@ -348,7 +377,7 @@ class Slam2D:
         if not all(math.isfinite(float(v)) for v in odom_pose):
             raise ValueError(f"odometry pose not finite: {tuple(odom_pose)}")
         self.counts.scans += 1
-        odom = _pose2(odom_pose)
+        odom = self._read_odometry(stamp, _pose2(odom_pose))
         prediction = self._predict(odom)
         # throttle_scans: a scan it passes over is placed like a scan between keyframes that no match is due for
         processed = not self.keyframes or self.counts.scans % self.p.throttle_scans == 0
@@ -369,7 +398,7 @@ class Slam2D:
             points is not None and bool(self.keyframes) and self._reversing(scan, self.keyframes[-1].odom.between(odom))
         )
         if not keyframe:
-            return self._between_keyframes(stamp, odom, points, reversing)
+            return self._between_keyframes(stamp, odom, points, scan, reversing)
         assert points is not None
         pose = self._add_keyframe(stamp, odom, points, scan, prediction, reversing)
         if self.p.do_loop_closing:
@@ -384,7 +413,7 @@ class Slam2D:
         return self.p.match_between_keyframes and stamp - self._anchor[0] >= self.p.minimum_time_interval * 1e9
 
     def _between_keyframes(
-        self, stamp: int, odom: gtsam.Pose2, points: np.ndarray | None, reversing: bool
+        self, stamp: int, odom: gtsam.Pose2, points: np.ndarray | None, scan: LaserScan2D, reversing: bool
     ) -> np.ndarray:
         """A scan that is no keyframe: placed by the odometry since the last keyframe or scan a match was tried
         for (its *anchor*) or,
@@ -393,10 +422,17 @@ class Slam2D:
         last = self.keyframes[-1]
         base = self._pose(last.index)
         _, anchor_odom, anchor_rel = self._anchor
-        rel = anchor_rel.compose(self._calibrated(anchor_odom.between(odom)))
+        step = self._calibrated(anchor_odom.between(odom))
+        rel = anchor_rel.compose(step)
         pose = _xyt(base.compose(rel))
         if points is not None and len(points):
-            match = self._sequential_match(self._between_grid(base), points, pose, base, reversing)
+            grid = self._between_grid(base)
+            match = self._sequential_match(grid, points, pose, base, reversing)
+            other, back = self._sign_checked(
+                grid, points, match, step, base.compose(anchor_rel), scan, stamp, reversing, False
+            )
+            if other is not None and back is not None:
+                match, pose = other, back
             if match is not None:
                 if _pins_position(match):
                     self._check_reversal(stamp, odom, match, base)
@@ -429,10 +465,99 @@ class Slam2D:
             self._between = (key, self.matcher.grid(reference, self._link))
         return self._between[1]
 
+    def _read_odometry(self, stamp: int, log_odom: gtsam.Pose2) -> gtsam.Pose2:
+        """The odometry pose as the SLAM reads it at a scan of ``stamp`` whose log pose is ``log_odom``: as given
+        until ``infer_reversing`` reads a step backwards (``_sign_checked``), then the steps since chained, each
+        backwards while the robot is taken to drive back (its translation negated, its turn as given): until a
+        match finds it driving forward, or it stops (its odometry slower than ``STOPPED`` since the last scan)."""
+        previous = self._log_odom
+        elapsed, self._log_stamp = (stamp - self._log_stamp) * 1e-9, stamp
+        if previous is None:
+            self._odom = self._log_odom = log_odom
+            return log_odom
+        step = previous.between(log_odom)
+        self._reported_back += max(0.0, -step.x())
+        if self._direction < 0 and math.hypot(step.x(), step.y()) < STOPPED * elapsed:
+            self._turn_reading(stamp)  # (from the last scan's poses)
+        self._log_odom = log_odom
+        if self._direction < 0:
+            self._odom = self._odom.compose(_backwards(step))
+        elif self._read_origin is not None:
+            self._odom = self._read_origin.compose(log_odom)
+        else:
+            self._odom = log_odom
+        return self._odom
+
+    def _turn_reading(self, stamp: int) -> None:
+        """From the scan of ``stamp`` on, read the odometry's steps the other way (``_read_odometry``)."""
+        assert self._log_odom is not None  # a scan was read
+        self._direction = -self._direction
+        self.counts.reversals_inferred.append((stamp, self._direction))
+        self._turned_at = len(self.keyframes)
+        if self._direction > 0:
+            self._read_origin = self._odom.compose(self._log_odom.inverse())
+
+    def _sign_checked(
+        self,
+        grid: LookupGrid | None,
+        points: np.ndarray,
+        match: MatchResult | None,
+        step: gtsam.Pose2,
+        start: gtsam.Pose2,
+        scan: LaserScan2D,
+        stamp: int,
+        reversing: bool,
+        keyframe: bool,
+    ) -> tuple[MatchResult | None, np.ndarray | None]:
+        """``infer_reversing``: given the sequential ``match`` of a scan (on ``grid``), the match of the scan
+        predicted at ``start`` (the anchor's pose) composed with the odometry's ``step`` since the anchor read
+        backwards, and that prediction, when ``match`` fits ``DOUBTED`` less than the last matches did (or failed),
+        the step is ``REVERSAL_MISSED`` or longer and the step backwards fits ``DOUBTED`` better than the step as
+        read and as the last matches did, less ``DOUBTED`` (a scan that fits nowhere near, a turn the odometry
+        missed, is no reversal), pinning x and y; else (None, None). Fits are the whole scan's response at the pose found (a match of
+        the points in sight, ``match_in_sight``, which ``reversing`` says ``match`` may be, scores only those). A
+        ``keyframe``'s match is predicted from the last keyframe: both predictions from ``start`` are matched, each
+        on a grid around itself."""
+        if not self.p.infer_reversing or self._reported_back >= REPORTS_REVERSING:
+            return None, None
+        fit = 0.0 if match is None or grid is None else match.response
+        if reversing and match is not None and grid is not None:
+            fit = grid.response(match.pose, points)
+        if match is not None:
+            self._responses.append(fit)
+        if len(self._responses) < ODOMETRY_WINDOW // 2 or math.hypot(step.x(), step.y()) < REVERSAL_MISSED:
+            return None, None
+        usual = float(np.median(self._responses))
+        if fit > usual - DOUBTED:
+            return None, None
+        if match is not None and grid is not None:
+            fit = grid.response(match.pose, points)
+        back = _xyt(start.compose(_backwards(step)))
+        if keyframe:
+            ahead = _xyt(start.compose(step))
+            grid = self.matcher.grid_around(self._buffer_points(_pose2(ahead)), points, ahead, self._link)
+            found = self._sequential_match(grid, points, ahead, _pose2(ahead), self._reversing(scan, step))
+            fit = 0.0 if found is None or grid is None else grid.response(found.pose, points)
+            grid = self.matcher.grid_around(self._buffer_points(_pose2(back)), points, back, self._link)
+        other = self._sequential_match(grid, points, back, _pose2(back), self._reversing(scan, _backwards(step)))
+        if other is None or grid is None or not _pins_position(other):
+            return None, None
+        other_fit = grid.response(other.pose, points)
+        if other_fit < fit + DOUBTED or other_fit < usual - DOUBTED:
+            return None, None
+        if match is not None:
+            self._responses.pop()
+        self._responses.append(other_fit)
+        self._turn_reading(stamp)
+        return other, back
+
     def _predict(self, odom: gtsam.Pose2) -> gtsam.Pose2:
         if not self.keyframes:
             return odom  # the map frame starts where the odometry frame is
         last = self.keyframes[-1]
+        if self._turned_at == len(self.keyframes):  # the reading turned since the last keyframe: from the anchor
+            _, anchor_odom, anchor_rel = self._anchor
+            return self._pose(last.index).compose(anchor_rel).compose(self._calibrated(anchor_odom.between(odom)))
         return self._pose(last.index).compose(self._calibrated(last.odom.between(odom)))
 
     def _calibration_sample(self, matched: gtsam.Pose2, odometry: gtsam.Pose2) -> None:
@@ -505,6 +630,13 @@ class Slam2D:
         else:
             grid = self.matcher.grid_around(self._buffer_points(prediction), points, pose, self._link)
             match = self._sequential_match(grid, points, pose, prediction, reversing)
+            _, anchor_odom, anchor_rel = self._anchor
+            start = self._pose(i - 1).compose(anchor_rel)
+            since = self._calibrated(anchor_odom.between(odom))
+            other, back = self._sign_checked(grid, points, match, since, start, scan, stamp, reversing, True)
+            turned = False
+            if other is not None and back is not None:
+                match, pose, prediction, turned = other, back, _pose2(back), True
             prev = self._pose(i - 1)
             rot = _rotation(prev.theta())
             recovered = None
@@ -535,7 +667,8 @@ class Slam2D:
                     innovation = rot.T @ (match.pose - pose)
                     innovation[2] = remainder_angle(float(innovation[2]))
                     self._innovations.append(innovation)
-                    self._calibration_sample(prev.between(_pose2(match.pose)), step)
+                    if not turned:  # (the odometry's step since the last keyframe was read partly the other way)
+                        self._calibration_sample(prev.between(_pose2(match.pose)), step)
                 pose, cov = self._fuse(pose, prev.theta(), match)
                 self.counts.matched += 1
                 kind, response = "match", match.response
@@ -551,7 +684,8 @@ class Slam2D:
             self._travel.append(self._travel[-1] + float(np.linalg.norm(pose[:2] - _xyt(prev)[:2])))
         res = self.p.correlation_search_space_resolution
         surface = surface_points(points, res / 2, self.p.correlation_search_space_smear_deviation * 1.5)
-        self.keyframes.append(Keyframe(i, stamp, odom, points, scan, surface, cov))
+        assert self._log_odom is not None  # add_scan read it
+        self.keyframes.append(Keyframe(i, stamp, odom, points, scan, surface, cov, self._log_odom))
         self._signatures.append(self._signature(scan))
         self._range_max.append(
             max(self._range_max[-1], float(scan.range_max)) if self._range_max else float(scan.range_max)
@@ -1145,7 +1279,7 @@ class Slam2D:
         if not self.keyframes:
             return np.eye(4)
         last = self.keyframes[-1]
-        m = self._pose(last.index).compose(last.odom.inverse())
+        m = self._pose(last.index).compose(last.log_odom.inverse())
         return planar_matrix(m.x(), m.y(), m.theta())
 
     def trajectory(self) -> tuple[list[int], np.ndarray]:

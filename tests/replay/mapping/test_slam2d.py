@@ -1575,6 +1575,7 @@ def test_steps_back_the_odometry_measured_forward_are_counted(scene, start, head
         params = SlamParams(do_loop_closing=False, match_between_keyframes=False, minimum_travel_distance=0.1)
     else:
         params = SlamParams(do_loop_closing=False)
+    params = dataclasses.replace(params, infer_reversing=False)  # (counted with it too; see the next test)
     lost = run_slam(scene, truth, odom, params).counts.reversals_missed
     assert run_slam(scene, truth, truth, params).counts.reversals_missed == []
     # each 10 cm (the keyframes: the first scan the odometer puts 10 cm on, by its float sums 55 or 56)
@@ -1582,3 +1583,38 @@ def test_steps_back_the_odometry_measured_forward_are_counted(scene, start, head
     assert first in (55, 56) and [stamp // 100_000_000 for stamp, _, _ in lost] == [first + 5 * k for k in range(4)]
     for _, forward, back in lost:  # (a keyframe's step is from the last one's pose weighed against the odometry)
         assert 0.1 - 1e-6 < forward < 0.125 and -0.125 < back < -0.05
+
+
+@pytest.mark.parametrize(("start", "heading"), [((-4.0, -0.5), 0.0), ((2.5, -3.0), 2.3)])
+@pytest.mark.parametrize("stop", [0, 4])
+def test_odometry_that_lost_the_sign_of_its_speed_is_read_backwards_where_the_scans_say_so(scene, start, heading, stop):
+    # the robot drives 4 m ahead, 1.5 m back, stops for ``stop`` scans and drives 3 m on, 10 cm a scan; the
+    # odometry adds every step forward. A match every 0.5 s lies 1 m from the odometry's prediction once the robot
+    # drives back, beyond the search's square: it fits less than the matches before, the step read backwards fits,
+    # and the odometry is read backwards from then on, until the robot stops or a match finds it driving forward
+    along = np.concatenate(
+        [np.arange(41) * 0.1, 4.0 - np.arange(1, 16) * 0.1, np.full(stop, 2.5), 2.5 + np.arange(1, 31) * 0.1]
+    )
+    direction = np.array([math.cos(heading), math.sin(heading)])
+    truth = np.column_stack([start + along[:, None] * direction, np.full(len(along), heading)])
+    odometer = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(along)))])
+    odom = np.column_stack([start + odometer[:, None] * direction, truth[:, 2]])
+    params = SlamParams(do_loop_closing=False)
+    errors = {}
+    for infer in (True, False):
+        slam = run_slam(scene, truth, odom, dataclasses.replace(params, infer_reversing=infer))
+        _, poses = slam.trajectory()
+        errors[infer] = float(np.hypot(*(poses[:, :2] - truth[:, :2]).T).mean())
+        if not infer:
+            assert slam.counts.reversals_inferred == []
+            continue
+        (back, minus), (forward, plus) = slam.counts.reversals_inferred
+        assert (minus, plus) == (-1, 1)
+        assert 4_100_000_000 <= back <= 5_500_000_000  # (scans 41-55 are driven back)
+        if stop:  # the first scan the odometry stood still at
+            assert forward == 5_600_000_000
+        else:  # the next match or two
+            assert 5_600_000_000 <= forward <= 6_500_000_000
+    assert errors[True] < 0.09 and errors[True] < 0.7 * errors[False]
+    # odometry that reports driving back is never read the other way
+    assert run_slam(scene, truth, truth, params).counts.reversals_inferred == []

@@ -141,6 +141,7 @@ def test_odometry_jumps_missed_reversals_and_unplaced_stretches_are_named_in_the
     c.odometry_jumps.extend([(5_000_000_000, 3.99, 0.02, 0.96), (6_000_000_000, 0.55, -1.40, 0.95)])
     c.unplaced.extend([(8, 10, 12_500_000_000, 14_000_000_000)] + [(20 + 2 * k, 20 + 2 * k, 0, 0) for k in range(6)])
     c.reversals_missed.extend([(7_000_000_000, 0.09, -0.06), (7_500_000_000, 0.04, -0.21)])
+    c.reversals_inferred.extend([(7_000_000_000, -1), (9_000_000_000, 1), (9_500_000_000, -1)])
     skipped = node.skipped_counts()
     assert (
         skipped[
@@ -160,11 +161,15 @@ def test_odometry_jumps_missed_reversals_and_unplaced_stretches_are_named_in_the
     assert skipped[key] == 2
     assert node.summary().endswith(
         "; 2 odometry jumps placed by the wider search; 7 stretches not placed; 2 steps back the odometry measured"
-        " forward"
+        " forward; the odometry read backwards 2 times where the scans said the robot drove back"
     )
     graph = node.pose_graph()
     assert graph["counts"]["odometry_jumps"] == 2 and len(graph["unplaced"]) == 7
-    assert graph["counts"]["reversals_missed"] == 2
+    assert graph["counts"]["reversals_missed"] == 2 and graph["counts"]["reversals_inferred"] == 3
+    assert graph["reversals_inferred"][:2] == [
+        {"stamp_ns": 7_000_000_000, "read": "backwards"},
+        {"stamp_ns": 9_000_000_000, "read": "forwards"},
+    ]
     assert graph["reversals_missed"][1] == {"stamp_ns": 7_500_000_000, "odometry_forward": 0.04, "scans_back": -0.21}
     assert graph["odometry_jumps"][1] == {"stamp_ns": 6_000_000_000, "distance": 0.55, "turn": -1.40, "response": 0.95}
     assert graph["unplaced"][0] == {
