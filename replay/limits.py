@@ -29,7 +29,10 @@ MAX_SIM_TIME_S = 60.0  # a controller's or a safety check's look-ahead
 MIN_GRANULARITY = 1e-3  # DWB's time (s), linear (m) and angular (rad) granularity of a simulated trajectory
 MAX_SIMULATION_STEPS = 10_000  # collision monitor time_before_collision / simulation_time_step
 MAX_GOAL_TOLERANCE_M = 10.0  # a planner's goal tolerance: its search scans (2 x tolerance / resolution)^2 cells
+MAX_INFLATION_RADIUS_M = 50.0  # a costmap's inflation radius (Nav2's default: 0.55 m)
+MAX_INFLATION_CELLS = 1_000  # the inflation radius in cells: its cost table holds (radius / resolution)^2 costs
 MAX_SENSOR_POINTS = 1_000_000  # beams of a recorded scan, points of a recorded LiDAR frame
+MAX_TRANSFORM_TOLERANCE_S = 3600.0  # added to a published transform's stamp (its seconds are 32-bit)
 MAX_SEED = 2**32 - 1  # seeds are non-negative 32-bit integers (numpy's SeedSequence refuses negative ones)
 
 

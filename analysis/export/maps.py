@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 from navlog.errors import NavlogError
+
+MAX_RESOLUTION_M = 5.0  # a map cell (the 2D SLAM's largest)
+MAX_MIN_POINTS = 10**9  # points a cell needs to be occupied
 
 
 @dataclass(frozen=True)
@@ -40,9 +44,18 @@ def pcd_to_map(
     from navlog.replay.io.logwriter import check_output
     from navlog.replay.io.map_server import save_map
     from navlog.replay.io.pcd import read_pcd
+    from navlog.replay.limits import MIN_GRID_RESOLUTION_M
     from navlog.replay.mapping.occupancy import project_points
 
     pcd, output = Path(pcd), Path(output)
+    if not MIN_GRID_RESOLUTION_M <= resolution <= MAX_RESOLUTION_M:  # (NaN fails both)
+        raise NavlogError(
+            f"resolution {resolution!r}: must be {MIN_GRID_RESOLUTION_M} to {MAX_RESOLUTION_M:g} m a cell"
+        )
+    if not (math.isfinite(z_min) and math.isfinite(z_max) and z_min <= z_max):
+        raise NavlogError(f"z_min {z_min!r}, z_max {z_max!r}: must be finite heights, z_min not above z_max")
+    if not 1 <= min_points <= MAX_MIN_POINTS:
+        raise NavlogError(f"min_points {min_points!r}: must be 1 to {MAX_MIN_POINTS}")
     if not pcd.is_file():
         raise NavlogError(f"{pcd}: no such file")
     check_output(output, force)

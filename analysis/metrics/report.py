@@ -35,6 +35,10 @@ PCD_FRAMES = ("first-pose", "as-is", "aligned")
 TRAJECTORY_FILE = "trajectory.tum"
 MAP_FILE = "map.yaml"
 PCD_FILE = "map.pcd"
+# the 3D completeness's viewpoints lie at least this far apart along the path (one per pose of a 1e-9 m spacing
+# filled memory); map offsets, view ranges and spacings are at most MAX_EXTENT_M (a planet's worth of metres)
+MIN_VIEW_SPACING_M = 0.01
+MAX_EXTENT_M = 1e7
 
 
 @dataclass(frozen=True)
@@ -79,9 +83,15 @@ class MetricsOptions:
         if not self.max_gap_ns > 0:
             raise bad("max_gap", self.max_gap_ns, "must be > 0")
         if self.map_frame is not None and not (
-            len(self.map_frame) == 3 and all(math.isfinite(float(v)) for v in self.map_frame)
+            len(self.map_frame) == 3
+            and all(math.isfinite(float(v)) for v in self.map_frame)
+            and max(abs(float(self.map_frame[0])), abs(float(self.map_frame[1]))) <= MAX_EXTENT_M
         ):
-            raise bad("map_frame", self.map_frame, "must be three finite numbers: x, y (m), yaw (rad)")
+            raise bad(
+                "map_frame",
+                self.map_frame,
+                f"must be three finite numbers: x, y (m, within {MAX_EXTENT_M:g}), yaw (rad)",
+            )
         if self.align not in tr.ALIGN_MODES:
             raise bad("align", self.align, f"use one of {', '.join(tr.ALIGN_MODES)}")
         if self.rpe_unit not in tr.DELTA_UNITS:
@@ -93,8 +103,10 @@ class MetricsOptions:
         lo, hi = self.view_fov_deg
         if not (-90.0 <= lo <= hi <= 90.0):
             raise bad("view_fov", self.view_fov_deg, "must be LOW HIGH elevations in degrees within -90..90")
-        if not (self.view_spacing_m > 0 and self.view_range_m > 0):
-            raise bad("view_spacing/view_range", (self.view_spacing_m, self.view_range_m), "must be > 0")
+        if not MIN_VIEW_SPACING_M <= self.view_spacing_m <= MAX_EXTENT_M:
+            raise bad("view_spacing", self.view_spacing_m, f"must be {MIN_VIEW_SPACING_M} to {MAX_EXTENT_M:g} m")
+        if not 0 < self.view_range_m <= MAX_EXTENT_M:
+            raise bad("view_range", self.view_range_m, f"must be > 0 and at most {MAX_EXTENT_M:g} m")
         if self.rpe_pairs_from not in ("reference", "estimate"):
             raise bad("rpe_pairs_from", self.rpe_pairs_from, "use reference or estimate")
         if self.pcd_frame not in PCD_FRAMES:

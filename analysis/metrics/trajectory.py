@@ -431,7 +431,8 @@ def pair_indices(
     axis = ref.path_lengths() if unit == "m" else (ref.times_ns - (ref.times_ns[0] if n else 0)) / 1e9
     # a hair of slack so that a delta equal to the spacing of the samples is not missed by rounding
     tol = 1e-9 * max(1.0, float(delta))
-    ends = np.searchsorted(axis, axis + delta - tol, side="left")
+    # (a pair ends one sample on at least: a delta below the samples' spacing pairs neighbours)
+    ends = np.maximum(np.searchsorted(axis, axis + delta - tol, side="left"), np.arange(1, n + 1))
     if all_pairs:
         i = np.flatnonzero(ends < n).astype(np.int64)
         return i, ends[i].astype(np.int64)

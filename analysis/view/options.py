@@ -11,6 +11,8 @@ from navlog.errors import NavlogError
 __all__ = ["PLAY_STATES", "PlayState", "ViewOptions", "ViewSummary"]
 
 PLAY_STATES = ("", "paused", "playing")
+MAX_PERIOD_S = 1e6  # a thinning period (about 11 days: beyond it no log reaches a second tick)
+MAX_MARGIN_M = 1e4  # a grid's margin around its known cells
 PlayState = Literal["", "paused", "playing"]
 
 
@@ -33,12 +35,13 @@ class ViewOptions:
     def validate(self) -> ViewOptions:
         if self.footprint is not None and len(self.footprint) < 3:
             raise NavlogError(f"footprint: needs at least 3 points, got {len(self.footprint)}")
-        if self.grid_period_s < 0:
-            raise NavlogError(f"grid_period_s: must be >= 0, got {self.grid_period_s}")
-        if self.cloud_period_s < 0 or self.grid_margin_m < 0:
-            raise NavlogError(
-                f"cloud_period_s and grid_margin_m must be >= 0, got {self.cloud_period_s}, {self.grid_margin_m}"
-            )
+        for name, value, most in (
+            ("grid_period_s", self.grid_period_s, MAX_PERIOD_S),
+            ("cloud_period_s", self.cloud_period_s, MAX_PERIOD_S),
+            ("grid_margin_m", self.grid_margin_m, MAX_MARGIN_M),
+        ):
+            if not 0 <= value <= most:  # (NaN fails both)
+                raise NavlogError(f"{name}: must be from 0 to {most:g}, got {value}")
         if self.play_state not in PLAY_STATES:
             raise NavlogError(f"play_state: expected one of {', '.join(PLAY_STATES)}, got {self.play_state!r}")
         if self.cloud_stride < 1 or self.batch_rows < 1 or self.max_canvas_px < 16:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from navlog.commands import add_force, refuse_existing
 
 # The values navlog.analysis.metrics accepts (report.PCD_FRAMES, trajectory.ALIGN_MODES and DELTA_UNITS),
@@ -104,8 +106,13 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from navlog.analysis.metrics.report import MetricsOptions, compute_metrics, format_table, to_json, write_json
+    from navlog.errors import NavlogError
+    from navlog.replay.limits import MAX_PERIOD_S
 
     refuse_existing(args.force, args.output)
+    for flag, value in (("--max-diff", args.max_diff), ("--max-gap", args.max_gap)):
+        if not (math.isfinite(value) and 0 <= value <= MAX_PERIOD_S):
+            raise NavlogError(f"{flag} {value!r}: must be a time in seconds from 0 to {MAX_PERIOD_S:g}")
     options = MetricsOptions(
         tau=args.tau,
         taus_3d=tuple(args.tau_3d),

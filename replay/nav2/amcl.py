@@ -38,7 +38,7 @@ from typing import ClassVar
 import numpy as np
 
 from navlog.replay.geometry import angle_diff
-from navlog.replay.limits import MAX_PARTICLES
+from navlog.replay.limits import MAX_PARTICLES, MAX_TRANSFORM_TOLERANCE_S
 from navlog.replay.nav2.schema import ERROR, SectionReader, param
 from navlog.replay.occupancy_map import OccupancyMap
 
@@ -88,7 +88,7 @@ class AmclParams:
     robot_model_type: str = param(DIFFERENTIAL, choices=(DIFFERENTIAL, OMNI))
     sigma_hit: float = param(0.2, gt=0.0)
     tf_broadcast: bool = True
-    transform_tolerance: float = param(1.0, ge=0.0)
+    transform_tolerance: float = param(1.0, ge=0.0, le=MAX_TRANSFORM_TOLERANCE_S)
     update_min_a: float = param(0.2, ge=0.0)
     update_min_d: float = param(0.25, ge=0.0)
     z_hit: float = param(0.5, ge=0.0)

@@ -25,6 +25,7 @@ localization.json (updates, resamples, particles, the first update's and the las
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Literal
@@ -32,9 +33,11 @@ from typing import Any, Literal
 import numpy as np
 
 from navlog.errors import ConfigError
+from navlog.replay.config import BoundError
 from navlog.replay.io import json_text
 from navlog.replay.io.map_server import load_map
 from navlog.replay.io.tum import write_poses
+from navlog.replay.limits import check_seed
 from navlog.replay.nav2 import default_nav2_params, load_nav2_params
 from navlog.replay.nav2.amcl import AmclParams
 from navlog.replay.nav2.overrides import apply_nav2_overrides, nav2_override_items
@@ -57,6 +60,11 @@ class Params:
     seed: int = 0
     amcl: dict[str, Any] = field(default_factory=dict)  # Nav2 overrides of the amcl block: --set amcl.KEY=VALUE
     nav2: dict[str, Any] = field(default_factory=dict)  # any Nav2 key, full or short: --set nav2.KEY=VALUE
+
+    def __post_init__(self) -> None:
+        check_seed(self.seed)
+        if not isinstance(self.initial_pose, str) and not all(math.isfinite(float(v)) for v in self.initial_pose):
+            raise BoundError("initial_pose", f"{list(self.initial_pose)}: x, y and yaw must be finite numbers")
 
 
 def default_amcl_document() -> dict[str, Any]:

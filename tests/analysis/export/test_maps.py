@@ -34,6 +34,25 @@ def test_wall_occupied_floor_free_outside_unknown(tmp_path):
     assert res.free == int((grid.data == 0).sum())
 
 
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        ("resolution", -1.0, "resolution -1.0: must be 0.005 to 5 m a cell"),
+        ("resolution", 1e-300, "resolution 1e-300: must be 0.005 to 5 m a cell"),
+        ("resolution", float("nan"), "resolution nan"),
+        ("z_min", float("nan"), "must be finite heights"),
+        ("min_points", 0, "min_points 0: must be 1 to"),
+    ],
+)
+def test_absurd_projection_settings_are_refused_with_their_names(tmp_path, key, value, message):
+    # a negative resolution ended in an IndexError, a 1e-300 one in an index of -2^63
+    write_pcd(tmp_path / "room.pcd", np.array([[0.0, 0.0, 0.5], [1.0, 0.0, 0.5]], dtype=np.float32))
+    settings = {"z_min": 0.1, "z_max": 1.0, key: value}
+    with pytest.raises(NavlogError, match=message):
+        pcd_to_map(tmp_path / "room.pcd", tmp_path / "m.yaml", **settings)
+    assert not (tmp_path / "m.yaml").exists()
+
+
 def test_missing_or_empty_pcd_is_named(tmp_path):
     with pytest.raises(NavlogError, match="nope.pcd: no such file"):
         pcd_to_map(tmp_path / "nope.pcd", tmp_path / "m.yaml", z_min=0.1, z_max=1.0)

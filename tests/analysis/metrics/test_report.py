@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import numpy as np
 import open3d as o3d
@@ -323,3 +324,18 @@ def test_map_frame_places_a_shifted_map_on_the_reference(world, capsys):
     assert on["f1"] == pytest.approx(1.0)
     with pytest.raises(NavlogError, match="map_frame"):
         MetricsOptions(map_frame=(0.0, float("nan"), 0.0))
+    with pytest.raises(NavlogError, match=r"map_frame = \(1e\+308, 0.0, 0.0\): .*within 1e\+07"):
+        MetricsOptions(map_frame=(1e308, 0.0, 0.0))  # (it overflowed the grids' cell offsets)
+
+
+def test_absurd_metrics_options_are_refused_with_their_names(capsys):
+    # one viewpoint per 1e-9 m of path filled memory; a NaN or infinite time overflowed the nanoseconds
+    with pytest.raises(NavlogError, match="view_spacing = 1e-09: must be 0.01 to 1e"):
+        MetricsOptions(view_spacing_m=1e-9)
+    with pytest.raises(NavlogError, match="view_range = inf"):
+        MetricsOptions(view_range_m=math.inf)
+    MetricsOptions(view_spacing_m=0.01, view_range_m=1e7)  # the limits themselves
+    for flag in ("--max-diff", "--max-gap"):
+        for value in ("nan", "inf", "-1", "1e308"):
+            assert main(["metrics", "no-such.mcap", f"{flag}={value}"]) == 2
+            assert f"{flag} {float(value)!r}: must be a time in seconds from 0 to 1e+06" in capsys.readouterr().err

@@ -253,6 +253,11 @@ def test_rpe_in_metres_and_seconds_picks_pairs_along_reference():
     assert list(i) == list(range(0, 50, 5)) and list(j) == list(range(5, 51, 5))
     i, j = tr.pair_indices(ref, 1.0, "s")
     assert list(i) == list(range(0, 50, 10)) and list(j) == list(range(10, 51, 10))
+    # a delta below the samples' spacing (down to none: 1e-9 m once looped for ever) pairs neighbours
+    for tiny in (1e-9, 1e-300):
+        for unit in ("m", "s"):
+            i, j = tr.pair_indices(ref, tiny, unit)
+            assert list(i) == list(range(50)) and list(j) == list(range(1, 51))
     est = _drifting(51, 0.11, 0.0)
     res = tr.relative_pose_error(ref, est, delta=1.0, unit="m")
     assert res.pairs == 5

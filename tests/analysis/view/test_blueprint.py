@@ -4,6 +4,7 @@ the top-down view on the known cells; and what the view thins, crops and holds s
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -161,3 +162,16 @@ def test_cli_options_reach_the_view(sample_log, monkeypatch):
     assert main(["-q", "view", str(sample_log), "--spawn", "--paused", "--follow", "--cloud-period", "0"]) == 0
     opt = seen["options"]
     assert (opt.play_state, opt.follow, opt.cloud_period_s, seen["spawn"]) == ("paused", True, 0.0, True)
+
+
+@pytest.mark.parametrize(
+    ("option", "value"), [("cloud_period_s", math.inf), ("cloud_period_s", math.nan), ("grid_period_s", 1e308)]
+)
+def test_a_thinning_period_not_finite_is_refused_with_its_name(option, value):
+    # (an infinite cloud period overflowed the nanoseconds; a NaN one was taken as no thinning)
+    from navlog.analysis.view import ViewOptions
+    from navlog.errors import NavlogError
+
+    with pytest.raises(NavlogError, match=re.escape(f"{option}: must be from 0 to 1e+06, got {value}")):
+        ViewOptions(**{option: value}).validate()
+    ViewOptions(cloud_period_s=1e6, grid_period_s=0.0).validate()

@@ -84,6 +84,10 @@ def test_bad_amcl_parameters_are_named():
     assert "nav2_amcl::OmniMotionModel" in messages["amcl.ros__parameters.robot_model_type"]
     assert "amcl.ros__parameters.initial_pose.zz" in messages or any("zz" in p.path for p in nav2.problems)
     assert nav2.amcl is not None and (nav2.amcl.initial_pose_x, nav2.amcl.initial_pose_yaw) == (1.0, 0.5)
+    # a tolerance the published transforms' 32-bit seconds cannot hold (it failed in their serialisation)
+    nav2 = parse_nav2_text("amcl:\n  ros__parameters:\n    transform_tolerance: 1.0e+30\n")
+    messages = {p.path: p.message for p in nav2.errors}
+    assert "must be <= 3600.0" in messages["amcl.ros__parameters.transform_tolerance"]
 
 
 # ---------------------------------------------------------------- models

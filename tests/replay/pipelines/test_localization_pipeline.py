@@ -101,3 +101,20 @@ def test_amcl_converges_from_half_a_metre_and_0_3_rad(teleop_log, room_map):
 def test_localization_needs_a_map_and_says_how(teleop_log, tmp_path):
     with pytest.raises(ConfigError, match="needs a map: --set map=MAP.yaml"):
         run_replay(teleop_log, "localization", tmp_path / "x", progress=False)
+
+
+@pytest.mark.parametrize(
+    ("override", "message"),
+    [
+        ("seed=-1", "seed: -1 is out of range: a seed must be an integer from 0 to 4294967295"),
+        ("initial_pose=[.nan,0,0]", r"initial_pose: \[nan, 0.0, 0.0\]: x, y and yaw must be finite numbers"),
+        ("initial_pose=[0,0,.inf]", r"initial_pose: \[0.0, 0.0, inf\]: x, y and yaw must be finite numbers"),
+    ],
+)
+def test_a_negative_seed_or_an_initial_pose_not_finite_is_refused_before_the_replay(
+    teleop_log, room_map, tmp_path, override, message
+):
+    # (numpy refused the seed, and the pose failed deep in the filter or the pose's serialisation)
+    with pytest.raises(ConfigError, match=message):
+        run_replay(teleop_log, "localization", tmp_path / "a", overrides=[f"map={room_map}", override], progress=False)
+    assert not (tmp_path / "a").exists()
