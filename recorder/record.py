@@ -326,13 +326,13 @@ def _record(
                 ex.add_sink(writer)  # the worker's scans and sweeps in their places (``Node.defer``)
                 t = 0
                 while not (stop is not None and stop.is_set()):  # looked at after every second of sim time
-                    t += 1_000_000_000
-                    ex.run(until_ns=min(t, max_ns))
+                    t = min(t + 1_000_000_000, max_ns)
+                    ex.run(until_ns=t)
                     bar.update(ex.now / 1e9)
                     end = driver.finished_ns
                     if end is not None and ex.now >= end:
                         break
-                    if ex.now >= max_ns:
+                    if t >= max_ns:  # run up to max_duration (ex.now is the last event's time: it may stop short)
                         break
                 ex.finish()
             interrupted = stop is not None and stop.is_set()

@@ -40,6 +40,7 @@ from navlog.replay.nav2.costmap.grid import DEFAULT_LAYER_PLUGINS
 from navlog.replay.nav2.overrides import apply_nav2_overrides, nav2_override_items
 from navlog.replay.nav2.params import parse_nav2_params
 from navlog.replay.nav2.planners import PLANNER_NAMES, PLANNERS, PlanningError, PlanResult, Pose2D, make_planner
+from navlog.replay.nav2.planners.base import costmap_cell
 from navlog.replay.nodes.costmap import CostmapNode, costmap_msg
 from navlog.replay.nodes.planner import PlannerNode, path_cdr
 from navlog.replay.occupancy_map import OccupancyMap
@@ -280,6 +281,11 @@ def plan_on_map(
     if not cm.static_layers:
         raise ConfigError(f"{nav2_params}: the global costmap has no static layer, so the map cannot be used")
     cm.set_static_map(occ)
+    if not cm.params.rolling_window:  # the costmap is the map's: the update at the start needs the start on it
+        try:
+            costmap_cell(cm, "start", start)
+        except PlanningError as exc:
+            raise PlanningError(f"{where}{exc}") from None
     cm.update(start[0], start[1], start[2])
     if (occ.data == -1).all():
         raise ConfigError(f"{where}the map is unknown everywhere")

@@ -14,6 +14,8 @@ def test_a_campaign_file_loads_typed(tmp_path):
     spec = load_campaign(write(tmp_path, BASE + "seeds: [3, 4]\nroutes: {kind: random, min_distance: 3}\n"))
     assert spec.seeds == [3, 4] and spec.routes.min_distance == 3.0 and spec.baseline_variant == "a"
     assert spec.worlds[0].params == {"doors": 0, "length": 6.0}
+    assert load_campaign(write(tmp_path, BASE + "max_duration: 1\n")).max_duration == 1.0  # the shortest
+    assert load_campaign(write(tmp_path, BASE + "max_duration: 86400\n")).max_duration == 86400.0
 
 
 @pytest.mark.parametrize(
@@ -23,6 +25,9 @@ def test_a_campaign_file_loads_typed(tmp_path):
         ("localization: amlc\n", r"c.yaml: localization: 'amlc' is not one of .*did you mean 'amcl'"),
         ("baseline: b\n", r"baseline 'b' is not a variant"),
         ("routes: {min_distanse: 3}\n", r"routes.min_distanse: unknown key \(did you mean 'min_distance'\?\)"),
+        ("max_duration: 1.0e-9\n", r"c.yaml: max_duration: 1e-09 is out of range: must be >= 1.0$"),
+        ("max_duration: .nan\n", r"c.yaml: max_duration: nan is out of range: must be >= 1.0$"),
+        ("max_duration: 86401\n", r"c.yaml: max_duration: 86401.0 is out of range: must be <= 86400.0$"),
     ],
 )
 def test_bad_keys_name_the_file_and_key(tmp_path, extra, message):

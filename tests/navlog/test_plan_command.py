@@ -63,6 +63,26 @@ def test_plan_set_without_params_overrides_nav2_defaults(tmp_path, capsys):
     assert "did you mean 'tolerance'" in capsys.readouterr().err
 
 
+def test_plan_refuses_far_start_or_goal_and_unbounded_inflation_radius_in_one_line(tmp_path, capsys):
+    data = np.zeros((120, 120), dtype=np.int8)
+    data[:2, :] = data[-2:, :] = data[:, :2] = data[:, -2:] = 100
+    yaml_path, _ = save_map(OccupancyMap(data, 0.05, (-3.0, -3.0, 0.0)), tmp_path / "room.yaml")
+    base = ["plan", "--map", str(yaml_path)]
+    extent = "is outside the costmap x [-3.00, 3.00), y [-3.00, 3.00)"
+    assert main([*base, "--start=1e308,0,0", "--goal", "1.5,0,0"]) == 2
+    assert f"room.yaml: start (1e+308, 0.00) {extent}\n" in capsys.readouterr().err
+    assert main([*base, "--start=-1.5,0,0", "--goal=0,-1e308,0"]) == 2
+    assert f"room.yaml: goal (0.00, -1e+308) {extent}\n" in capsys.readouterr().err
+    radius = "global_costmap.inflation_layer.inflation_radius"
+    for value, message in (
+        (".inf", "inf is out of range: must be <= 50.0"),
+        ("51", "51.0 is out of range: must be <= 50.0"),
+    ):
+        assert main([*base, "--start=-1.5,0,0", "--goal", "1.5,0,0", "--set", f"{radius}={value}"]) == 2
+        assert f"inflation_layer.inflation_radius: {message}" in capsys.readouterr().err
+    assert main([*base, "--start=-1.5,0,0", "--goal", "1.5,0,0", "--set", f"{radius}=50"]) == 0
+
+
 def test_plan_png_shows_start_and_goal_and_outputs_need_force(tmp_path, capsys):
     from PIL import Image
 

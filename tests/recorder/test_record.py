@@ -274,6 +274,23 @@ def test_a_set_stop_event_ends_the_run_with_a_whole_file(tmp_path):
         assert not r.report.truncated
 
 
+@pytest.mark.parametrize("max_duration, sim_s", [(1e-9, 0.0), (0.0015, 0.0), (0.5, 0.5)])
+def test_the_run_ends_at_max_duration_between_two_simulator_steps(tmp_path, max_duration, sim_s):
+    out = tmp_path / "short.mcap"
+    code = (
+        "import dataclasses\n"
+        "from navlog.recorder.record import prepare, record\n"
+        "s = prepare('indoor_room', 'go2', 'mapping', seed=11)\n"
+        f"s.scenario = dataclasses.replace(s.scenario, max_duration={max_duration!r})\n"
+        f"print(record(s, {str(out)!r}, progress=False).sim_s)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert float(done.stdout) == sim_s  # the last simulator step at or before max_duration
+    with open_log(out) as r:
+        assert not r.report.truncated
+
+
 def test_ctrl_c_closes_the_file_cleanly(tmp_path):
     out = tmp_path / "int.mcap"
     proc = _start_recording(out)

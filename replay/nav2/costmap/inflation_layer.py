@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from navlog.replay.limits import MAX_INFLATION_CELLS, MAX_INFLATION_RADIUS_M, budget
 from navlog.replay.nav2.costmap.cost_values import FREE_SPACE, INSCRIBED, LETHAL
 from navlog.replay.nav2.costmap.grid import CostmapGrid
 from navlog.replay.nav2.costmap.kernels import kernels
@@ -21,7 +22,7 @@ class InflationLayerParams(PluginParams):
 
     plugin: str = "nav2_costmap_2d::InflationLayer"
     enabled: bool = True
-    inflation_radius: float = param(0.55, ge=0.0)
+    inflation_radius: float = param(0.55, ge=0.0, le=MAX_INFLATION_RADIUS_M)
     cost_scaling_factor: float = param(10.0, ge=0.0)
     inflate_unknown: bool = False
     inflate_around_unknown: bool = False
@@ -42,7 +43,9 @@ class InflationLayer(Layer[InflationLayerParams]):
 
     The update bounds grow by the radius; distances come from an exact Euclidean distance transform
     over the bounds plus the radius only, as the newest Nav2 computes them, and costs from a table by
-    integer squared distance (Nav2 caches them per cell offset).
+    integer squared distance (Nav2 caches them per cell offset). The radius spans at most
+    ``MAX_INFLATION_CELLS`` cells of the costmap's resolution (BoundError otherwise, on creation and
+    whenever the costmap takes another resolution).
     """
 
     def __init__(self, name: str, params: InflationLayerParams, costmap: CostmapGrid) -> None:
@@ -50,12 +53,25 @@ class InflationLayer(Layer[InflationLayerParams]):
         self.need_full = True
         self._table_key: tuple | None = None
         self._table = np.empty(0, dtype=np.uint8)
+        self._check_cell_radius()
 
     @property
     def cell_radius(self) -> int:
         return int(math.ceil(self.p.inflation_radius / self.cm.resolution))
 
+    def _check_cell_radius(self) -> None:
+        """BoundError on ``<costmap>.<layer>.inflation_radius`` when the radius spans more than
+        ``MAX_INFLATION_CELLS`` cells at the costmap's resolution."""
+        budget(
+            f"{self.cm.name}.{self.name}.inflation_radius",
+            f"inflation_radius / resolution ({self.p.inflation_radius} m / {self.cm.resolution} m)",
+            self.p.inflation_radius / self.cm.resolution,
+            MAX_INFLATION_CELLS,
+            " cells",
+        )
+
     def match_size(self) -> None:
+        self._check_cell_radius()
         self.need_full = True
 
     def update_bounds(self, robot: Robot, bounds: Bounds | None) -> Bounds | None:

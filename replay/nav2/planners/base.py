@@ -106,6 +106,18 @@ def costmap_extent(cm: PlanningCostmap) -> str:
     )
 
 
+def costmap_cell(cm: PlanningCostmap, what: str, pose: Pose2D) -> tuple[int, int]:
+    """The cell (mx, my) holding ``pose``; PlanningError '<what> (x, y) is outside the costmap ...' when none does
+    (also for a coordinate that is not finite or too large to index a cell)."""
+    ny, nx = cm.costs.shape
+    fx = (pose[0] - cm.origin_x) / cm.resolution
+    fy = (pose[1] - cm.origin_y) / cm.resolution
+    if not (0.0 <= fx < nx and 0.0 <= fy < ny):  # (also NaN)
+        x, y = (f"{v:.2f}" if abs(v) < 1e12 else f"{v:.3g}" for v in pose[:2])  # (1e+308, not its 309 digits)
+        raise PlanningError(f"{what} ({x}, {y}) is outside the costmap {costmap_extent(cm)}")
+    return math.floor(fx), math.floor(fy)
+
+
 def tolerance_hint(cm: PlanningCostmap, goal: Pose2D, allow_unknown: bool) -> str:
     """'; the nearest free cell is 0.35 m away at (x, y): tolerance >= 0.35 would reach it' or ''."""
     from scipy import ndimage

@@ -37,6 +37,7 @@ from navlog.replay.nav2.planners.base import (
     PlanningError,
     PlanResult,
     Pose2D,
+    costmap_cell,
     costmap_extent,
     path_cost,
     path_length,
@@ -184,14 +185,8 @@ class NavfnPlanner:
         t0 = time.perf_counter()
         res = cm.resolution
         ny, nx = cm.costs.shape
-        sx = math.floor((start[0] - cm.origin_x) / res)
-        sy = math.floor((start[1] - cm.origin_y) / res)
-        if not (0 <= sx < nx and 0 <= sy < ny):
-            raise PlanningError(f"start ({start[0]:.2f}, {start[1]:.2f}) is outside the costmap {costmap_extent(cm)}")
-        gx0 = math.floor((goal[0] - cm.origin_x) / res)
-        gy0 = math.floor((goal[1] - cm.origin_y) / res)
-        if not (0 <= gx0 < nx and 0 <= gy0 < ny):
-            raise PlanningError(f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is outside the costmap {costmap_extent(cm)}")
+        costmap_cell(cm, "start", start)
+        gx0, gy0 = costmap_cell(cm, "goal", goal)
         if self.p.tolerance == 0.0 and cm.costs[gy0, gx0] == 254:
             raise PlanningError(
                 f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is in a lethal cell (goal occupied) and "

@@ -27,7 +27,7 @@ from navlog.replay.nav2.planners.base import (
     PlanningError,
     PlanResult,
     Pose2D,
-    costmap_extent,
+    costmap_cell,
     path_length,
     tolerance_hint,
 )
@@ -107,12 +107,8 @@ class Smac2DPlanner:
         t0 = time.perf_counter()
         res = cm.resolution
         ny, nx = cm.costs.shape
-        sx, sy = math.floor((start[0] - cm.origin_x) / res), math.floor((start[1] - cm.origin_y) / res)
-        gx, gy = math.floor((goal[0] - cm.origin_x) / res), math.floor((goal[1] - cm.origin_y) / res)
-        if not (0 <= sx < nx and 0 <= sy < ny):
-            raise PlanningError(f"start ({start[0]:.2f}, {start[1]:.2f}) is outside the costmap {costmap_extent(cm)}")
-        if not (0 <= gx < nx and 0 <= gy < ny):
-            raise PlanningError(f"goal ({goal[0]:.2f}, {goal[1]:.2f}) is outside the costmap {costmap_extent(cm)}")
+        sx, sy = costmap_cell(cm, "start", start)
+        gx, gy = costmap_cell(cm, "goal", goal)
         costs = cm.costs.copy()
         costs[sy, sx] = 0
         factor = self.step_costs(costs).ravel()

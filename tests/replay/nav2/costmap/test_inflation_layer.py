@@ -7,7 +7,10 @@ import math
 
 import numpy as np
 import pytest
+import yaml
 
+from navlog.errors import ConfigError
+from navlog.replay.config import BoundError, from_mapping
 from navlog.replay.nav2.costmap import (
     INSCRIBED,
     LETHAL,
@@ -71,6 +74,34 @@ def test_inflation_leaves_unknown_below_inscribed():
     cm2.set_static_map(static_map(data))
     cm2.update(0.0, 0.0)
     assert cm2.costs[0, :7].tolist() == [254, 253, 253, 253, 253, 152, 92]
+
+
+@pytest.mark.parametrize("radius", ["51.0", ".inf", ".nan"])
+def test_inflation_radius_beyond_50_m_or_not_finite_is_refused_by_key(radius):
+    with pytest.raises(ConfigError, match=r"^inflation_radius: .* is out of range: must be (<= 50\.0|>= 0\.0)$"):
+        from_mapping(InflationLayerParams, {"inflation_radius": yaml.safe_load(radius)})
+    assert from_mapping(InflationLayerParams, {"inflation_radius": 50.0}).inflation_radius == 50.0
+
+
+def test_inflation_radius_spans_at_most_1000_cells_of_the_costmap():
+    data = np.zeros((41, 41), dtype=np.int8)
+    data[20, 20] = 100
+    layers = {
+        "static_layer": StaticLayerParams(),
+        "inflation_layer": InflationLayerParams(inflation_radius=50.0, cost_scaling_factor=0.1),
+    }
+    cm = Costmap2D(costmap_params(footprint=SQUARE_02, footprint_padding=0.0, resolution=0.05, layers=layers))
+    cm.set_static_map(static_map(data, res=0.05))  # 50 m / 0.05 m: 1,000 cells, the most a radius spans
+    cm.update(0.5, 0.5)
+    assert cm.costs[20, 20] == LETHAL and cm.costs[20, 40] == 232  # 1 m away: floor(252 exp(-0.1 (1 - 0.2)))
+    message = (
+        r"^global_costmap\.inflation_layer\.inflation_radius: inflation_radius / resolution \(50\.0 m / 0\.01 m\) "
+        r"= 5,000 cells exceeds navlog's budget of 1,000 cells; lower it$"
+    )
+    with pytest.raises(BoundError, match=message):
+        cm.set_static_map(static_map(data, res=0.01))
+    with pytest.raises(BoundError, match=message):
+        Costmap2D(costmap_params(footprint=SQUARE_02, resolution=0.01, layers=layers))
 
 
 def _brute_force_inflation(
