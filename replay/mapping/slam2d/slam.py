@@ -469,7 +469,8 @@ class Slam2D:
         """The odometry pose as the SLAM reads it at a scan of ``stamp`` whose log pose is ``log_odom``: as given
         until ``infer_reversing`` reads a step backwards (``_sign_checked``), then the steps since chained, each
         backwards while the robot is taken to drive back (its translation negated, its turn as given): until a
-        match finds it driving forward, or it stops (its odometry slower than ``STOPPED`` since the last scan)."""
+        match finds it driving forward, or it stops (its odometry slower than ``STOPPED`` since the last scan), or
+        the log's odometry reports driving back after all (``REPORTS_REVERSING``: it knows the sign)."""
         previous = self._log_odom
         elapsed, self._log_stamp = (stamp - self._log_stamp) * 1e-9, stamp
         if previous is None:
@@ -477,8 +478,9 @@ class Slam2D:
             return log_odom
         step = previous.between(log_odom)
         self._reported_back += max(0.0, -step.x())
-        if self._direction < 0 and math.hypot(step.x(), step.y()) < STOPPED * elapsed:
-            self._turn_reading(stamp)  # (from the last scan's poses)
+        stopped = math.hypot(step.x(), step.y()) < STOPPED * elapsed
+        if self._direction < 0 and (stopped or self._reported_back >= REPORTS_REVERSING):
+            self._turn_reading(stamp)  # (from the last scan's poses; odometry that reports driving back is as given)
         self._log_odom = log_odom
         if self._direction < 0:
             self._odom = self._odom.compose(_backwards(step))

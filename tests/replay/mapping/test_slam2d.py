@@ -1618,3 +1618,17 @@ def test_odometry_that_lost_the_sign_of_its_speed_is_read_backwards_where_the_sc
     assert errors[True] < 0.09 and errors[True] < 0.7 * errors[False]
     # odometry that reports driving back is never read the other way
     assert run_slam(scene, truth, truth, params).counts.reversals_inferred == []
+
+
+def test_a_reading_turned_backwards_turns_forward_once_the_odometry_reports_driving_back():
+    # the odometry read backwards from 0.1 s on; at 0.3 s the log's odometry reports 1.5 cm back: it knows the sign
+    # after all, and its steps are read as given from that one on
+    slam = Slam2D(SlamParams())
+    slam._read_odometry(0, gtsam.Pose2(0.0, 0.0, 0.0))
+    slam._read_odometry(100_000_000, gtsam.Pose2(0.1, 0.0, 0.0))
+    slam._turn_reading(100_000_000)
+    assert slam._read_odometry(200_000_000, gtsam.Pose2(0.2, 0.0, 0.1)).x() == pytest.approx(0.0)
+    read = slam._read_odometry(300_000_000, gtsam.Pose2(0.2 - 0.015 * math.cos(0.1), -0.015 * math.sin(0.1), 0.1))
+    assert (read.x(), read.y(), read.theta()) == pytest.approx((-0.015 * math.cos(0.1), -0.015 * math.sin(0.1), 0.1))
+    assert slam.counts.reversals_inferred == [(100_000_000, -1), (300_000_000, 1)]
+    assert slam._read_odometry(400_000_000, gtsam.Pose2(0.3, 0.0, 0.1)).x() == pytest.approx(0.3 - 0.2)
