@@ -52,8 +52,8 @@ def pcd_to_map(
         raise NavlogError(
             f"resolution {resolution!r}: must be {MIN_GRID_RESOLUTION_M} to {MAX_RESOLUTION_M:g} m a cell"
         )
-    if not (math.isfinite(z_min) and math.isfinite(z_max) and z_min <= z_max):
-        raise NavlogError(f"z_min {z_min!r}, z_max {z_max!r}: must be finite heights, z_min not above z_max")
+    if not (math.isfinite(z_min) and math.isfinite(z_max)):  # (their order is project_points's check)
+        raise NavlogError(f"z_min {z_min!r}, z_max {z_max!r}: must be finite heights")
     if not 1 <= min_points <= MAX_MIN_POINTS:
         raise NavlogError(f"min_points {min_points!r}: must be 1 to {MAX_MIN_POINTS}")
     if not pcd.is_file():

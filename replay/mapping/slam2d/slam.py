@@ -421,16 +421,14 @@ class Slam2D:
         its pose relative to the last keyframe, so that it follows the keyframe when the graph moves it."""
         last = self.keyframes[-1]
         base = self._pose(last.index)
-        _, anchor_odom, anchor_rel = self._anchor
-        step = self._calibrated(anchor_odom.between(odom))
+        _, _, anchor_rel = self._anchor
+        start, step = self._from_anchor(odom)
         rel = anchor_rel.compose(step)
         pose = _xyt(base.compose(rel))
         if points is not None and len(points):
             grid = self._between_grid(base)
             match = self._sequential_match(grid, points, pose, base, reversing)
-            other, back = self._sign_checked(
-                grid, points, match, step, base.compose(anchor_rel), scan, stamp, reversing, False
-            )
+            other, back = self._sign_checked(grid, points, match, step, start, scan, stamp, reversing, False)
             if other is not None and back is not None:
                 match, pose = other, back
             if match is not None:
@@ -532,7 +530,7 @@ class Slam2D:
         usual = float(np.median(self._responses))
         if fit > usual - DOUBTED:
             return None, None
-        if match is not None and grid is not None:
+        if match is not None and grid is not None and not reversing:  # (a match in sight was scored whole above)
             fit = grid.response(match.pose, points)
         back = _xyt(start.compose(_backwards(step)))
         if keyframe:
@@ -558,9 +556,15 @@ class Slam2D:
             return odom  # the map frame starts where the odometry frame is
         last = self.keyframes[-1]
         if self._turned_at == len(self.keyframes):  # the reading turned since the last keyframe: from the anchor
-            _, anchor_odom, anchor_rel = self._anchor
-            return self._pose(last.index).compose(anchor_rel).compose(self._calibrated(anchor_odom.between(odom)))
+            start, step = self._from_anchor(odom)
+            return start.compose(step)
         return self._pose(last.index).compose(self._calibrated(last.odom.between(odom)))
+
+    def _from_anchor(self, odom: gtsam.Pose2) -> tuple[gtsam.Pose2, gtsam.Pose2]:
+        """The anchor's map pose (the last keyframe's composed with the anchor's pose in its frame) and the
+        odometry's calibrated step from the anchor to ``odom``."""
+        _, anchor_odom, anchor_rel = self._anchor
+        return self._pose(self.keyframes[-1].index).compose(anchor_rel), self._calibrated(anchor_odom.between(odom))
 
     def _calibration_sample(self, matched: gtsam.Pose2, odometry: gtsam.Pose2) -> None:
         """A keyframe's step as a match that pinned it measured it and as the odometry did (both in the previous
@@ -632,9 +636,7 @@ class Slam2D:
         else:
             grid = self.matcher.grid_around(self._buffer_points(prediction), points, pose, self._link)
             match = self._sequential_match(grid, points, pose, prediction, reversing)
-            _, anchor_odom, anchor_rel = self._anchor
-            start = self._pose(i - 1).compose(anchor_rel)
-            since = self._calibrated(anchor_odom.between(odom))
+            start, since = self._from_anchor(odom)
             other, back = self._sign_checked(grid, points, match, since, start, scan, stamp, reversing, True)
             turned = False
             if other is not None and back is not None:
