@@ -36,6 +36,7 @@ from navlog.errors import ConfigError
 from navlog.recorder.solids import Solid
 from navlog.replay.config import load_config, named_config, to_mapping
 from navlog.replay.geometry import cell_to_world, se2_compose
+from navlog.replay.limits import MAX_INFLATION_RADIUS_M
 
 log = logging.getLogger(__name__)
 
@@ -426,6 +427,8 @@ def occupancy(
         raise ConfigError(f"margin, z_min, z_max must be finite numbers, got {margin}, {z_min}, {z_max}")
     if z_min > z_max:
         raise ConfigError(f"z_min ({z_min}) must not exceed z_max ({z_max})")
+    if not 0.0 <= margin <= MAX_INFLATION_RADIUS_M:
+        raise ConfigError(f"margin {margin} m is out of range: must be 0 to {MAX_INFLATION_RADIUS_M:g} m")
     x0, y0, x1, y1 = world.bounds()
     ox = math.floor((x0 - padding) / resolution) * resolution
     oy = math.floor((y0 - padding) / resolution) * resolution

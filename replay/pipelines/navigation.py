@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from navlog.errors import ConfigError
 from navlog.replay.io import json_text
 from navlog.replay.io.map_server import load_map
+from navlog.replay.limits import check_seed
 from navlog.replay.nav2 import load_nav2_params
 from navlog.replay.nav2.overrides import nav2_override_items
 from navlog.replay.pipelines import PipelineSpec, log_odometry, register, safety
@@ -40,7 +41,16 @@ from navlog.replay.runtime.pipeline import Pipeline
 if TYPE_CHECKING:
     from navlog.replay.nodes.navigation import NavGoal, NavigationStack
 
-NAV2_BLOCKS = ("global_costmap", "local_costmap", "planner_server", "controller_server")
+# every block the stack runs: an error in one is raised before the run, not left to its defaults
+NAV2_BLOCKS = (
+    "global_costmap",
+    "local_costmap",
+    "planner_server",
+    "controller_server",
+    "bt_navigator",
+    "behavior_server",
+    "waypoint_follower",
+)
 DEFAULT_NAV2 = "nav_go2"
 
 
@@ -65,6 +75,9 @@ class Params:
     bt_navigator: dict[str, Any] = field(default_factory=dict)  # --set bt_navigator.KEY=VALUE
     # any Nav2 key, full or short (the smoother's and monitor's: nav2.velocity_smoother.max_velocity=[...])
     nav2: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        check_seed(self.seed)
 
 
 OVERRIDE_BLOCKS = (

@@ -19,8 +19,8 @@ sample newer than an edge's newest changes none of those. Anything else (a stati
 re-parented edge, a sample at or before an edge's newest stamp) starts a new ``epoch``; ``added``
 counts the transforms added (a lookup of the latest transforms holds while it is the same).
 
-A transform with a coordinate that is not finite, or a rotation whose length is zero or overflows, is
-not added: it is counted in the ``skipped`` counter the buffer was given (a node's), one reason per
+A transform with a coordinate that is not finite or farther than ``MAX_TRANSLATION_M``, or a rotation whose
+length is zero or overflows, is not added: it is counted in the ``skipped`` counter the buffer was given (a node's), one reason per
 edge, named for ``topic`` (by default /tf or /tf_static). A rotation of any other length is normalised.
 """
 
@@ -47,6 +47,9 @@ class TransformError(NavlogError):
 # a rigid transform as plain floats: translation x, y, z and unit quaternion x, y, z, w
 Pose = tuple[float, float, float, float, float, float, float]
 IDENTITY_POSE: Pose = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
+# m: a transform's coordinates, at most. Ten times the largest UTM northing a geo-referenced frame holds; a
+# chain of such transforms stays far inside what a costmap's or a grid's cell arithmetic takes.
+MAX_TRANSLATION_M = 1e8
 
 
 def compose_poses(a: Pose, b: Pose) -> Pose:
@@ -94,10 +97,11 @@ class _Edge:
 
 def usable_norm(p: tuple, x: float, y: float, z: float, w: float) -> float:
     """The norm of a transform's quaternion (x, y, z, w) where the transform is usable -- every coordinate of
-    ``p`` finite and that norm positive and finite (``geometry.quat_norm``) -- else 0.0: what the buffer leaves
-    out and counts, and what a drawing of the samples leaves out with it."""
+    ``p`` within ``MAX_TRANSLATION_M`` (so finite) and that norm positive and finite (``geometry.quat_norm``) --
+    else 0.0: what the buffer leaves out and counts, and what a drawing of the samples leaves out with it."""
     n = quat_norm(x, y, z, w)
-    return n if 0.0 < n < math.inf and math.isfinite(p[0]) and math.isfinite(p[1]) and math.isfinite(p[2]) else 0.0
+    near = abs(p[0]) <= MAX_TRANSLATION_M and abs(p[1]) <= MAX_TRANSLATION_M and abs(p[2]) <= MAX_TRANSLATION_M
+    return n if 0.0 < n < math.inf and near else 0.0
 
 
 class TFBuffer:
@@ -160,7 +164,10 @@ class TFBuffer:
         n = usable_norm(p, x, y, z, w)
         if not n:
             topic = self.topic or ("/tf_static" if static else "/tf")
-            self.skipped[f"{topic}: transform {parent} -> {child} not finite or with a zero rotation (ignored)"] += 1
+            self.skipped[
+                f"{topic}: transform {parent} -> {child} not finite, farther than {MAX_TRANSLATION_M:g} m or with a zero rotation "
+                "(ignored)"
+            ] += 1
             return
         self.added += 1
         edge = self._edges.get(child)

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+import re
 import subprocess
 import sys
 
 import numpy as np
 import pytest
 
+from navlog.errors import ConfigError
 from navlog.recorder.world import clearance, load_world, occupancy, world_mesh, write_world_map
 
 
@@ -59,6 +61,10 @@ def test_occupancy_grid_with_margin_and_height_slice():
     # indoor_room at the scan plane (0.15 m) crosses the bookshelf's sides and back but not its shelves
     room = occupancy(load_world("indoor_room"), 0.05, 0.0, 0.15, 0.15)
     assert room.value_at(-2.0, -2.2) == 0 and room.value_at(-2.0, -2.0) == 100 and room.value_at(-2.45, -2.2) == 100
+    # a margin is a distance a robot keeps: negative or beyond 50 m, it names itself (-1 drew an empty map)
+    for bad in (-1.0, 1e308):
+        with pytest.raises(ConfigError, match=re.escape(f"margin {bad} m is out of range: must be 0 to 50 m")):
+            occupancy(w, 0.05, bad)
 
 
 def test_mesh_covers_every_solid_and_the_floor():

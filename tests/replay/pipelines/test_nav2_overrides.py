@@ -45,6 +45,33 @@ def test_navigation_nav2_key_errors_name_the_key():
         navigation.build(pipeline_params("navigation", overrides=["nav2.inflation_radius=0.4"]), NAV_TOPICS)
 
 
+@pytest.mark.parametrize(
+    "override, message",
+    [
+        (
+            "behavior_server.cycle_frequency=-1",
+            r"behavior_server.ros__parameters.cycle_frequency: -1.0 is out of range",
+        ),
+        ("behavior_server.rotational_acc_lim=.nan", r"rotational_acc_lim: expected a number, got .NaN."),
+        ("behavior_server.max_rotational_vel=-1", r"max_rotational_vel: -1.0 is out of range: must be >= 0.0"),
+        ("nav2.bt_navigator.bt_loop_duration=-1", r"bt_navigator.ros__parameters.bt_loop_duration: -1"),
+    ],
+)
+def test_navigation_refuses_bad_values_in_every_block_its_stack_runs(override, message):
+    """The behaviour server, the navigator and the waypoint follower run in the navigation stack: a bad value
+    there is an error naming it, as in the planner's and controller's blocks (it was left to its default)."""
+    with pytest.raises(ConfigError, match=message):
+        navigation.build(pipeline_params("navigation", overrides=[override]), NAV_TOPICS)
+
+
+@pytest.mark.parametrize("seed", [-1, 2**32, 10**30])
+def test_navigation_refuses_a_seed_numpy_cannot_take(seed):
+    with pytest.raises(
+        ConfigError, match=f"seed: {seed} is out of range: a seed must be an integer from 0 to 4294967295"
+    ):
+        pipeline_params("navigation", overrides=[f"seed={seed}"])
+
+
 @pytest.fixture(scope="module")
 def room_map(tmp_path_factory):
     out = tmp_path_factory.mktemp("room") / "map.yaml"

@@ -24,6 +24,7 @@ from navlog.replay.pipelines.planner import (
     write_plan_png,
 )
 from navlog.replay.runtime.executor import Envelope, Executor
+from navlog.replay.session import pipeline_params
 
 DATA = Path(__file__).resolve().parents[1] / "nav2" / "data"
 JAZZY_ARTICLE = Path(__file__).resolve().parents[3] / "config" / "nav2" / "simple_robot_jazzy.yaml"  # seed 001's file
@@ -232,3 +233,19 @@ def test_published_footprint_message():
     cm = Costmap2D(CostmapParams(plugins=(), width=4, height=4, resolution=0.1, robot_radius=0.3))
     msg = footprint_msg(cm, 0, 2.0, 2.0, 0.0)
     assert len(msg.polygon.points) == 16 and msg.polygon.points[0].x == pytest.approx(2.31)
+
+
+@pytest.mark.parametrize(
+    "override, message",
+    [
+        ("goal_tolerance=-1", "goal_tolerance: -1.0 is out of range: must be >= 0.0"),
+        ("goal_tolerance=.nan", "goal_tolerance: nan is out of range"),
+        ("goal_tolerance=20", "goal_tolerance: 20.0 is out of range: must be <= 10.0"),
+        ("start=[.nan,0,0]", r"start: \[nan, 0.0, 0.0\]: x, y and yaw must be finite numbers"),
+        ("start=[1,.inf,0]", r"start: \[1.0, inf, 0.0\]: x, y and yaw must be finite numbers"),
+    ],
+)
+def test_params_refuse_a_goal_tolerance_or_start_no_plan_can_use(override, message):
+    """A negative or NaN tolerance was accepted and no goal was ever reached; a NaN start reached the costmap."""
+    with pytest.raises(ConfigError, match=message):
+        pipeline_params("planner", overrides=[override])

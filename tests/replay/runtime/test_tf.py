@@ -65,7 +65,7 @@ def test_tf_messages_and_frame_prefix():
     assert tf.lookup("simple_robot/odom", "base_link", 7)[:3, 3] == pytest.approx([1, 2, 0])
 
 
-def test_a_transform_not_finite_or_without_a_rotation_is_counted_not_added():
+def test_a_transform_not_finite_far_off_or_without_a_rotation_is_counted_not_added():
     skipped = Counter()
     tf = TFBuffer(skipped=skipped)
     tf.add("odom", "base_link", 0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 2.0))  # any finite length: normalised
@@ -73,19 +73,25 @@ def test_a_transform_not_finite_or_without_a_rotation_is_counted_not_added():
     tf.add("odom", "base_link", 4, (math.nan, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
     tf.add("odom", "base_link", 5, (0.0, 0.0, 0.0), (-3e166, 0.0, 0.0, 1.0))  # its length squared overflows
     tf.add("odom", "base_link", 6, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0, 0.0))
+    # farther than any frame a robot uses (a rolling costmap's origin overflowed at 1e308 m)
+    tf.add("odom", "base_link", 7, (0.0, -1e308, 0.0), (0.0, 0.0, 0.0, 1.0))
+    tf.add("odom", "base_link", 8, (1.0000001e8, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))
+    tf.add("map", "odom", 0, (-1e8, 5.6e6, 0.0), (0.0, 0.0, 0.0, 1.0), static=True)  # a UTM northing, the bound: kept
     tf.add("base_link", "laser", 0, (0.5, 0.0, 0.0), (0.0, 0.0, math.inf, 1.0), static=True)
-    assert tf.added == 2
+    assert tf.added == 3
     assert skipped == {
-        "/tf: transform odom -> base_link not finite or with a zero rotation (ignored)": 3,
-        "/tf_static: transform base_link -> laser not finite or with a zero rotation (ignored)": 1,
+        "/tf: transform odom -> base_link not finite, farther than 1e+08 m or with a zero rotation (ignored)": 5,
+        "/tf_static: transform base_link -> laser not finite, farther than 1e+08 m or with a zero rotation (ignored)": 1,
     }
     t = tf.lookup("odom", "base_link", 5)  # between the two samples kept
     assert t[:3, 3] == pytest.approx([1.0, 0.0, 0.0])
     assert math.atan2(t[1, 0], t[0, 0]) == pytest.approx(math.pi / 4)
     assert not tf.connected("base_link", "laser")
+    assert tf.lookup("map", "base_link", 5)[:3, 3] == pytest.approx([-1e8 + 1.0, 5.6e6, 0.0])
     named = TFBuffer(skipped=skipped, topic="/odom")
     named.add("__pose_origin__", "base_link", 0, (0.0, math.inf, 0.0), (0.0, 0.0, 0.0, 1.0))
-    assert skipped["/odom: transform __pose_origin__ -> base_link not finite or with a zero rotation (ignored)"] == 1
+    reason = "not finite, farther than 1e+08 m or with a zero rotation (ignored)"
+    assert skipped[f"/odom: transform __pose_origin__ -> base_link {reason}"] == 1
 
 
 def test_kept_paths_and_static_matrices_give_the_same_bits_and_follow_a_changed_tree():
