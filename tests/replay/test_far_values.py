@@ -27,20 +27,30 @@ def _far_tf(src: Path, dst: Path, first: int, last: int, x: float) -> None:
             w.write(env)
 
 
-def test_slam_skips_scans_whose_odometry_is_1e39_m_away(teleop_log, tmp_path):
-    # the scan matcher sized its window from the odometry: np.bincount raised OverflowError
-    path = tmp_path / "far.mcap"
-    _far_tf(teleop_log, path, 100, 400, 1e39)
-    overrides = ["pose_source=slam", "lidar_mapper=off"]
-    res = run_replay(path, "mapping", tmp_path / "out", overrides=overrides, progress=False)
-    far = res.manifest["skipped"]["/scan: odometry farther than 1e+06 m at the scan's stamp"]
+FAR_TF = "not finite, farther than 1e+08 m or with a zero rotation (ignored)"
+
+
+def test_slam_skips_scans_whose_odometry_is_far_away(teleop_log, tmp_path):
+    # the scan matcher sized its window from the odometry: np.bincount raised OverflowError at 1e39 m. Transforms
+    # that far are left out of the TF tree (a scan between two of them has no odometry); 1e7 m is in the tree, and
+    # the SLAM skips the scans it would place there
     with open_log(teleop_log) as r:
         scans = r.topics["/scan"].count
-    assert 0 < far < scans and (res.out_dir / "map.pgm").exists()
+    overrides = ["pose_source=slam", "lidar_mapper=off"]
+    for x, reason in ((1e7, "/scan: odometry farther than 1e+06 m at the scan's stamp"), (1e39, None)):
+        path = tmp_path / f"far{x:g}.mcap"
+        _far_tf(teleop_log, path, 100, 400, x)
+        res = run_replay(path, "mapping", tmp_path / f"out{x:g}", overrides=overrides, progress=False)
+        skipped = res.manifest["skipped"]
+        if reason is None:
+            assert skipped[f"/tf: transform odom -> base_footprint {FAR_TF}"] == 301
+            reason = "/scan: no odometry (odom -> base) or laser transform at the scan's stamp"
+        assert 0 < skipped[reason] < scans and (res.out_dir / "map.pgm").exists()
 
 
-def test_the_planner_skips_costmap_updates_whose_robot_pose_is_beyond_float32(teleop_log, tmp_path):
-    # the footprint's Point32 coordinates could not be packed: OverflowError from the CDR writer
+def test_the_planner_skips_transforms_beyond_any_frame(teleop_log, tmp_path):
+    # the footprint's Point32 coordinates could not be packed at 1e39 m: OverflowError from the CDR writer. Such
+    # transforms are left out of the TF tree, counted; the costmap updates on the others
     from navlog.recorder.world import write_world_map
 
     write_world_map("indoor_room", tmp_path / "map.yaml", margin=0.0)
@@ -48,7 +58,6 @@ def test_the_planner_skips_costmap_updates_whose_robot_pose_is_beyond_float32(te
     _far_tf(teleop_log, path, 100, 400, 1e39)
     overrides = [f"map={tmp_path / 'map.yaml'}", "goals=indoor_room_waypoints"]
     res = run_replay(path, "planner", tmp_path / "out", overrides=overrides, progress=False)
-    far = res.manifest["skipped"]["costmap update: robot pose beyond float32's range (+-3.4e38 m) in the TF tree"]
-    assert far > 0
+    assert res.manifest["skipped"][f"/tf: transform odom -> base_footprint {FAR_TF}"] == 301
     with open_log(res.out_dir / "replay.mcap") as out:  # the footprints of the other updates are written
         assert out.topics["/global_costmap/published_footprint"].count > 0

@@ -607,17 +607,21 @@ class Slam2D:
         )
 
     def _check_reversal(self, stamp: int, odom: gtsam.Pose2, match: MatchResult, last: gtsam.Pose2) -> None:
-        """Count the scan in ``counts.reversals_missed`` when its match (one that pins x and y) measured a step back
-        of ``REVERSAL_MISSED`` or more (along the robot's heading, since the anchor: the last keyframe or scan a
-        match was tried for, at its pose then; ``last`` is the last keyframe's pose) where the odometry measured
-        one forward as long."""
+        """Given a scan's match that pins x and y, and the step it measured along the robot's heading since the
+        anchor (the last keyframe or scan a match was tried for, at its pose then; ``last`` is the last keyframe's
+        pose): count the scan in ``counts.reversals_missed`` when the match measured a step back of
+        ``REVERSAL_MISSED`` or more where the odometry as read measured one forward as long; and, while the
+        odometry is read backwards (``infer_reversing``), turn the reading forward from this scan on when the
+        match measured a step forward that long where the reading measured one back (the robot drives on)."""
         _, anchor_odom, anchor_rel = self._anchor
-        forward = anchor_odom.between(odom).x()
-        if forward < REVERSAL_MISSED:
+        read = anchor_odom.between(odom).x()
+        if abs(read) < REVERSAL_MISSED:
             return
-        back = last.compose(anchor_rel).between(_pose2(match.pose)).x()
-        if back <= -REVERSAL_MISSED:
-            self.counts.reversals_missed.append((stamp, float(forward), float(back)))
+        moved = last.compose(anchor_rel).between(_pose2(match.pose)).x()
+        if read > 0 and moved <= -REVERSAL_MISSED:
+            self.counts.reversals_missed.append((stamp, float(read), float(moved)))
+        elif read < 0 and moved >= REVERSAL_MISSED and self._direction < 0:
+            self._turn_reading(stamp)
 
     def _add_keyframe(
         self,

@@ -1620,6 +1620,31 @@ def test_odometry_that_lost_the_sign_of_its_speed_is_read_backwards_where_the_sc
     assert run_slam(scene, truth, truth, params).counts.reversals_inferred == []
 
 
+@pytest.mark.parametrize(("start", "heading"), [((-4.0, -0.5), 0.0), ((2.5, -3.0), 2.3)])
+def test_a_reading_turned_backwards_turns_forward_where_a_match_finds_the_robot_driving_on(scene, start, heading):
+    # 4 m ahead and 1.5 m back at 10 cm a scan, then on without a stop, creeping 3 cm a scan for 0.9 m before
+    # 10 cm a scan again; the odometry adds every step forward. Creeping, the odometry read backwards strays 6 cm
+    # a scan: the matches still find the robot and fit as well as ever, so nothing doubts them, but they measure it
+    # driving on where the reading says back, and the reading turns forward at the first of them
+    along = np.concatenate(
+        [np.arange(41) * 0.1, 4.0 - np.arange(1, 16) * 0.1, 2.5 + np.arange(1, 31) * 0.03, 3.4 + np.arange(1, 21) * 0.1]
+    )
+    direction = np.array([math.cos(heading), math.sin(heading)])
+    truth = np.column_stack([start + along[:, None] * direction, np.full(len(along), heading)])
+    odometer = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(along)))])
+    odom = np.column_stack([start + odometer[:, None] * direction, truth[:, 2]])
+    slam = run_slam(scene, truth, odom, SlamParams(do_loop_closing=False))
+    (back, minus), (forward, plus) = slam.counts.reversals_inferred
+    assert (minus, plus) == (-1, 1)
+    assert 4_100_000_000 <= back <= 5_500_000_000  # (scans 41-55 are driven back)
+    # scan 56 is the first on, and a match is due every 0.5 s (the doubted fits alone turned it at 6.6 and 8.6 s)
+    assert 5_600_000_000 <= forward <= 6_100_000_000
+    _, poses = slam.trajectory()
+    err = np.hypot(*(poses[:, :2] - truth[:, :2]).T)
+    # each match pulls the creeping robot back to where it is; from the turn on the odometry holds it
+    assert float(err[56:].max()) < 0.3 and float(err[int(forward // 100_000_000) + 1 :].max()) < 0.1
+
+
 def test_a_reading_turned_backwards_turns_forward_once_the_odometry_reports_driving_back():
     # the odometry read backwards from 0.1 s on; at 0.3 s the log's odometry reports 1.5 cm back: it knows the sign
     # after all, and its steps are read as given from that one on
