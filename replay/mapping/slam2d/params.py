@@ -143,7 +143,8 @@ class SlamParams:
     # navlog's: odometry that has never reported driving back (wheels that may have lost the sign of their speed):
     # a match that fits less than the recent ones is tried again with the odometry's step since the last match
     # read backwards, and where that fits clearly better, the odometry's steps are read the other way from then on
-    # (until a match finds them the other way again, or the robot stops: it drives on forward)
+    # (until a match finds them the other way again or measures the robot driving on, or the robot stops: it
+    # drives on forward)
     infer_reversing: bool = True
     # a loop closure, the same way (its covariance also decides loop_match_maximum_variance_coarse)
     loop_sigmas: tuple[float, float, float] = (0.05, 0.05, 0.02)

@@ -101,7 +101,8 @@ REVERSAL_MISSED = 0.02  # m: a step the odometry measured forward and the scans 
 # knows the sign of its speed; a match whose response is DOUBTED below the median of the last ODOMETRY_WINDOW
 # matches' is tried with the odometry's step since the last match (REVERSAL_MISSED or longer) read backwards, which
 # is kept when its response is DOUBTED above and no more than DOUBTED below that median; a robot whose odometry moved slower than STOPPED between two scans
-# stopped and drives on forward
+# stopped and drives on forward, and so does one a match measures moving forward REVERSAL_MISSED or more where the
+# odometry read backwards measured as much back
 REPORTS_REVERSING = 0.01  # m
 DOUBTED = 0.1
 STOPPED = 0.02  # m/s
@@ -467,8 +468,9 @@ class Slam2D:
         """The odometry pose as the SLAM reads it at a scan of ``stamp`` whose log pose is ``log_odom``: as given
         until ``infer_reversing`` reads a step backwards (``_sign_checked``), then the steps since chained, each
         backwards while the robot is taken to drive back (its translation negated, its turn as given): until a
-        match finds it driving forward, or it stops (its odometry slower than ``STOPPED`` since the last scan), or
-        the log's odometry reports driving back after all (``REPORTS_REVERSING``: it knows the sign)."""
+        match finds it driving forward (``_sign_checked``, ``_check_reversal``), or it stops (its odometry slower
+        than ``STOPPED`` since the last scan), or the log's odometry reports driving back after all
+        (``REPORTS_REVERSING``: it knows the sign)."""
         previous = self._log_odom
         elapsed, self._log_stamp = (stamp - self._log_stamp) * 1e-9, stamp
         if previous is None:
