@@ -38,6 +38,7 @@ from navlog.analysis.ci.invariants import Invariant, parse_invariant
 from navlog.analysis.diff.tolerances import DEFAULT_TOLERANCES, DiffTolerances, parse_tolerances
 from navlog.errors import ConfigError
 from navlog.replay.config import load_yaml, suggest
+from navlog.replay.limits import MAX_INFLATION_RADIUS_M
 
 __all__ = ["Case", "DiffCheck", "Recipe", "Suite", "WorldMap", "load_suite", "suite_name"]
 
@@ -179,11 +180,12 @@ class _Where:
             raise self.error(key, f"expected a non-empty string, got {value!r}")
         return value.strip()
 
-    def number(self, value: Any, key: str, *, minimum: float | None = None) -> float:
-        """A number > 0 (or >= ``minimum`` when given)."""
+    def number(self, value: Any, key: str, *, minimum: float | None = None, maximum: float = float("inf")) -> float:
+        """A number > 0 (or >= ``minimum`` when given), at most ``maximum``."""
         ok = isinstance(value, int | float) and not isinstance(value, bool)
-        if not ok or not (value >= minimum if minimum is not None else value > 0):
+        if not ok or not (value >= minimum if minimum is not None else value > 0) or not value <= maximum:
             bound = f">= {minimum:g}" if minimum is not None else "> 0"
+            bound += f" and <= {maximum:g}" if maximum < float("inf") else ""
             raise self.error(key, f"expected a number {bound}, got {value!r}")
         return float(value)
 
@@ -315,7 +317,7 @@ def _world_map(data: Any, at: _Where, recipe: Recipe | None) -> WorldMap:
         raise at.error("world_map.world", "required when the case reads a log file (a recipe names its world)")
     return WorldMap(
         at.text(world, "world_map.world"),
-        at.number(data.get("margin", 0.15), "world_map.margin", minimum=0.0),
+        at.number(data.get("margin", 0.15), "world_map.margin", minimum=0.0, maximum=MAX_INFLATION_RADIUS_M),
         at.number(data["resolution"], "world_map.resolution") if "resolution" in data else None,
     )
 

@@ -26,6 +26,7 @@ from typing import Any, Literal
 
 from navlog.errors import ConfigError
 from navlog.replay.config import from_mapping, load_yaml, param
+from navlog.replay.limits import MAX_SEED
 
 MIN_MAX_DURATION_S = 1.0  # s: the shortest max_duration, a second of sim time (no goal is reached sooner)
 
@@ -100,8 +101,8 @@ class CampaignSpec:
             from navlog.replay.config import suggest
 
             raise ValueError(f"baseline '{self.baseline}' is not a variant{suggest(self.baseline, names)}")
-        if any(s < 0 for s in self.seeds) or len(set(self.seeds)) != len(self.seeds):
-            raise ValueError("seeds must be unique non-negative integers")
+        if any(not 0 <= s <= MAX_SEED for s in self.seeds) or len(set(self.seeds)) != len(self.seeds):
+            raise ValueError(f"seeds must be unique integers from 0 to {MAX_SEED}")
         if not (0 <= self.map_margin <= 5 and self.wall_timeout > 0):
             raise ValueError("map_margin must be 0..5 m, wall_timeout positive")
         if not 0 < self.alpha < 0.5:

@@ -70,6 +70,10 @@ def test_shipped_suite_reads():
             "cases:\n  - {name: a, pipeline: mapping, log: x.mcap, checks: [{diff: {tolerances: {grid.changed_shar: 0.1}}}]}\n",
             "checks[0].diff.tolerances: 'grid.changed_shar=0.1': unknown tolerance 'grid.changed_shar' (did you mean 'grid.changed_share'?)",
         ),
+        (
+            "cases:\n  - {name: a, pipeline: mapping, log: x.mcap, world_map: {world: indoor_room, margin: 60}}\n",
+            "case 'a': world_map.margin: expected a number >= 0 and <= 50, got 60",
+        ),
         ("caes: []\n", "suite: caes: unknown key (did you mean 'cases'?)"),
         (
             "cases:\n  - {name: a, pipeline: mapping, log: x.mcap}\n  - {name: a, pipeline: mapping, log: x.mcap}\n",

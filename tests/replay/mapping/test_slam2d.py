@@ -1638,7 +1638,7 @@ def test_a_reading_turned_backwards_turns_forward_where_a_match_finds_the_robot_
     assert (minus, plus) == (-1, 1)
     assert 4_100_000_000 <= back <= 5_500_000_000  # (scans 41-55 are driven back)
     # scan 56 is the first on, and a match is due every 0.5 s (the doubted fits alone turned it at 6.6 and 8.6 s)
-    assert 5_600_000_000 <= forward <= 6_100_000_000
+    assert 5_600_000_000 <= forward <= 6_200_000_000
     _, poses = slam.trajectory()
     err = np.hypot(*(poses[:, :2] - truth[:, :2]).T)
     # each match pulls the creeping robot back to where it is; from the turn on the odometry holds it
