@@ -12,6 +12,9 @@ at ``MAX_COSTMAP_CELLS`` is 100 MB of costs.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Iterable
+
 from navlog.replay.config import BoundError
 
 MAX_RATE_HZ = 1000.0  # every node frequency (controller, planner, costmap update and publish, smoother, ...)
@@ -21,6 +24,7 @@ MAX_PERIOD_S = 1e6  # any period in seconds (about 11 days: beyond it no log rea
 MAX_COSTMAP_CELLS = 10**8  # (width / resolution) x (height / resolution): 100 MB of uint8 costs
 MAX_GRID_CELLS = 10**8  # a 2D map's grid as it grows: 400 MB of float32 log-odds (500 x 500 m at 5 cm)
 MIN_GRID_RESOLUTION_M = 0.005  # a 2D map's cell: finer than any laser ranges (a 1 mm grid of a room took 6.7 GB)
+MAX_GRID_RESOLUTION_M = 5.0  # a 2D map's cell at most (the SLAM's map grows in blocks of 5 m)
 MAX_PARTICLES = 100_000  # AMCL's particle filter (Nav2's default max_particles: 2,000)
 MAX_MPPI_SAMPLES = 2_000_000  # MPPI batch_size x time_steps (Nav2's default: 1,000 x 56 = 56,000)
 MAX_MPPI_ITERATIONS = 100  # MPPI iteration_count (Nav2's default: 1)
@@ -48,3 +52,10 @@ def check_seed(seed: int, where: str = "seed") -> int:
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
         raise BoundError(where, f"{seed!r} is out of range: a seed must be an integer from 0 to {MAX_SEED}")
     return seed
+
+
+def check_finite_pose(pose: Iterable[float], where: str) -> None:
+    """BoundError naming ``where`` when a pose's x, y or yaw is not a finite number."""
+    values = list(pose)
+    if not all(math.isfinite(float(v)) for v in values):
+        raise BoundError(where, f"{values}: x, y and yaw must be finite numbers")

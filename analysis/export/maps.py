@@ -8,7 +8,6 @@ from pathlib import Path
 
 from navlog.errors import NavlogError
 
-MAX_RESOLUTION_M = 5.0  # a map cell (the 2D SLAM's largest)
 MAX_MIN_POINTS = 10**9  # points a cell needs to be occupied
 
 
@@ -44,13 +43,13 @@ def pcd_to_map(
     from navlog.replay.io.logwriter import check_output
     from navlog.replay.io.map_server import save_map
     from navlog.replay.io.pcd import read_pcd
-    from navlog.replay.limits import MIN_GRID_RESOLUTION_M
+    from navlog.replay.limits import MAX_GRID_RESOLUTION_M, MIN_GRID_RESOLUTION_M
     from navlog.replay.mapping.occupancy import project_points
 
     pcd, output = Path(pcd), Path(output)
-    if not MIN_GRID_RESOLUTION_M <= resolution <= MAX_RESOLUTION_M:  # (NaN fails both)
+    if not MIN_GRID_RESOLUTION_M <= resolution <= MAX_GRID_RESOLUTION_M:  # (NaN fails both)
         raise NavlogError(
-            f"resolution {resolution!r}: must be {MIN_GRID_RESOLUTION_M} to {MAX_RESOLUTION_M:g} m a cell"
+            f"resolution {resolution!r}: must be {MIN_GRID_RESOLUTION_M} to {MAX_GRID_RESOLUTION_M:g} m a cell"
         )
     if not (math.isfinite(z_min) and math.isfinite(z_max)):  # (their order is project_points's check)
         raise NavlogError(f"z_min {z_min!r}, z_max {z_max!r}: must be finite heights")

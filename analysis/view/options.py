@@ -7,11 +7,11 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from navlog.errors import NavlogError
+from navlog.replay.limits import MAX_PERIOD_S  # (a thinning period)
 
 __all__ = ["PLAY_STATES", "PlayState", "ViewOptions", "ViewSummary"]
 
 PLAY_STATES = ("", "paused", "playing")
-MAX_PERIOD_S = 1e6  # a thinning period (about 11 days: beyond it no log reaches a second tick)
 MAX_MARGIN_M = 1e4  # a grid's margin around its known cells
 PlayState = Literal["", "paused", "playing"]
 

@@ -25,7 +25,6 @@ localization.json (updates, resamples, particles, the first update's and the las
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Literal
@@ -33,11 +32,10 @@ from typing import Any, Literal
 import numpy as np
 
 from navlog.errors import ConfigError
-from navlog.replay.config import BoundError
 from navlog.replay.io import json_text
 from navlog.replay.io.map_server import load_map
 from navlog.replay.io.tum import write_poses
-from navlog.replay.limits import check_seed
+from navlog.replay.limits import check_finite_pose, check_seed
 from navlog.replay.nav2 import default_nav2_params, load_nav2_params
 from navlog.replay.nav2.amcl import AmclParams
 from navlog.replay.nav2.overrides import apply_nav2_overrides, nav2_override_items
@@ -63,8 +61,8 @@ class Params:
 
     def __post_init__(self) -> None:
         check_seed(self.seed)
-        if not isinstance(self.initial_pose, str) and not all(math.isfinite(float(v)) for v in self.initial_pose):
-            raise BoundError("initial_pose", f"{list(self.initial_pose)}: x, y and yaw must be finite numbers")
+        if not isinstance(self.initial_pose, str):
+            check_finite_pose(self.initial_pose, "initial_pose")
 
 
 def default_amcl_document() -> dict[str, Any]:

@@ -28,12 +28,12 @@ import numpy as np
 
 from navlog.errors import ConfigError
 from navlog.replay import messages as m
-from navlog.replay.config import BoundError, find_config, known_configs, load_yaml, param, suggest
+from navlog.replay.config import find_config, known_configs, load_yaml, param, suggest
 from navlog.replay.io import json_text
 from navlog.replay.io.atomic import write_file
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.map_server import load_map
-from navlog.replay.limits import MAX_GOAL_TOLERANCE_M, MAX_PERIOD_S, MIN_PERIOD_S
+from navlog.replay.limits import MAX_GOAL_TOLERANCE_M, MAX_PERIOD_S, MIN_PERIOD_S, check_finite_pose
 from navlog.replay.nav2 import Nav2Params, default_nav2_params, load_nav2_params
 from navlog.replay.nav2.costmap import Costmap2D, default_costmap_params
 from navlog.replay.nav2.costmap.grid import DEFAULT_LAYER_PLUGINS
@@ -68,8 +68,7 @@ class Params:
     nav2: dict[str, Any] = field(default_factory=dict)  # any Nav2 key, full or short: --set nav2.KEY=VALUE
 
     def __post_init__(self) -> None:
-        if not all(math.isfinite(float(v)) for v in self.start):
-            raise BoundError("start", f"{list(self.start)}: x, y and yaw must be finite numbers")
+        check_finite_pose(self.start, "start")
 
 
 def nav2_overrides(params: Params) -> list[str]:

@@ -14,7 +14,13 @@ from dataclasses import dataclass
 from typing import Literal
 
 from navlog.replay.config import param
-from navlog.replay.limits import MAX_GRID_CELLS, MAX_PERIOD_S, MIN_GRID_RESOLUTION_M, MIN_MAP_PERIOD_S
+from navlog.replay.limits import (
+    MAX_GRID_CELLS,
+    MAX_GRID_RESOLUTION_M,
+    MAX_PERIOD_S,
+    MIN_GRID_RESOLUTION_M,
+    MIN_MAP_PERIOD_S,
+)
 
 # a square searched on the correlation grid spans at most this many of its cells per side (8 m at 0.025 m: 320;
 # a lookup grid for 800 is ~0.3 GB of pooled levels)
@@ -23,8 +29,6 @@ MAX_SEARCH_CELLS = 800
 # the yaws a search tries (2 coarse_search_angle_offset / coarse_angle_resolution + 1) at most: a tenth of a degree
 # around the whole turn
 MAX_SEARCH_YAWS = 3601
-# the largest map cell (the map grows in blocks of 5 m)
-MAX_MAP_RESOLUTION = 5.0
 # a standard deviation of an edge or of the odometry: from a tenth of a millimetre (or milliradian) up
 SIGMA_RANGE = (1e-4, 1e3)
 
@@ -237,10 +241,10 @@ class SlamParams:
 
     def _check_extents(self) -> None:
         """Values that pass as numbers but would make a search's or a grid's arrays absurd."""
-        if not MIN_GRID_RESOLUTION_M <= self.resolution <= MAX_MAP_RESOLUTION:
+        if not MIN_GRID_RESOLUTION_M <= self.resolution <= MAX_GRID_RESOLUTION_M:
             raise ValueError(
                 f"resolution ({self.resolution} m) is a map cell: between {MIN_GRID_RESOLUTION_M} and "
-                f"{MAX_MAP_RESOLUTION} m"
+                f"{MAX_GRID_RESOLUTION_M} m"
             )
         res = self.correlation_search_space_resolution
         if res < MIN_GRID_RESOLUTION_M:

@@ -100,9 +100,9 @@ REVERSAL_MISSED = 0.02  # m: a step the odometry measured forward and the scans 
 # infer_reversing: odometry that has reported driving back REPORTS_REVERSING in all (its steps' backward parts summed)
 # knows the sign of its speed; a match whose response is DOUBTED below the median of the last ODOMETRY_WINDOW
 # matches' is tried with the odometry's step since the last match (REVERSAL_MISSED or longer) read backwards, which
-# is kept when its response is DOUBTED above and no more than DOUBTED below that median; a robot whose odometry moved slower than STOPPED between two scans
-# stopped and drives on forward, and so does one a match measures moving forward REVERSAL_MISSED or more where the
-# odometry read backwards measured as much back
+# is kept when its response is DOUBTED above and no more than DOUBTED below that median; a robot whose odometry
+# moved slower than STOPPED between two scans stopped and drives on forward, and so does one a match measures moving
+# forward REVERSAL_MISSED or more where the odometry read backwards measured as much back
 REPORTS_REVERSING = 0.01  # m
 DOUBTED = 0.1
 STOPPED = 0.02  # m/s
