@@ -608,25 +608,22 @@ class Slam2D:
             or abs(d.theta()) >= self.p.minimum_travel_heading
         )
 
-    def _check_reversal(self, stamp: int, odom: gtsam.Pose2, match: MatchResult, last: gtsam.Pose2) -> bool:
+    def _check_reversal(self, stamp: int, odom: gtsam.Pose2, match: MatchResult, last: gtsam.Pose2) -> None:
         """Given a scan's match that pins x and y, and the step it measured along the robot's heading since the
         anchor (the last keyframe or scan a match was tried for, at its pose then; ``last`` is the last keyframe's
         pose): count the scan in ``counts.reversals_missed`` when the match measured a step back of
         ``REVERSAL_MISSED`` or more where the odometry as read measured one forward as long; and, while the
         odometry is read backwards (``infer_reversing``), turn the reading forward from this scan on when the
-        match measured a step forward that long where the reading measured one back (the robot drives on). Whether
-        it turned the reading."""
+        match measured a step forward that long where the reading measured one back (the robot drives on)."""
         _, anchor_odom, anchor_rel = self._anchor
         read = anchor_odom.between(odom).x()
         if abs(read) < REVERSAL_MISSED:
-            return False
+            return
         moved = last.compose(anchor_rel).between(_pose2(match.pose)).x()
         if read > 0 and moved <= -REVERSAL_MISSED:
             self.counts.reversals_missed.append((stamp, float(read), float(moved)))
         elif read < 0 and moved >= REVERSAL_MISSED and self._direction < 0:
             self._turn_reading(stamp)
-            return True
-        return False
 
     def _add_keyframe(
         self,
@@ -647,9 +644,8 @@ class Slam2D:
             match = self._sequential_match(grid, points, pose, prediction, reversing)
             start, since = self._from_anchor(odom)
             other, back = self._sign_checked(grid, points, match, since, start, scan, stamp, reversing, True)
-            turned = False
             if other is not None and back is not None:
-                match, pose, prediction, turned = other, back, _pose2(back), True
+                match, pose, prediction = other, back, _pose2(back)
             prev = self._pose(i - 1)
             rot = _rotation(prev.theta())
             recovered = None
@@ -676,11 +672,13 @@ class Slam2D:
                 kind, response = "match", recovered.response
             elif match is not None:
                 if _pins_position(match):
-                    turned = self._check_reversal(stamp, odom, match, prev) or turned
+                    self._check_reversal(stamp, odom, match, prev)
                     innovation = rot.T @ (match.pose - pose)
                     innovation[2] = remainder_angle(float(innovation[2]))
                     self._innovations.append(innovation)
-                    if not turned:  # (the odometry's step since the last keyframe was read partly the other way)
+                    # a reading turned since the last keyframe (here or at a scan between) read its step partly the
+                    # other way: no sample
+                    if self._turned_at != i:
                         self._calibration_sample(prev.between(_pose2(match.pose)), step)
                 pose, cov = self._fuse(pose, prev.theta(), match)
                 self.counts.matched += 1

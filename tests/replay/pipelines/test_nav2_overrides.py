@@ -64,6 +64,19 @@ def test_navigation_refuses_bad_values_in_every_block_its_stack_runs(override, m
         navigation.build(pipeline_params("navigation", overrides=[override]), NAV_TOPICS)
 
 
+def test_navigation_refuses_a_bad_waypoint_follower_value_with_its_file_and_line(shared_dir):
+    # the pipeline's own Nav2 file has no waypoint_follower block; Nav2's default parameters do (loop_rate: 20 on
+    # line 460)
+    nav2 = shared_dir / "external-data/nav2_bringup/params/nav2_params.yaml"
+    navigation.build(pipeline_params("navigation", overrides=[f"nav2_params={nav2}"]), NAV_TOPICS)
+    with pytest.raises(
+        ConfigError,
+        match=r"nav2_params.yaml:460: error: waypoint_follower.ros__parameters.loop_rate: 0 is out of range",
+    ):
+        overrides = [f"nav2_params={nav2}", "nav2.waypoint_follower.loop_rate=0"]
+        navigation.build(pipeline_params("navigation", overrides=overrides), NAV_TOPICS)
+
+
 @pytest.mark.parametrize("seed", [-1, 2**32, 10**30])
 def test_navigation_refuses_a_seed_numpy_cannot_take(seed):
     with pytest.raises(
