@@ -519,8 +519,7 @@ class Slam2D:
         missed, is no reversal), pinning x and y; else (None, None). Fits are the whole scan's response at the pose found (a match of
         the points in sight, ``match_in_sight``, which ``reversing`` says ``match`` may be, scores only those). A
         ``keyframe``'s match is predicted from the last keyframe: both predictions from ``start`` are matched, each
-        on a grid around itself, and a match of the step as read that lies on its square's edge (``_at_edge``: the
-        scan fits best beyond it) scores it no better than the keyframe's own match."""
+        on a grid around itself."""
         if not self.p.infer_reversing or self._reported_back >= REPORTS_REVERSING:
             return None, None
         fit = 0.0 if match is None or grid is None else match.response
@@ -540,9 +539,7 @@ class Slam2D:
             ahead = _xyt(start.compose(step))
             grid = self.matcher.grid_around(self._buffer_points(_pose2(ahead)), points, ahead, self._link)
             found = self._sequential_match(grid, points, ahead, _pose2(ahead), self._reversing(scan, step))
-            own, fit = fit, 0.0 if found is None or grid is None else grid.response(found.pose, points)
-            if found is not None and self._at_edge(found.pose, ahead):
-                fit = min(fit, own)
+            fit = 0.0 if found is None or grid is None else grid.response(found.pose, points)
             grid = self.matcher.grid_around(self._buffer_points(_pose2(back)), points, back, self._link)
         other = self._sequential_match(grid, points, back, _pose2(back), self._reversing(scan, _backwards(step)))
         if other is None or grid is None or not _pins_position(other):
@@ -555,11 +552,6 @@ class Slam2D:
         self._responses.append(other_fit)
         self._turn_reading(stamp)
         return other, back
-
-    def _at_edge(self, pose: np.ndarray, prediction: np.ndarray) -> bool:
-        """Whether a sequential match's ``pose`` lies on the edge of its search square around ``prediction`` (within
-        a correlation cell of its half side): the scan fits best beyond the square, not near the prediction."""
-        return float(np.max(np.abs(pose[:2] - prediction[:2]))) >= self._link.linear / 2 - self.matcher.res
 
     def _predict(self, odom: gtsam.Pose2) -> gtsam.Pose2:
         if not self.keyframes:
@@ -609,17 +601,8 @@ class Slam2D:
             return step
         return gtsam.Pose2(length * step.x(), length * step.y(), turn * step.theta())
 
-    def _since_keyframe(self, odom: gtsam.Pose2) -> gtsam.Pose2:
-        """The robot's step since the last keyframe: the odometry's as read or, when the reading turned at a scan
-        since the keyframe (whose steps from the last match to it were read the other way), the anchor's pose in the
-        keyframe's frame composed with the odometry's step since the anchor, as ``_predict`` composes it."""
-        if self._turned_at == len(self.keyframes):
-            _, anchor_odom, anchor_rel = self._anchor
-            return anchor_rel.compose(anchor_odom.between(odom))
-        return self.keyframes[-1].odom.between(odom)
-
     def _travelled(self, odom: gtsam.Pose2) -> bool:
-        d = self._since_keyframe(odom)
+        d = self.keyframes[-1].odom.between(odom)
         return (
             math.hypot(d.x(), d.y()) >= self.p.minimum_travel_distance
             or abs(d.theta()) >= self.p.minimum_travel_heading
@@ -666,7 +649,7 @@ class Slam2D:
             prev = self._pose(i - 1)
             rot = _rotation(prev.theta())
             recovered = None
-            step = self._since_keyframe(odom)
+            step = self.keyframes[-1].odom.between(odom)
             self._odometry_steps.append(math.hypot(step.x(), step.y()))
             weak = match is None or match.response < self.p.loop_match_minimum_response_fine
             usual = self._usual_step()

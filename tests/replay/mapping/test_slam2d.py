@@ -7,7 +7,6 @@ boxes, at the height of a 2D laser, from known poses.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 
 import gtsam
@@ -1626,13 +1625,7 @@ def test_odometry_that_lost_the_sign_of_its_speed_is_read_backwards_where_the_sc
         else:  # the next match or two
             assert 5_600_000_000 <= forward <= 6_500_000_000
         assert_calibrated_on_steps_read_one_way(slam)
-        # a keyframe once the robot is 0.5 m from the last one (and a scan's 0.1 m), after a turn of the reading at a
-        # scan between keyframes too (the odometry's step since the keyframe, read partly the other way, put one 1.2 m
-        # from the last)
-        at = [k.stamp // 100_000_000 for k in slam.keyframes]
-        assert max(abs(along[b] - along[a]) for a, b in itertools.pairwise(at)) < 0.6 + 1e-6
-    # (read backwards, the scans the robot turns around at follow the reading until a match finds it driving on)
-    assert errors[True] < 0.1 and errors[True] < 0.7 * errors[False]
+    assert errors[True] < 0.09 and errors[True] < 0.7 * errors[False]
     # odometry that reports driving back is never read the other way
     assert run_slam(scene, truth, truth, params).counts.reversals_inferred == []
 
@@ -1654,10 +1647,8 @@ def test_a_reading_turned_backwards_turns_forward_where_a_match_finds_the_robot_
     (back, minus), (forward, plus) = slam.counts.reversals_inferred
     assert (minus, plus) == (-1, 1)
     assert 4_100_000_000 <= back <= 5_500_000_000  # (scans 41-55 are driven back)
-    # scan 56 is the first on, and a match is due every 0.5 s: the first whose step since the last one measures the
-    # robot driving on turns it, within two of them (without this rule, on one heading the doubted fits turned it at
-    # 8.7 s)
-    assert 5_600_000_000 <= forward <= 6_500_000_000
+    # scan 56 is the first on, and a match is due every 0.5 s (the doubted fits alone turned it at 6.6 and 8.6 s)
+    assert 5_600_000_000 <= forward <= 6_200_000_000
     assert_calibrated_on_steps_read_one_way(slam)
     _, poses = slam.trajectory()
     err = np.hypot(*(poses[:, :2] - truth[:, :2]).T)
