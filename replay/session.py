@@ -23,7 +23,7 @@ from navlog.errors import ConfigError, NavlogError
 from navlog.replay.config import apply_overrides, find_config, from_mapping, load_config, suggest, to_mapping
 from navlog.replay.identity import input_entries, inputs_sha256, replay_identity, sha256_file
 from navlog.replay.io import cdr_decode, json_text
-from navlog.replay.io.atomic import WriteError, hold_output, remove_stale, replace_output, write_error
+from navlog.replay.io.atomic import WriteError, check_not_input, hold_output, remove_stale, replace_output, write_error
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.logwriter import McapLogWriter
 from navlog.replay.io.reader import MAX_LOG_TIME_JUMP_NS, LogReader
@@ -144,6 +144,7 @@ def run_replay(
         params = pipeline_params(pipeline, overrides=overrides)
     remap = dict(remap or {})
     asked = params  # the parameters given: the replay's identity (``auto`` values settled below follow from the log)
+    check_not_input(out_dir, [log], folder=True)
     if out_dir.exists() and not out_dir.is_dir():
         raise NavlogError(f"{out_dir}: output is a file, not a folder; choose a folder name for -o")
     if out_dir.exists() and any(out_dir.iterdir()) and not force:

@@ -31,7 +31,7 @@ from navlog.errors import NavlogError
 from navlog.replay import messages
 from navlog.replay.config import suggest
 from navlog.replay.io import LogReader
-from navlog.replay.io.atomic import hold_output, output_failure, replace_output, temp_path
+from navlog.replay.io.atomic import check_not_input, hold_output, output_failure, replace_output, temp_path
 from navlog.version import __version__
 
 __all__ = ["DISTRO_VERSIONS", "STORAGES", "BagOptions", "ExportSummary", "export_rosbag2"]
@@ -170,8 +170,9 @@ def export_rosbag2(
     reader: LogReader, out: Path | str, options: BagOptions | None = None, *, force: bool = False
 ) -> ExportSummary:
     """Write the selected messages of a log as a rosbag2 folder; message bytes are copied unchanged. One
-    run writes ``out`` at a time (``hold_output``)."""
+    run writes ``out`` at a time (``hold_output``); a folder that holds the log is refused (``check_not_input``)."""
     out = Path(out)
+    check_not_input(out, [reader.path], folder=True)
     if out.parent.is_dir():
         with hold_output(out):
             return _export_rosbag2(reader, out, options, force)

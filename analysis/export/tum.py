@@ -23,7 +23,7 @@ from navlog.replay import messages
 from navlog.replay.config import suggest
 from navlog.replay.geometry import matrix_to_quat
 from navlog.replay.io import LogReader
-from navlog.replay.io.atomic import write_file
+from navlog.replay.io.atomic import check_not_input, write_file
 from navlog.replay.io.tum import format_rows
 
 __all__ = ["TUM_TYPES", "TumSummary", "export_tum", "trajectory_from_rows"]
@@ -161,6 +161,7 @@ def export_tum(
         raise NavlogError("TUM export needs exactly one of --topic TOPIC or --tf TARGET:SOURCE")
     if time_source not in ("header", "log"):
         raise NavlogError(f"--time {time_source}: choose header or log")
+    check_not_input(out, [reader.path])
     check_output(out, force)
     start_ns, end_ns = time_window(reader, start_s, end_s)
     use_header = time_source == "header"

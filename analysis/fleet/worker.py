@@ -110,7 +110,7 @@ def _failed(job: LogJob, reason: str, *, transient: bool = False) -> LogResult:
 
 
 def _replay(job: LogJob) -> LogResult:
-    from navlog.replay.io.atomic import replace_output
+    from navlog.replay.io.atomic import check_not_input, replace_output
     from navlog.replay.session import run_replay
 
     name = job.source.name
@@ -135,6 +135,7 @@ def _replay(job: LogJob) -> LogResult:
             built = temp() / "out"
         else:
             out_dir = local_path(out_url)
+            check_not_input(out_dir, [log], folder=True)  # (replaced whole below)
             if out_dir.is_dir() and any(out_dir.iterdir()) and not (out_dir / MANIFEST).is_file() and not job.force:
                 raise NavlogError(
                     f"{out_dir}: the folder exists and holds no replay (no {MANIFEST}); "

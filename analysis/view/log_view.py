@@ -267,6 +267,10 @@ def _save_view(
 ) -> ViewSummary:
     if out.suffix != ".rrd":
         raise NavlogError(f"{out}: the output must end in .rrd")
+    if out.is_dir() and not out.is_symlink():
+        raise NavlogError(
+            f"{out}: is a folder; --save takes the path of an .rrd file to write, e.g. {out / 'view.rrd'}"
+        )
     if out.exists() and not force:
         raise NavlogError(f"{out}: already exists; choose another name or pass --force to overwrite it")
     if not out.parent.is_dir():

@@ -37,7 +37,12 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from navlog.recorder.world import load_world, write_world_map
+    from navlog.replay.io.atomic import check_not_input
 
+    read = [args.world] if Path(args.world).exists() else []  # (a name of navlog's worlds is no file)
+    for out in (args.output, args.output.with_suffix(".pgm"), args.mesh):
+        if out is not None:
+            check_not_input(out, read)
     world = load_world(args.world, resource_paths=args.resource_path, wall_height=args.wall_height)
     for note in world.notes:
         print(f"world: {note}")

@@ -17,7 +17,7 @@ import os
 import re
 import shutil
 import stat
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
@@ -26,6 +26,7 @@ from navlog.errors import NavlogError
 
 __all__ = [
     "WriteError",
+    "check_not_input",
     "check_output",
     "hold_output",
     "open_new",
@@ -58,6 +59,30 @@ def check_output(out: Path) -> None:
     for test, what in _SPECIAL:
         if test(mode):
             raise NavlogError(f"{out}: is {what}, not a file; navlog does not write to it: choose a file path")
+
+
+def check_not_input(out: Path | str, inputs: Iterable[Path | str | None], *, folder: bool = False) -> None:
+    """NavlogError when writing ``out`` would replace what the run reads: ``out`` is one of ``inputs`` (also
+    through a link), or, for an output folder (``folder``: replaced whole), it holds one of them or the current
+    folder. Checked with or without ``--force``, before anything is written."""
+    target = Path(out).resolve()
+    for given in inputs:
+        if given is None:
+            continue
+        source = Path(given).resolve()
+        if source == target:
+            raise NavlogError(f"{out}: is the input {given}; writing it would replace it: choose another output")
+        if folder and target in source.parents:
+            raise NavlogError(
+                f"{out}: holds the input {given}; the output folder is replaced whole, the input with it: "
+                "choose another output folder"
+            )
+    cwd = Path.cwd().resolve()
+    if folder and (target == cwd or target in cwd.parents):
+        raise NavlogError(
+            f"{out}: is (or holds) the current folder; the output folder is replaced whole: "
+            "choose a new folder, e.g. -o out/"
+        )
 
 
 def open_new(path: Path) -> BinaryIO:

@@ -26,7 +26,7 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 from navlog.errors import LogError
-from navlog.replay.io.atomic import hold_output, open_new, temp_path, write_error
+from navlog.replay.io.atomic import check_not_input, hold_output, open_new, temp_path, write_error
 from navlog.replay.io.logwriter import check_output
 from navlog.replay.io.mcap_chunks import ChunkSkip, bounded, chunk_records
 from navlog.replay.io.mcap_reader import MCAP_MAGIC
@@ -63,6 +63,7 @@ def recover_mcap(broken: Path | str, out: Path | str, *, force: bool = False) ->
         )
     if not src.is_file():
         raise LogError(f"{src}: no such file")
+    check_not_input(dst, [src])
     check_output(dst, force)
     total = src.stat().st_size
     if total == 0:

@@ -188,3 +188,58 @@ def test_a_write_error_moved_out_of_a_temporary_folder_names_the_final_path(tmp_
 
     again = pickle.loads(pickle.dumps(said))
     assert type(again) is WriteError and str(again) == str(said) and again.path == said.path
+
+
+def test_no_command_replaces_what_it_reads_even_with_force(tmp_path: Path, teleop_log: Path, capsys, monkeypatch):
+    """An output folder that holds the input log (replay, export to a bag, a fleet's per-log folder) or is the
+    current folder, or an output file that is the input (export to TUM, recover, world-map), is refused with
+    --force too, naming the input; the input and what lies beside it stay."""
+    import shutil
+
+    from navlog.cli import main
+
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    log = folder / "teleop.mcap"
+    shutil.copyfile(teleop_log, log)
+    (folder / "notes.txt").write_text("keep\n")
+    mapping = ["--pipeline", "mapping", "--set", "lidar_mapper=off"]
+    refused = {
+        "holds the input": [
+            ["replay", str(log), *mapping, "-o", str(folder), "--force"],
+            ["export", str(log), "--to", "rosbag2", "-o", str(folder), "--force"],
+        ],
+        "is the input": [
+            ["export", str(log), "--to", "tum", "--topic", "/odom", "-o", str(log), "--force"],
+            ["recover", str(log), "-o", str(folder / "." / "teleop.mcap"), "--force"],
+        ],
+    }
+    for words, commands in refused.items():
+        for argv in commands:
+            code = main(["-q", *argv])
+            err = capsys.readouterr().err
+            assert code == 2 and words in err and str(log) in err, (argv, err)
+    # a fleet writes each log's replay to OUT/NAME: a log inside that folder is its failed row, left as it was
+    fleet = tmp_path / "fleet"
+    (fleet / "teleop").mkdir(parents=True)
+    inner = fleet / "teleop" / "teleop.mcap"
+    shutil.copyfile(teleop_log, inner)
+    assert main(["-q", "replay", str(inner), *mapping, "--workers", "1", "-o", str(fleet), "--force"]) == 1
+    assert "holds the input" in (fleet / "fleet-summary.md").read_text()
+    assert inner.read_bytes() == teleop_log.read_bytes()
+    world = tmp_path / "room.yaml"
+    world.write_text(
+        "image: room.pgm\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\noccupied_thresh: 0.65\nfree_thresh: 0.25\n"
+        "negate: 0\n"
+    )
+    (tmp_path / "room.pgm").write_bytes(b"P5\n4 4\n255\n" + bytes([0] * 4 + [254] * 12))
+    assert main(["-q", "world-map", str(world), "-o", str(world), "--force"]) == 2
+    assert "is the input" in capsys.readouterr().err
+    monkeypatch.chdir(folder)
+    assert main(["-q", "replay", "teleop.mcap", *mapping, "-o", ".", "--force"]) == 2
+    assert "holds the input" in capsys.readouterr().err
+    monkeypatch.chdir(fleet / "teleop")  # a replay into the folder it runs from
+    assert main(["-q", "replay", str(log), *mapping, "-o", str(fleet), "--force"]) == 2
+    assert "is (or holds) the current folder" in capsys.readouterr().err
+    assert sorted(p.name for p in folder.iterdir()) == ["notes.txt", "teleop.mcap"]
+    assert log.read_bytes() == teleop_log.read_bytes()
