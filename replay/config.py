@@ -19,6 +19,7 @@ import hashlib
 import importlib.resources
 import json
 import os
+import re
 import types
 import typing
 from dataclasses import dataclass
@@ -113,6 +114,15 @@ class _BoundedLoader(yaml.SafeLoader):
             return super().compose_node(parent, index)
         finally:
             self.depth -= 1
+
+
+# YAML 1.2 (yaml-cpp, which ROS 2's parameter files and map_server's YAML are read with) reads an exponent without
+# a dot or a sign (5e-2, 1.0e300) as a number; PyYAML's YAML 1.1 rules read it as text
+_BoundedLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."),
+)
 
 
 def bounded_compose(text: str) -> yaml.Node | None:

@@ -238,3 +238,25 @@ def test_unprintable_characters_are_a_clear_error():
 
     with pytest.raises(ConfigError, match=r"^x.yaml: malformed YAML: unacceptable character #x001b"):
         parse_yaml("\x1b[31m a: 1\n", "x.yaml")
+
+
+def test_an_exponent_without_a_dot_or_a_sign_is_a_number_as_ros_2_reads_it(tmp_path):
+    """yaml-cpp (ROS 2's parameter files, map_server's map YAML) reads 5e-2 and 1.0e300 as numbers, where
+    PyYAML's YAML 1.1 rules read them as text: navlog reads them as ROS 2 does, and text stays text."""
+    from navlog.replay.config import parse_yaml
+    from navlog.replay.io.map_server import load_map
+    from navlog.replay.nav2 import parse_nav2_text
+
+    doc = parse_yaml("a: 5e-2\nb: 1.0e300\nc: .5E3\nd: -1e+2\ne: 5\nf: 1e\ng: '5e-2'\nh: e5\n", "t.yaml")
+    assert doc == {"a": 0.05, "b": 1e300, "c": 500.0, "d": -100.0, "e": 5, "f": "1e", "g": "5e-2", "h": "e5"}
+    assert type(doc["e"]) is int
+    nav2 = parse_nav2_text(
+        "controller_server:\n  ros__parameters:\n    goal_checker:\n      xy_goal_tolerance: 25e-2\n"
+    )
+    assert not nav2.errors and nav2.controller_server.goal_checkers["goal_checker"].xy_goal_tolerance == 0.25
+    (tmp_path / "m.pgm").write_bytes(b"P5\n2 2\n255\n" + bytes([0, 254, 254, 254]))
+    (tmp_path / "m.yaml").write_text(
+        "image: m.pgm\nresolution: 5e-2\norigin: [-1e1, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.25\n"
+    )
+    grid = load_map(tmp_path / "m.yaml")
+    assert grid.resolution == 0.05 and grid.origin[0] == -10.0
