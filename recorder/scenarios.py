@@ -38,7 +38,7 @@ from navlog.recorder.world import World, clearance, nearest_solid
 from navlog.replay import messages
 from navlog.replay.config import load_config, named_config, param
 from navlog.replay.geometry import rotate_planar, wrap_angle, yaw_from_quat
-from navlog.replay.limits import MAX_RATE_HZ
+from navlog.replay.limits import MAX_PERIOD_S, MAX_RATE_HZ
 from navlog.replay.runtime.executor import Node
 
 
@@ -61,8 +61,8 @@ class ScenarioSpec:
     turn_rate: float = 0.5
     tolerance: float = 0.15
     commands: list[TimedCommand] = field(default_factory=list)
-    hold: float = 1.0
-    max_duration: float = 600.0
+    hold: float = param(1.0, ge=0.0, le=MAX_PERIOD_S)  # seconds stood still at the end
+    max_duration: float = param(600.0, gt=0.0, le=MAX_PERIOD_S)  # seconds of sim time at most
     rate: float = param(20.0, le=MAX_RATE_HZ)  # Hz of the scenario's commands
     expect_contact: bool = False  # the path is meant to reach an obstacle (a test of the safety filters)
     # navigate: the Nav2 parameter file and goals YAML (names in config/nav2, config/goals, or paths)

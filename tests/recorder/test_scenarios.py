@@ -42,3 +42,22 @@ def test_a_scenario_refuses_another_world_file(tmp_path):
     scenario = _files(tmp_path, "../worlds/my_world.yaml")
     with pytest.raises(ConfigError, match=r"laid out for world .*my_world.yaml, not .*walled_room.yaml"):
         prepare("walled_room", "go2", str(scenario))
+
+
+@pytest.mark.parametrize(
+    "line, message",
+    [
+        ("hold: 1.0e+300", r"hold: 1e\+300 is out of range: must be <= 1000000.0"),
+        ("hold: .nan", "hold: nan is out of range"),
+        ("hold: -1", r"hold: -1.0 is out of range: must be >= 0.0"),
+        ("max_duration: 1.0e+300", r"max_duration: 1e\+300 is out of range"),
+        ("max_duration: .nan", "max_duration: nan is out of range"),
+    ],
+)
+def test_a_scenario_refuses_a_hold_or_max_duration_out_of_range_naming_the_file(tmp_path, line, message):
+    """A hold or max_duration of 1e300 s or NaN ended the recording in an OverflowError or a ValueError
+    (their nanoseconds are integers); each is refused with the file and key, before anything runs."""
+    scenario = _files(tmp_path, "../worlds/my_world.yaml")
+    scenario.write_text(scenario.read_text() + line + "\n")
+    with pytest.raises(ConfigError, match=f"{scenario.name}: {message}"):
+        prepare(None, "go2", str(scenario))
