@@ -176,12 +176,16 @@ def run(args) -> int:
         params = pipeline_params(args.pipeline, args.params, overrides=args.set)
         pipe = pipeline_spec(args.pipeline).build(params, setup.topics())
     elif setup.scenario.kind == "navigate":
+        from dataclasses import replace
+
         from navlog.recorder.navigation import navigation_pipeline
 
+        if args.params is not None:  # the run's one Nav2 file: the navigation's and AMCL's (--localization amcl)
+            setup.scenario = replace(setup.scenario, nav2_params=str(args.params))
         navigation = navigation_pipeline(
             setup.scenario,
             setup.seed,
-            args.params,
+            None,
             args.set,
             command_topic=setup.robot.cmd_topic,
             odometry=setup.robot.odometry,

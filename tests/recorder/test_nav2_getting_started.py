@@ -133,3 +133,18 @@ def test_navigation_commands_go_to_the_topic_the_robots_drive_plugin_names(data)
     assert monitor.output_topic == "/tb3/cmd_vel"  # type: ignore[attr-defined]
     default = navigation_pipeline(s, 0)
     assert next(n for n in default.nodes if type(n).__name__ == "CollisionMonitorNode").output_topic == "/cmd_vel"  # type: ignore[attr-defined]
+
+
+def test_params_given_to_record_are_amcls_too(data, tmp_path, capsys):
+    """`navlog record --params FILE` replaces a navigate scenario's Nav2 file for the whole run: AMCL reads its
+    amcl block as the navigation reads the rest. Before, AMCL read the scenario's own file, and an amcl block
+    Nav2 refuses in the given file went unread."""
+    params = (data / "nav2_bringup/params/nav2_params.yaml").read_text()
+    assert params.count("max_particles: 2000") == 1
+    bad = tmp_path / "nav2_params.yaml"
+    bad.write_text(params.replace("max_particles: 2000", "max_particles: 100000000"))
+    argv = ["-q", "record", "--scenario", "nav2_tb3_sandbox", "--package-path", str(data), "--localization", "amcl"]
+    assert main([*argv, "--params", str(bad), "-o", str(tmp_path / "nav.mcap")]) == 2
+    err = capsys.readouterr().err
+    assert str(bad) in err and "max_particles" in err, err
+    assert not (tmp_path / "nav.mcap").exists()
