@@ -34,6 +34,7 @@ MIN_GRANULARITY = 1e-3  # DWB's time (s), linear (m) and angular (rad) granulari
 MAX_SIMULATION_STEPS = 10_000  # collision monitor time_before_collision / simulation_time_step
 MAX_GOAL_TOLERANCE_M = 10.0  # a planner's goal tolerance: its search scans (2 x tolerance / resolution)^2 cells
 MAX_INFLATION_RADIUS_M = 50.0  # a costmap's inflation radius (Nav2's default: 0.55 m)
+MAX_FOOTPRINT_RADIUS_M = 50.0  # a costmap footprint's farthest (padded) vertex from the robot's centre
 MAX_INFLATION_CELLS = 1_000  # the inflation radius in cells: its cost table holds (radius / resolution)^2 costs
 MAX_SENSOR_POINTS = 1_000_000  # beams of a recorded scan, points of a recorded LiDAR frame
 MAX_TRANSFORM_TOLERANCE_S = 3600.0  # added to a published transform's stamp (its seconds are 32-bit)

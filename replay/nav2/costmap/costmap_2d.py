@@ -14,11 +14,13 @@ parameters from a Nav2 file, each layer as its plugin type.
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import cast
 
 import numpy as np
 
 from navlog.replay.config import suggest
+from navlog.replay.limits import MAX_FOOTPRINT_RADIUS_M
 from navlog.replay.nav2.costmap.footprint import footprint_radii, parse_footprint, robot_footprint
 from navlog.replay.nav2.costmap.grid import DEFAULT_LAYER_PLUGINS, CostmapGrid, CostmapParams, LayerParams, StaticMap
 from navlog.replay.nav2.costmap.inflation_layer import InflationLayerParams
@@ -81,6 +83,18 @@ def read_costmap(r: SectionReader, params: dict, path: tuple) -> CostmapParams:
         fp = []
     if fp and "robot_radius" in params:
         r.add(NOTE, path + ("robot_radius",), "footprint is set, so robot_radius is not used")
+    # the padded footprint's farthest reach from the centre (padding moves a vertex by up to its value along x and
+    # y), bounded before anything is computed from it: its outline's cells are rasterised
+    reach = max((math.hypot(x, y) for x, y in fp), default=cm.robot_radius) + math.sqrt(2) * cm.footprint_padding
+    if not reach <= MAX_FOOTPRINT_RADIUS_M:  # (also NaN)
+        key = "footprint" if fp else "robot_radius"
+        r.add(
+            ERROR,
+            path + (key,),
+            f"the padded footprint reaches {reach:.6g} m from the robot's centre; navlog's bound is "
+            f"{MAX_FOOTPRINT_RADIUS_M:g} m (check {key} and footprint_padding: metres, not millimetres)",
+        )
+        cm = dataclasses.replace(cm, footprint="[]", robot_radius=0.1, footprint_padding=0.01)
     # the inflation radius must reach past the inscribed radius
     inscribed, _ = footprint_radii(robot_footprint(cm))
     for name, layer in layers.items():

@@ -315,3 +315,20 @@ def test_a_path_handler_list_holding_a_mapping_is_read_without_failing():
     )
     notes = _messages(p, "note")
     assert any("path handler 'nav2_controller::FeasiblePathHandler'" in m for m in notes.values())
+
+
+def test_a_footprint_reaching_beyond_the_bound_is_an_error_naming_its_key(params_dir):
+    """robot_radius 1e300 (or a footprint_padding of 1e9) passed the checks, and a recording then grew to 24 GB
+    rasterising the footprint's outline: the padded footprint's reach is bounded (50 m) and named by its key."""
+    text = (params_dir.parent / "nav2_bringup" / "params" / "nav2_params.yaml").read_text()
+    assert text.count("robot_radius: 0.22") == 2
+    local = "local_costmap.local_costmap.ros__parameters.robot_radius"
+    errors = _messages(parse_nav2_text(text.replace("robot_radius: 0.22", "robot_radius: 1.0e+300", 1)))
+    assert list(errors) == [local] and "reaches 1e+300 m" in errors[local] and "bound is 50 m" in errors[local]
+    padded = text.replace("robot_radius: 0.22", "robot_radius: 0.22\n      footprint_padding: 40.0", 1)
+    errors = _messages(parse_nav2_text(padded))
+    assert list(errors) == [local] and "reaches 56.7885 m" in errors[local]  # 0.22 + 40 sqrt(2)
+    square = text.replace("robot_radius: 0.22", "footprint: '[[40.0, 40.0], [40.0, -40.0], [-40.0, -40.0]]'", 1)
+    errors = _messages(parse_nav2_text(square))
+    assert "reaches 56.5827 m" in errors["local_costmap.local_costmap.ros__parameters.footprint"]
+    assert local not in _messages(parse_nav2_text(text.replace("robot_radius: 0.22", "robot_radius: 49.9", 1)))
