@@ -36,7 +36,7 @@ from navlog.errors import ConfigError
 from navlog.recorder.robot import CMD_VEL_TOPIC, RobotSpec
 from navlog.recorder.world import World, clearance, nearest_solid
 from navlog.replay import messages
-from navlog.replay.config import load_config, named_config, param
+from navlog.replay.config import known_configs, load_config, named_config, param
 from navlog.replay.geometry import rotate_planar, wrap_angle, yaw_from_quat
 from navlog.replay.limits import MAX_PERIOD_S, MAX_RATE_HZ
 from navlog.replay.runtime.executor import Node
@@ -178,6 +178,27 @@ def intended_path(scenario: ScenarioSpec, robot: RobotSpec, step: float = 0.05) 
     return np.array(out)
 
 
+def _scenarios_for(world: World) -> str:
+    """What to name with --scenario for ``world``: navlog's scenarios laid out for a world of its name or file
+    name, and those laid out for any world."""
+    fitting, anywhere = [], []
+    for name in known_configs("scenarios"):
+        try:
+            laid_out = load_scenario(name).world
+        except ConfigError:
+            continue
+        if not laid_out:
+            anywhere.append(name)
+        elif laid_out == world.name or (world.path is not None and Path(laid_out).name == Path(world.path).name):
+            fitting.append(name)
+    said = (
+        f"a scenario laid out for it: --scenario {' or '.join(fitting)}"
+        if fitting
+        else "a scenario of your own (a tour's waypoints or a navigate scenario's goals in it: see the recording guide)"
+    )
+    return said + (f"; in any world, from its start pose: --scenario {' or '.join(anywhere)}" if anywhere else "")
+
+
 def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World, folder: Path | None = None) -> None:
     """Refuse, before simulating, a start pose or path that comes closer than the robot's radius.
 
@@ -187,12 +208,12 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World, folde
         if wanted.resolve() != Path(world.path).resolve():
             raise ConfigError(
                 f"scenario '{scenario.name}' is laid out for world {wanted}, not {world.path}; "
-                f"use --world {wanted} or a scenario made for {world.name}"
+                f"use --world {wanted} or {_scenarios_for(world)}"
             )
     elif scenario.world and scenario.world != world.name:
         raise ConfigError(
             f"scenario '{scenario.name}' is laid out for world '{scenario.world}', not '{world.name}'; "
-            f"use --world {scenario.world} or a scenario made for {world.name}"
+            f"use --world {scenario.world} or {_scenarios_for(world)}"
         )
     if scenario.robot and not _world_file(scenario.robot) and scenario.robot != robot.name:
         raise ConfigError(

@@ -61,3 +61,20 @@ def test_a_scenario_refuses_a_hold_or_max_duration_out_of_range_naming_the_file(
     scenario.write_text(scenario.read_text() + line + "\n")
     with pytest.raises(ConfigError, match=f"{scenario.name}: {message}"):
         prepare(None, "go2", str(scenario))
+
+
+def test_a_world_without_a_scenario_laid_out_in_it_is_told_which_scenarios_fit(tmp_path):
+    """The default scenario tours indoor_room: another world without --scenario is refused, naming navlog's
+    scenarios laid out for a world of that name (a map file by its file name) and those that fit any world."""
+    with pytest.raises(ConfigError) as err:
+        prepare("walled_room", "kibot", "mapping")
+    msg = str(err.value)
+    assert "laid out for world 'indoor_room', not 'walled_room'" in msg
+    assert "--scenario nav_kibot or nav_simple_robot or teleop_obstacle" in msg and msg.endswith("--scenario teleop")
+    (tmp_path / "depot.pgm").write_bytes(b"P5\n4 4\n255\n" + bytes([0] * 4 + [254] * 12))
+    (tmp_path / "depot.yaml").write_text(
+        "image: depot.pgm\nresolution: 0.5\norigin: [0.0, 0.0, 0.0]\nnegate: 0\noccupied_thresh: 0.65\n"
+        "free_thresh: 0.25\n"
+    )
+    with pytest.raises(ConfigError, match="laid out for it: --scenario nav2_tb4_depot; in any world"):
+        prepare(str(tmp_path / "depot.yaml"), "kibot", "mapping")
