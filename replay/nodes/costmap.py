@@ -50,6 +50,7 @@ class CostmapNode(Node):
         self.params = params
         self.costmap = Costmap2D(params, name)
         self.publish_period_ns = None if publish_period_s is None else int(round(publish_period_s * 1e9))
+        self.tolerance_ns = int(round(params.transform_tolerance * 1e9))
         self.last_publish_ns: int | None = None
         self.last_map: OccupancyMap | None = None
         self.tf = TFBuffer(skipped=self.skipped)
@@ -118,11 +119,20 @@ class CostmapNode(Node):
                 return None
         return float(T[0, 3]), float(T[1, 3]), math.atan2(T[1, 0], T[0, 0])
 
-    def _observation(self, sname: str, stamp: int, msg: Any, sp: ObservationSourceParams) -> Observation | None:
+    def _observation(
+        self, sname: str, stamp: int, msg: Any, sp: ObservationSourceParams, t: int
+    ) -> Observation | bool | None:
+        """The source's message as an observation in the global frame; None when it is skipped (counted); False
+        when its transform is not there yet (a sample after its stamp has not come) and ``t`` is within the
+        costmap's ``transform_tolerance`` of its stamp: it waits for the next update, as Nav2's message filter
+        holds a message until its transform comes."""
         frame = sp.sensor_frame or msg.header.frame_id
         try:
             T = self.tf.lookup(self.params.global_frame, frame, stamp)
         except TransformError:
+            latest = self.tf.latest_common_time(self.params.global_frame, frame)
+            if latest is not None and latest < stamp and t - stamp <= self.tolerance_ns:
+                return False
             self.skipped[f"{sname}: no transform {self.params.global_frame} <- {frame}"] += 1
             return None
         if hasattr(msg, "ranges"):
@@ -161,12 +171,15 @@ class CostmapNode(Node):
             if self.costmap.params.rolling_window:
                 return
         self.robot = robot
+        waiting = {}
         for sname in sorted(self.pending):
             stamp, msg, sp = self.pending[sname]
-            obs = self._observation(sname, stamp, msg, sp)
-            if obs is not None:
+            obs = self._observation(sname, stamp, msg, sp, t)
+            if obs is False:
+                waiting[sname] = self.pending[sname]
+            elif obs is not None:
                 self.costmap.add_observation(obs)
-        self.pending = {}
+        self.pending = waiting
         self.costmap.update(*robot)
         self.updates += 1
         period = self.publish_period_ns

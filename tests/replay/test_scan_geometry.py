@@ -112,12 +112,12 @@ def test_a_costmap_scan_source_skips_and_counts_an_unusable_scan():
         intensities=[],
     )
     sp = ObservationSourceParams(topic="/scan", data_type="LaserScan")
-    obs = node._observation("scan", 0, scan, sp)
+    obs = node._observation("scan", 0, scan, sp, 0)
     assert obs is not None and obs.points[0, :2].tolist() == pytest.approx([0.0, 2.0])  # 1 m behind, at (1, 2)
     scan.angle_increment = -2 * PI / 4
-    assert node._observation("scan", 0, scan, sp) is None
+    assert node._observation("scan", 0, scan, sp, 0) is None
     scan.angle_increment, scan.ranges = 2 * PI / 4, [1.0] * 8
-    assert node._observation("scan", 0, scan, sp) is None
+    assert node._observation("scan", 0, scan, sp, 0) is None
     assert node.skipped == {f"scan: {WRONG_SIGN}": 1, f"scan: {INCONSISTENT}": 1}
 
 

@@ -13,7 +13,7 @@ from typing import ClassVar, Protocol
 import numpy as np
 
 from navlog.replay.geometry import cell_to_world, world_to_cell
-from navlog.replay.limits import MAX_COSTMAP_CELLS, MAX_RATE_HZ, budget
+from navlog.replay.limits import MAX_COSTMAP_CELLS, MAX_RATE_HZ, MAX_TRANSFORM_TOLERANCE_S, budget
 from navlog.replay.nav2.costmap.cost_values import FREE_SPACE, NO_INFORMATION
 from navlog.replay.nav2.costmap.footprint import footprint_radii, parse_footprint, robot_footprint
 from navlog.replay.nav2.schema import param
@@ -62,7 +62,7 @@ class CostmapParams:
 
     global_frame: str = "map"
     robot_base_frame: str = "base_link"
-    transform_tolerance: float = param(0.3, ge=0.0)
+    transform_tolerance: float = param(0.3, ge=0.0, le=MAX_TRANSFORM_TOLERANCE_S)
     update_frequency: float = param(5.0, gt=0.0, le=MAX_RATE_HZ)
     publish_frequency: float = param(1.0, ge=0.0, le=MAX_RATE_HZ)
     width: int = param(5, gt=0)
