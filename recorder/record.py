@@ -128,6 +128,8 @@ class RecordSetup:
         if m is None:
             return []
         out = [f"robot from {m.source}: drive {self.robot.drive.type} from {m.drive_plugin or 'the --drive option'}"]
+        if self.robot.scan is None:
+            out.append("no 2D laser in the description: nothing on a scan topic (a SLAM or a costmap's scan has none)")
         if m.other_sensors:
             out.append(f"{len(m.other_sensors)} sensor(s) not simulated: {', '.join(m.other_sensors)}")
         unbalanced = [
@@ -216,6 +218,13 @@ def prepare(
     )
     r = load_robot(robot or s.robot or DEFAULT_ROBOT, robot_args, [*package_paths, *resource_paths], drive)
     check_scenario(s, r, w, folder)
+    if localization == "amcl" and r.scan is None:
+        where = f" ({r.model.source})" if r.model is not None else ""
+        raise ConfigError(
+            f"robot '{r.name}'{where} has no 2D laser, and AMCL localises on its scan: give the robot a laser (a "
+            "ray or gpu_lidar sensor with one vertical sample, e.g. the gz_*.sdf.xacro of a TurtleBot), or record "
+            "with --localization perfect"
+        )
     return RecordSetup(w, r, s, seed, noise, localization)
 
 

@@ -148,3 +148,16 @@ def test_params_given_to_record_are_amcls_too(data, tmp_path, capsys):
     err = capsys.readouterr().err
     assert str(bad) in err and "max_particles" in err, err
     assert not (tmp_path / "nav.mcap").exists()
+
+
+def test_a_robot_without_a_laser_is_refused_for_amcl_and_said_in_the_summary(data):
+    """The Waffle's plain URDF declares no laser (its Gazebo file does): AMCL on it would estimate nothing for
+    the whole run, so it is refused, naming the file; without AMCL the recording's notes say there is no scan."""
+    urdf = data / "nav2_sim/nav2_minimal_tb3_sim/urdf/turtlebot3_waffle.urdf"
+    args = dict(package_paths=[data], drive="diff_drive")
+    with pytest.raises(ConfigError, match=rf"robot 'turtlebot3_waffle' \({urdf}\) has no 2D laser, and AMCL"):
+        prepare(None, str(urdf), "nav2_tb3_sandbox", localization="amcl", **args)
+    setup = prepare(None, str(urdf), "nav2_tb3_sandbox", **args)
+    assert setup.robot.scan is None and any(n.startswith("no 2D laser") for n in setup.notes())
+    with_laser = prepare(None, None, "nav2_tb3_sandbox", localization="amcl", package_paths=[data])
+    assert with_laser.robot.scan is not None and not any(n.startswith("no 2D laser") for n in with_laser.notes())
