@@ -74,7 +74,7 @@ from navlog.recorder.robot_model import (
     pose_matrix,
 )
 from navlog.recorder.xacro_files import read_description
-from navlog.replay.config import from_mapping, load_config, load_yaml, named_config, to_mapping
+from navlog.replay.config import from_mapping, load_config, load_yaml, named_config, suggest, to_mapping
 from navlog.replay.geometry import make_transform, matrix_to_quat, quat_from_rpy, rigid_inverse
 
 log = logging.getLogger("navlog")
@@ -282,6 +282,11 @@ def _parse_urdf(root: ET.Element, reader: _Reader) -> _Parsed:
             raise ConfigError(f"{src}: joint '{j.get('name')}' needs <parent link=...> and <child link=...>")
         joints[child_el.get("link", "")] = (j, parent_el.get("link", ""))
     elements = {el.get("name", ""): el for el in root.findall("link")}
+    for child, (j, _) in joints.items():
+        if child not in elements:
+            raise ConfigError(
+                f"{src}: joint '{j.get('name')}': child link '{child}' is not in the file{suggest(child, elements)}"
+            )
     links: dict[str, Link] = {}
     for name, el in elements.items():
         where = f"{src}: link '{name}'"

@@ -50,11 +50,21 @@ def _xacro_error(path: Path, exc: Exception) -> ConfigError:
 
     stack = [f for f in (getattr(xacro, "filestack", None) or []) if f]
     where = Path(stack[-1]) if stack else path
+    cause: BaseException | None = exc
+    while cause is not None and not isinstance(cause, ConfigError):  # ours, raised inside xacro and wrapped by it
+        cause = cause.__cause__ or cause.__context__
+    undefined = re.match(r"Undefined substitution argument (\S+)", str(exc))
+    line = getattr(exc, "lineno", None)
     if isinstance(exc, KeyError):
         message = f"undefined argument {exc} (give it as NAME:=VALUE, e.g. --robot-arg)"
+    elif cause is not None:
+        message = str(cause)
+    elif undefined is not None:
+        name = undefined.group(1)
+        message = f"argument '{name}' has no value and no default: give it with --robot-arg {name}:=VALUE"
+        line = _line_of(where, f"$(arg {name})")
     else:
         message = " ".join(str(exc).split()) or type(exc).__name__
-    line = getattr(exc, "lineno", None)
     m = re.search(r"line (\d+)", message)
     if line is None and m is not None:
         line = int(m.group(1))

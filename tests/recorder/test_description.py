@@ -247,6 +247,28 @@ def test_a_xacro_error_names_the_file_and_the_line(tmp_path, capsys):
     assert f"{xacro}:5: xacro error:" in err and "undefined_height" in err
 
 
+XACRO_HEAD = '<?xml version="1.0"?>\n<robot name="bad" xmlns:xacro="http://www.ros.org/wiki/xacro">\n'
+
+
+def test_a_xacro_argument_without_a_value_and_a_missing_package_are_said_once_with_their_line(tmp_path, capsys):
+    """xacro's 'Undefined substitution argument prefix' gains the line and the option that gives it; a $(find)
+    of a package on no path was said twice, behind a Python class name."""
+    needs = tmp_path / "needs.urdf.xacro"
+    needs.write_text(
+        XACRO_HEAD + '  <xacro:arg name="prefix" default=""/>\n  <link name="$(arg prefixx)base"/>\n</robot>\n'
+    )
+    code, _ = _record(tmp_path, needs)
+    err = capsys.readouterr().err
+    assert code == 2
+    assert f"{needs}:4: xacro error: argument 'prefixx' has no value and no default: give it with --robot-arg " in err
+    finds = tmp_path / "finds.urdf.xacro"
+    finds.write_text(XACRO_HEAD + '  <xacro:include filename="$(find nosuchpkg)/urdf/part.xacro"/>\n</robot>\n')
+    code, _ = _record(tmp_path, finds)
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("package 'nosuchpkg' not found") == 1 and "<class" not in err, err
+    assert f"{finds}:3: xacro error: package 'nosuchpkg' not found (searched " in err
+
+
 def test_a_malformed_xacro_names_the_line(tmp_path, capsys):
     xacro = tmp_path / "bad.sdf.xacro"
     xacro.write_text('<?xml version="1.0"?>\n<sdf version="1.6">\n  <model name="m">\n  </modle>\n</sdf>\n')
@@ -581,3 +603,17 @@ def test_two_mesh_collisions_of_a_link_named_alike_are_both_simulated(tmp_path):
         sim.close()
     assert {"base_link/m#0", "base_link/m#1"} <= set(names)
     assert {"mesh:base_link/m#0", "mesh:base_link/m#1"} <= set(meshes)
+
+
+def test_a_joint_whose_child_link_is_not_in_the_file_names_the_joint_and_the_link(tmp_path, capsys):
+    """A misspelt child link left its joint out, and the error said the robot had two root links; it names the
+    joint and the link, and the closest link of the file."""
+    urdf = tmp_path / "bad.urdf"
+    urdf.write_text(
+        URDF_HEAD + '<link name="base_link"/>\n<link name="caster"/>\n'
+        '<joint name="caster_joint" type="fixed"><parent link="base_link"/><child link="castor"/></joint>\n</robot>\n'
+    )
+    code, out = _record(tmp_path, urdf, "--drive", "omni")
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    assert f"{urdf}: joint 'caster_joint': child link 'castor' is not in the file (did you mean 'caster'?)" in err
