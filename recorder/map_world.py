@@ -8,7 +8,6 @@ so a straight wall is one box. Free and unknown cells are both free space: nothi
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +17,7 @@ from navlog.recorder.solids import Solid
 from navlog.replay.geometry import se2_compose
 
 DEFAULT_WALL_HEIGHT = 2.0  # m
+MAX_WALL_HEIGHT_M = 100.0  # a map's walls at most (1e300 m high boxes left every beam without a hit)
 OCCUPIED = 65  # a cell at or above this value (0..100) is a wall: map_server's default occupied_thresh
 
 
@@ -58,8 +58,10 @@ def map_solids(path: Path, wall_height: float = DEFAULT_WALL_HEIGHT) -> tuple[li
     """The walls of the map_server map ``path`` as box solids, and notes for the summary."""
     from navlog.replay.io.map_server import load_map
 
-    if not (0 < wall_height < math.inf):
-        raise ConfigError(f"{path}: wall height must be positive, got {wall_height}")
+    if not 0 < wall_height <= MAX_WALL_HEIGHT_M:
+        raise ConfigError(
+            f"{path}: wall height must be above 0 and at most {MAX_WALL_HEIGHT_M:g} m, got {wall_height:g} (--wall-height)"
+        )
     grid = load_map(path)
     occupied = grid.data >= OCCUPIED
     if not occupied.any():

@@ -314,6 +314,7 @@ class _Reader:
             uri = (g.findtext("uri") or "").strip()
             sx, sy, sz = _floats(g.findtext("scale") or "1 1 1", 3, f"{what} scale")
             scale = (sx, sy, sz)
+            _positive(scale, f"{what} scale")  # (a scale of 0 flattened the mesh away without a word)
             try:
                 path = resolve_uri(uri, base, self.search_paths)
             except ConfigError as exc:

@@ -37,6 +37,9 @@ MAX_INFLATION_RADIUS_M = 50.0  # a costmap's inflation radius (Nav2's default: 0
 MAX_FOOTPRINT_RADIUS_M = 50.0  # a costmap footprint's farthest (padded) vertex from the robot's centre
 MAX_INFLATION_CELLS = 1_000  # the inflation radius in cells: its cost table holds (radius / resolution)^2 costs
 MAX_SENSOR_POINTS = 1_000_000  # beams of a recorded scan, points of a recorded LiDAR frame
+# a transform's or a map origin's coordinates, at most (m): ten times the largest UTM northing a geo-referenced frame
+# holds; a chain of such transforms stays far inside what a costmap's or a grid's cell arithmetic takes
+MAX_TRANSLATION_M = 1e8
 MAX_TRANSFORM_TOLERANCE_S = 3600.0  # added to a published transform's stamp (its seconds are 32-bit)
 MAX_SEED = 2**32 - 1  # seeds are non-negative 32-bit integers (numpy's SeedSequence refuses negative ones)
 

@@ -18,7 +18,7 @@ import numpy as np
 from navlog.errors import ConfigError
 from navlog.replay.config import load_yaml, suggest
 from navlog.replay.io.atomic import WriteError, write_file
-from navlog.replay.limits import MAX_GRID_CELLS
+from navlog.replay.limits import MAX_GRID_CELLS, MAX_TRANSLATION_M
 from navlog.replay.occupancy_map import FREE, OCCUPIED, UNKNOWN, OccupancyMap
 
 # Pixel values written by the trinary saver.
@@ -115,6 +115,8 @@ def load_map(yaml_path: str | Path) -> OccupancyMap:
         raise ConfigError(f"{path}: missing key 'origin'")
     if not isinstance(origin, list) or len(origin) != 3 or not all(_finite_number(v) for v in origin):
         raise ConfigError(f"{path}: key 'origin' must be [x, y, yaw], finite numbers, got {origin!r}")
+    if not max(abs(origin[0]), abs(origin[1])) <= MAX_TRANSLATION_M:
+        raise ConfigError(f"{path}: key 'origin' {origin!r} lies farther than {MAX_TRANSLATION_M:g} m: metres expected")
     free = _number(doc, "free_thresh", path, DEFAULT_FREE_THRESH)
     occupied = _number(doc, "occupied_thresh", path, DEFAULT_OCCUPIED_THRESH)
     if not 0.0 <= free < occupied <= 1.0:

@@ -34,7 +34,7 @@ import numpy as np
 from navlog.replay import messages
 from navlog.replay.config import param
 from navlog.replay.geometry import yaw_from_matrix
-from navlog.replay.limits import MAX_PERIOD_S, MIN_MAP_PERIOD_S
+from navlog.replay.limits import MAX_PERIOD_S, MAX_TRANSFORM_TOLERANCE_S, MIN_MAP_PERIOD_S
 from navlog.replay.mapping.occupancy import OccupancyGrid2D, OccupancyParams
 from navlog.replay.occupancy_map import OccupancyMap
 from navlog.replay.runtime.cpus import usable_cpus
@@ -59,9 +59,11 @@ class OccupancyMapperParams:
     publish_period: float = param(
         2.0, ge=MIN_MAP_PERIOD_S, le=MAX_PERIOD_S
     )  # s between /map messages (and one at the end)
-    transform_timeout: float = 1.0  # s a scan waits for its pose (poses may arrive after the scan)
-    minimum_travel_distance: float = 0.1
-    minimum_travel_heading: float = 0.1
+    transform_timeout: float = param(
+        1.0, ge=0.0, le=MAX_TRANSFORM_TOLERANCE_S
+    )  # s a scan waits for its pose (poses may arrive after the scan)
+    minimum_travel_distance: float = param(0.1, ge=0.0)
+    minimum_travel_heading: float = param(0.1, ge=0.0)
     grid: OccupancyParams = field(default_factory=OccupancyParams)
 
 

@@ -38,6 +38,7 @@ import numpy as np
 from navlog.errors import NavlogError
 from navlog.replay import messages
 from navlog.replay.geometry import quat_norm, slerp, unit_quat_transform
+from navlog.replay.limits import MAX_TRANSLATION_M
 
 
 class TransformError(NavlogError):
@@ -47,9 +48,6 @@ class TransformError(NavlogError):
 # a rigid transform as plain floats: translation x, y, z and unit quaternion x, y, z, w
 Pose = tuple[float, float, float, float, float, float, float]
 IDENTITY_POSE: Pose = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0)
-# m: a transform's coordinates, at most. Ten times the largest UTM northing a geo-referenced frame holds; a
-# chain of such transforms stays far inside what a costmap's or a grid's cell arithmetic takes.
-MAX_TRANSLATION_M = 1e8
 
 
 def compose_poses(a: Pose, b: Pose) -> Pose:

@@ -68,3 +68,19 @@ def test_map_without_occupied_cells_is_refused(tmp_path, capsys):
     assert main(["world-map", str(tmp_path / "empty.yaml"), "-o", str(out)]) == 2
     assert "empty.yaml: the map has no occupied cell" in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_wall_height_beyond_the_bound_or_an_origin_beyond_reach_is_refused(tmp_path, capsys):
+    """--wall-height 1e300 made boxes no beam hit (every range inf), and a map origin of 1e300 m a world-map of
+    0 x 126 cells: each is refused, naming the file and the value."""
+    (tmp_path / "m.pgm").write_bytes(b"P5\n4 3\n255\n" + bytes([0] * 4 + [254] * 8))
+    yaml = "image: m.pgm\nresolution: 0.05\norigin: [{x}, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.2\n"
+    (tmp_path / "m.yaml").write_text(yaml.format(x=0))
+    out = tmp_path / "out.yaml"
+    assert main(["world-map", str(tmp_path / "m.yaml"), "--wall-height", "1e300", "-o", str(out)]) == 2
+    assert "m.yaml: wall height must be above 0 and at most 100 m, got 1e+300" in capsys.readouterr().err
+    assert main(["world-map", str(tmp_path / "m.yaml"), "--wall-height", "100", "-o", str(out)]) == 0
+    (tmp_path / "far.yaml").write_text(yaml.format(x="1.0e+300"))
+    assert main(["world-map", str(tmp_path / "far.yaml"), "-o", str(tmp_path / "far_out.yaml")]) == 2
+    assert "far.yaml: key 'origin' [1e+300, 0, 0] lies farther than 1e+08 m" in capsys.readouterr().err
+    assert not (tmp_path / "far_out.yaml").exists()

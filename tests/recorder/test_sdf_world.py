@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 
 from navlog.cli import main
 from navlog.errors import ConfigError
@@ -278,3 +279,16 @@ def test_a_model_included_twice_under_one_name_is_an_error_naming_it(capsys, sma
     _write(small_world, twice)
     err = _fails(capsys, tmp_path, str(small_world), "--resource-path", str(tmp_path / "models"))
     assert "two collisions named 'outer/crate_1/" in err and "unique among their siblings" in err
+
+
+def test_a_mesh_scaled_to_nothing_names_the_file_and_link(capsys, tmp_path):
+    """A collision mesh with a scale of 0 was flattened away without a word (a robot's was refused)."""
+    stl = trimesh.creation.box((1.0, 1.0, 1.0))
+    (tmp_path / "meshes").mkdir()
+    stl.export(tmp_path / "meshes" / "crate.stl")
+    bad = MODEL_SDF.replace(
+        "<box><size>1 2 1</size></box>", "<mesh><uri>meshes/crate.stl</uri><scale>0 0 0</scale></mesh>"
+    )
+    world = _write(tmp_path / "bad.sdf", bad)
+    err = _fails(capsys, tmp_path, str(world))
+    assert str(world) in err and "link 'crate/base'" in err and "scale: sizes must be positive, got 0 0 0" in err

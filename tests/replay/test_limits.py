@@ -148,6 +148,10 @@ def test_typed_pipeline_parameters_are_bounded():
         from_mapping(OccupancyMapperParams, {"publish_period": -1.0})
     with pytest.raises(ConfigError, match=r"publish_period: inf is out of range: must be <= 1000000.0"):
         from_mapping(OccupancyMapperParams, {"publish_period": float("inf")})
+    with pytest.raises(ConfigError, match=r"minimum_travel_distance: -1.0 is out of range: must be >= 0.0"):
+        from_mapping(OccupancyMapperParams, {"minimum_travel_distance": -1.0})
+    with pytest.raises(ConfigError, match=r"transform_timeout: 1e\+300 is out of range: must be <= 3600.0"):
+        from_mapping(OccupancyMapperParams, {"transform_timeout": 1e300})
 
 
 @pytest.mark.parametrize("seed", [-1, 2**32, 2**70])
