@@ -13,6 +13,8 @@ def register(sub) -> None:
         "parameters, sections Nav2 ignores. A slam_toolbox block (mapper_params_online_async.yaml) is checked as "
         "`navlog replay --pipeline mapping --params FILE` reads it. Lists what navlog reads but does not "
         "implement. Exits 1 on errors.",
+        epilog="examples:\n  navlog check-config nav2_params.yaml\n"
+        "  navlog check-config turtlebot4_nav2.yaml --distro humble --notes",
     )
     p.add_argument("file", help="a Nav2 parameter file (node: ros__parameters: ...)")
     p.add_argument(

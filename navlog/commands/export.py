@@ -14,6 +14,10 @@ def register(sub) -> None:
         "Foxglove and rosbags read (metadata version 8 for --distro humble, 9 for jazzy; /tf_static and /map "
         "transient-local). --to tum writes `t x y z qx qy qz qw` lines for evo and KISS-ICP from an Odometry, "
         "PoseStamped or Path topic (--topic) or a TF chain (--tf map:base_link).",
+        epilog="examples:\n  navlog export run.mcap --to rosbag2 -o run_bag/ --distro jazzy\n"
+        "  navlog export run.mcap --to rosbag2 --storage mcap --topics /scan /tf /tf_static /odom -o scan_bag/\n"
+        "  navlog export run.mcap --to tum --topic /odom/ground_truth -o gt.tum\n"
+        "  navlog export my_bag/ --to tum --tf map:base_link -o slam.tum",
     )
     p.add_argument("log", help="a .mcap file, a .db3 file or a rosbag2 folder")
     p.add_argument("--to", required=True, choices=("rosbag2", "tum"), help="output kind")

@@ -9,6 +9,8 @@ def register(sub) -> None:
         help="summarise a log (navlog MCAP, rosbag2 folder, .mcap or .db3)",
         description="Print a summary like `ros2 bag info`: duration, start and end, size, compression, "
         "topics with type, count and rate, and navlog metadata. Topics of unknown types are listed as such.",
+        epilog="examples:\n  navlog info run.mcap\n  navlog info my_bag/ --json\n"
+        "  navlog info run.mcap.part --recover   # a recording killed mid-write",
     )
     p.add_argument("log", help="a .mcap file, a .db3 file or a rosbag2 folder")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")

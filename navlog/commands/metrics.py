@@ -23,6 +23,9 @@ def register(sub) -> None:
         "coverage), OUT/map.pcd against a reference mesh (accuracy@tau, and completeness@tau of the surfaces "
         "visible from the ground-truth path). Prints a table; -o writes JSON. "
         "Metrics whose inputs are missing are skipped with a note.",
+        epilog="examples:\n  navlog metrics run.mcap --replay out/\n"
+        "  navlog metrics run.mcap --replay out/ --reference-map gt.yaml --tau 0.05 -o metrics.json\n"
+        "  navlog metrics nav.mcap   # a navigation log: goals, clearance, collisions",
     )
     p.add_argument("log", help="the log that was replayed (.mcap, .db3 or rosbag2 folder)")
     p.add_argument(

@@ -25,6 +25,9 @@ def register(sub) -> None:
         help="plan once on a map with NavFn or the Smac-2D-like planner",
         description="Build the global costmap from a map_server map and the Nav2 parameters, plan from start to "
         "goal, print length, cost and planning time; optionally write the plan as nav_msgs/Path MCAP or a PNG.",
+        epilog="examples:\n  navlog plan --map tb3_sandbox.yaml --start=-2,-0.5,0 --goal 1.5,1,0 --png plan.png\n"
+        "  navlog plan --map map.yaml --params nav2_params.yaml --planner smac2d --start 0,0,0 --goal 4,2,1.57 "
+        "-o plan.mcap",
     )
     p.add_argument("--map", required=True, type=Path, help="map_server YAML")
     p.add_argument("--start", required=True, help="x,y,yaw (write --start=-1,0,0 when x is negative)")

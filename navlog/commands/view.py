@@ -21,6 +21,8 @@ def register(sub) -> None:
         "sim_time duration timeline, with a default layout: the 3D view (camera on the robot) beside a "
         "top-down view, the plots below. --save writes an .rrd without a display; --spawn opens a viewer at the "
         "log's start; --connect streams to a running one.",
+        epilog="examples:\n  navlog view run.mcap --save run.rrd\n  navlog view run.mcap --replay out/ --spawn\n"
+        "  navlog view my_bag/ --connect rerun+http://127.0.0.1:9876/proxy",
     )
     p.add_argument("log", help="a .mcap file, a .db3 file or a rosbag2 folder")
     p.add_argument(

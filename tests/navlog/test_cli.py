@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import subprocess
 import sys
 
@@ -110,3 +111,13 @@ def test_quiet_before_or_after_the_command(tmp_path, capsys: pytest.CaptureFixtu
     # through main: a command with -q after it runs (a bad log is still a one-line error)
     assert main(["info", str(tmp_path / "nope.mcap"), "-q"]) == 2
     assert "nope.mcap" in capsys.readouterr().err
+
+
+def test_every_command_that_works_on_files_shows_an_example_in_its_help(capsys: pytest.CaptureFixture[str]) -> None:
+    """Each command's --help ends with at least one example run of it (commands with actions show theirs on
+    the action's help)."""
+    for name in COMMANDS:
+        with pytest.raises(SystemExit):
+            main([name, "--help"])
+        out = capsys.readouterr().out
+        assert re.search(rf"\nexamples?:\n  navlog {name} ", out), name
