@@ -15,6 +15,7 @@ import gc
 import importlib
 import logging
 import os
+import signal
 import sys
 from typing import Any
 
@@ -112,9 +113,20 @@ def _exit_without_teardown_collections() -> None:
     gc.freeze()
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM to a ``navlog`` process: raised where it runs, so that what it writes is cleaned up on the way
+    out (temporaries removed, locks released) as after Ctrl-C."""
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise Terminated
+
+
 def main(argv: list[str] | None = None) -> int:
     if argv is None:  # the process's own command line (`navlog ...`, `python -m navlog ...`): it ends after this
         atexit.register(_exit_without_teardown_collections)
+        if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+            signal.signal(signal.SIGTERM, _terminate)
     parser = build_parser(_command(sys.argv[1:] if argv is None else argv))
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR if args.quiet else logging.WARNING, format="navlog: warning: %(message)s")
@@ -126,6 +138,9 @@ def main(argv: list[str] | None = None) -> int:
     except NavlogError as exc:
         print(f"navlog: error: {exc}", file=sys.stderr)
         return 2
+    except Terminated:
+        print("navlog: terminated (SIGTERM)", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("navlog: interrupted", file=sys.stderr)
         return 130

@@ -408,3 +408,32 @@ def _mcap_complete_any(path: Path) -> None:
     with open_log(path) as reader:
         assert not reader.report.truncated
         assert reader.topics["/scan"].count > 5 and reader.topics["/livox/lidar"].count > 5
+
+
+def test_sigterm_cleans_up_as_ctrl_c_does(tmp_path, teleop_log):
+    """SIGTERM (a `timeout`, a CI job cancelled) mid-replay exits 143 saying so, and leaves neither the replay's
+    temporary folder nor its lock; mid-recording it closes the file cleanly, as the first Ctrl-C does. Before,
+    it killed the process where it stood, leaving both behind."""
+    out = tmp_path / "out"
+    argv = [str(NAVLOG), "replay", str(teleop_log), "--pipeline", "mapping", "-o", str(out)]
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    partial = tmp_path / ".out.partial"
+    deadline = time.monotonic() + 60
+    while not partial.exists() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.005)
+    assert partial.exists(), "the replay ended before it could be stopped"
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143 and "navlog: terminated (SIGTERM)" in err and "Traceback" not in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+    rec = tmp_path / "run.mcap"
+    argv = [str(NAVLOG), "record", "--world", "indoor_room", "--scenario", "mapping", "--seed", "3", "-o", str(rec)]
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    part = rec.with_name(rec.name + ".part")
+    while proc.poll() is None and time.monotonic() < deadline + 60 and (not part.exists() or part.stat().st_size < 2e6):
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGTERM)
+    stdout, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143 and "interrupted, file closed cleanly" in stdout, err
+    _mcap_complete_any(rec)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap"]

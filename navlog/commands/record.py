@@ -100,24 +100,29 @@ def register(sub) -> None:
 
 @contextlib.contextmanager
 def stop_on_ctrl_c() -> Iterator[threading.Event]:
-    """An event that Ctrl-C (SIGINT) sets while the block runs, instead of raising KeyboardInterrupt.
+    """An event that Ctrl-C (SIGINT) or SIGTERM (a ``timeout``, a CI job cancelled) sets while the block runs,
+    instead of raising KeyboardInterrupt; ``stop.signum`` is the signal's number.
 
-    ``record(..., stop=event)`` then ends the run cleanly; a second Ctrl-C raises KeyboardInterrupt
-    at once. The previous handler is restored after.
+    ``record(..., stop=event)`` then ends the run cleanly; a second signal raises KeyboardInterrupt at once.
+    The previous handlers are restored after.
     """
     stop = threading.Event()
+    stop.signum = 0  # type: ignore[attr-defined]
 
-    def on_sigint(signum: int, frame: object) -> None:
+    def on_signal(signum: int, frame: object) -> None:
         if stop.is_set():
             raise KeyboardInterrupt
+        stop.signum = signum  # type: ignore[attr-defined]
         stop.set()
-        os.write(2, b"\nnavlog: stopping cleanly (Ctrl-C again to stop at once)\n")
+        again = "Ctrl-C" if signum == signal.SIGINT else "the signal"
+        os.write(2, f"\nnavlog: stopping cleanly ({again} again to stop at once)\n".encode())
 
-    previous = signal.signal(signal.SIGINT, on_sigint)
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield stop
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
 
 
 def robot_args(words: list[str]) -> dict[str, str]:
@@ -210,5 +215,5 @@ def run(args) -> int:
         )
     print(format_summary(res))
     if res.interrupted:
-        return 130
+        return 128 + stop.signum  # type: ignore[attr-defined]  # 130 after Ctrl-C, 143 after SIGTERM
     return 1 if res.failed else 0
