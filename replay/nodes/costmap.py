@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
-from typing import Any
+from typing import Any, Literal
 
 from navlog.replay import messages as m
 from navlog.replay.nav2.costmap import (
@@ -121,7 +121,7 @@ class CostmapNode(Node):
 
     def _observation(
         self, sname: str, stamp: int, msg: Any, sp: ObservationSourceParams, t: int
-    ) -> Observation | bool | None:
+    ) -> Observation | Literal[False] | None:
         """The source's message as an observation in the global frame; None when it is skipped (counted); False
         when its transform is not there yet (a sample after its stamp has not come) and ``t`` is within the
         costmap's ``transform_tolerance`` of its stamp: it waits for the next update, as Nav2's message filter
