@@ -125,6 +125,7 @@ class AmclParams:
         "bond_heartbeat_period",
         "map_subscribe_transient_local",
         "global_localization",
+        "random_seed",  # Nav2 after Jazzy (navlog's filter draws from the run's seed)
     )
 
 

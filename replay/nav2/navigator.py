@@ -101,6 +101,7 @@ class BtNavigatorParams:
         "filter_duration",
         "default_cancel_timeout",  # Nav2 after Jazzy
         "error_code_name_prefixes",  # Nav2 after Jazzy: error codes by prefix (navlog reports its own codes)
+        "bt_search_directories",  # Nav2 after Jazzy: where behaviour tree files are looked for
     )
 
 
@@ -134,7 +135,12 @@ class WaypointFollowerParams:
     use_sim_time: bool = False
     pause_enabled: bool = True  # the task executor's ``enabled``
     waypoint_pause_duration: int = 0  # ms, the task executor's
-    READ_ONLY: ClassVar[tuple[str, ...]] = ("loop_rate", "action_server_result_timeout", "use_sim_time")
+    READ_ONLY: ClassVar[tuple[str, ...]] = (
+        "loop_rate",
+        "action_server_result_timeout",
+        "use_sim_time",
+        "introspection_mode",  # Nav2 after Jazzy
+    )
 
 
 WAYPOINT_EXECUTORS = (

@@ -76,6 +76,16 @@ def test_nav2_params_unchanged_load_with_what_navlog_does_not_run_named(data, ca
     for named in ("model_delay_vx", "TrajectoryValidator", "FeasiblePathHandler", "path_length_tolerance"):
         line = next(x for x in out.splitlines() if named in x)
         assert "not implemented by navlog" in line
+    # parameters Nav2 declares since Jazzy are read, not called unknown
+    assert "unknown parameter" not in out
+    for named in (
+        "random_seed",
+        "bt_search_directories",
+        "allow_partial_planning",
+        "collision_monitor.ros__parameters.enabled",
+    ):
+        line = next(x for x in out.splitlines() if named in x)
+        assert "not implemented by navlog" in line, line
 
 
 @pytest.mark.slow

@@ -136,7 +136,12 @@ class CollisionMonitorParams:
     polygon_params: dict[str, CollisionPolygonParams] = field(default_factory=dict)
     source_params: dict[str, CollisionSourceParams] = field(default_factory=dict)
     # the state goes out as navlog events (navlog_msgs/Event), not on state_topic
-    READ_ONLY: ClassVar[tuple[str, ...]] = ("state_topic", "use_realtime_priority", "use_sim_time")
+    READ_ONLY: ClassVar[tuple[str, ...]] = (
+        "state_topic",
+        "use_realtime_priority",
+        "use_sim_time",
+        "enabled",  # Nav2 after Jazzy: the monitor switched off at start (navlog's pipelines switch it by --set)
+    )
 
     def source_timeout_of(self, source: str) -> float:
         """A source's own source_timeout, or the node's (seconds; 0 disables the staleness check)."""

@@ -37,6 +37,7 @@ class PlannerServerParams:
         "costmap_update_timeout",
         "use_sim_time",
         "introspection_mode",
+        "allow_partial_planning",  # Nav2 after Jazzy: a path to the nearest reachable pose (off by default)
     )
 
 
