@@ -164,6 +164,10 @@ def write_error(path: Path, exc: OSError) -> WriteError:
     output."""
     if exc.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
         return WriteError(path, f"cannot write: {exc.strerror or exc} (a read-only folder?); nothing was written")
+    if exc.errno in (errno.ENOENT, errno.ENOTDIR, errno.EISDIR):
+        return WriteError(
+            path, f"cannot write: {exc.strerror or exc} (a folder on the way missing, or a file where a folder is?)"
+        )
     return WriteError(
         path, f"cannot write: {exc.strerror or exc} (a full disk or a file-size limit?); the partial file was removed"
     )

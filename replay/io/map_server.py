@@ -135,6 +135,11 @@ def load_map(yaml_path: str | Path) -> OccupancyMap:
     image_path = Path(doc["image"])
     if not image_path.is_absolute():
         image_path = path.parent / image_path
+    if not image_path.is_file():
+        raise ConfigError(
+            f"{path}: its image {doc['image']!r} is not found ({image_path}); a relative image path starts at the "
+            "map YAML's folder"
+        )
     shade = _read_image(image_path)[::-1, :]  # image row 0 is the top (largest y)
     occ = shade if negate else 1.0 - shade
 

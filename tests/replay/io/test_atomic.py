@@ -243,3 +243,16 @@ def test_no_command_replaces_what_it_reads_even_with_force(tmp_path: Path, teleo
     assert "is (or holds) the current folder" in capsys.readouterr().err
     assert sorted(p.name for p in folder.iterdir()) == ["notes.txt", "teleop.mcap"]
     assert log.read_bytes() == teleop_log.read_bytes()
+
+
+def test_a_write_error_hints_at_its_cause_by_errno(tmp_path: Path) -> None:
+    """A missing folder on the way or a folder where a file goes is not said to be a full disk."""
+    import errno
+
+    from navlog.replay.io.atomic import write_error
+
+    for code in (errno.ENOENT, errno.ENOTDIR, errno.EISDIR):
+        said = str(write_error(tmp_path / "out.x", OSError(code, os.strerror(code))))
+        assert "full disk" not in said and "a folder on the way missing, or a file where a folder is?" in said
+    assert "a full disk or a file-size limit?" in str(write_error(tmp_path / "x", OSError(errno.ENOSPC, "No space")))
+    assert "a read-only folder?" in str(write_error(tmp_path / "x", OSError(errno.EROFS, "Read-only")))

@@ -125,7 +125,7 @@ def test_load_rgb_png_uses_mean_shade(tmp_path):
         ("image: m.pgm\nresolution: 0.1\norigin: [0, 0]\n", ["'origin'", "[x, y, yaw]"]),
         ("image: m.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nmode: trinery\n", ["'mode'", "trinary"]),
         ("image: m.pgm\nresolution: 0.1\norigin: [0, 0, 0]\nfree_thres: 0.2\n", ["free_thres", "free_thresh"]),
-        ("image: gone.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n", ["gone.pgm", "not found"]),
+        ("image: gone.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n", ["m.yaml: its image 'gone.pgm' is not found"]),
         ("image: m.pgm\nresolution: 0.1: 2\norigin: [0, 0, 0]\n", ["m.yaml", "line 2"]),
         ("image: m.pgm\nresolution: 0.1\norigin: [.nan, 0, 0]\n", ["'origin'", "finite"]),
         ("image: m.pgm\nresolution: .inf\norigin: [0, 0, 0]\n", ["'resolution'", "finite"]),
