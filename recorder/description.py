@@ -966,6 +966,12 @@ def load_robot(
     path = named_config("robots", name)
     data = load_yaml(path)
     if not (isinstance(data, dict) and "description_file" in data):
+        given = [f"--robot-arg {k}:={v}" for k, v in (args or {}).items()] + ([f"--drive {drive}"] if drive else [])
+        if given:  # (they would be ignored: the YAML is the whole robot)
+            raise ConfigError(
+                f"{path}: {', '.join(given)}: for a robot from a description file (URDF, SDF, xacro); this robot "
+                "YAML has no description_file, its drive is its own 'drive' key"
+            )
         return load_config(RobotSpec, path)
     return _described_yaml(path, dict(data), args, package_paths, drive)
 

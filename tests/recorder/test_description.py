@@ -617,3 +617,15 @@ def test_a_joint_whose_child_link_is_not_in_the_file_names_the_joint_and_the_lin
     err = capsys.readouterr().err
     assert code == 2 and not out.exists()
     assert f"{urdf}: joint 'caster_joint': child link 'castor' is not in the file (did you mean 'caster'?)" in err
+
+
+def test_robot_args_and_a_drive_for_a_robot_yaml_without_a_description_are_refused(tmp_path, capsys):
+    """--robot-arg and --drive change a robot from a description file; a robot YAML that is the whole robot
+    ignored them without a word (a plain URDF refuses a xacro argument)."""
+    for extra, said in (
+        (["--drive", "diff_drive"], "--drive diff_drive"),
+        (["--robot-arg", "p:=r1_"], "--robot-arg p:=r1_"),
+    ):
+        code, out = _record(tmp_path, Path("kibot"), *extra)
+        err = capsys.readouterr().err
+        assert code == 2 and not out.exists() and f"kibot.yaml: {said}: for a robot from a description file" in err
