@@ -177,8 +177,14 @@ def required(reader: LogReader, topic: str) -> Check:
     return Check("required", topic, Status.PASS, f"{topic}: present, {info.count} messages", {"count": info.count})
 
 
+def _instants(series: TopicSeries) -> np.ndarray:
+    """The topic's distinct log times, sorted: messages logged at one instant (several publishers of one topic,
+    as /tf's odometry, localisation and joint transforms of one step) arrive together, once."""
+    return np.unique(np.asarray(series.log_times, dtype=np.int64))
+
+
 def _periods(series: TopicSeries) -> np.ndarray:
-    return np.diff(np.sort(np.asarray(series.log_times, dtype=np.int64)))
+    return np.diff(_instants(series))
 
 
 def _backward(values: Sequence[int]) -> tuple[int, int | None]:
@@ -197,7 +203,7 @@ def figures(series: TopicSeries) -> TopicFigures:
         series.topic,
         series.typename,
         n,
-        round((n - 1) / (span / 1e9), 6) if span > 0 else None,
+        round(periods.size / (span / 1e9), 6) if span > 0 else None,
         round(1e9 / median, 6) if median > 0 else None,
         _ns_s(int(periods.max())) if periods.size else None,
         _backward(series.log_times)[0],
@@ -252,7 +258,7 @@ def rate(series: TopicSeries, expected: float | None, opts: CheckOptions) -> Che
 
 def gaps(series: TopicSeries, log_span: tuple[int, int], opts: CheckOptions) -> Check:
     topic = series.topic
-    t = np.sort(np.asarray(series.log_times, dtype=np.int64))
+    t = _instants(series)
     d = np.diff(t)
     median = float(np.median(d))
     limit = max(opts.gap_factor * median, 1.0)

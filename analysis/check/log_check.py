@@ -112,7 +112,7 @@ def check_log(
     timed = [s for s in series if len(s.log_times) >= 3 and (s.typename in PERIODIC_TYPES or s.topic in needed)]
     timed_names = {s.topic for s in timed}
     per_topic = [checks.rate(s, rates.get(s.topic), opts) for s in series if s.topic in timed_names or s.topic in rates]
-    per_topic += [checks.gaps(s, span, opts) for s in timed]
+    per_topic += [checks.gaps(s, span, opts) for s in timed if len(set(s.log_times)) >= 2]  # (a gap between instants)
     per_topic += [checks.stamps(s, reader.start_ns) for s in series if len(s.log_times) >= 2]
     per_topic += [checks.edge_stamps(e) for _, e in sorted(got.edges.items()) if not e.static and len(e.stamps) >= 2]
     per_topic += [

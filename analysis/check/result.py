@@ -48,7 +48,7 @@ class TopicFigures:
     topic: str
     typename: str
     count: int
-    rate_hz: float | None  # (count - 1) / the topic's own span of log times
+    rate_hz: float | None  # (distinct log times - 1) / the topic's own span of log times (checks._instants)
     median_rate_hz: float | None  # 1 / the median period
     max_gap_s: float | None
     log_time_backward: int  # steps back in log time, in the order the file stores the messages

@@ -350,3 +350,22 @@ def test_a_log_span_past_int64_is_a_gap_not_an_overflow():
     check = gaps(series, (0, 2**64 - 1), CheckOptions())
     assert check.numbers["tail_s"] == pytest.approx((2**64 - 1 - 2_000_000_000) / 1e9)
     assert check.status != Status.PASS
+
+
+def test_a_topic_several_publishers_write_at_one_instant_is_timed_by_its_instants():
+    """/tf of a simulator: the odometry, localisation and wheel transforms of one step logged at one instant,
+    every 35 ms. Its rate is its instants' (28.57 Hz, as the step is) and it has no gaps; before, most periods
+    were 0, and the check warned that its log times do not advance and counted every step a gap. A topic whose
+    every message is logged at one instant still gets that warning."""
+    from array import array
+
+    from navlog.analysis.check.checks import gaps, rate
+    from navlog.analysis.check.collect import TopicSeries
+
+    steps = [k * 35_000_000 for k in range(200)]
+    tf = TopicSeries("/tf", m.TF_MESSAGE, False, array("q", sorted(steps * 3)))
+    r, g = rate(tf, None, CheckOptions()), gaps(tf, (0, steps[-1]), CheckOptions())
+    assert r.status == Status.PASS and r.numbers["rate_hz"] == pytest.approx(1e9 / 35e6)
+    assert g.status == Status.PASS and g.numbers["gaps_over_factor"] == 0
+    stuck = TopicSeries("/tf", m.TF_MESSAGE, False, array("q", [5_000_000] * 10))
+    assert "log times do not advance" in rate(stuck, None, CheckOptions()).message
