@@ -132,6 +132,12 @@ class RecordSetup:
             out.append("no 2D laser in the description: nothing on a scan topic (a SLAM or a costmap's scan has none)")
         if m.other_sensors:
             out.append(f"{len(m.other_sensors)} sensor(s) not simulated: {', '.join(m.other_sensors)}")
+        from navlog.recorder.sim import TICK_NS, published_rates
+
+        rates = published_rates(self.robot)
+        if rates:
+            said = ", ".join(f"{name} {asked:g} -> {got:.2f} Hz" for name, (asked, got) in rates.items())
+            out.append(f"rates published at the nearest multiple of the {TICK_NS / 1e6:g} ms physics step: {said}")
         unbalanced = [
             k.name for k in m.links if k.inertial is not None and k.inertial.mass > 0 and k.inertial.unbalanced
         ]

@@ -156,7 +156,25 @@ class _Normals:
 
 
 def _period_ns(rate: float) -> int:
+    """A sensor's period: the multiple of the physics step nearest ``1 / rate`` (one step at least)."""
     return int(round(1e9 / rate / TICK_NS)) * TICK_NS or TICK_NS
+
+
+def published_rates(robot: RobotSpec) -> dict[str, tuple[float, float]]:
+    """Per sensor (odometry, IMU, laser, LiDAR, joint states) whose period is no multiple of the physics step:
+    the rate it asks for and the rate it is published at (``_period_ns``)."""
+    asked = {"odometry": robot.odom.rate}
+    asked.update(
+        (name, cfg.rate) for name, cfg in (("IMU", robot.imu), ("laser", robot.scan), ("LiDAR", robot.lidar)) if cfg
+    )
+    if robot.model is not None and robot.model.wheel_joints is not None:
+        asked["joint states"] = robot.model.joint_states_rate
+    out = {}
+    for name, rate in asked.items():
+        got = 1e9 / _period_ns(rate)
+        if abs(got - rate) > 1e-6 * rate:
+            out[name] = (rate, got)
+    return out
 
 
 def _source(robot: RobotSpec) -> str:
