@@ -36,7 +36,7 @@ from navlog.errors import ConfigError
 from navlog.recorder.solids import Solid
 from navlog.replay.config import load_config, named_config, to_mapping
 from navlog.replay.geometry import cell_to_world, se2_compose
-from navlog.replay.limits import MAX_INFLATION_RADIUS_M
+from navlog.replay.limits import MAX_GRID_RESOLUTION_M, MAX_INFLATION_RADIUS_M
 
 log = logging.getLogger(__name__)
 
@@ -435,9 +435,16 @@ def occupancy(
     nx = int(math.ceil((x1 + padding - ox) / resolution))
     ny = int(math.ceil((y1 + padding - oy) / resolution))
     if nx * ny > MAX_GRID_CELLS:
+        boxes = [(s.footprint_box(), s.name) for s in world.solids]
+        edges = {min(boxes, key=lambda b: b[0][i])[1] for i in (0, 1)} | {
+            max(boxes, key=lambda b: b[0][i])[1] for i in (2, 3)
+        }
+        needed = math.sqrt((x1 - x0 + 2 * padding) * (y1 - y0 + 2 * padding) / MAX_GRID_CELLS)
         raise ConfigError(
-            f"a {nx} x {ny} grid at resolution {resolution} m is too large (over {MAX_GRID_CELLS:,} cells); "
-            "choose a coarser --resolution, e.g. 0.05"
+            f"world '{world.name}': its obstacles span {x1 - x0:.6g} x {y1 - y0:.6g} m (x {x0:.6g} to {x1:.6g}, y "
+            f"{y0:.6g} to {y1:.6g}; at the edges: {', '.join(sorted(edges))}): {nx:.3g} x {ny:.3g} cells at "
+            f"{resolution:g} m, over navlog's {MAX_GRID_CELLS:,}; check those obstacles' poses and sizes"
+            + (f", or choose a --resolution of {needed:.3g} m or more" if needed <= MAX_GRID_RESOLUTION_M else "")
         )
     xs = cell_to_world(np.arange(nx), ox, resolution)
     ys = cell_to_world(np.arange(ny), oy, resolution)

@@ -106,3 +106,30 @@ def test_open3d_imported_by_two_threads_at_once_is_whole_in_both_without_its_vie
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["2", "True", "True", "False", "False", "False"]
+
+
+def test_a_world_map_too_large_names_the_extent_the_obstacles_at_its_edges_and_a_resolution_that_fits(tmp_path):
+    """It said 'choose a coarser --resolution, e.g. 0.05' at 0.05 m, and for a box 1e300 m long printed the
+    cell counts in 300 digits; it names the world, its extent and the obstacles at its edges, and a resolution
+    that fits only where one does."""
+    room = load_world("indoor_room")
+    with pytest.raises(ConfigError) as err:
+        write_world_map(room, tmp_path / "m.yaml", resolution=0.0001)
+    said = str(err.value)
+    assert said.startswith("world 'indoor_room': its obstacles span 10.4 x 10.4 m (x -5.2 to 5.2, y -5.2 to 5.2;")
+    assert "wall_east" in said and said.endswith("or choose a --resolution of 0.000806 m or more")
+    sdf = tmp_path / "far.sdf"
+    sdf.write_text(
+        '<?xml version="1.0"?>\n<sdf version="1.6"><world name="far"><model name="wall"><static>true</static>'
+        '<link name="link"><collision name="c"><geometry><box><size>1e300 0.2 2</size></box></geometry>'
+        "</collision></link></model></world></sdf>\n"
+    )
+    with pytest.raises(ConfigError) as err:
+        write_world_map(load_world(str(sdf)), tmp_path / "far.yaml")
+    said = str(err.value)
+    assert (
+        "span 1e+300 x 0.2 m" in said
+        and "wall/link/c" in said
+        and said.endswith("check those obstacles' poses and sizes")
+    )
+    assert len(said) < 400
