@@ -57,6 +57,7 @@ class CostmapNode(Node):
         self.static_map = static_map
         self.map_topic = map_topic
         self.pending: dict[str, tuple[int, Any, ObservationSourceParams]] = {}  # source -> (stamp, msg, params)
+        self.waiting: set[str] = set()  # the sources whose pending message waits for its transform
         self.updates = 0
         self.robot: Pose2D | None = None
         self.source_topics: dict[str, list[tuple[str, ObservationSourceParams]]] = {}
@@ -100,13 +101,28 @@ class CostmapNode(Node):
             self.costmap.set_static_map(occ)
         if self.params.rolling_window:
             self.costmap.update_origin(old.origin_x, old.origin_y)
+        for sname in sorted(self.waiting):
+            self._unplaced(sname)
         self.pending = {}
         if self.robot is not None:
             self.costmap.update(*self.robot)
 
     def _on_source(self, topic: str, msg: Any, t: int) -> None:
         for sname, sp in self.source_topics[topic]:
+            self._unplaced(sname)  # a message that waited for its transform, replaced before it came
             self.pending[sname] = (m.to_ns(msg.header.stamp), msg, sp)
+
+    def _unplaced(self, sname: str) -> None:
+        """Count the source's pending message as skipped when it is waiting for its transform."""
+        if sname in self.waiting:
+            self.waiting.discard(sname)
+            _, msg, sp = self.pending[sname]
+            frame = sp.sensor_frame or msg.header.frame_id
+            self.skipped[f"{sname}: no transform {self.params.global_frame} <- {frame}"] += 1
+
+    def finish(self) -> None:
+        for sname in sorted(self.waiting):  # still waiting when the log ends
+            self._unplaced(sname)
 
     def robot_pose(self, t: int) -> Pose2D | None:
         p = self.params
@@ -131,7 +147,7 @@ class CostmapNode(Node):
             T = self.tf.lookup(self.params.global_frame, frame, stamp)
         except TransformError:
             latest = self.tf.latest_common_time(self.params.global_frame, frame)
-            if latest is not None and latest < stamp and t - stamp <= self.tolerance_ns:
+            if latest is not None and latest < stamp <= t and t - stamp <= self.tolerance_ns:
                 return False
             self.skipped[f"{sname}: no transform {self.params.global_frame} <- {frame}"] += 1
             return None
@@ -180,6 +196,7 @@ class CostmapNode(Node):
             elif obs is not None:
                 self.costmap.add_observation(obs)
         self.pending = waiting
+        self.waiting = set(waiting)
         self.costmap.update(*robot)
         self.updates += 1
         period = self.publish_period_ns

@@ -36,13 +36,13 @@ def _scan(t_ms: int) -> Envelope:
     return Envelope("/scan", m.LASER_SCAN, t_ms * MS, msg)
 
 
-def _run(odometry_until_ms: int, end_ms: int) -> tuple[CostmapNode, list[int]]:
+def _run(odometry_until_ms: int, end_ms: int, scans_ms: tuple[int, ...] = (190,)) -> tuple[CostmapNode, list[int]]:
     """The local costmap of nav_go2.yaml (odom <- base_link, 5 Hz updates at 0, 200, 400 ms ...) given one scan
     at 190 ms and the robot at rest at the origin, its odometry every 35 ms (175, then 210 ms) until
     ``odometry_until_ms``: the node, and the wall cell's cost after each update."""
     nav2 = load_nav2_params(Path(__file__).parents[3] / "config" / "nav2" / "nav_go2.yaml")
     node = CostmapNode(nav2.local_costmap, "local_costmap")
-    envs = [_tf(0, "base_link", "laser", 0.2), _scan(190)]
+    envs = [_tf(0, "base_link", "laser", 0.2), *(_scan(t) for t in scans_ms)]
     envs += [_tf(t, "odom", "base_link") for t in range(0, odometry_until_ms + 1, 35)]
     envs.append(Envelope("/clock", m.CLOCK, end_ms * MS, m.clock(end_ms * MS)))
     ex = Executor(start_ns=0)
@@ -58,6 +58,7 @@ def _run(odometry_until_ms: int, end_ms: int) -> tuple[CostmapNode, list[int]]:
     node._update = update  # type: ignore[method-assign]
     ex.add_node(node)
     ex.run()
+    ex.finish()
     return node, walls
 
 
@@ -77,3 +78,12 @@ def test_a_scan_whose_transform_does_not_come_within_the_tolerance_is_skipped_an
     assert node.params.transform_tolerance == 0.3
     assert LETHAL not in walls and len(walls) >= 4
     assert node.skipped == {"scan: no transform odom <- laser": 1} and not node.pending
+
+
+def test_a_waiting_scan_replaced_or_left_at_the_end_is_counted():
+    """A scan that waited at one update and was replaced by the next before its transform came could not be
+    placed: it is counted, as is one still waiting when the log ends, and one stamped ahead of the clock."""
+    node, walls = _run(odometry_until_ms=180, end_ms=800, scans_ms=(190, 290))
+    assert node.skipped == {"scan: no transform odom <- laser": 2} and not node.pending and LETHAL not in walls
+    node, _ = _run(odometry_until_ms=180, end_ms=250)  # the log ends at 250 ms, the scan waiting since 200 ms
+    assert node.skipped == {"scan: no transform odom <- laser": 1}
