@@ -113,12 +113,17 @@ class CostmapNode(Node):
             self.pending[sname] = (m.to_ns(msg.header.stamp), msg, sp)
 
     def _unplaced(self, sname: str) -> None:
-        """Count the source's pending message as skipped when it is waiting for its transform."""
+        """The source's pending message leaves unused (replaced, cleared, the log's end): when it was waiting for
+        its transform and the transform has still not come, it is counted as skipped (one whose transform came
+        is superseded, as any message a newer one replaces before an update)."""
         if sname in self.waiting:
             self.waiting.discard(sname)
-            _, msg, sp = self.pending[sname]
+            stamp, msg, sp = self.pending[sname]
             frame = sp.sensor_frame or msg.header.frame_id
-            self.skipped[f"{sname}: no transform {self.params.global_frame} <- {frame}"] += 1
+            try:
+                self.tf.lookup(self.params.global_frame, frame, stamp)
+            except TransformError:
+                self.skipped[f"{sname}: no transform {self.params.global_frame} <- {frame}"] += 1
 
     def finish(self) -> None:
         for sname in sorted(self.waiting):  # still waiting when the log ends

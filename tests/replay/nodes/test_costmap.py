@@ -80,10 +80,13 @@ def test_a_scan_whose_transform_does_not_come_within_the_tolerance_is_skipped_an
     assert node.skipped == {"scan: no transform odom <- laser": 1} and not node.pending
 
 
-def test_a_waiting_scan_replaced_or_left_at_the_end_is_counted():
+def test_a_waiting_scan_replaced_or_left_at_the_end_is_counted_unless_its_transform_came():
     """A scan that waited at one update and was replaced by the next before its transform came could not be
-    placed: it is counted, as is one still waiting when the log ends, and one stamped ahead of the clock."""
+    placed: it is counted, as is one still waiting when the log ends. One whose transform came before the next
+    scan replaced it is superseded, as any scan a newer one replaces between updates: not counted."""
     node, walls = _run(odometry_until_ms=180, end_ms=800, scans_ms=(190, 290))
     assert node.skipped == {"scan: no transform odom <- laser": 2} and not node.pending and LETHAL not in walls
     node, _ = _run(odometry_until_ms=180, end_ms=250)  # the log ends at 250 ms, the scan waiting since 200 ms
     assert node.skipped == {"scan: no transform odom <- laser": 1}
+    node, walls = _run(odometry_until_ms=800, end_ms=800, scans_ms=(190, 290))  # 190's came at 210 ms
+    assert not node.skipped and walls[:3] == [0, 0, LETHAL]
