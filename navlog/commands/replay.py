@@ -126,9 +126,11 @@ def _run_fleet(args) -> int:
 def run(args) -> int:
     if _is_fleet(args):
         return _run_fleet(args)
+    from navlog.replay.io.atomic import check_not_input
     from navlog.replay.session import format_summary, parse_remaps, pipeline_params, run_replay
 
     log = Path(args.logs[0])
+    check_not_input(args.output, [args.params], folder=True)  # (the log: run_replay's own check)
     params = pipeline_params(args.pipeline, args.params, args.set)
     res = run_replay(
         log,

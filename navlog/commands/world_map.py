@@ -40,6 +40,12 @@ def run(args) -> int:
     from navlog.replay.io.atomic import check_not_input
 
     read = [args.world] if Path(args.world).exists() else []  # (a name of navlog's worlds is no file)
+    if read and Path(args.world).suffix in (".yaml", ".yml"):  # a map_server map: its image is read too
+        from navlog.replay.config import load_yaml
+
+        doc = load_yaml(Path(args.world))
+        if isinstance(doc, dict) and isinstance(doc.get("image"), str):
+            read.append(str(Path(args.world).parent / doc["image"]))
     for out in (args.output, args.output.with_suffix(".pgm"), args.mesh):
         if out is not None:
             check_not_input(out, read)

@@ -62,21 +62,27 @@ def check_output(out: Path) -> None:
 
 
 def check_not_input(out: Path | str, inputs: Iterable[Path | str | None], *, folder: bool = False) -> None:
-    """NavlogError when writing ``out`` would replace what the run reads: ``out`` is one of ``inputs`` (also
-    through a link), or, for an output folder (``folder``: replaced whole), it holds one of them or the current
-    folder. Checked with or without ``--force``, before anything is written."""
+    """NavlogError when writing ``out`` would replace or write into what the run reads: ``out`` is one of
+    ``inputs`` (also through a link, or the link itself), lies inside an input folder (a rosbag2 bag), or, for an
+    output folder (``folder``: replaced whole), holds one of them or the current folder. Checked with or without
+    ``--force``, before anything is written."""
     target = Path(out).resolve()
     for given in inputs:
         if given is None:
             continue
-        source = Path(given).resolve()
-        if source == target:
-            raise NavlogError(f"{out}: is the input {given}; writing it would replace it: choose another output")
-        if folder and target in source.parents:
-            raise NavlogError(
-                f"{out}: holds the input {given}; the output folder is replaced whole, the input with it: "
-                "choose another output folder"
-            )
+        path = Path(given)
+        # where the input is read from (a link's target) and where its name lies (the link itself)
+        places = {path.resolve(), path.absolute().parent.resolve() / path.name}
+        for source in places:
+            if source == target:
+                raise NavlogError(f"{out}: is the input {given}; writing it would replace it: choose another output")
+            if source in target.parents:
+                raise NavlogError(f"{out}: lies inside the input {given}; choose an output outside it")
+            if folder and target in source.parents:
+                raise NavlogError(
+                    f"{out}: holds the input {given}; the output folder is replaced whole, the input with it: "
+                    "choose another output folder"
+                )
     cwd = Path.cwd().resolve()
     if folder and (target == cwd or target in cwd.parents):
         raise NavlogError(

@@ -237,12 +237,49 @@ def test_no_command_replaces_what_it_reads_even_with_force(tmp_path: Path, teleo
     assert "is the input" in capsys.readouterr().err
     monkeypatch.chdir(folder)
     assert main(["-q", "replay", "teleop.mcap", *mapping, "-o", ".", "--force"]) == 2
-    assert "holds the input" in capsys.readouterr().err
+    assert ".: is (or holds) the current folder" in capsys.readouterr().err
     monkeypatch.chdir(fleet / "teleop")  # a replay into the folder it runs from
     assert main(["-q", "replay", str(log), *mapping, "-o", str(fleet), "--force"]) == 2
     assert "is (or holds) the current folder" in capsys.readouterr().err
     assert sorted(p.name for p in folder.iterdir()) == ["notes.txt", "teleop.mcap"]
     assert log.read_bytes() == teleop_log.read_bytes()
+
+
+def test_inputs_other_than_the_log_linked_or_holding_the_output_are_not_replaced_either(
+    tmp_path: Path, teleop_log: Path, capsys, monkeypatch
+):
+    """A parameter file in the output folder, a log read through a link in it (the folder and what lies beside
+    the link), a map's image that world-map's PGM would be, and a file written inside an input bag folder are
+    refused, naming the input."""
+    import shutil
+
+    from navlog.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    mapping = ["--pipeline", "mapping", "--set", "lidar_mapper=off"]
+    (tmp_path / "out").mkdir()
+    shutil.copyfile(Path(__file__).parents[3] / "config" / "pipelines" / "mapping.yaml", "out/params.yaml")
+    assert main(["-q", "replay", str(teleop_log), *mapping, "--params", "out/params.yaml", "-o", "out", "--force"]) == 2
+    assert "out: holds the input out/params.yaml" in capsys.readouterr().err
+    (tmp_path / "linked").mkdir()
+    (tmp_path / "linked" / "run.mcap").symlink_to(teleop_log)
+    (tmp_path / "linked" / "notes.txt").write_text("keep\n")
+    assert main(["-q", "replay", "linked/run.mcap", *mapping, "-o", "linked", "--force"]) == 2
+    assert "linked: holds the input linked/run.mcap" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "linked").iterdir()) == ["notes.txt", "run.mcap"]
+    (tmp_path / "room.pgm").write_bytes(b"P5\n4 4\n255\n" + bytes([0] * 4 + [254] * 12))
+    (tmp_path / "room.yaml").write_text(
+        "image: room.pgm\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.25\n"
+    )
+    assert main(["-q", "world-map", "room.yaml", "-o", "room.yml", "--force"]) == 2
+    assert "room.pgm: is the input" in capsys.readouterr().err
+    assert main(["-q", "export", str(teleop_log), "--to", "rosbag2", "-o", "bag"]) == 0
+    capsys.readouterr()
+    (db3,) = (tmp_path / "bag").glob("*.db3")
+    before = db3.read_bytes()
+    assert main(["-q", "export", "bag", "--to", "tum", "--topic", "/odom", "-o", f"bag/{db3.name}", "--force"]) == 2
+    assert f"bag/{db3.name}: lies inside the input bag" in capsys.readouterr().err
+    assert db3.read_bytes() == before
 
 
 def test_a_write_error_hints_at_its_cause_by_errno(tmp_path: Path) -> None:
