@@ -85,7 +85,9 @@ def read_costmap(r: SectionReader, params: dict, path: tuple) -> CostmapParams:
         r.add(NOTE, path + ("robot_radius",), "footprint is set, so robot_radius is not used")
     # the padded footprint's farthest reach from the centre (padding moves a vertex by up to its value along x and
     # y), bounded before anything is computed from it: its outline's cells are rasterised
-    reach = max((math.hypot(x, y) for x, y in fp), default=cm.robot_radius) + math.sqrt(2) * cm.footprint_padding
+    reaches = [math.hypot(x, y) for x, y in fp] or [cm.robot_radius]
+    reach = math.nan if any(math.isnan(v) for v in reaches) else max(reaches)  # (max() passes a NaN not first)
+    reach += math.sqrt(2) * cm.footprint_padding
     if not reach <= MAX_FOOTPRINT_RADIUS_M:  # (also NaN)
         key = "footprint" if fp else "robot_radius"
         r.add(

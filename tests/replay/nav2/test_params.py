@@ -332,3 +332,5 @@ def test_a_footprint_reaching_beyond_the_bound_is_an_error_naming_its_key(params
     errors = _messages(parse_nav2_text(square))
     assert "reaches 56.5827 m" in errors["local_costmap.local_costmap.ros__parameters.footprint"]
     assert local not in _messages(parse_nav2_text(text.replace("robot_radius: 0.22", "robot_radius: 49.9", 1)))
+    nan = text.replace("robot_radius: 0.22", "footprint: '[[0.3, 0.2], [.nan, -0.2], [-0.3, -0.2]]'", 1)
+    assert "reaches nan m" in _messages(parse_nav2_text(nan))["local_costmap.local_costmap.ros__parameters.footprint"]
