@@ -122,22 +122,27 @@ class RecordSetup:
         return out
 
     def notes(self) -> list[str]:
-        """The summary's lines about a robot from a description file: where its drive came from, and the
-        sensors it declares that navlog does not simulate."""
+        """The summary's lines about the robot: the rates published at another rate than asked; for a robot from a
+        description file, where its drive came from and the sensors it declares that navlog does not simulate."""
+        from navlog.recorder.sim import TICK_NS, published_rates
+
+        rates = published_rates(self.robot)
+        said = ", ".join(f"{name} {asked:g} -> {got:.2f} Hz" for name, (asked, got) in rates.items())
+        out = (
+            [f"rates published at the nearest multiple of the {TICK_NS / 1e6:g} ms physics step: {said}"]
+            if rates
+            else []
+        )
         m = self.robot.model
         if m is None:
-            return []
-        out = [f"robot from {m.source}: drive {self.robot.drive.type} from {m.drive_plugin or 'the --drive option'}"]
+            return out
+        out.insert(
+            0, f"robot from {m.source}: drive {self.robot.drive.type} from {m.drive_plugin or 'the --drive option'}"
+        )
         if self.robot.scan is None:
             out.append("no 2D laser in the description: nothing on a scan topic (a SLAM or a costmap's scan has none)")
         if m.other_sensors:
             out.append(f"{len(m.other_sensors)} sensor(s) not simulated: {', '.join(m.other_sensors)}")
-        from navlog.recorder.sim import TICK_NS, published_rates
-
-        rates = published_rates(self.robot)
-        if rates:
-            said = ", ".join(f"{name} {asked:g} -> {got:.2f} Hz" for name, (asked, got) in rates.items())
-            out.append(f"rates published at the nearest multiple of the {TICK_NS / 1e6:g} ms physics step: {said}")
         unbalanced = [
             k.name for k in m.links if k.inertial is not None and k.inertial.mass > 0 and k.inertial.unbalanced
         ]

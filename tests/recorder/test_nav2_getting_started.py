@@ -172,7 +172,7 @@ def test_a_robot_without_a_laser_is_refused_for_amcl_and_said_in_the_summary(dat
     with_laser = prepare(None, None, "nav2_tb3_sandbox", localization="amcl", package_paths=[data])
     assert with_laser.robot.scan is not None and not any(n.startswith("no 2D laser") for n in with_laser.notes())
     # the Waffle's 30 Hz odometry and joint states go out every 35 ms, the nearest multiple of the 5 ms step
-    assert with_laser.notes()[-1] == (
+    assert (
         "rates published at the nearest multiple of the 5 ms physics step: odometry 30 -> 28.57 Hz, "
         "joint states 30 -> 28.57 Hz"
-    )
+    ) in with_laser.notes()

@@ -78,3 +78,15 @@ def test_a_world_without_a_scenario_laid_out_in_it_is_told_which_scenarios_fit(t
     )
     with pytest.raises(ConfigError, match="laid out for it: --scenario nav2_tb4_depot; in any world"):
         prepare(str(tmp_path / "depot.yaml"), "kibot", "mapping")
+
+
+def test_a_robot_yaml_asking_for_a_rate_off_the_physics_step_is_told_its_published_rate(tmp_path):
+    """Every sensor goes out at the multiple of the 5 ms step nearest its period: a robot YAML asking for 30 Hz
+    odometry is told it gets 28.57 Hz (a robot from a description file was; a whole-robot YAML was not)."""
+    from navlog.replay.config import named_config
+
+    kibot = named_config("robots", "kibot").read_text()
+    (tmp_path / "kibot30.yaml").write_text(kibot + "odom: {rate: 30.0}\n")
+    notes = prepare("walled_room", str(tmp_path / "kibot30.yaml"), "teleop_obstacle").notes()
+    assert notes == ["rates published at the nearest multiple of the 5 ms physics step: odometry 30 -> 28.57 Hz"]
+    assert prepare("walled_room", "kibot", "teleop_obstacle").notes() == []
