@@ -178,11 +178,13 @@ def intended_path(scenario: ScenarioSpec, robot: RobotSpec, step: float = 0.05) 
     return np.array(out)
 
 
-def _scenarios_for(world: World) -> str:
+def _scenarios_for(world: World, refused: str) -> str:
     """What to name with --scenario for ``world``: navlog's scenarios laid out for a world of its name or file
-    name, and those laid out for any world."""
+    name, and those laid out for any world (not the ``refused`` one)."""
     fitting, anywhere = [], []
     for name in known_configs("scenarios"):
+        if name == refused:
+            continue
         try:
             laid_out = load_scenario(name).world
         except ConfigError:
@@ -208,12 +210,12 @@ def check_scenario(scenario: ScenarioSpec, robot: RobotSpec, world: World, folde
         if wanted.resolve() != Path(world.path).resolve():
             raise ConfigError(
                 f"scenario '{scenario.name}' is laid out for world {wanted}, not {world.path}; "
-                f"use --world {wanted} or {_scenarios_for(world)}"
+                f"use --world {wanted} or {_scenarios_for(world, scenario.name)}"
             )
     elif scenario.world and scenario.world != world.name:
         raise ConfigError(
             f"scenario '{scenario.name}' is laid out for world '{scenario.world}', not '{world.name}'; "
-            f"use --world {scenario.world} or {_scenarios_for(world)}"
+            f"use --world {scenario.world} or {_scenarios_for(world, scenario.name)}"
         )
     if scenario.robot and not _world_file(scenario.robot) and scenario.robot != robot.name:
         raise ConfigError(

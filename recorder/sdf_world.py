@@ -314,7 +314,8 @@ class _Reader:
             uri = (g.findtext("uri") or "").strip()
             sx, sy, sz = _floats(g.findtext("scale") or "1 1 1", 3, f"{what} scale")
             scale = (sx, sy, sz)
-            _positive(scale, f"{what} scale")  # (a scale of 0 flattened the mesh away without a word)
+            if not all(v != 0 and math.isfinite(v) for v in scale):  # (0 flattened it away without a word)
+                raise ConfigError(f"{what} scale: each factor must be non-zero and finite, got {sx:g} {sy:g} {sz:g}")
             try:
                 path = resolve_uri(uri, base, self.search_paths)
             except ConfigError as exc:

@@ -430,21 +430,27 @@ def occupancy(
     if not 0.0 <= margin <= MAX_INFLATION_RADIUS_M:
         raise ConfigError(f"margin {margin} m is out of range: must be 0 to {MAX_INFLATION_RADIUS_M:g} m")
     x0, y0, x1, y1 = world.bounds()
-    ox = math.floor((x0 - padding) / resolution) * resolution
-    oy = math.floor((y0 - padding) / resolution) * resolution
-    nx = int(math.ceil((x1 + padding - ox) / resolution))
-    ny = int(math.ceil((y1 + padding - oy) / resolution))
+
+    def cells(res: float) -> tuple[float, float, int, int]:
+        ox, oy = math.floor((x0 - padding) / res) * res, math.floor((y0 - padding) / res) * res
+        return ox, oy, int(math.ceil((x1 + padding - ox) / res)), int(math.ceil((y1 + padding - oy) / res))
+
+    ox, oy, nx, ny = cells(resolution)
     if nx * ny > MAX_GRID_CELLS:
         boxes = [(s.footprint_box(), s.name) for s in world.solids]
         edges = {min(boxes, key=lambda b: b[0][i])[1] for i in (0, 1)} | {
             max(boxes, key=lambda b: b[0][i])[1] for i in (2, 3)
         }
-        needed = math.sqrt((x1 - x0 + 2 * padding) * (y1 - y0 + 2 * padding) / MAX_GRID_CELLS)
+        fits = math.sqrt((x1 - x0 + 2 * padding) * (y1 - y0 + 2 * padding) / MAX_GRID_CELLS)
+        while fits <= MAX_GRID_RESOLUTION_M and math.prod(cells(fits)[2:]) > MAX_GRID_CELLS:
+            fits *= 1.001  # (the cells' rounding at the edges)
+        fits = math.ceil(fits / 10 ** math.floor(math.log10(fits) - 2)) * 10 ** math.floor(math.log10(fits) - 2)
+        count = f"{nx:,} x {ny:,}" if nx * ny < 1e15 else f"{nx:.3g} x {ny:.3g}"
         raise ConfigError(
             f"world '{world.name}': its obstacles span {x1 - x0:.6g} x {y1 - y0:.6g} m (x {x0:.6g} to {x1:.6g}, y "
-            f"{y0:.6g} to {y1:.6g}; at the edges: {', '.join(sorted(edges))}): {nx:.3g} x {ny:.3g} cells at "
-            f"{resolution:g} m, over navlog's {MAX_GRID_CELLS:,}; check those obstacles' poses and sizes"
-            + (f", or choose a --resolution of {needed:.3g} m or more" if needed <= MAX_GRID_RESOLUTION_M else "")
+            f"{y0:.6g} to {y1:.6g}; at the edges: {', '.join(sorted(edges))}): {count} cells at {resolution:g} m, "
+            f"over navlog's {MAX_GRID_CELLS:,}; check those obstacles' poses and sizes"
+            + (f", or choose a --resolution of {fits:.3g} m or more" if fits <= MAX_GRID_RESOLUTION_M else "")
         )
     xs = cell_to_world(np.arange(nx), ox, resolution)
     ys = cell_to_world(np.arange(ny), oy, resolution)

@@ -63,7 +63,7 @@ def test_a_scenario_refuses_a_hold_or_max_duration_out_of_range_naming_the_file(
         prepare(None, "go2", str(scenario))
 
 
-def test_a_world_without_a_scenario_laid_out_in_it_is_told_which_scenarios_fit(tmp_path):
+def test_a_world_without_a_scenario_laid_out_in_it_is_told_which_scenarios_fit(tmp_path, shared_dir):
     """The default scenario tours indoor_room: another world without --scenario is refused, naming navlog's
     scenarios laid out for a world of that name (a map file by its file name) and those that fit any world."""
     with pytest.raises(ConfigError) as err:
@@ -78,6 +78,10 @@ def test_a_world_without_a_scenario_laid_out_in_it_is_told_which_scenarios_fit(t
     )
     with pytest.raises(ConfigError, match="laid out for it: --scenario nav2_tb4_depot; in any world"):
         prepare(str(tmp_path / "depot.yaml"), "kibot", "mapping")
+    # the scenario refused is not the one suggested: another depot.yaml than the one it names
+    with pytest.raises(ConfigError) as err:
+        prepare(str(tmp_path / "depot.yaml"), "kibot", "nav2_tb4_depot", package_paths=[shared_dir / "external-data"])
+    assert "depot.yaml, not " in str(err.value) and "--scenario nav2_tb4_depot" not in str(err.value)
 
 
 def test_a_robot_yaml_asking_for_a_rate_off_the_physics_step_is_told_its_published_rate(tmp_path):

@@ -291,4 +291,8 @@ def test_a_mesh_scaled_to_nothing_names_the_file_and_link(capsys, tmp_path):
     )
     world = _write(tmp_path / "bad.sdf", bad)
     err = _fails(capsys, tmp_path, str(world))
-    assert str(world) in err and "link 'crate/base'" in err and "scale: sizes must be positive, got 0 0 0" in err
+    assert (
+        str(world) in err
+        and "link 'crate/base'" in err
+        and "scale: each factor must be non-zero and finite, got 0 0 0" in err
+    )

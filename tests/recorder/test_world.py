@@ -108,16 +108,25 @@ def test_open3d_imported_by_two_threads_at_once_is_whole_in_both_without_its_vie
     assert done.stdout.split() == ["2", "True", "True", "False", "False", "False"]
 
 
-def test_a_world_map_too_large_names_the_extent_the_obstacles_at_its_edges_and_a_resolution_that_fits(tmp_path):
+def test_a_world_map_too_large_names_the_extent_the_obstacles_at_its_edges_and_a_resolution_that_fits(
+    tmp_path, monkeypatch
+):
     """It said 'choose a coarser --resolution, e.g. 0.05' at 0.05 m, and for a box 1e300 m long printed the
     cell counts in 300 digits; it names the world, its extent and the obstacles at its edges, and a resolution
-    that fits only where one does."""
+    that fits (the grid's bound lowered to 10,000 cells here: the suggestion fits, 1 % finer does not)."""
+    from navlog.recorder import world as world_module
+
+    monkeypatch.setattr(world_module, "MAX_GRID_CELLS", 10_000)
     room = load_world("indoor_room")
     with pytest.raises(ConfigError) as err:
-        write_world_map(room, tmp_path / "m.yaml", resolution=0.0001)
+        write_world_map(room, tmp_path / "m.yaml", resolution=0.05)
     said = str(err.value)
     assert said.startswith("world 'indoor_room': its obstacles span 10.4 x 10.4 m (x -5.2 to 5.2, y -5.2 to 5.2;")
-    assert "wall_east" in said and said.endswith("or choose a --resolution of 0.000806 m or more")
+    assert "wall_east" in said and ": 228 x 228 cells at 0.05 m, over navlog's 10,000;" in said
+    fits = float(re.search(r"choose a --resolution of ([0-9.]+) m or more$", said).group(1))
+    assert write_world_map(room, tmp_path / "m.yaml", resolution=fits).width == 100  # 100 x 100: the bound itself
+    with pytest.raises(ConfigError):
+        write_world_map(room, tmp_path / "m2.yaml", resolution=fits * 0.99)
     sdf = tmp_path / "far.sdf"
     sdf.write_text(
         '<?xml version="1.0"?>\n<sdf version="1.6"><world name="far"><model name="wall"><static>true</static>'
