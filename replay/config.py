@@ -116,13 +116,24 @@ class _BoundedLoader(yaml.SafeLoader):
             self.depth -= 1
 
 
+class _Dumper(yaml.SafeDumper):
+    """PyYAML's safe dumper, quoting the text ``parse_yaml`` would read as a number (``dump_yaml``)."""
+
+
 # YAML 1.2 (yaml-cpp, which ROS 2's parameter files and map_server's YAML are read with) reads an exponent without
-# a dot or a sign (5e-2, 1.0e300) as a number; PyYAML's YAML 1.1 rules read it as text
-_BoundedLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
-    list("-+0123456789."),
-)
+# a dot or a sign (5e-2, 1.0e300) as a number; PyYAML's YAML 1.1 rules read it as text. What navlog writes is
+# read back the same: its dumper quotes such text.
+for _yaml_class in (_BoundedLoader, _Dumper):
+    _yaml_class.add_implicit_resolver(
+        "tag:yaml.org,2002:float",
+        re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
+        list("-+0123456789."),
+    )
+
+
+def dump_yaml(doc: Any) -> str:
+    """``doc`` as YAML text (block style, keys in their order) that ``parse_yaml`` reads back as ``doc``."""
+    return yaml.dump(doc, Dumper=_Dumper, sort_keys=False, default_flow_style=None, width=200)
 
 
 def bounded_compose(text: str) -> yaml.Node | None:

@@ -329,9 +329,7 @@ def _resolve_worlds(spec: CampaignSpec, folder: Path, out: Path) -> list[tuple[s
 
 def _variant_files(spec: CampaignSpec, folder: Path, out: Path) -> dict[str, Path]:
     """Each variant's Nav2 file with its overrides, written to ``OUT/variants/NAME.yaml`` and checked."""
-    import yaml
-
-    from navlog.replay.config import load_yaml
+    from navlog.replay.config import dump_yaml, load_yaml
     from navlog.replay.io.atomic import write_file
     from navlog.replay.nav2 import load_nav2_params
     from navlog.replay.nav2.params import apply_nav2_overrides
@@ -350,7 +348,7 @@ def _variant_files(spec: CampaignSpec, folder: Path, out: Path) -> dict[str, Pat
         except ConfigError as exc:
             raise ConfigError(f"{where}: {exc}") from None
         text = f"# variant {v.name}: {source}" + "".join(f" {s}" for s in v.set) + "\n"
-        text += yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=200)
+        text += dump_yaml(doc)
         path = out / "variants" / f"{v.name}.yaml"
         if not path.is_file() or path.read_text() != text:
             write_file(path, text.encode())

@@ -243,13 +243,17 @@ def test_unprintable_characters_are_a_clear_error():
 def test_an_exponent_without_a_dot_or_a_sign_is_a_number_as_ros_2_reads_it(tmp_path):
     """yaml-cpp (ROS 2's parameter files, map_server's map YAML) reads 5e-2 and 1.0e300 as numbers, where
     PyYAML's YAML 1.1 rules read them as text: navlog reads them as ROS 2 does, and text stays text."""
-    from navlog.replay.config import parse_yaml
+    from navlog.replay.config import dump_yaml, parse_yaml
     from navlog.replay.io.map_server import load_map
     from navlog.replay.nav2 import parse_nav2_text
 
     doc = parse_yaml("a: 5e-2\nb: 1.0e300\nc: .5E3\nd: -1e+2\ne: 5\nf: 1e\ng: '5e-2'\nh: e5\n", "t.yaml")
     assert doc == {"a": 0.05, "b": 1e300, "c": 500.0, "d": -100.0, "e": 5, "f": "1e", "g": "5e-2", "h": "e5"}
     assert type(doc["e"]) is int
+    assert parse_yaml("a: 1_000e3\n", "t.yaml") == {"a": "1_000e3"}  # (ROS 2 reads it as text too)
+    # what navlog writes reads back the same: text that looks like such a number is quoted
+    written = {"version": "1e5", "scale": 1e5, "names": ["2e3", "x"]}
+    assert "'1e5'" in dump_yaml(written) and parse_yaml(dump_yaml(written), "w.yaml") == written
     nav2 = parse_nav2_text(
         "controller_server:\n  ros__parameters:\n    goal_checker:\n      xy_goal_tolerance: 25e-2\n"
     )
