@@ -230,6 +230,19 @@ def rate(series: TopicSeries, expected: float | None, opts: CheckOptions) -> Che
             "check the recorder's clock",
             numbers,
         )
+    if series.stamped:  # one instant's messages of several publishers differ in stamp or frame; a copy does not
+        pairs = np.stack([np.asarray(series.log_times, dtype=np.int64), np.asarray(series.stamps, dtype=np.int64)])
+        repeated = fig.count - np.unique(pairs, axis=1).shape[1]
+        if repeated:
+            numbers["repeated"] = repeated
+            return Check(
+                "rate",
+                topic,
+                Status.WARN if expected is None else Status.FAIL,
+                f"{topic}: {repeated} message(s) repeat another's log time and header stamp: written twice by "
+                "the recorder? Its rate is measured over its distinct log times",
+                numbers,
+            )
     ref, against = (expected, "expected") if expected else (fig.median_rate_hz, "its median rate")
     off = (fig.rate_hz - ref) / ref
     numbers["deviation"] = round(off, 6)
@@ -262,15 +275,16 @@ def gaps(series: TopicSeries, log_span: tuple[int, int], opts: CheckOptions) -> 
     d = np.diff(t)
     median = float(np.median(d))
     limit = max(opts.gap_factor * median, 1.0)
-    i = int(np.argmax(d))
-    largest = int(d[i])
+    k = int(np.argmax(d))  # the instant before the largest gap, and its last message (log times sorted)
+    largest = int(d[k])
+    i = int(np.searchsorted(np.sort(np.asarray(series.log_times, dtype=np.int64)), t[k], side="right")) - 1
     over = int((d > limit).sum())
     lead, tail = int(t[0]) - int(log_span[0]), int(log_span[1]) - int(t[-1])  # Python ints: no int64 overflow
     edge_limit = max(limit, opts.max_gap_s * 1e9)
     numbers: dict[str, int | float | str | None] = {
         "max_gap_s": _ns_s(largest),
         "max_gap_after_index": i,
-        "max_gap_start_s": _ns_s(t[i] - log_span[0]),
+        "max_gap_start_s": _ns_s(t[k] - log_span[0]),
         "median_period_s": _ns_s(median),
         "gap_factor": opts.gap_factor,
         "gaps_over_factor": over,
@@ -278,7 +292,7 @@ def gaps(series: TopicSeries, log_span: tuple[int, int], opts: CheckOptions) -> 
         "tail_s": _ns_s(tail),
     }
     where = (
-        f"largest gap {_s(largest)} after message {i} (t={_s(t[i] - log_span[0])} to {_s(t[i + 1] - log_span[0])}), "
+        f"largest gap {_s(largest)} after message {i} (t={_s(t[k] - log_span[0])} to {_s(t[k + 1] - log_span[0])}), "
         f"{largest / median:.0f}x the median period {_s(median)}"
         if median > 0
         else f"largest gap {_s(largest)} after message {i}"

@@ -369,3 +369,16 @@ def test_a_topic_several_publishers_write_at_one_instant_is_timed_by_its_instant
     assert g.status == Status.PASS and g.numbers["gaps_over_factor"] == 0
     stuck = TopicSeries("/tf", m.TF_MESSAGE, False, array("q", [5_000_000] * 10))
     assert "log times do not advance" in rate(stuck, None, CheckOptions()).message
+    # the largest gap is named by its last message before it: the 3 messages of step 99 end at message 299
+    late = TopicSeries(
+        "/tf", m.TF_MESSAGE, False, array("q", sorted(steps[:100] * 3 + [s + 1_000_000_000 for s in steps[100:]] * 3))
+    )
+    g = gaps(late, (0, steps[-1] + 1_000_000_000), CheckOptions())
+    assert g.numbers["max_gap_after_index"] == 299 and g.numbers["max_gap_start_s"] == pytest.approx(99 * 0.035)
+    # a stamped topic whose messages are each written twice (same log time, same stamp) is not timed as fine
+    scans = [k * 100_000_000 for k in range(50)]
+    twice = TopicSeries("/scan", m.LASER_SCAN, True, array("q", sorted(scans * 2)), array("q", sorted(scans * 2)))
+    r = rate(twice, None, CheckOptions())
+    assert (
+        r.status == Status.WARN and r.numbers["repeated"] == 50 and "repeat another's log time and header" in r.message
+    )
