@@ -19,7 +19,7 @@ import signal
 import sys
 from typing import Any
 
-from navlog.errors import NavlogError
+from navlog.errors import NavlogError, Terminated
 from navlog.version import __version__
 
 QUIET_HELP = "no progress bars or warnings"
@@ -111,11 +111,6 @@ def _exit_without_teardown_collections() -> None:
     before, ~30 ms with the collection and the freeze)."""
     gc.collect()
     gc.freeze()
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM to a ``navlog`` process: raised where it runs, so that what it writes is cleaned up on the way
-    out (temporaries removed, locks released) as after Ctrl-C."""
 
 
 def _terminate(signum: int, frame: object) -> None:

@@ -21,3 +21,8 @@ class TruncatedLogError(LogError):
 
 class SimulationError(NavlogError):
     """The simulation cannot go on: its physics diverged."""
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM to a ``navlog`` process (the command line raises it where the process runs), so that what it
+    writes is cleaned up on the way out as after Ctrl-C; unlike Ctrl-C, the process's workers did not get it."""

@@ -34,7 +34,7 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from navlog.errors import ConfigError
+from navlog.errors import ConfigError, Terminated
 
 __all__ = ["Executor", "InProcess", "Lost", "ProcessPool", "RayPool", "import_ray", "run_jobs", "start_local_ray"]
 
@@ -58,7 +58,7 @@ class Executor(Protocol):
 
     def wait(self) -> list[tuple[int, Any]]: ...
 
-    def close(self, *, cancel: bool = False) -> None: ...
+    def close(self, *, cancel: bool = False, interrupt: bool = False) -> None: ...
 
 
 def run_jobs(
@@ -94,8 +94,8 @@ def run_jobs(
                     continue
                 results[i] = (result, attempts[i])
                 on_done(i, result, attempts[i])
-    except BaseException:
-        executor.close(cancel=True)
+    except BaseException as exc:  # (SIGTERM reached this process alone: its workers' jobs are interrupted)
+        executor.close(cancel=True, interrupt=isinstance(exc, Terminated))
         raise
     executor.close()
     return results
@@ -117,7 +117,7 @@ class InProcess:
         key, fn, job = self._queue.popleft()
         return [(key, fn(job))]
 
-    def close(self, *, cancel: bool = False) -> None:
+    def close(self, *, cancel: bool = False, interrupt: bool = False) -> None:
         self._queue.clear()
 
 
@@ -179,7 +179,18 @@ class ProcessPool:
                 out.append((key, Lost("its worker process died (killed, out of memory or crashed)")))
         return out
 
-    def close(self, *, cancel: bool = False) -> None:
+    def close(self, *, cancel: bool = False, interrupt: bool = False) -> None:
+        """Shut the workers down, after their jobs (``cancel``: the jobs not started are dropped). ``interrupt``:
+        a running job is interrupted as by Ctrl-C (a SIGINT to its worker; Ctrl-C at a terminal reaches them
+        itself), so that it cleans up and ends."""
+        if interrupt:
+            for slot in {w for w, _ in self._running.values()}:
+                worker = self._workers[slot]
+                for pid in list(getattr(worker, "_processes", None) or {}):
+                    try:
+                        os.kill(pid, signal.SIGINT)
+                    except ProcessLookupError:
+                        pass
         for worker in self._workers:
             if worker is not None:
                 worker.shutdown(wait=True, cancel_futures=cancel)
@@ -279,7 +290,7 @@ class RayPool:
                 out.append((key, Lost(f"its Ray worker was lost: {type(exc).__name__}: {str(exc).splitlines()[0]}")))
         return out
 
-    def close(self, *, cancel: bool = False) -> None:
+    def close(self, *, cancel: bool = False, interrupt: bool = False) -> None:
         if cancel and self._running:
             refs = list(self._running)
             for ref in refs:

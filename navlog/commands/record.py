@@ -9,6 +9,8 @@ import threading
 from collections.abc import Iterator
 from pathlib import Path
 
+from navlog.errors import Terminated
+
 
 def register(sub) -> None:
     p = sub.add_parser(
@@ -111,7 +113,7 @@ def stop_on_ctrl_c() -> Iterator[threading.Event]:
 
     def on_signal(signum: int, frame: object) -> None:
         if stop.is_set():
-            raise KeyboardInterrupt
+            raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
         stop.signum = signum  # type: ignore[attr-defined]
         stop.set()
         again = "Ctrl-C" if signum == signal.SIGINT else "the signal"

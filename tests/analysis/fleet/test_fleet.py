@@ -184,7 +184,11 @@ def test_logs_and_outputs_through_fsspec_urls(fleet_dir, reference, tmp_path):
         fs.rm("/fleet-urls", recursive=True)
 
 
-def test_ctrl_c_leaves_completed_outputs_and_no_half_written_ones(fleet_dir, tmp_path):
+@pytest.mark.parametrize("how", ["Ctrl-C", "SIGTERM"])
+def test_ctrl_c_leaves_completed_outputs_and_no_half_written_ones(fleet_dir, tmp_path, how):
+    """Ctrl-C at a terminal (SIGINT to the process group: the parent and its workers), or SIGTERM to the parent
+    alone (kill, a container stopped): the parent interrupts its workers' running replays, which clean up; the
+    logs done stay whole, and nothing half-written is left."""
     logs = [copy_log(fleet_dir / "a.mcap", tmp_path / f"run{i}.mcap") for i in range(8)]
     out = tmp_path / "out"
     argv = [sys.executable, "-m", "navlog.cli", "-q", "replay", *map(str, logs), "--pipeline", "mapping"]
@@ -193,10 +197,14 @@ def test_ctrl_c_leaves_completed_outputs_and_no_half_written_ones(fleet_dir, tmp
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline and not list(out.glob("*/manifest.json")):
         time.sleep(0.02)
-    os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C in a terminal does: the parent and its workers
+    if how == "Ctrl-C":
+        os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C in a terminal does: the parent and its workers
+    else:
+        proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130, err
-    assert "navlog: interrupted" in err and "Traceback" not in err
+    assert proc.returncode == (130 if how == "Ctrl-C" else 143), err
+    assert ("navlog: interrupted" if how == "Ctrl-C" else "navlog: terminated (SIGTERM)") in err
+    assert "Traceback" not in err
     done = sorted(p.name for p in out.iterdir() if p.name != ".fleet")
     assert 1 <= len(done) < 8 and all(not name.startswith(".") for name in done)  # no temporary folder left
     records = sorted(p.name for p in (out / ".fleet").iterdir())
@@ -221,7 +229,7 @@ class _Interrupted:
     def wait(self):
         raise KeyboardInterrupt
 
-    def close(self, *, cancel: bool = False) -> None:
+    def close(self, *, cancel: bool = False, interrupt: bool = False) -> None:
         pass
 
 
