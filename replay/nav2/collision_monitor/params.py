@@ -246,6 +246,13 @@ def _read_source(r: SectionReader, sec: dict, path: tuple) -> CollisionSourcePar
 
 def read_collision_monitor(r: SectionReader, params: dict, path: tuple) -> CollisionMonitorParams:
     """The node's parameters with each listed polygon and source; sections listed nowhere are warned about."""
+    if params.get("enabled", True) is False:
+        r.add(
+            WARNING,
+            path + ("enabled",),
+            "enabled: false starts Nav2's collision monitor switched off (commands pass through); navlog runs it "
+            "regardless: leave it out with --set collision_monitor=off",
+        )
     sections = tuple(k for k, v in params.items() if isinstance(v, dict))
     polygons: dict[str, CollisionPolygonParams] = {}
     sources: dict[str, CollisionSourceParams] = {}

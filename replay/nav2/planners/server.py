@@ -43,6 +43,13 @@ class PlannerServerParams:
 
 def read_planner_server(r: SectionReader, params: dict, path: tuple) -> PlannerServerParams:
     """The node's parameters and its planners; a section not listed in planner_plugins is warned about."""
+    if params.get("allow_partial_planning", False) is True:
+        r.add(
+            WARNING,
+            path + ("allow_partial_planning",),
+            "allow_partial_planning: true has Nav2 return a path to the reachable pose nearest an unreachable goal; "
+            "navlog's planners fail such a goal instead",
+        )
     planners = read_plugin_list(
         r, params, path, "planner_plugins", PLANNERS, ["GridBased"], "nav2_navfn_planner::NavfnPlanner"
     )

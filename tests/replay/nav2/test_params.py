@@ -334,3 +334,22 @@ def test_a_footprint_reaching_beyond_the_bound_is_an_error_naming_its_key(params
     assert local not in _messages(parse_nav2_text(text.replace("robot_radius: 0.22", "robot_radius: 49.9", 1)))
     nan = text.replace("robot_radius: 0.22", "footprint: '[[0.3, 0.2], [.nan, -0.2], [-0.3, -0.2]]'", 1)
     assert "reaches nan m" in _messages(parse_nav2_text(nan))["local_costmap.local_costmap.ros__parameters.footprint"]
+
+
+def test_values_navlog_does_not_act_on_are_warnings_when_set_away_from_their_defaults(params_dir):
+    """collision_monitor enabled: false and planner_server allow_partial_planning: true (Nav2 after Jazzy) change
+    what Nav2 does; navlog reads them without acting on them, so it says so as warnings (their defaults stay
+    notes)."""
+    text = (params_dir.parent / "nav2_bringup" / "params" / "nav2_params.yaml").read_text()
+    assert "collision_monitor:\n  ros__parameters:\n    enabled: true\n" in text
+    assert text.count("allow_partial_planning: false") == 1
+    warnings = _messages(parse_nav2_text(text), "warning")
+    assert "collision_monitor.ros__parameters.enabled" not in warnings
+    changed = text.replace("allow_partial_planning: false", "allow_partial_planning: true")
+    changed = changed.replace(
+        "collision_monitor:\n  ros__parameters:\n    enabled: true\n",
+        "collision_monitor:\n  ros__parameters:\n    enabled: false\n",
+    )
+    warnings = _messages(parse_nav2_text(changed), "warning")
+    assert "--set collision_monitor=off" in warnings["collision_monitor.ros__parameters.enabled"]
+    assert "fail such a goal" in warnings["planner_server.ros__parameters.allow_partial_planning"]
