@@ -306,7 +306,7 @@ def _run_case(job: CaseJob, timings: dict[str, float]) -> CaseResult:
 
         start = time.perf_counter()
         manifest = json.loads((replay_dir / "manifest.json").read_text(encoding="utf-8"))
-        metrics = _metrics(log, replay_dir, world_map) if pipeline.scored_by_metrics else None
+        metrics = _metrics(log, replay_dir, world_map, notes) if pipeline.scored_by_metrics else None
         written = False
         with tempfile.TemporaryDirectory(prefix="navlog-ci-") as work:
             outputs = {o["file"]: replay_dir / o["file"] for o in manifest["outputs"].values()}
@@ -491,11 +491,19 @@ def _determinism(log: Path, pipeline: str, params: Any, remap: dict[str, str], f
     return CheckResult("determinism", "determinism", Status.PASS, f"two replays: {len(a)} outputs, same bytes")
 
 
-def _metrics(log: Path, replay_dir: Path, world_map: Path | None) -> dict[str, Any]:
-    """The metrics of a mapping replay, without the paths they were read from (those vary by machine)."""
+def _metrics(log: Path, replay_dir: Path, world_map: Path | None, notes: list[str]) -> dict[str, Any] | None:
+    """The metrics of a mapping replay, without the paths they were read from (those vary by machine); None,
+    said in ``notes``, when the log holds nothing to score against (a real robot's bag: no ground truth, no
+    reference map). The case's diff and invariants run either way; an invariant on a metric then fails."""
     from navlog.analysis.metrics import compute_metrics
 
-    metrics = compute_metrics(log, replay_dir, reference_map=world_map)
+    try:
+        metrics = compute_metrics(log, replay_dir, reference_map=world_map)
+    except NavlogError as exc:
+        if not str(exc).startswith("no metric could be computed"):
+            raise
+        notes.append(f"no metrics: {exc}".replace("no metrics: no metric could be computed: ", "no metrics: "))
+        return None
     metrics.pop("inputs", None)
     return metrics
 

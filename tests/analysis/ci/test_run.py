@@ -246,3 +246,19 @@ def test_command_line(tmp_path, cache, baseline_run, capsys):
     bad.write_text("cases:\n  - {name: a, pipeline: mapping, log: x.mcap, chceks: []}\n")
     assert main(["ci", "run", str(bad)]) == 2
     assert "chceks: unknown key (did you mean 'checks'?)" in capsys.readouterr().err
+
+
+def test_a_mapping_case_on_a_real_bag_without_ground_truth_runs_its_diff_and_notes_the_metrics(tmp_path, bags_dir):
+    """A real robot's bag has no ground truth and no reference map: the case ended in ERROR ('no metric could be
+    computed') and wrote no baseline. Its diff runs; the missing metrics are a note; a metric invariant fails."""
+    suite = tmp_path / "real.navlog-suite.yaml"
+    log = bags_dir / "neato_drive_square"
+    suite.write_text(
+        f"cases:\n  - {{name: neato, pipeline: mapping, log: {log}, checks: [{{diff: {{}}}}]}}\n"
+        f"  - {{name: scored, pipeline: mapping, log: {log}, checks: ['metrics.trajectory.ate.rmse < 0.1']}}\n"
+    )
+    r = run_suite(suite, cache_dir=tmp_path / "cache", baseline_dir=tmp_path / "b", update_new=True)
+    neato = r.case("neato")
+    assert neato.status is Status.PASS and neato.baseline_written and any((tmp_path / "b").rglob("*.json"))
+    assert any(n.startswith("no metrics: ATE, RPE") and "/odom/ground_truth" in n for n in neato.notes)
+    assert r.case("scored").status is not Status.PASS
