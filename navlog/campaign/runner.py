@@ -19,6 +19,7 @@ import glob as globbing
 import hashlib
 import json
 import math
+import re
 import shutil
 import signal
 import tempfile
@@ -32,6 +33,7 @@ from typing import Any, Literal
 from navlog.campaign.spec import CampaignSpec, load_campaign
 from navlog.errors import ConfigError, NavlogError
 from navlog.replay.io.atomic import hold_output, write_error
+from navlog.version import __version__
 
 KeepLogs = Literal["none", "all", "failed"]
 RESULTS = ("succeeded", "collision", "timeout", "aborted", "failed", "infeasible")
@@ -363,6 +365,7 @@ def _variant_files(spec: CampaignSpec, folder: Path, out: Path) -> dict[str, Pat
 def plan_campaign(spec: CampaignSpec, folder: Path, out: Path, keep_logs: KeepLogs = "none") -> CampaignPlan:
     """The jobs of ``spec`` (module docstring); ``folder``: where the campaign file's paths start."""
     from navlog.recorder.description import load_robot
+    from navlog.recorder.record import robot_mapping
     from navlog.recorder.routes import optimal_path, true_grid
     from navlog.recorder.world import load_world
     from navlog.replay.config import config_hash
@@ -375,6 +378,13 @@ def plan_campaign(spec: CampaignSpec, folder: Path, out: Path, keep_logs: KeepLo
             robots[name] = load_robot(name)
         except ConfigError as exc:
             raise ConfigError(f"robots[{i}]: {exc}") from None
+    # a run's id names its files: a robot given as a path goes by its name there (two of one name are refused)
+    ids = {name: re.sub(r"[^A-Za-z0-9_.-]", "_", robot.name) for name, robot in robots.items()}
+    twice = sorted({i for i in ids.values() if list(ids.values()).count(i) > 1})
+    if twice:
+        raise ConfigError(f"robots: two robots are named '{twice[0]}'; give each its own name")
+    # what a robot's runs depend on: its whole configuration (a YAML or description file edited redoes them)
+    robot_keys = {name: config_hash(robot_mapping(robot)) for name, robot in robots.items()}
     jobs: list[RunJob] = []
     infeasible: list[dict[str, Any]] = []
     info: dict[str, dict[str, Any]] = {}
@@ -396,11 +406,12 @@ def plan_campaign(spec: CampaignSpec, folder: Path, out: Path, keep_logs: KeepLo
                     length = path.length_m if path is not None else math.nan
                     ot = length / robot.drive.max_vx if path is not None else math.nan
                     for v in spec.variants:
-                        run_id = f"{wname}-{rname}-s{seed}-r{k}-{v.name}"
+                        run_id = f"{wname}-{ids[rname]}-s{seed}-r{k}-{v.name}"
                         content = {
                             "v": ROW_VERSION,
+                            "navlog": __version__,
                             "world": world_sha,
-                            "robot": rname,
+                            "robot": robot_keys[rname],
                             "nav2": _sha256(nav2[v.name]),
                             "seed": seed,
                             "start": start,

@@ -41,3 +41,26 @@ def test_half_speed_is_regressed_on_time_and_a_rerun_reuses_every_run(tmp_path):
     assert again.cached == 12
     assert (out / "campaign.json").read_bytes() == report
     assert not (out / "logs").exists()  # logs only when asked
+
+
+@pytest.mark.slow
+def test_a_robot_given_as_a_path_runs_and_an_edit_to_it_redoes_its_runs(tmp_path):
+    """A robot YAML given by path named its run files with the path's slash (every run failed), and a rerun
+    after the robot's top speed was halved reused the old rows (their key held the robot's name only)."""
+    from navlog.replay.config import named_config
+
+    robot = tmp_path / "robots" / "go2x.yaml"
+    robot.parent.mkdir()
+    go2 = named_config("robots", "go2").read_text()
+    robot.write_text(go2.replace("name: go2", "name: go2x", 1))
+    text = SMALL.read_text().replace("robots: [go2]", f"robots: [{robot}]").replace("count: 3", "count: 1")
+    text = text.replace("seeds: [0, 1]", "seeds: [0]").replace("max_duration: 90", "max_duration: 60")
+    campaign = tmp_path / "c.yaml"
+    campaign.write_text(text.split("  - {name: half_speed")[0] + text[text.index("routes:") :])
+    out = tmp_path / "out"
+    first = run_campaign(campaign, out, workers=1, progress=False)
+    assert [(r["result"], r["run_id"].split("-")[1]) for r in first.rows] == [("succeeded", "go2x")]
+    assert "max_vx: 0.3" in go2
+    robot.write_text(robot.read_text().replace("max_vx: 0.3", "max_vx: 0.15", 1))
+    again = run_campaign(campaign, out, workers=1, progress=False)
+    assert again.cached == 0 and again.rows[0]["time_s"] > 1.3 * first.rows[0]["time_s"]
