@@ -96,6 +96,13 @@ def evaluate_campaign(check: CampaignCheck, summary: Mapping[str, Any]) -> Check
     if not check.fact:
         base = summary.get("baseline", "")
         worse = {n: c for n, c in summary.get("comparisons", {}).items() if c.get("verdict") == "REGRESSED"}
+        unknown = {n: c for n, c in summary.get("comparisons", {}).items() if c.get("verdict") == "INCONCLUSIVE"}
+        if unknown:  # nothing to compare is no evidence against a regression
+            what = "; ".join(
+                f"{n} has no pair with {base} ({c.get('failed', {}).get('variant', 0)} of its runs failed)"
+                for n, c in unknown.items()
+            )
+            return CheckResult(check.text, "invariant", Status.FAIL, what, {"inconclusive": sorted(unknown)})
         if not worse:
             return CheckResult(
                 check.text, "invariant", Status.PASS, f"no variant REGRESSED against '{base}'", {"regressed": []}

@@ -24,6 +24,7 @@ import numpy as np
 BOOTSTRAP_RESAMPLES = 2000
 BOOTSTRAP_SEED = 0
 IMPROVED, REGRESSED, NO_CHANGE = "IMPROVED", "REGRESSED", "NO SIGNIFICANT CHANGE"
+INCONCLUSIVE = "INCONCLUSIVE"  # no pair to compare: every run of one side failed (broke) or none was paired
 
 
 def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[float, float] | None:
@@ -113,6 +114,10 @@ def compare(base: list[dict[str, Any]], other: list[dict[str, Any]], alpha: floa
     both = [(a, o) for a, o in pairs if a["result"] == o["result"] == "succeeded"]
     out: dict[str, Any] = {
         "pairs": len(pairs),
+        "failed": {
+            "baseline": sum(r["result"] == "failed" for r in base),
+            "variant": sum(r["result"] == "failed" for r in other),
+        },
         "success": {"lost": b, "gained": c, "p_value": round(p_success, 6), "test": "exact McNemar"},
     }
     worse: list[str] = []
@@ -129,7 +134,7 @@ def compare(base: list[dict[str, Any]], other: list[dict[str, Any]], alpha: floa
         if p < alpha and median != 0:
             (worse if median > 0 else better).append(name)
     out["worse"], out["better"] = worse, better
-    out["verdict"] = REGRESSED if worse else IMPROVED if better else NO_CHANGE
+    out["verdict"] = INCONCLUSIVE if not pairs else REGRESSED if worse else IMPROVED if better else NO_CHANGE
     out["alpha"] = alpha
     return out
 

@@ -78,3 +78,19 @@ def test_infeasible_and_failed_runs_leave_the_pairs():
     base = rows(["succeeded", "infeasible", "failed"], [10, 0, 0])
     other = rows(["timeout", "infeasible", "succeeded"], [60, 0, 9])
     assert compare(base, other)["pairs"] == 1
+
+
+def test_a_variant_whose_every_run_broke_is_inconclusive_and_fails_not_regressed():
+    """Every run of the variant failed (crashed or hung): no pair is left, and the comparison said NO SIGNIFICANT
+    CHANGE with p = 1, so `not REGRESSED vs baseline` passed. It is INCONCLUSIVE, its failures counted, and the
+    check fails naming the variant."""
+    from navlog.analysis.ci.campaign_case import evaluate_campaign, parse_campaign_check
+    from navlog.campaign.stats import INCONCLUSIVE
+
+    base = rows(["succeeded"] * 8, [10.0] * 8, "baseline")
+    broke = rows(["failed"] * 8, [None] * 8)
+    c = compare(base, broke)
+    assert c["pairs"] == 0 and c["verdict"] == INCONCLUSIVE and c["failed"] == {"baseline": 0, "variant": 8}
+    summary = {"baseline": "baseline", "variants": {"baseline": {}, "v": {}}, "comparisons": {"v": c}}
+    result = evaluate_campaign(parse_campaign_check("not REGRESSED vs baseline"), summary)
+    assert result.status.failed and "v has no pair with baseline (8 of its runs failed)" in result.message
