@@ -437,3 +437,28 @@ def test_sigterm_cleans_up_as_ctrl_c_does(tmp_path, teleop_log):
     assert proc.returncode == 143 and "interrupted, file closed cleanly" in stdout, err
     _mcap_complete_any(rec)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.mcap"]
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="reads child processes from /proc")
+def test_a_fleets_workers_end_with_their_parent_killed_with_kill_9(tmp_path, teleop_log):
+    """A worker blocked reading its pipe never saw its parent go: after kill -9 of a fleet (or a campaign) its
+    workers lived on, a few hundred MB each. They now end with it."""
+    logs = [tmp_path / f"run{i}.mcap" for i in range(4)]
+    for log in logs:
+        log.write_bytes(teleop_log.read_bytes())
+    argv = [str(NAVLOG), "-q", "replay", *map(str, logs), "--pipeline", "mapping", "--workers", "2"]
+    proc = subprocess.Popen([*argv, "-o", str(tmp_path / "out")], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+
+    def workers() -> list[int]:
+        return [c for c in _children(proc.pid) if "spawn_main" in Path(f"/proc/{c}/cmdline").read_text()]
+
+    while len(found := workers()) < 2 and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert len(found) == 2, "the fleet started no two workers"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(timeout=60)
+    deadline = time.monotonic() + 10
+    while any(_running(w) for w in found) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(_running(w) for w in found)

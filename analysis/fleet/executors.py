@@ -126,12 +126,24 @@ class InProcess:
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 
 
-def _start_worker() -> None:
-    """A new worker process, before any job is unpickled: single-threaded numeric libraries, and
-    Ctrl-C ignored while idle."""
+PR_SET_PDEATHSIG = 1  # prctl(2): the signal a process gets when its parent dies
+
+
+def _start_worker(parent: int) -> None:
+    """A new worker process, before any job is unpickled: single-threaded numeric libraries, Ctrl-C ignored
+    while idle, and on Linux a SIGTERM when the process that started it dies (a worker blocked reading its
+    pipe never sees a parent killed with kill -9 go, and held its memory for good)."""
     for name in THREAD_VARIABLES:
         os.environ.setdefault(name, "1")
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM))
+    except (OSError, AttributeError):  # not Linux: the worker ends when it next reads its closed pipe
+        return
+    if os.getppid() != parent:  # ``parent`` (the pool's process) died before the request was made
+        os._exit(1)
 
 
 def _call(fn: Callable[[Any], Any], job: Any) -> Any:
@@ -160,7 +172,9 @@ class ProcessPool:
         slot = next(w for w in range(self.slots) if w not in busy)
         worker = self._workers[slot]
         if worker is None:
-            worker = ProcessPoolExecutor(1, mp_context=self._context, initializer=_start_worker)
+            worker = ProcessPoolExecutor(
+                1, mp_context=self._context, initializer=_start_worker, initargs=(os.getpid(),)
+            )
             self._workers[slot] = worker
         self._running[worker.submit(_call, fn, job)] = (slot, key)
 
