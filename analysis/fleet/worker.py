@@ -237,17 +237,18 @@ def _result(job: LogJob, manifest: dict[str, Any], log: Path, replay_dir: Path, 
         outputs={o["file"]: o["sha256"] for o in manifest["outputs"].values()},
     )
     if job.metrics and pipeline_spec(job.pipeline).scored_by_metrics:
-        result.metrics, result.metrics_error = _metrics(log, replay_dir)
+        result.metrics, result.metrics_error = _metrics(log, replay_dir, job.recover)
     return result
 
 
-def _metrics(log: Path, replay_dir: Path) -> tuple[dict[str, float], str]:
-    """The numbers of ``compute_metrics`` (trajectory errors against the log's ground truth), flat."""
+def _metrics(log: Path, replay_dir: Path, recover: bool) -> tuple[dict[str, float], str]:
+    """The numbers of ``compute_metrics`` (trajectory errors against the log's ground truth), flat; ``recover``:
+    a truncated log's readable part, as its replay read it."""
     from navlog.analysis.diff.metric_values import flatten
     from navlog.analysis.metrics import compute_metrics
 
     try:
-        metrics = compute_metrics(log, replay_dir)
+        metrics = compute_metrics(log, replay_dir, recover=recover)
     except NavlogError as exc:
         return {}, str(exc)
     metrics.pop("inputs", None)

@@ -249,3 +249,14 @@ def test_ctrl_c_before_any_log_is_done_leaves_no_output_folder(fleet_dir, tmp_pa
     with pytest.raises(KeyboardInterrupt):
         replay_fleet([fleet_dir], "mapping", empty, overrides=OVERRIDES, executor=_Interrupted(), progress=False)
     assert empty.is_dir()
+
+
+def test_a_truncated_log_replayed_with_recover_gets_its_metrics_too(fleet_dir, tmp_path):
+    """With --recover the truncated log's row was ok but its metrics blank: they were computed without recovery
+    ('truncated ... use --recover'). They are computed on the part the replay read."""
+    res = replay_fleet(
+        [fleet_dir / "trunc.mcap"], "mapping", tmp_path / "out", overrides=OVERRIDES, recover=True, progress=False
+    )
+    (row,) = res.results
+    assert row.status == "ok" and row.metrics_error == "", row.metrics_error
+    assert row.metrics["trajectory.ate.pairs"] > 10 and 0 < row.metrics["trajectory.ate.translation_m.rmse"] < 0.1
