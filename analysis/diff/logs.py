@@ -35,7 +35,7 @@ from navlog.analysis.diff.tolerances import DEFAULT_TOLERANCES, DiffTolerances, 
 from navlog.analysis.diff.trajectories import compare_trajectories
 from navlog.analysis.diff.twists import compare_twists, twist_row
 from navlog.analysis.metrics.trajectory import Trajectory, TrajectoryError
-from navlog.errors import LogError, NavlogError
+from navlog.errors import LogError, NavlogError, TruncatedLogError
 from navlog.replay import messages as m
 from navlog.replay.io.formats import open_log
 from navlog.replay.io.reader import LogReader
@@ -70,6 +70,11 @@ def topic_digests(reader: LogReader, topics: Sequence[str] | None = None) -> dic
 def _open(path: Path) -> LogReader:
     try:
         return open_log(path)
+    except TruncatedLogError:  # (its message names --recover, which diff has not: diff compares whole logs)
+        raise LogError(
+            f"{path}: the log is truncated (cut off while it was written); repair it with "
+            f"`navlog recover {path} -o FIXED.mcap` and diff that"
+        ) from None
     except NavlogError:
         raise
     except Exception as exc:  # a library error on a corrupt file: reported with the path

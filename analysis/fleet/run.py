@@ -133,6 +133,8 @@ def replay_fleet(
         )
     created = not is_url(out_root) and not Path(out_root).exists()
     if not is_url(out_root):
+        if Path(out_root).exists() and not Path(out_root).is_dir():
+            raise ConfigError(f"{out}: is a file, not a folder; a fleet writes a folder per log there: choose a folder")
         try:
             Path(out_root).mkdir(parents=True, exist_ok=True)
         except OSError as exc:

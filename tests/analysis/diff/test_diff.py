@@ -215,3 +215,12 @@ def test_the_overlay_draws_both_maps_and_the_changed_cells(replays, teleop_log, 
         save_overlay(diff(teleop_log, teleop_log), tmp_path / "log.rrd")
     with pytest.raises(NavlogError, match=r"must end in \.rrd"):
         save_overlay(report, tmp_path / "diff.png")
+
+
+def test_a_truncated_log_is_named_with_the_repair_diff_can_take(teleop_log, tmp_path, capsys):
+    """The reader's message says to use --recover, which diff has not; diff names the repair instead."""
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(teleop_log.read_bytes()[: teleop_log.stat().st_size // 2])
+    assert main(["diff", str(teleop_log), str(cut)]) == 2
+    err = capsys.readouterr().err
+    assert f"repair it with `navlog recover {cut} -o FIXED.mcap` and diff that" in err and "--recover" not in err

@@ -260,3 +260,14 @@ def test_a_truncated_log_replayed_with_recover_gets_its_metrics_too(fleet_dir, t
     (row,) = res.results
     assert row.status == "ok" and row.metrics_error == "", row.metrics_error
     assert row.metrics["trajectory.ate.pairs"] > 10 and 0 < row.metrics["trajectory.ate.translation_m.rmse"] < 0.1
+
+
+def test_a_fleet_output_that_is_a_file_is_named_as_such(fleet_dir, tmp_path):
+    """It was 'cannot write: File exists (a full disk or a file-size limit?)'."""
+    afile = tmp_path / "afile"
+    afile.write_text("keep\n")
+    with pytest.raises(ConfigError, match=r"afile: is a file, not a folder; a fleet writes a folder per log"):
+        replay_fleet(
+            [fleet_dir / "a.mcap", fleet_dir / "b.mcap"], "mapping", afile, overrides=OVERRIDES, progress=False
+        )
+    assert afile.read_text() == "keep\n"
