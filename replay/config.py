@@ -158,6 +158,7 @@ def parse_yaml(text: str, source: str) -> Any:
             if node is None:
                 return None
             _check_expanded_size(node, source)
+            _check_unique_keys(node, source)
             return loader.construct_document(node)
         finally:
             loader.dispose()
@@ -168,6 +169,30 @@ def parse_yaml(text: str, source: str) -> Any:
         raise ConfigError(
             f"{source}:{where}: malformed YAML: {problem}" if where else f"{source}: malformed YAML: {problem}"
         ) from None
+
+
+def _check_unique_keys(root: yaml.Node, source: str) -> None:
+    """ConfigError for a mapping that holds a key twice (YAML requires unique keys; PyYAML keeps the last one
+    without a word, so the first was silently lost)."""
+    seen: set[int] = set()
+    stack = [root]
+    while stack:
+        node = stack.pop()
+        if id(node) in seen:
+            continue
+        seen.add(id(node))
+        if isinstance(node, yaml.MappingNode):
+            first: dict[str, int] = {}
+            for key, _ in node.value:
+                if isinstance(key, yaml.ScalarNode) and key.tag != "tag:yaml.org,2002:merge":
+                    line = key.start_mark.line + 1
+                    if key.value in first:
+                        raise ConfigError(
+                            f"{source}: line {line}: key '{key.value}' appears twice in one mapping (first at line "
+                            f"{first[key.value]}); YAML keys must be unique: keep one"
+                        )
+                    first[key.value] = line
+        stack.extend(_children(node))
 
 
 def _check_expanded_size(root: yaml.Node, source: str) -> None:

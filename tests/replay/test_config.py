@@ -264,3 +264,19 @@ def test_an_exponent_without_a_dot_or_a_sign_is_a_number_as_ros_2_reads_it(tmp_p
     )
     grid = load_map(tmp_path / "m.yaml")
     assert grid.resolution == 0.05 and grid.origin[0] == -10.0
+
+
+def test_a_key_written_twice_in_one_mapping_is_refused_with_both_lines():
+    """PyYAML keeps the last of two equal keys without a word: a campaign's second `seeds:` silently replaced
+    the first, a suite case's second `checks:` dropped the first list. Aliases and merge keys still work."""
+    from navlog.replay.config import parse_yaml
+
+    with pytest.raises(
+        ConfigError, match=r"c.yaml: line 4: key 'seeds' appears twice in one mapping \(first at line 2\)"
+    ):
+        parse_yaml("name: c\nseeds: [0, 1]\nrobots: [go2]\nseeds: [2]\n", "c.yaml")
+    assert parse_yaml("a: &x {k: 1}\nb: *x\nc: {<<: *x, j: 2}\n", "ok.yaml") == {
+        "a": {"k": 1},
+        "b": {"k": 1},
+        "c": {"k": 1, "j": 2},
+    }
