@@ -42,14 +42,20 @@ class LogSource:
     name: str
 
 
-def collect_logs(sources: Sequence[str | Path], *, lists: Sequence[str | Path] = ()) -> list[LogSource]:
+def collect_logs(
+    sources: Sequence[str | Path], *, lists: Sequence[str | Path] = (), output: str | Path | None = None
+) -> list[LogSource]:
     """The logs that ``sources`` and the list files ``lists`` name, in the order named (see the module
-    docstring); ``ConfigError`` naming the entry when one names no log."""
+    docstring), but those inside the fleet's own ``output`` folder (a pattern like ``logs/**/*.mcap`` with the
+    output under ``logs/`` finds its replays' logs); ``ConfigError`` naming the entry when one names no log."""
     addresses: list[str] = []
     for source in sources:
         addresses += _expand(str(source), where="")
     for listing in lists:
         addresses += _read_list(str(listing))
+    if output is not None and not is_url(str(output)):
+        own = Path(output).resolve()
+        addresses = [a for a in addresses if is_url(a) or own not in Path(a).resolve().parents]
     unique = list(dict.fromkeys(addresses))
     if not unique:
         raise ConfigError("no logs given: name log files, folders of logs, glob patterns or a list file (--list)")

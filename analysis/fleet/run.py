@@ -112,7 +112,7 @@ def replay_fleet(
 
     if retries < 0:
         raise ConfigError(f"--retries {retries}: expected 0 or more")
-    sources = collect_logs(logs, lists=lists)
+    sources = collect_logs(logs, lists=lists, output=out)
     if params is None:
         params = pipeline_params(pipeline, overrides=overrides)
     out_root = str(out) if is_url(str(out)) else str(local_path(out).absolute())

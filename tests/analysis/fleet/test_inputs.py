@@ -140,3 +140,16 @@ def test_a_replay_output_folder_is_not_a_log(tmp_path, capsys):
     # inside a pattern such a folder is skipped, as a folder without logs is
     (tmp_path / "a.mcap").write_bytes(b"")
     assert [s.name for s in collect_logs([str(tmp_path / "*")])] == ["a"]
+
+
+def test_logs_inside_the_fleets_own_output_folder_are_left_out(tmp_path):
+    """`replay 'logs/**/*.mcap' -o logs/out` found the replays' own logs (out/a/replay.mcap) from an earlier
+    run and replayed them as inputs."""
+    (tmp_path / "logs" / "out" / "a").mkdir(parents=True)
+    (tmp_path / "logs" / "a.mcap").write_bytes(b"")
+    (tmp_path / "logs" / "out" / "a" / "replay.mcap").write_bytes(b"")
+    pattern = str(tmp_path / "logs" / "**" / "*.mcap")
+    assert len(collect_logs([pattern])) == 2
+    assert collect_logs([pattern], output=tmp_path / "logs" / "out") == [
+        LogSource(str(tmp_path / "logs" / "a.mcap"), "a")
+    ]
