@@ -20,6 +20,7 @@ import json
 import os
 import shutil
 import tempfile
+import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -85,7 +86,11 @@ class Baseline:
         if not src.is_file():
             raise NavlogError(f"{src}: listed in {self.folder / BASELINE_FILE} but missing; rewrite it with --update")
         dst = into / name
-        dst.write_bytes(gzip.decompress(src.read_bytes()) if kept.endswith(".gz") else src.read_bytes())
+        try:
+            data = gzip.decompress(src.read_bytes()) if kept.endswith(".gz") else src.read_bytes()
+        except (OSError, EOFError, zlib.error) as exc:  # (gzip.BadGzipFile is an OSError)
+            raise NavlogError(f"{src}: cannot be read ({exc}); rewrite the baseline with --update") from None
+        dst.write_bytes(data)
         return dst
 
 

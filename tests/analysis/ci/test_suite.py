@@ -111,3 +111,15 @@ def test_exit_codes_rank_bad_input_then_nondeterminism_then_regressions():
     assert exit_code([Status.FAIL, Status.NONDETERMINISTIC]) == 3
     assert exit_code([Status.NONDETERMINISTIC, Status.INVALID_INPUT]) == 2
     assert exit_code([Status.ERROR]) == 2
+
+
+def test_a_baseline_file_that_is_no_gzip_is_named_with_the_fix(tmp_path):
+    """A corrupt stored copy said only 'BadGzipFile: Not a gzipped file (b'ga')'."""
+    from navlog.analysis.ci.baselines import Baseline
+    from navlog.errors import NavlogError
+
+    (tmp_path / "map").mkdir()
+    (tmp_path / "map" / "map.pgm.gz").write_bytes(b"garbage")
+    base = Baseline(tmp_path, {"outputs": {"map.pgm": {"stored": "map/map.pgm.gz"}}})
+    with pytest.raises(NavlogError, match=r"map/map.pgm.gz: cannot be read \(.*\); rewrite the baseline with --update"):
+        base.stored("map.pgm", tmp_path)
