@@ -101,6 +101,18 @@ def run_jobs(
     return results
 
 
+@dataclass(frozen=True)
+class Spent:
+    """A job's result from a worker process it left unsound (a wall-time limit interrupted it anywhere, say in
+    the middle of an import): the pool hands on ``value`` and ends that process; the next job gets a new one."""
+
+    value: Any
+
+
+def _unwrap(result: Any) -> Any:
+    return result.value if isinstance(result, Spent) else result
+
+
 class InProcess:
     """Runs each job in this process when ``wait`` is called."""
 
@@ -115,7 +127,7 @@ class InProcess:
 
     def wait(self) -> list[tuple[int, Any]]:
         key, fn, job = self._queue.popleft()
-        return [(key, fn(job))]
+        return [(key, _unwrap(fn(job)))]
 
     def close(self, *, cancel: bool = False, interrupt: bool = False) -> None:
         self._queue.clear()
@@ -184,7 +196,10 @@ class ProcessPool:
         for future in done:
             slot, key = self._running.pop(future)
             try:
-                out.append((key, future.result()))
+                result = future.result()
+                if isinstance(result, Spent):
+                    self._retire(slot)
+                out.append((key, _unwrap(result)))
             except BrokenProcessPool:
                 worker = self._workers[slot]
                 if worker is not None:
@@ -192,6 +207,15 @@ class ProcessPool:
                 self._workers[slot] = None
                 out.append((key, Lost("its worker process died (killed, out of memory or crashed)")))
         return out
+
+    def _retire(self, slot: int) -> None:
+        """End the worker process of ``slot`` (its job is done); the next job there starts a new one."""
+        worker = self._workers[slot]
+        self._workers[slot] = None
+        if worker is not None:
+            for process in list((getattr(worker, "_processes", None) or {}).values()):
+                process.terminate()
+            worker.shutdown(wait=True)
 
     def close(self, *, cancel: bool = False, interrupt: bool = False) -> None:
         """Shut the workers down, after their jobs (``cancel``: the jobs not started are dropped). ``interrupt``:
@@ -295,7 +319,7 @@ class RayPool:
         for ref in ready:
             key = self._running.pop(ref)
             try:
-                out.append((key, ray.get(ref)))
+                out.append((key, _unwrap(ray.get(ref))))
             except ray.exceptions.RayTaskError as exc:
                 if isinstance(exc.cause, KeyboardInterrupt):
                     raise KeyboardInterrupt from None

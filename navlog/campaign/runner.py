@@ -19,6 +19,7 @@ import glob as globbing
 import hashlib
 import json
 import math
+import multiprocessing
 import re
 import shutil
 import signal
@@ -83,7 +84,8 @@ class _WallTimeout(Exception):
 
 
 def run_job(job: RunJob) -> dict[str, Any]:
-    """Run one job (module docstring); never raises: a failure is a row with ``result: failed``."""
+    """Run one job (module docstring); never raises: a failure is a row with ``result: failed``. In a worker
+    process, a run the wall-time limit stopped comes back as ``Spent``: its process is not reused."""
     out = Path(job.out)
     row_path = out / "runs" / f"{job.run_id}.json"
     cached = _cached_row(row_path, job.key)
@@ -110,6 +112,10 @@ def run_job(job: RunJob) -> dict[str, Any]:
     row["wall_s"] = round(time.perf_counter() - start, 3)
     _write_row(row_path, row)
     row["cached"] = False
+    if row.get("message", "").startswith("hung:") and multiprocessing.parent_process() is not None:
+        from navlog.analysis.fleet.executors import Spent
+
+        return Spent(row)  # type: ignore[return-value]  # the timer fired anywhere: this worker is not reused
     return row
 
 

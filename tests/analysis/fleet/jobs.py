@@ -25,3 +25,10 @@ def die_once(marker: str) -> str:
         path.write_text("died once\n")
         os.kill(os.getpid(), signal.SIGKILL)
     return "ok"
+
+
+def pid_spent_on_zero(n: int):
+    """This process's id; for ``n`` 0 wrapped as ``Spent`` (the job left its process unsound)."""
+    from navlog.analysis.fleet.executors import Spent
+
+    return Spent(os.getpid()) if n == 0 else os.getpid()

@@ -41,3 +41,16 @@ def test_retries_rerun_a_lost_job(tmp_path):
 def test_a_pool_needs_a_worker():
     with pytest.raises(ConfigError, match=r"--workers 0: expected 1 or more"):
         ProcessPool(0)
+
+
+def test_a_job_that_leaves_its_worker_spent_gets_its_result_handed_on_and_its_process_ended():
+    """A campaign run that its wall-time limit stopped anywhere (in the middle of an import) left its worker's
+    modules half made, and the runs after it there failed with numba's errors. Its process is not reused."""
+    results = run_jobs(ProcessPool(1), jobs.pid_spent_on_zero, [1, 0, 2, 3])
+    pids = [r for r, _ in results]
+    assert all(isinstance(p, int) for p in pids)  # the Spent wrapper is taken off
+    assert pids[0] == pids[1] != pids[2] == pids[3]  # a new process after the spent job, kept after it
+    assert (
+        run_jobs(InProcess(), jobs.pid_spent_on_zero, [0])[0][0]
+        == run_jobs(InProcess(), jobs.pid_spent_on_zero, [1])[0][0]
+    )
