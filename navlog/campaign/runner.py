@@ -89,7 +89,7 @@ def run_job(job: RunJob) -> dict[str, Any]:
     out = Path(job.out)
     row_path = out / "runs" / f"{job.run_id}.json"
     cached = _cached_row(row_path, job.key)
-    if cached is not None:
+    if cached is not None and not (_keeps_log(job, cached) and "log" not in cached):  # (its log asked for now)
         cached["cached"] = True
         return cached
     start = time.perf_counter()
@@ -104,8 +104,7 @@ def run_job(job: RunJob) -> dict[str, Any]:
             row = _base_row(job) | {"result": "failed", "message": str(exc)}
         except Exception as exc:  # a defect or a crash inside the run: this run fails, the campaign goes on
             row = _base_row(job) | {"result": "failed", "message": f"{type(exc).__name__}: {exc}"}
-        keep = job.keep_logs == "all" or (job.keep_logs == "failed" and row["result"] != "succeeded")
-        if keep and log.is_file():
+        if _keeps_log(job, row) and log.is_file():
             (out / "logs").mkdir(parents=True, exist_ok=True)
             shutil.move(log, out / "logs" / log.name)
             row["log"] = f"logs/{log.name}"
@@ -117,6 +116,11 @@ def run_job(job: RunJob) -> dict[str, Any]:
 
         return Spent(row)  # type: ignore[return-value]  # the timer fired anywhere: this worker is not reused
     return row
+
+
+def _keeps_log(job: RunJob, row: dict[str, Any]) -> bool:
+    """Whether ``--keep-logs`` keeps the log of a run that ended as ``row`` says."""
+    return job.keep_logs == "all" or (job.keep_logs == "failed" and row["result"] != "succeeded")
 
 
 def _cached_row(path: Path, key: str) -> dict[str, Any] | None:

@@ -45,8 +45,9 @@ def test_half_speed_is_regressed_on_time_and_a_rerun_reuses_every_run(tmp_path):
 
 @pytest.mark.slow
 def test_a_robot_given_as_a_path_runs_and_an_edit_to_it_redoes_its_runs(tmp_path):
-    """A robot YAML given by path named its run files with the path's slash (every run failed), and a rerun
-    after the robot's top speed was halved reused the old rows (their key held the robot's name only)."""
+    """A robot YAML given by path named its run files with the path's slash (every run failed), a rerun after
+    the robot's top speed was halved reused the old rows (their key held the robot's name only), and a rerun
+    with --keep-logs reused rows without logs and kept none."""
     from navlog.replay.config import named_config
 
     robot = tmp_path / "robots" / "go2x.yaml"
@@ -64,3 +65,7 @@ def test_a_robot_given_as_a_path_runs_and_an_edit_to_it_redoes_its_runs(tmp_path
     robot.write_text(robot.read_text().replace("max_vx: 0.3", "max_vx: 0.15", 1))
     again = run_campaign(campaign, out, workers=1, progress=False)
     assert again.cached == 0 and again.rows[0]["time_s"] > 1.3 * first.rows[0]["time_s"]
+    # a rerun asking for logs records again the runs whose log it has not (it reused them and kept none)
+    logged = run_campaign(campaign, out, workers=1, progress=False, keep_logs="all")
+    assert logged.cached == 0 and (out / logged.rows[0]["log"]).is_file()
+    assert run_campaign(campaign, out, workers=1, progress=False, keep_logs="all").cached == 1
