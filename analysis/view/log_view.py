@@ -212,6 +212,31 @@ def recording_id(reader: LogReader) -> str:
     return "navlog-" + hashlib.sha256(key.encode()).hexdigest()[:16]
 
 
+def _check_replay_of(reader: LogReader, replay_dir: Path) -> None:
+    """Warn when the replay in ``replay_dir`` was made from another log than ``reader``'s (its manifest lists its
+    input's files with their hashes): its transforms would stand in for this log's."""
+    import json
+
+    from navlog.replay.identity import input_entries
+
+    try:
+        made_from = json.loads((replay_dir / "manifest.json").read_text())["inputs"]
+        wanted = [(e["file"], e["sha256"]) for e in made_from]
+    except (OSError, ValueError, KeyError, TypeError):
+        return  # no manifest to tell: a folder of outputs drawn as they are
+    if not Path(reader.path).exists():
+        return
+    have = [(e["file"], e["sha256"]) for e in input_entries(Path(reader.path))]
+    if sorted(h for _, h in have) != sorted(h for _, h in wanted):
+        names = ", ".join(name for name, _ in wanted) or "?"
+        log.warning(
+            "%s: the replay in %s was made from another log (%s); its transforms and outputs are drawn over this one",
+            reader.path,
+            replay_dir,
+            names,
+        )
+
+
 def build_view(
     reader: LogReader, rec: Any, *, replay_dir: Path | None = None, options: ViewOptions | None = None
 ) -> ViewSummary:
@@ -219,6 +244,8 @@ def build_view(
     rec.set_log_time_enabled(False) if hasattr(rec, "set_log_time_enabled") else None
     rec.set_log_tick_enabled(False) if hasattr(rec, "set_log_tick_enabled") else None
     b = ViewBuilder(rec, options)
+    if replay_dir is not None:
+        _check_replay_of(reader, Path(replay_dir))
     if replay_dir is not None:  # the frames whose parent the replay published: its transforms, not the log's
         b.tf.replaced = {b.ctx.frame(f) for f in replay_tf_children(Path(replay_dir))}
         b.tf.replay_prefix = REPLAY_PREFIX + "/"

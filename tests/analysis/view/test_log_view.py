@@ -228,3 +228,24 @@ def test_connect_without_a_viewer_fails_clearly(sample_log, monkeypatch, capsys)
     monkeypatch.setattr(view, "stream_view", lambda *a, **k: original(*a, **{**k, "flush_timeout_s": 1.0}))
     assert main(["view", str(sample_log), "--connect", f"rerun+http://127.0.0.1:{port}/proxy"]) == 2
     assert "no Rerun viewer took the recording" in capsys.readouterr().err
+
+
+def test_a_replay_made_from_another_log_is_warned_about(tmp_path, teleop_log, caplog):
+    import json
+    import logging
+    import types
+
+    from navlog.analysis.view.log_view import _check_replay_of
+    from navlog.replay.identity import input_entries
+
+    """`view LOG --replay DIR` drew another log's replay over LOG without a word (its transforms stood in for the
+    log's); the replay's manifest names its input's hash, and a different one is warned about."""
+    reader = types.SimpleNamespace(path=teleop_log)
+    (tmp_path / "manifest.json").write_text(json.dumps({"inputs": input_entries(teleop_log)}))
+    with caplog.at_level(logging.WARNING, logger="navlog"):
+        _check_replay_of(reader, tmp_path)
+    assert not caplog.records
+    (tmp_path / "manifest.json").write_text(json.dumps({"inputs": [{"file": "other.mcap", "sha256": "0" * 64}]}))
+    with caplog.at_level(logging.WARNING, logger="navlog"):
+        _check_replay_of(reader, tmp_path)
+    assert "was made from another log (other.mcap)" in caplog.text
