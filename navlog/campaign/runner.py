@@ -531,15 +531,25 @@ def run_campaign(
     except OSError as exc:
         raise write_error(out.parent, exc) from None
     with hold_output(out):  # one run writes a campaign folder at a time
+        made = not out.exists()
         out.mkdir(exist_ok=True)
-        plan = plan_campaign(spec, folder, out, keep_logs)
-        jobs = [j for j in plan.jobs if not only or j.variant in only]
-        if not jobs:
-            raise ConfigError(
-                f"campaign '{spec.name}' has 0 runs to do"
-                + (f" ({len(plan.infeasible)} route(s) infeasible)" if plan.infeasible else "")
-                + "; add worlds, seeds or routes"
-            )
+        try:
+            plan = plan_campaign(spec, folder, out, keep_logs)
+            jobs = [j for j in plan.jobs if not only or j.variant in only]
+            if not jobs:
+                raise ConfigError(
+                    f"campaign '{spec.name}' has 0 runs to do"
+                    + (f" ({len(plan.infeasible)} route(s) infeasible)" if plan.infeasible else "")
+                    + "; add worlds, seeds or routes"
+                )
+        except BaseException as exc:  # a campaign refused before its first run leaves no folder it made
+            if made:
+                shutil.rmtree(out, ignore_errors=True)
+            if isinstance(exc, ConfigError) and not isinstance(campaign, CampaignSpec):
+                said = str(exc)
+                if not said.startswith(str(campaign)):  # the campaign file that holds the key named
+                    raise ConfigError(f"{campaign}: {said}") from None
+            raise
         start = time.perf_counter()
         ex = executor if executor is not None else make_executor(workers, ray)
         with closing(FleetProgress(len(jobs), enabled=progress)) as bar:

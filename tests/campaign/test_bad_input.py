@@ -108,3 +108,12 @@ def test_ctrl_c_during_the_pool_leaves_every_finished_row_whole(tmp_path):
     left = sorted(p.name for p in out.rglob("*") if p.is_file() and p.parent.name not in ("runs", "worlds", "variants"))
     assert left == [], left  # no half-written report, no temporary file
     assert not [p for p in out.rglob("*") if p.name.startswith(".") or p.suffix in (".tmp", ".part")]
+
+
+def test_a_campaign_refused_while_planned_names_its_file_and_leaves_no_folder(tmp_path):
+    """An unknown robot (found only once the campaign is planned) was said without the campaign file, and left
+    OUT/ with its worlds/ and variants/ made."""
+    campaign = write(tmp_path, BASE.replace("robots: [go2]", "robots: [go3]"))
+    with pytest.raises(ConfigError, match=rf"^{campaign}: robots\[0\]: unknown robot 'go3' \(did you mean 'go2'\?\)"):
+        run_campaign(campaign, tmp_path / "out", workers=1, progress=False)
+    assert not (tmp_path / "out").exists()
