@@ -193,6 +193,8 @@ def run_suite(
         suite = replace(suite, cases=tuple(suite.case(n) for n in cases))
     cache = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     root = Path(baseline_dir) if baseline_dir is not None else suite.baselines or suite.path.parent / DEFAULT_BASELINES
+    if root.exists() and not root.is_dir():
+        raise ConfigError(f"{root}: the baselines' place is a file, not a folder; give a folder (--baselines DIR)")
     folder = root / suite.name
     extra = applicable_overrides(suite, overrides, chosen=cases)
     recipes = sorted({c.recipe for c in suite.cases if c.recipe is not None}, key=lambda r: repr(r))

@@ -123,3 +123,15 @@ def test_a_baseline_file_that_is_no_gzip_is_named_with_the_fix(tmp_path):
     base = Baseline(tmp_path, {"outputs": {"map.pgm": {"stored": "map/map.pgm.gz"}}})
     with pytest.raises(NavlogError, match=r"map/map.pgm.gz: cannot be read \(.*\); rewrite the baseline with --update"):
         base.stored("map.pgm", tmp_path)
+
+
+def test_baselines_given_as_a_file_are_refused_before_anything_runs(tmp_path):
+    """--baselines FILE --update-new ended in a NotADirectoryError traceback after the cases ran."""
+    from navlog.analysis.ci import run_suite
+    from navlog.errors import ConfigError
+
+    suite = tmp_path / "s.navlog-suite.yaml"
+    suite.write_text(f"cases:\n  - {{name: gone, pipeline: mapping, log: {tmp_path / 'nope.mcap'}}}\n")
+    (tmp_path / "afile").write_text("x\n")
+    with pytest.raises(ConfigError, match=r"afile: the baselines' place is a file, not a folder"):
+        run_suite(suite, cache_dir=tmp_path / "cache", baseline_dir=tmp_path / "afile", update_new=True)
