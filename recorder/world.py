@@ -447,9 +447,9 @@ def occupancy(
         fits = math.ceil(fits / 10 ** math.floor(math.log10(fits) - 2)) * 10 ** math.floor(math.log10(fits) - 2)
         count = f"{nx:,} x {ny:,}" if nx * ny < 1e15 else f"{nx:.3g} x {ny:.3g}"
         raise ConfigError(
-            f"world '{world.name}': its obstacles span {x1 - x0:.6g} x {y1 - y0:.6g} m (x {x0:.6g} to {x1:.6g}, y "
-            f"{y0:.6g} to {y1:.6g}; at the edges: {', '.join(sorted(edges))}): {count} cells at {resolution:g} m, "
-            f"over navlog's {MAX_GRID_CELLS:,}; check those obstacles' poses and sizes"
+            f"world '{world.name}': a grid of {count} cells at {resolution:g} m is too large (over navlog's "
+            f"{MAX_GRID_CELLS:,}): its obstacles span {x1 - x0:.6g} x {y1 - y0:.6g} m (x {x0:.6g} to {x1:.6g}, y "
+            f"{y0:.6g} to {y1:.6g}; at the edges: {', '.join(sorted(edges))}); check those obstacles' poses and sizes"
             + (f", or choose a --resolution of {fits:.3g} m or more" if fits <= MAX_GRID_RESOLUTION_M else "")
         )
     xs = cell_to_world(np.arange(nx), ox, resolution)

@@ -230,7 +230,9 @@ def rate(series: TopicSeries, expected: float | None, opts: CheckOptions) -> Che
             "check the recorder's clock",
             numbers,
         )
-    if series.stamped:  # one instant's messages of several publishers differ in stamp or frame; a copy does not
+    # one instant's messages of several publishers differ in stamp or frame; a copy does not (a message whose stamp
+    # could not be read has none: then the copies are not looked for)
+    if series.stamped and len(series.stamps) == len(series.log_times):
         pairs = np.stack([np.asarray(series.log_times, dtype=np.int64), np.asarray(series.stamps, dtype=np.int64)])
         repeated = fig.count - np.unique(pairs, axis=1).shape[1]
         if repeated:

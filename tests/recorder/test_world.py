@@ -121,8 +121,10 @@ def test_a_world_map_too_large_names_the_extent_the_obstacles_at_its_edges_and_a
     with pytest.raises(ConfigError) as err:
         write_world_map(room, tmp_path / "m.yaml", resolution=0.05)
     said = str(err.value)
-    assert said.startswith("world 'indoor_room': its obstacles span 10.4 x 10.4 m (x -5.2 to 5.2, y -5.2 to 5.2;")
-    assert "wall_east" in said and ": 228 x 228 cells at 0.05 m, over navlog's 10,000;" in said
+    assert said.startswith(
+        "world 'indoor_room': a grid of 228 x 228 cells at 0.05 m is too large (over navlog's 10,000)"
+    )
+    assert "wall_east" in said and "its obstacles span 10.4 x 10.4 m (x -5.2 to 5.2, y -5.2 to 5.2;" in said
     fits = float(re.search(r"choose a --resolution of ([0-9.]+) m or more$", said).group(1))
     assert write_world_map(room, tmp_path / "m.yaml", resolution=fits).width == 100  # 100 x 100: the bound itself
     with pytest.raises(ConfigError):
