@@ -202,6 +202,16 @@ def _record(tmp_path: Path, robot: Path, *extra: str) -> tuple[int, Path]:
 URDF_HEAD = '<?xml version="1.0"?>\n<robot name="bad">\n'
 
 
+def _refused_urdf(tmp_path: Path, capsys, body: str) -> str:
+    """Record with the URDF ``body`` (as bad.urdf, an omni drive): it must be refused, nothing written; the error."""
+    urdf = tmp_path / "bad.urdf"
+    urdf.write_text(URDF_HEAD + body + "</robot>\n")
+    code, out = _record(tmp_path, urdf, "--drive", "omni")
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists()
+    return err
+
+
 @pytest.mark.parametrize(
     ("content", "said"),
     [
@@ -222,14 +232,11 @@ def test_a_collision_mesh_that_is_no_mesh_names_the_file_and_the_link(tmp_path, 
         os.mkfifo(mesh)
     elif content is not None:
         mesh.write_bytes(content)
-    urdf = tmp_path / "bad.urdf"
-    urdf.write_text(
-        URDF_HEAD + '<link name="base_link"><collision><geometry><mesh filename="meshes/body.stl"/></geometry>'
-        "</collision></link>\n</robot>\n"
+    err = _refused_urdf(
+        tmp_path,
+        capsys,
+        '<link name="base_link"><collision><geometry><mesh filename="meshes/body.stl"/></geometry></collision></link>\n',
     )
-    code, out = _record(tmp_path, urdf, "--drive", "omni")
-    err = capsys.readouterr().err
-    assert code == 2 and not out.exists()
     assert "link 'base_link'" in err and "collision mesh" in err and "body.stl" in err and said in err
     assert len(err.strip().splitlines()) == 1
 
@@ -608,15 +615,16 @@ def test_two_mesh_collisions_of_a_link_named_alike_are_both_simulated(tmp_path):
 def test_a_joint_whose_child_link_is_not_in_the_file_names_the_joint_and_the_link(tmp_path, capsys):
     """A misspelt child link left its joint out, and the error said the robot had two root links; it names the
     joint and the link, and the closest link of the file."""
-    urdf = tmp_path / "bad.urdf"
-    urdf.write_text(
-        URDF_HEAD + '<link name="base_link"/>\n<link name="caster"/>\n'
-        '<joint name="caster_joint" type="fixed"><parent link="base_link"/><child link="castor"/></joint>\n</robot>\n'
+    err = _refused_urdf(
+        tmp_path,
+        capsys,
+        '<link name="base_link"/>\n<link name="caster"/>\n'
+        '<joint name="caster_joint" type="fixed"><parent link="base_link"/><child link="castor"/></joint>\n',
     )
-    code, out = _record(tmp_path, urdf, "--drive", "omni")
-    err = capsys.readouterr().err
-    assert code == 2 and not out.exists()
-    assert f"{urdf}: joint 'caster_joint': child link 'castor' is not in the file (did you mean 'caster'?)" in err
+    assert (
+        f"{tmp_path / 'bad.urdf'}: joint 'caster_joint': child link 'castor' is not in the file (did you mean 'caster'?)"
+        in err
+    )
 
 
 def test_robot_args_and_a_drive_for_a_robot_yaml_without_a_description_are_refused(tmp_path, capsys):
