@@ -41,6 +41,8 @@ from navlog.replay.geometry import rotate_planar, wrap_angle, yaw_from_quat
 from navlog.replay.limits import MAX_PERIOD_S, MAX_RATE_HZ
 from navlog.replay.runtime.executor import Node
 
+MAX_SCENARIO_SPEED = 100.0  # m/s or rad/s a scenario may ask for: beyond any ground robot
+
 
 @dataclass(frozen=True)
 class TimedCommand:
@@ -57,9 +59,9 @@ class ScenarioSpec:
     robot: str = ""  # the robot it was made for ("" = any robot; also the default of --robot)
     start: tuple[float, float, float] = (0.0, 0.0, 0.0)
     waypoints: list[tuple[float, float]] = field(default_factory=list)
-    speed: float = 0.3
-    turn_rate: float = 0.5
-    tolerance: float = 0.15
+    speed: float = param(0.3, gt=0.0, le=MAX_SCENARIO_SPEED)  # m/s a tour asks for (the robot's own limits cap it)
+    turn_rate: float = param(0.5, gt=0.0, le=MAX_SCENARIO_SPEED)  # rad/s
+    tolerance: float = param(0.15, gt=0.0, le=100.0)  # m from a waypoint that reaches it
     commands: list[TimedCommand] = field(default_factory=list)
     hold: float = param(1.0, ge=0.0, le=MAX_PERIOD_S)  # seconds stood still at the end
     max_duration: float = param(600.0, gt=0.0, le=MAX_PERIOD_S)  # seconds of sim time at most

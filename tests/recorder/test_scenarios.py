@@ -52,9 +52,12 @@ def test_a_scenario_refuses_another_world_file(tmp_path):
         ("hold: -1", r"hold: -1.0 is out of range: must be >= 0.0"),
         ("max_duration: 1.0e+300", r"max_duration: 1e\+300 is out of range"),
         ("max_duration: .nan", "max_duration: nan is out of range"),
+        ("speed: .nan", "speed: nan is out of range"),
+        ("turn_rate: 1.0e+300", r"turn_rate: 1e\+300 is out of range: must be <= 100.0"),
+        ("tolerance: .nan", "tolerance: nan is out of range"),
     ],
 )
-def test_a_scenario_refuses_a_hold_or_max_duration_out_of_range_naming_the_file(tmp_path, line, message):
+def test_a_scenario_refuses_a_hold_a_duration_or_a_speed_out_of_range_naming_the_file(tmp_path, line, message):
     """A hold or max_duration of 1e300 s or NaN ended the recording in an OverflowError or a ValueError
     (their nanoseconds are integers); each is refused with the file and key, before anything runs."""
     scenario = _files(tmp_path, "../worlds/my_world.yaml")
