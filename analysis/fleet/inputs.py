@@ -46,16 +46,18 @@ def collect_logs(
     sources: Sequence[str | Path], *, lists: Sequence[str | Path] = (), output: str | Path | None = None
 ) -> list[LogSource]:
     """The logs that ``sources`` and the list files ``lists`` name, in the order named (see the module
-    docstring), but those inside the fleet's own ``output`` folder (a pattern like ``logs/**/*.mcap`` with the
-    output under ``logs/`` finds its replays' logs); ``ConfigError`` naming the entry when one names no log."""
+    docstring), but those a folder or a pattern finds inside the fleet's own ``output`` folder (``logs/**/*.mcap``
+    with the output under ``logs/`` finds its replays' logs); ``ConfigError`` naming the entry when one names no
+    log."""
+    own = Path(output).resolve() if output is not None and not is_url(str(output)) else None
     addresses: list[str] = []
     for source in sources:
-        addresses += _expand(str(source), where="")
+        found = _expand(str(source), where="")
+        if own is not None and found != [str(source)]:  # a folder or a pattern found them, not the user
+            found = [a for a in found if is_url(a) or own not in Path(a).resolve().parents]
+        addresses += found
     for listing in lists:
         addresses += _read_list(str(listing))
-    if output is not None and not is_url(str(output)):
-        own = Path(output).resolve()
-        addresses = [a for a in addresses if is_url(a) or own not in Path(a).resolve().parents]
     unique = list(dict.fromkeys(addresses))
     if not unique:
         raise ConfigError("no logs given: name log files, folders of logs, glob patterns or a list file (--list)")
