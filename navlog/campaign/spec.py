@@ -101,8 +101,14 @@ class CampaignSpec:
             from navlog.replay.config import suggest
 
             raise ValueError(f"baseline '{self.baseline}' is not a variant{suggest(self.baseline, names)}")
-        if any(not 0 <= s <= MAX_SEED for s in self.seeds) or len(set(self.seeds)) != len(self.seeds):
-            raise ValueError(f"seeds must be unique integers from 0 to {MAX_SEED}")
+        for i, seed in enumerate(self.seeds):
+            if not 0 <= seed <= MAX_SEED:
+                raise ValueError(f"seeds[{i}]: {seed}: seeds must be unique integers from 0 to {MAX_SEED}")
+            if seed in self.seeds[:i]:
+                raise ValueError(
+                    f"seeds[{i}]: {seed} is seeds[{self.seeds.index(seed)}] again: seeds must be unique integers "
+                    f"from 0 to {MAX_SEED}"
+                )
         if not (0 <= self.map_margin <= 5 and self.wall_timeout > 0):
             raise ValueError("map_margin must be 0..5 m, wall_timeout positive")
         if not 0 < self.alpha < 0.5:

@@ -60,7 +60,9 @@ def test_an_unreachable_goal_is_an_infeasible_row_left_out_of_the_success_rate(t
         (BASE.replace("name: a,", "name: a, sett: [],"), r"variants\[0\]\.sett: unknown key \(did you mean 'set'\?\)"),
         (BASE + "seeds: []\n", r"worlds, robots, variants and seeds must each list at least one entry"),
         # (a seed past 32 bits failed every run, each in the navigation pipeline's own check)
-        (BASE + "seeds: [4294967296]\n", r"seeds must be unique integers from 0 to 4294967295"),
+        (BASE + "seeds: [4294967296]\n", r"seeds\[0\]: 4294967296: seeds must be unique integers from 0 to 4294967295"),
+        (BASE + "seeds: [0, 3, -1]\n", r"seeds\[2\]: -1: seeds must be unique integers"),
+        (BASE + "seeds: [0, 3, 0]\n", r"seeds\[2\]: 0 is seeds\[0\] again: seeds must be unique"),
         (BASE.replace("robots: [go2]", "robots: []"), r"worlds, robots, variants and seeds must each list"),
     ],
 )
