@@ -123,7 +123,11 @@ class CostmapNode(Node):
             try:
                 self.tf.lookup(self.params.global_frame, frame, stamp)
             except TransformError:
-                self.skipped[f"{sname}: no transform {self.params.global_frame} <- {frame}"] += 1
+                self._no_transform(sname, frame)
+
+    def _no_transform(self, sname: str, frame: str) -> None:
+        """Count a message of source ``sname`` skipped: no transform from its ``frame`` at its stamp."""
+        self.skipped[f"{sname}: no transform {self.params.global_frame} <- {frame}"] += 1
 
     def finish(self) -> None:
         for sname in sorted(self.waiting):  # still waiting when the log ends
@@ -154,7 +158,7 @@ class CostmapNode(Node):
             latest = self.tf.latest_common_time(self.params.global_frame, frame)
             if latest is not None and latest < stamp <= t and t - stamp <= self.tolerance_ns:
                 return False
-            self.skipped[f"{sname}: no transform {self.params.global_frame} <- {frame}"] += 1
+            self._no_transform(sname, frame)
             return None
         if hasattr(msg, "ranges"):
             fault = scan_fault(msg)
