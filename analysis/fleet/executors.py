@@ -167,6 +167,11 @@ def _call(fn: Callable[[Any], Any], job: Any) -> Any:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _processes(worker: ProcessPoolExecutor | None) -> list[Any]:
+    """The processes of a one-process pool (the standard library keeps them in a private mapping)."""
+    return list((getattr(worker, "_processes", None) or {}).values())
+
+
 class ProcessPool:
     """``workers`` spawned worker processes, one job each at a time (see the module docstring)."""
 
@@ -213,7 +218,7 @@ class ProcessPool:
         worker = self._workers[slot]
         self._workers[slot] = None
         if worker is not None:
-            for process in list((getattr(worker, "_processes", None) or {}).values()):
+            for process in _processes(worker):
                 process.terminate()
             worker.shutdown(wait=True)
 
@@ -224,9 +229,9 @@ class ProcessPool:
         if interrupt:
             for slot in {w for w, _ in self._running.values()}:
                 worker = self._workers[slot]
-                for pid in list(getattr(worker, "_processes", None) or {}):
+                for process in _processes(worker):
                     try:
-                        os.kill(pid, signal.SIGINT)
+                        os.kill(process.pid, signal.SIGINT)
                     except ProcessLookupError:
                         pass
         for worker in self._workers:
